@@ -1,0 +1,1 @@
+"""Agents: costs and planners, installed as marl_social.agents."""

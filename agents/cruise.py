@@ -1,0 +1,163 @@
+"""Route-following cruise policies: the simulator's rule-based baseline.
+
+Vehicles: pure-pursuit steering along the agent's own route and the Intelligent Driver Model
+(Treiber, Hennecke & Helbing 2000) for speed, treating as a leader every object the agent *sees*
+that is, or within `PREDICTION_HORIZON_S` at constant velocity will be, in its lane corridor
+ahead. A cruise car therefore brakes for a pedestrian stepping onto the road only once it sees
+it: it is an "aggressive" driver in the paper's sense (unseen = absent).
+
+Pedestrians: stand on the curb, then (if their intent is to cross) walk along their route at
+their desired speed after their start delay, whatever the traffic — no gap acceptance.
+
+Each policy is built from its agent's observation layout, the static map and the agent's own
+parameters; `policy(obs) -> action` reads nothing else.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from marl_social.agent_spec import AgentSpec
+from marl_social.dynamics import DT_S
+from marl_social.observation import SLOT_FIELDS, ObservationLayout
+from marl_social.road_map import RoadMap
+
+PREDICTION_HORIZON_S = 3.0
+_F = {name: i for i, name in enumerate(SLOT_FIELDS)}
+
+
+@dataclass(frozen=True)
+class IdmParams:
+    """Intelligent Driver Model parameters.
+
+    Attributes:
+        min_gap_m: standstill bumper-to-bumper gap s0 [m].
+        headway_s: desired time headway T [s].
+        accel_mps2: maximum acceleration a [m/s^2].
+        comfort_brake_mps2: comfortable deceleration b [m/s^2].
+        delta: acceleration exponent.
+        corridor_margin_m: lateral margin added to both half-widths for the lane corridor [m].
+    """
+
+    min_gap_m: float = 2.0
+    headway_s: float = 1.2
+    accel_mps2: float = 1.5
+    comfort_brake_mps2: float = 3.0
+    delta: float = 4.0
+    corridor_margin_m: float = 0.5
+
+
+def idm_acceleration(v_mps, v0_mps, gap_m, closing_mps, p: IdmParams) -> np.ndarray:
+    """IDM acceleration [m/s^2] for speed v, desired speed v0, gap to the leader (inf = none)
+    and closing speed v - v_leader. All arguments broadcast."""
+    s_star = p.min_gap_m + np.maximum(
+        0.0, v_mps * p.headway_s
+        + v_mps * closing_mps / (2.0 * math.sqrt(p.accel_mps2 * p.comfort_brake_mps2))
+    )
+    free = 1.0 - (v_mps / np.maximum(v0_mps, 0.1)) ** p.delta
+    interaction = (s_star / np.maximum(gap_m, 0.1)) ** 2
+    return p.accel_mps2 * (free - np.where(np.isfinite(gap_m), interaction, 0.0))
+
+
+class CruiseVehiclePolicy:
+    """Pure pursuit + IDM over the vehicle's own observations (see module docstring)."""
+
+    def __init__(self, spec: AgentSpec, layout: ObservationLayout, road_map: RoadMap,
+                 idm: IdmParams | None = None):
+        self.name = spec.name
+        self.spec = spec
+        self.layout = layout
+        self.route = road_map.routes[spec.name]
+        self.v0 = min(spec.v_desired_mps, road_map.speed_limit_mps)
+        self.idm = idm or IdmParams()
+        self._horizon = np.arange(0.0, PREDICTION_HORIZON_S + 1e-9, 0.5)
+
+    def reset(self, seed: int | None = None) -> None:
+        """Stateless; present for the policy protocol."""
+
+    def __call__(self, obs) -> np.ndarray:
+        decoded = self.layout.decode(obs)
+        x, y, cos_psi, sin_psi, v = decoded.ego[:5]
+        psi = math.atan2(sin_psi, cos_psi)
+        s_ego, _, _ = self.route.project(np.array([x, y]))
+        gap, closing = self._leader(decoded.objects, float(s_ego), float(v))
+        accel = float(idm_acceleration(v, self.v0, gap, closing, self.idm))
+        return np.array([accel, self._steer(x, y, psi, float(s_ego), v)], dtype=np.float32)
+
+    def _leader(self, objects: np.ndarray, s_ego: float, v: float) -> tuple[float, float]:
+        """Bumper gap [m] to the nearest seen object in the corridor ahead, and closing speed."""
+        if len(objects) == 0:
+            return math.inf, 0.0
+        xy = objects[:, [_F["x"], _F["y"]]]
+        vel = objects[:, [_F["vx"], _F["vy"]]]
+        # constant-velocity prediction over the horizon: (k, H, 2)
+        future = xy[:, None, :] + vel[:, None, :] * self._horizon[None, :, None]
+        s_obj, lat_obj, heading = self.route.project(future)
+        half_w = 0.5 * self.spec.vehicle.width_m + 0.5 * objects[:, _F["width"]][:, None]
+        in_corridor = (np.abs(lat_obj) < half_w + self.idm.corridor_margin_m) & (s_obj > s_ego)
+        hit = in_corridor.any(axis=1)
+        if not hit.any():
+            return math.inf, 0.0
+        first = np.argmax(in_corridor, axis=1)  # earliest predicted entry
+        rows = np.flatnonzero(hit)
+        s_entry = s_obj[rows, first[rows]]
+        along_speed = (vel[rows, 0] * np.cos(heading[rows, 0]) + vel[rows, 1]
+                       * np.sin(heading[rows, 0]))
+        half_len = 0.5 * self.spec.vehicle.length_m + 0.5 * objects[rows, _F["length"]]
+        gaps = s_entry - s_ego - half_len
+        k = int(np.argmin(gaps))
+        return float(gaps[k]), v - max(float(along_speed[k]), 0.0)
+
+    def _steer(self, x, y, psi, s_ego, v) -> float:
+        """Pure pursuit towards the route point one look-ahead distance ahead."""
+        lookahead = max(6.0, 1.0 * v)
+        (tx, ty), _ = self.route.point_at(s_ego + lookahead)
+        alpha = math.atan2(ty - y, tx - x) - psi
+        alpha = (alpha + math.pi) % (2 * math.pi) - math.pi
+        return math.atan2(2.0 * self.spec.vehicle.wheelbase_m * math.sin(alpha), lookahead)
+
+
+class CruisePedestrianPolicy:
+    """Waits, then walks its route at its desired speed (if its intent is to cross)."""
+
+    def __init__(self, spec: AgentSpec, layout: ObservationLayout, road_map: RoadMap):
+        self.name = spec.name
+        self.layout = layout
+        self.route = road_map.routes[spec.name]
+        self.speed = spec.v_desired_mps
+        self.crossing = bool(spec.planner.get("crossing", True))
+        self.start_delay_s = float(spec.planner.get("start_delay_s", 0.0))
+        self._time_s = 0.0
+
+    def reset(self, seed: int | None = None) -> None:
+        self._time_s = 0.0
+
+    def __call__(self, obs) -> np.ndarray:
+        ego = self.layout.decode(obs).ego
+        t = self._time_s
+        self._time_s += DT_S
+        if not self.crossing or t < self.start_delay_s:
+            return np.zeros(2, dtype=np.float32)
+        xy = ego[:2].astype(np.float64)
+        s, _, _ = self.route.project(xy)
+        if s >= self.route.length_m - 1e-3:
+            return np.zeros(2, dtype=np.float32)
+        (tx, ty), _ = self.route.point_at(min(float(s) + 1.0, self.route.length_m))
+        direction = np.array([tx, ty]) - xy
+        norm = np.linalg.norm(direction)
+        if norm < 1e-6:
+            return np.zeros(2, dtype=np.float32)
+        return (direction / norm * self.speed).astype(np.float32)
+
+
+def cruise_policies(env) -> dict:
+    """{agent: policy} with the cruise baseline for every agent of a SocialDrivingEnv."""
+    env = getattr(env, "unwrapped", env)
+    out = {}
+    for name, spec in env.agent_specs.items():
+        cls = CruisePedestrianPolicy if spec.kind == "pedestrian" else CruiseVehiclePolicy
+        out[name] = cls(spec, env.obs_layout, env.road_map)
+    return out

@@ -1,0 +1,8 @@
+"""marl-social: a PettingZoo multi-agent driving simulator in which humans are explicit
+planners with their own fields of view (Sun, Zhan, Chan, Tomizuka, "Behavior Planning of
+Autonomous Cars with Social Perception", IEEE IV 2019)."""
+
+from marl_social.env import SocialDrivingEnv, env, parallel_env, raw_env
+
+__version__ = "0.1.0"
+__all__ = ["SocialDrivingEnv", "__version__", "env", "parallel_env", "raw_env"]

@@ -1,0 +1,23 @@
+"""Scenario registry: name -> Scenario class."""
+
+from __future__ import annotations
+
+from marl_social.scenarios.base import Scenario, ScenarioLayout, ScenarioParams, make_params
+from marl_social.scenarios.long_road import LongRoad
+from marl_social.scenarios.occluded_crosswalk import OccludedCrosswalk
+
+SCENARIOS: dict[str, type[Scenario]] = {
+    OccludedCrosswalk.name: OccludedCrosswalk,
+    LongRoad.name: LongRoad,
+}
+
+
+def make_scenario(name: str, **overrides) -> Scenario:
+    """Instantiate a registered scenario with validated overrides."""
+    if name not in SCENARIOS:
+        raise ValueError(f"unknown scenario {name!r}; available: {sorted(SCENARIOS)}")
+    return SCENARIOS[name](**overrides)
+
+
+__all__ = ["SCENARIOS", "Scenario", "ScenarioLayout", "ScenarioParams", "make_params",
+           "make_scenario"]

@@ -1,0 +1,186 @@
+"""The paper's scenario (Sun et al. 2019, section V, Fig. 2): an occluded crosswalk.
+
+A straight road with two 3.5 m lanes in the +x direction and a crosswalk at x = crosswalk_x_m.
+The robot drives in the left lane (y = +1.75 m), a human car in the right lane (y = -1.75 m)
+human_lead_m ahead of it, and a pedestrian waits on the right sidewalk at the crosswalk. The
+human car hides the pedestrian from the robot, whose sensor range is also limited; the human sees
+the pedestrian. With the default numbers and every agent on the cruise baseline
+(agents/cruise.py: the human brakes for the pedestrian it sees, the robot drives on until it
+sees it), the robot first sees the pedestrian about 1.5 s before it reaches the crosswalk and
+has to brake at its limit (tests/test_scenarios.py measures it). Houses line both sidewalks.
+
+Variants: pedestrian = "crossing" (starts to cross after pedestrian_start_delay_s),
+"waiting" (stays on the curb) or "none" (no pedestrian agent).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from marl_social.agent_spec import AgentSpec, PedestrianParams, SensorParams, VehicleParams
+from marl_social.agents.costs import CostWeights
+from marl_social.road_map import Crosswalk, Lane, RoadMap, Route
+from marl_social.scenarios.base import Scenario, ScenarioLayout, ScenarioParams
+
+LANE_WIDTH_M = 3.5
+SIDEWALK_WIDTH_M = 3.0
+HOUSE_SETBACK_M = 2.0  # front gardens between sidewalk and houses [m]
+HOUSE_LENGTH_M, HOUSE_DEPTH_M, HOUSE_GAP_M = 12.0, 8.0, 5.0
+ROAD_START_X_M = -30.0
+PEDESTRIAN_VARIANTS = ("crossing", "waiting", "none")
+
+
+@dataclass(frozen=True)
+class OccludedCrosswalkParams(ScenarioParams):
+    """Occluded-crosswalk parameters (SI units).
+
+    Attributes:
+        pedestrian: "crossing", "waiting" or "none".
+        crosswalk_x_m: crosswalk centre, ahead of the robot's start at x = 0 [m].
+        crosswalk_width_m: extent of the crosswalk along the road [m].
+        road_end_x_m: where the vehicles' routes end [m].
+        robot_speed_mps, human_speed_mps: initial speeds [m/s].
+        robot_desired_speed_mps, human_desired_speed_mps: cruise speeds [m/s].
+        human_lead_m: how far the human car starts ahead of the robot [m].
+        pedestrian_speed_mps: walking speed when crossing [m/s].
+        pedestrian_start_delay_s: time at which a crossing pedestrian steps off the curb [s].
+        pedestrian_curb_offset_m: how far from the curb the pedestrian waits [m].
+        speed_limit_mps: legal limit [m/s].
+        robot_sensor_range_m, human_sensor_range_m, pedestrian_sensor_range_m: [m].
+        robot_half_fov_deg, human_half_fov_deg, pedestrian_half_fov_deg: cone half-angles [deg].
+        robot_pos_noise_m, human_pos_noise_m: measurement noise stds [m].
+    """
+
+    pedestrian: str = "crossing"
+    crosswalk_x_m: float = 60.0
+    crosswalk_width_m: float = 4.0
+    road_end_x_m: float = 150.0
+    robot_speed_mps: float = 11.5
+    human_speed_mps: float = 11.5
+    robot_desired_speed_mps: float = 11.5
+    human_desired_speed_mps: float = 11.5
+    human_lead_m: float = 20.0
+    pedestrian_speed_mps: float = 1.3
+    pedestrian_start_delay_s: float = 1.0
+    pedestrian_curb_offset_m: float = 2.0
+    speed_limit_mps: float = 13.9
+    robot_sensor_range_m: float = 40.0
+    human_sensor_range_m: float = 60.0
+    pedestrian_sensor_range_m: float = 60.0
+    robot_half_fov_deg: float = 60.0
+    human_half_fov_deg: float = 60.0
+    pedestrian_half_fov_deg: float = 100.0
+    robot_pos_noise_m: float = 0.05
+    human_pos_noise_m: float = 0.05
+
+    def __post_init__(self):
+        super().__post_init__()
+        self._check(self.pedestrian in PEDESTRIAN_VARIANTS, "pedestrian",
+                    f"must be one of {PEDESTRIAN_VARIANTS}")
+        self._check(self.crosswalk_x_m > 10.0, "crosswalk_x_m", "must be > 10 m")
+        self._check(self.road_end_x_m > self.crosswalk_x_m + 20.0, "road_end_x_m",
+                    "must be at least 20 m past the crosswalk")
+        for name in ("robot_speed_mps", "human_speed_mps", "robot_desired_speed_mps",
+                     "human_desired_speed_mps"):
+            self._check(0.0 <= getattr(self, name) <= 20.0, name, "must be in [0, 20] m/s")
+        self._check(0.1 <= self.pedestrian_speed_mps <= 2.0, "pedestrian_speed_mps",
+                    "must be in [0.1, 2] m/s")
+        self._check(self.pedestrian_start_delay_s >= 0.0, "pedestrian_start_delay_s",
+                    "must be >= 0 s")
+        self._check(self.human_lead_m >= 5.0, "human_lead_m",
+                    "must be >= 5 m (the cars would overlap)")
+        self._check(0.0 <= self.pedestrian_curb_offset_m <= SIDEWALK_WIDTH_M - 0.3,
+                    "pedestrian_curb_offset_m", f"must be in [0, {SIDEWALK_WIDTH_M - 0.3}] m")
+        for name in ("robot_sensor_range_m", "human_sensor_range_m", "pedestrian_sensor_range_m"):
+            self._check(getattr(self, name) > 0.0, name, "must be > 0 m")
+        for name in ("robot_half_fov_deg", "human_half_fov_deg", "pedestrian_half_fov_deg"):
+            self._check(0.0 < getattr(self, name) <= 180.0, name, "must be in (0, 180] deg")
+        for name in ("robot_pos_noise_m", "human_pos_noise_m"):
+            self._check(getattr(self, name) >= 0.0, name, "must be >= 0 m")
+        self._check(self.speed_limit_mps > 0.0, "speed_limit_mps", "must be > 0")
+
+
+def _houses(x_start: float, x_end: float, y_near: float, side: int) -> list[np.ndarray]:
+    """Rectangular houses along one side of the road; side = +1 (left) or -1 (right)."""
+    houses = []
+    x = x_start
+    while x + HOUSE_LENGTH_M <= x_end:
+        y0, y1 = side * y_near, side * (y_near + HOUSE_DEPTH_M)
+        houses.append(np.array([[x, y0], [x + HOUSE_LENGTH_M, y0],
+                                [x + HOUSE_LENGTH_M, y1], [x, y1]]))
+        x += HOUSE_LENGTH_M + HOUSE_GAP_M
+    return houses
+
+
+class OccludedCrosswalk(Scenario):
+    """Paper Fig. 2: robot, human car and a pedestrian hidden from the robot by the human car."""
+
+    name = "occluded_crosswalk"
+    params_cls = OccludedCrosswalkParams
+
+    def build(self, rng: np.random.Generator) -> ScenarioLayout:
+        p: OccludedCrosswalkParams = self.params
+        half_road = LANE_WIDTH_M
+        left_y, right_y = 0.5 * LANE_WIDTH_M, -0.5 * LANE_WIDTH_M
+        x0, x1 = ROAD_START_X_M, p.road_end_x_m
+        lanes = (
+            Lane(np.array([[x0, right_y], [x1, right_y]]), LANE_WIDTH_M),
+            Lane(np.array([[x0, left_y], [x1, left_y]]), LANE_WIDTH_M),
+        )
+        crosswalk = Crosswalk(np.array([p.crosswalk_x_m, 0.0]), math.pi / 2,
+                              2.0 * half_road, p.crosswalk_width_m)
+        y_houses = half_road + SIDEWALK_WIDTH_M + HOUSE_SETBACK_M
+        houses = tuple(_houses(x0, x1, y_houses, +1) + _houses(x0, x1, y_houses, -1))
+
+        ped_y = -(half_road + p.pedestrian_curb_offset_m)
+        routes = {
+            "robot_0": Route([[x0, left_y], [x1, left_y]], "robot_0"),
+            "human_0": Route([[x0, right_y], [x1, right_y]], "human_0"),
+        }
+        vehicle = VehicleParams()
+        theta_vehicle = CostWeights()
+        agents = [
+            AgentSpec(
+                "robot_0", "vehicle", "robot", np.array([0.0, left_y, 0.0, p.robot_speed_mps]),
+                sensor=SensorParams(p.robot_sensor_range_m, math.radians(p.robot_half_fov_deg),
+                                    pos_noise_m=p.robot_pos_noise_m),
+                vehicle=vehicle, v_desired_mps=p.robot_desired_speed_mps,
+                cost_weights=theta_vehicle,
+            ),
+            AgentSpec(
+                "human_0", "vehicle", "human",
+                np.array([p.human_lead_m, right_y, 0.0, p.human_speed_mps]),
+                sensor=SensorParams(p.human_sensor_range_m, math.radians(p.human_half_fov_deg),
+                                    pos_noise_m=p.human_pos_noise_m),
+                vehicle=vehicle, v_desired_mps=p.human_desired_speed_mps,
+                cost_weights=theta_vehicle,
+            ),
+        ]
+        if p.pedestrian != "none":
+            far_y = half_road + 1.0
+            routes["pedestrian_0"] = Route(
+                [[p.crosswalk_x_m, ped_y], [p.crosswalk_x_m, far_y]], "pedestrian_0"
+            )
+            agents.append(AgentSpec(
+                "pedestrian_0", "pedestrian", "pedestrian",
+                np.array([p.crosswalk_x_m, ped_y, math.pi / 2, 0.0]),
+                sensor=SensorParams(p.pedestrian_sensor_range_m,
+                                    math.radians(p.pedestrian_half_fov_deg)),
+                pedestrian=PedestrianParams(),
+                v_desired_mps=p.pedestrian_speed_mps if p.pedestrian == "crossing" else 0.0,
+                cost_weights=CostWeights(tracking=1.0, speed=1.0, accel=0.01, jerk=0.0,
+                                         safety=5.0, crosswalk=50.0),
+                planner={
+                    "crossing": p.pedestrian == "crossing",
+                    "start_delay_s": p.pedestrian_start_delay_s,
+                },
+            ))
+        road_map = RoadMap(
+            lanes=lanes, crosswalks=(crosswalk,), static_polygons=houses, routes=routes,
+            speed_limit_mps=p.speed_limit_mps,
+            extent=(x0, x1, -(y_houses + 4.0), y_houses + 4.0),
+        )
+        return ScenarioLayout(road_map, tuple(agents), p)

@@ -1,0 +1,184 @@
+"""Fields of view: range, view cone and occlusion by every vehicle, pedestrian and static polygon.
+
+The model is Nocturne's: an observer sees a target if a ray from the observer to one of the
+target's sample points (its centre, then points just inside its corners) first hits the target.
+Depth rays at fixed angles across the cone give each observer's visibility polygon.
+
+Rays are answered in two phases, for all observers at once:
+
+1. numpy broad phase: each ray segment against every other agent's bounding circle and every
+   static polygon's bounding box. A ray that crosses no other object's bound cannot be occluded
+   (a target ray) or hits nothing (a depth ray): it needs no query.
+2. pymunk narrow phase: `Space.segment_query_first` for the remaining rays (exact first hit,
+   the observer's own shape filtered out by its ShapeFilter group).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from marl_social.footprint import box_corners
+from marl_social.geometry import GeometryMirror
+
+_INNER_FRACTION = 0.85  # sample points sit this fraction of the way from centre to corner
+
+
+@dataclass(frozen=True)
+class FovResult:
+    """What every observer sees this step.
+
+    Attributes:
+        visible: (n, n) bool, visible[o, t] is True if observer o sees agent t.
+        depth_m: (n, n_rays) distance to the first hit along each depth ray, capped at the
+            observer's range [m]; inactive observers get 0.
+        ray_angles_rad: (n, n_rays) ray directions relative to the observer's heading [rad].
+        n_queries: number of pymunk ray queries this step (profiling aid).
+    """
+
+    visible: np.ndarray
+    depth_m: np.ndarray
+    ray_angles_rad: np.ndarray
+    n_queries: int
+
+
+def depth_ray_angles(half_angle_rad: np.ndarray, n_rays: int) -> np.ndarray:
+    """Relative ray directions (n, n_rays) [rad]: evenly across each cone, edges included; a full
+    circle (half-angle >= pi) is split evenly without repeating -pi/+pi."""
+    half = np.asarray(half_angle_rad, dtype=np.float64)
+    frac = np.linspace(-1.0, 1.0, n_rays) if n_rays > 1 else np.zeros(1)
+    full = np.linspace(-np.pi, np.pi, n_rays, endpoint=False)
+    return np.where((half >= np.pi)[:, None], full[None, :], half[:, None] * frac[None, :])
+
+
+def target_sample_points(xy, heading, length, width, is_pedestrian) -> np.ndarray:
+    """Points whose sight proves a target visible: centre, then 4 points just inside its outline.
+
+    Args: xy (n, 2) [m], heading (n,) [rad], length/width (n,) [m], is_pedestrian (n,) bool.
+    Returns: (n, 5, 2) [m].
+    """
+    corners = box_corners(xy, heading, length, width)  # (n, 4, 2)
+    ped_offsets = 0.5 * width[:, None, None] * np.array([[1, 0], [0, 1], [-1, 0], [0, -1]])
+    ped_pts = xy[:, None, :] + ped_offsets
+    outline = np.where(is_pedestrian[:, None, None], ped_pts, corners)
+    inner = xy[:, None, :] + _INNER_FRACTION * (outline - xy[:, None, :])
+    return np.concatenate([xy[:, None, :], inner], axis=1)
+
+
+def _segments_hit_circles(start, end, centres, radii) -> np.ndarray:
+    """Whether segments (R, 2)->(R, 2) pass within radii (C,) of centres (C, 2): (R, C) bool."""
+    d = end - start
+    dd = np.maximum(np.einsum("rk,rk->r", d, d), 1e-12)
+    w = centres[None, :, :] - start[:, None, :]
+    t = np.clip(np.einsum("rck,rk->rc", w, d) / dd[:, None], 0.0, 1.0)
+    closest = start[:, None, :] + t[..., None] * d[:, None, :]
+    gap = centres[None] - closest
+    return np.einsum("rck,rck->rc", gap, gap) <= radii[None, :] ** 2
+
+
+def _segments_hit_boxes(start, end, box_min, box_max) -> np.ndarray:
+    """Slab test of segments (R, 2)->(R, 2) against axis-aligned boxes (S, 2): (R, S) bool."""
+    if len(box_min) == 0:
+        return np.zeros((len(start), 0), dtype=bool)
+    d = end - start
+    d = np.where(np.abs(d) < 1e-12, 1e-12, d)  # axis-parallel rays: a huge finite slope
+    inv = 1.0 / d
+    tx1 = np.subtract.outer(-start[:, 0], -box_min[:, 0]) * inv[:, 0:1]
+    tx2 = np.subtract.outer(-start[:, 0], -box_max[:, 0]) * inv[:, 0:1]
+    ty1 = np.subtract.outer(-start[:, 1], -box_min[:, 1]) * inv[:, 1:2]
+    ty2 = np.subtract.outer(-start[:, 1], -box_max[:, 1]) * inv[:, 1:2]
+    enter = np.maximum(np.minimum(tx1, tx2), np.minimum(ty1, ty2))
+    leave = np.minimum(np.maximum(tx1, tx2), np.maximum(ty1, ty2))
+    return (enter <= leave) & (leave >= 0.0) & (enter <= 1.0)
+
+
+class FieldOfView:
+    """Computes every agent's field of view against a GeometryMirror.
+
+    Args:
+        mirror: the synced geometry (its pymunk Space answers the narrow phase).
+        static_polygons: the same convex polygons the mirror holds, (V, 2) each [m].
+        n_rays: depth rays per observer.
+    """
+
+    def __init__(self, mirror: GeometryMirror, static_polygons, n_rays: int):
+        self.mirror = mirror
+        self.n_rays = int(n_rays)
+        polys = list(static_polygons)
+        self._box_min = np.array([p.min(axis=0) for p in polys]).reshape(-1, 2)
+        self._box_max = np.array([p.max(axis=0) for p in polys]).reshape(-1, 2)
+        self._angles_key = None
+        self._angles = None
+
+    def ray_angles(self, half_angle_rad: np.ndarray) -> np.ndarray:
+        """depth_ray_angles for these half-angles, cached (sensors do not change in an episode)."""
+        key = half_angle_rad.tobytes()
+        if key != self._angles_key:
+            self._angles_key, self._angles = key, depth_ray_angles(half_angle_rad, self.n_rays)
+        return self._angles
+
+    def compute(self, xy, heading, length, width, is_pedestrian, bounding_radius, active,
+                range_m, half_angle_rad) -> FovResult:
+        """Fields of view of all active agents.
+
+        Args:
+            xy (n, 2) [m]; heading (n,) [rad]; length, width, bounding_radius (n,) [m];
+            is_pedestrian, active (n,) bool; range_m, half_angle_rad (n,) [m, rad].
+        """
+        n = len(xy)
+        # -- target rays: (observer, target, sample point) within range and cone
+        points = target_sample_points(xy, heading, length, width, is_pedestrian)  # (n, 5, 2)
+        rel = points[None, :, :, :] - xy[:, None, None, :]  # (n, n, 5, 2)
+        dist2 = np.einsum("otkc,otkc->otk", rel, rel)
+        bearing = np.arctan2(rel[..., 1], rel[..., 0]) - heading[:, None, None]
+        bearing = np.abs((bearing + np.pi) % (2 * np.pi) - np.pi)
+        pair_ok = active[:, None] & active[None, :]
+        np.fill_diagonal(pair_ok, False)
+        sensed = (
+            (dist2 <= (range_m ** 2)[:, None, None])
+            & (bearing <= half_angle_rad[:, None, None])
+            & pair_ok[..., None]
+        )
+        t_obs, t_tgt, t_pt = np.nonzero(sensed)  # sorted by observer, target, point
+        t_end = points[t_tgt, t_pt]
+        # -- depth rays: evenly over each active observer's cone
+        angles = self.ray_angles(half_angle_rad)  # (n, R)
+        d_obs = np.repeat(np.flatnonzero(active), self.n_rays)
+        d_dir = heading[d_obs] + angles[active].ravel()
+        d_end = xy[d_obs] + np.column_stack([np.cos(d_dir), np.sin(d_dir)]) * range_m[d_obs, None]
+        # -- one broad phase for every ray: could anything but observer / target be in the way?
+        n_t = len(t_obs)
+        ray_obs = np.concatenate([t_obs, d_obs])
+        ray_start = xy[ray_obs]
+        ray_end = np.concatenate([t_end, d_end])
+        radii = np.where(active, bounding_radius, -1.0)  # inactive agents never occlude
+        blockers = _segments_hit_circles(ray_start, ray_end, xy, radii)
+        rows = np.arange(len(ray_obs))
+        blockers[rows, ray_obs] = False
+        blockers[rows[:n_t], t_tgt] = False
+        maybe = blockers.any(axis=1) | _segments_hit_boxes(
+            ray_start, ray_end, self._box_min, self._box_max
+        ).any(axis=1)
+        # -- narrow phase (pymunk), only where the broad phase could not decide
+        queries = 0
+        visible = np.zeros((n, n), dtype=bool)
+        clear = ~maybe[:n_t]
+        visible[t_obs[clear], t_tgt[clear]] = True
+        first_hit = self.mirror.first_hit
+        todo = np.flatnonzero(maybe[:n_t])
+        for r, o, t, a, b in zip(todo.tolist(), t_obs[todo].tolist(), t_tgt[todo].tolist(),
+                                 ray_start[todo].tolist(), ray_end[todo].tolist()):
+            if visible[o, t]:
+                continue  # an earlier sample point of this target already proved it visible
+            queries += 1
+            visible[o, t] = first_hit(a, b, o)[0] == t
+        alpha = np.ones(len(d_obs))
+        todo = np.flatnonzero(maybe[n_t:])
+        for r, o, a, b in zip(todo.tolist(), d_obs[todo].tolist(),
+                              ray_start[n_t + todo].tolist(), ray_end[n_t + todo].tolist()):
+            alpha[r] = first_hit(a, b, o)[1]
+        queries += len(todo)
+        depth = np.zeros((n, self.n_rays))
+        depth[active] = (alpha * range_m[d_obs]).reshape(-1, self.n_rays)
+        return FovResult(visible, depth, angles, queries)
