@@ -87,10 +87,17 @@ class GeometryMirror:
             self._cp_label[shape._shape] = self.n_agents + k
             self._add_fcl(_prism(np.asarray(poly)), self.n_agents + k)
 
+        # two broad-phase managers: agents (refitted every step) and statics (built once)
         self.manager = fcl.DynamicAABBTreeCollisionManager()
-        self.manager.registerObjects(self._fcl_objects)
+        self.manager.registerObjects(self._fcl_objects[: self.n_agents])
         self.manager.setup()
+        self.static_manager = fcl.DynamicAABBTreeCollisionManager()
+        self.static_manager.registerObjects(self._fcl_objects[self.n_agents:])
+        self.static_manager.setup()
         self._registered = np.ones(self.n_agents, dtype=bool)
+        polys = [np.asarray(p) for p in static_polygons]
+        self._static_min = np.array([p.min(axis=0) for p in polys]).reshape(-1, 2)
+        self._static_max = np.array([p.max(axis=0) for p in polys]).reshape(-1, 2)
 
     def _add_fcl(self, geom, label: int) -> None:
         self._geoms.append(geom)
@@ -148,11 +155,21 @@ class GeometryMirror:
             return -1, 1.0
         return self._cp_label[hit], self._query_info.alpha
 
-    def contacts(self) -> list[tuple[int, int]]:
-        """All touching pairs (label_a < label_b) from the fcl broad-phase manager."""
-        request = fcl.CollisionRequest(num_max_contacts=10_000, enable_contact=True)
+    def contacts(self, xy=None, bounding_radius=None, active=None) -> list[tuple[int, int]]:
+        """All touching pairs (label_a < label_b): agent-agent and agent-static, from the fcl
+        broad-phase managers.
+
+        If the agents' centres xy (n, 2) [m], bounding radii (n,) [m] and active mask (n,) are
+        given, fcl is skipped when no two bounding circles (or circle and static box) overlap:
+        then nothing can touch.
+        """
+        if xy is not None and not self._bounds_may_touch(xy, bounding_radius, active):
+            return []
+        request = fcl.CollisionRequest(num_max_contacts=10_000, enable_contact=False)
         data = fcl.CollisionData(request=request)
         self.manager.collide(data, fcl.defaultCollisionCallback)
+        if len(self._static_min):
+            self.manager.collide(self.static_manager, data, fcl.defaultCollisionCallback)
         pairs = set()
         for contact in data.result.contacts:
             a = self._geom_label[id(contact.o1)]
@@ -160,6 +177,20 @@ class GeometryMirror:
             if a != b and min(a, b) < self.n_agents:  # static-static pairs are not contacts
                 pairs.add((min(a, b), max(a, b)))
         return sorted(pairs)
+
+    def _bounds_may_touch(self, xy, radius, active) -> bool:
+        r = np.where(active, radius, -1e9)
+        diff = xy[:, None, :] - xy[None, :, :]
+        reach = r[:, None] + r[None, :]
+        close = np.einsum("ijk,ijk->ij", diff, diff) <= reach * reach
+        np.fill_diagonal(close, False)
+        if close.any():
+            return True
+        if not len(self._static_min):
+            return False
+        nearest = np.clip(xy[:, None, :], self._static_min[None], self._static_max[None])
+        d2 = np.sum((xy[:, None, :] - nearest) ** 2, axis=-1)
+        return bool(np.any(d2 <= (r * r)[:, None] * (r > 0)[:, None]))
 
     def distance(self, label_a: int, label_b: int) -> float:
         """Exact fcl distance between two labelled solids [m] (0 when they overlap)."""

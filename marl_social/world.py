@@ -91,6 +91,7 @@ class World:
         self.route_length_m = self.routes.length_m
 
         self.accel_mps2 = np.zeros(self.n)
+        self.last_applied_action = np.zeros((self.n, 2))
         self.prev_accel_mps2 = np.zeros(self.n)
         self.active = np.ones(self.n, dtype=bool)
         self.time_s = 0.0
@@ -130,10 +131,11 @@ class World:
             old_velocity = self.velocity_mps[ped]
             self.state[ped] = pedestrian_step(self.state[ped], applied[ped])
             self.accel_mps2[ped] = np.linalg.norm(applied[ped] - old_velocity, axis=1) / DT_S
+        self.last_applied_action = applied
         self.time_s += DT_S
         self.mirror.sync(self.state[:, :2], self.state[:, 2], self.active)
 
-        contacts = self.mirror.contacts()
+        contacts = self.mirror.contacts(self.state[:, :2], self.bounding_radius_m, self.active)
         collided = np.zeros(self.n, dtype=bool)
         for a, b in contacts:
             for label in (a, b):

@@ -68,13 +68,15 @@ def target_sample_points(xy, heading, length, width, is_pedestrian) -> np.ndarra
 
 def _segments_hit_circles(start, end, centres, radii) -> np.ndarray:
     """Whether segments (R, 2)->(R, 2) pass within radii (C,) of centres (C, 2): (R, C) bool."""
-    d = end - start
-    dd = np.maximum(np.einsum("rk,rk->r", d, d), 1e-12)
-    w = centres[None, :, :] - start[:, None, :]
-    t = np.clip(np.einsum("rck,rk->rc", w, d) / dd[:, None], 0.0, 1.0)
-    closest = start[:, None, :] + t[..., None] * d[:, None, :]
-    gap = centres[None] - closest
-    return np.einsum("rck,rck->rc", gap, gap) <= radii[None, :] ** 2
+    dx, dy = end[:, 0] - start[:, 0], end[:, 1] - start[:, 1]
+    inv_dd = 1.0 / np.maximum(dx * dx + dy * dy, 1e-12)
+    wx = np.subtract.outer(-start[:, 0], -centres[:, 0])  # centre - start, (R, C)
+    wy = np.subtract.outer(-start[:, 1], -centres[:, 1])
+    t = (wx * dx[:, None] + wy * dy[:, None]) * inv_dd[:, None]
+    np.clip(t, 0.0, 1.0, out=t)
+    wx -= t * dx[:, None]
+    wy -= t * dy[:, None]
+    return wx * wx + wy * wy <= radii * radii
 
 
 def _segments_hit_boxes(start, end, box_min, box_max) -> np.ndarray:
@@ -127,10 +129,12 @@ class FieldOfView:
             is_pedestrian, active (n,) bool; range_m, half_angle_rad (n,) [m, rad].
         """
         n = len(xy)
-        # -- target rays: (observer, target, sample point) within range and cone
+        self._queries = 0
+        radii = np.where(active, bounding_radius, -1.0)  # inactive agents never occlude
+        # -- target sample points within range and cone: (observer, target, point)
         points = target_sample_points(xy, heading, length, width, is_pedestrian)  # (n, 5, 2)
         rel = points[None, :, :, :] - xy[:, None, None, :]  # (n, n, 5, 2)
-        dist2 = np.einsum("otkc,otkc->otk", rel, rel)
+        dist2 = rel[..., 0] ** 2 + rel[..., 1] ** 2
         bearing = np.arctan2(rel[..., 1], rel[..., 0]) - heading[:, None, None]
         bearing = np.abs((bearing + np.pi) % (2 * np.pi) - np.pi)
         pair_ok = active[:, None] & active[None, :]
@@ -140,45 +144,52 @@ class FieldOfView:
             & (bearing <= half_angle_rad[:, None, None])
             & pair_ok[..., None]
         )
-        t_obs, t_tgt, t_pt = np.nonzero(sensed)  # sorted by observer, target, point
-        t_end = points[t_tgt, t_pt]
+        # -- round 1: centre rays; round 2: corner rays of targets not yet seen
+        visible = np.zeros((n, n), dtype=bool)
+        o1, t1 = np.nonzero(sensed[:, :, 0])
+        self._target_rays(xy, points[t1, 0], o1, t1, radii, visible)
+        sensed[:, :, 1:] &= ~visible[..., None]
+        o2, t2, k2 = np.nonzero(sensed[:, :, 1:])
+        self._target_rays(xy, points[t2, k2 + 1], o2, t2, radii, visible)
         # -- depth rays: evenly over each active observer's cone
         angles = self.ray_angles(half_angle_rad)  # (n, R)
         d_obs = np.repeat(np.flatnonzero(active), self.n_rays)
         d_dir = heading[d_obs] + angles[active].ravel()
-        d_end = xy[d_obs] + np.column_stack([np.cos(d_dir), np.sin(d_dir)]) * range_m[d_obs, None]
-        # -- one broad phase for every ray: could anything but observer / target be in the way?
-        n_t = len(t_obs)
-        ray_obs = np.concatenate([t_obs, d_obs])
-        ray_start = xy[ray_obs]
-        ray_end = np.concatenate([t_end, d_end])
-        radii = np.where(active, bounding_radius, -1.0)  # inactive agents never occlude
-        blockers = _segments_hit_circles(ray_start, ray_end, xy, radii)
-        rows = np.arange(len(ray_obs))
-        blockers[rows, ray_obs] = False
-        blockers[rows[:n_t], t_tgt] = False
+        start = xy[d_obs]
+        end = start + np.column_stack([np.cos(d_dir), np.sin(d_dir)]) * range_m[d_obs, None]
+        blockers = _segments_hit_circles(start, end, xy, radii)
+        blockers[np.arange(len(d_obs)), d_obs] = False
         maybe = blockers.any(axis=1) | _segments_hit_boxes(
-            ray_start, ray_end, self._box_min, self._box_max
-        ).any(axis=1)
-        # -- narrow phase (pymunk), only where the broad phase could not decide
-        queries = 0
-        visible = np.zeros((n, n), dtype=bool)
-        clear = ~maybe[:n_t]
-        visible[t_obs[clear], t_tgt[clear]] = True
-        first_hit = self.mirror.first_hit
-        todo = np.flatnonzero(maybe[:n_t])
-        for r, o, t, a, b in zip(todo.tolist(), t_obs[todo].tolist(), t_tgt[todo].tolist(),
-                                 ray_start[todo].tolist(), ray_end[todo].tolist()):
-            if visible[o, t]:
-                continue  # an earlier sample point of this target already proved it visible
-            queries += 1
-            visible[o, t] = first_hit(a, b, o)[0] == t
+            start, end, self._box_min, self._box_max).any(axis=1)
         alpha = np.ones(len(d_obs))
-        todo = np.flatnonzero(maybe[n_t:])
-        for r, o, a, b in zip(todo.tolist(), d_obs[todo].tolist(),
-                              ray_start[n_t + todo].tolist(), ray_end[n_t + todo].tolist()):
+        first_hit = self.mirror.first_hit
+        todo = np.flatnonzero(maybe)
+        for r, o, a, b in zip(todo.tolist(), d_obs[todo].tolist(), start[todo].tolist(),
+                              end[todo].tolist()):
             alpha[r] = first_hit(a, b, o)[1]
-        queries += len(todo)
+        self._queries += len(todo)
         depth = np.zeros((n, self.n_rays))
         depth[active] = (alpha * range_m[d_obs]).reshape(-1, self.n_rays)
-        return FovResult(visible, depth, angles, queries)
+        return FovResult(visible, depth, angles, self._queries)
+
+    def _target_rays(self, xy, end, obs, tgt, radii, visible) -> None:
+        """Mark visible[o, t] for every ray obs -> end that first hits its target tgt."""
+        if len(obs) == 0:
+            return
+        start = xy[obs]
+        blockers = _segments_hit_circles(start, end, xy, radii)
+        rows = np.arange(len(obs))
+        blockers[rows, obs] = False
+        blockers[rows, tgt] = False
+        maybe = blockers.any(axis=1) | _segments_hit_boxes(
+            start, end, self._box_min, self._box_max).any(axis=1)
+        clear = ~maybe
+        visible[obs[clear], tgt[clear]] = True
+        first_hit = self.mirror.first_hit
+        todo = np.flatnonzero(maybe)
+        for o, t, a, b in zip(obs[todo].tolist(), tgt[todo].tolist(), start[todo].tolist(),
+                              end[todo].tolist()):
+            if visible[o, t]:
+                continue  # another sample point of this target already proved it visible
+            self._queries += 1
+            visible[o, t] = first_hit(a, b, o)[0] == t
