@@ -5,10 +5,10 @@ from __future__ import annotations
 import numpy as np
 import pymunk
 from conftest import zero_actions
+from marl_social.perception.fov import depth_ray_angles, target_sample_points
 from scenes import box, make_world, pedestrian, vehicle
 
 import marl_social
-from marl_social.perception.fov import depth_ray_angles, target_sample_points
 
 
 def _fov(world):

@@ -90,7 +90,7 @@ def test_collision_only_ends_involved_agents_when_configured():
         acts = zero_actions(env)
         if "robot_0" in acts:
             acts["robot_0"] = np.array([3.0, 0.0], dtype=np.float32)
-        _, _, terms, _, infos = env.step(acts)
+        _, _, terms, _, _infos = env.step(acts)
         if any(terms.values()):
             break
     assert terms["robot_0"] and terms["human_1"]

@@ -27,7 +27,7 @@ CONFIGS = [
     ("occluded_crosswalk", {"pedestrian": "none"}),
     ("long_road", {"n_vehicles": 6, "terminate_on_collision": False}),
 ]
-IDS = [f"{s}-{list(o.values())[0]}" for s, o in CONFIGS]
+IDS = [f"{s}-{next(iter(o.values()))}" for s, o in CONFIGS]
 
 
 @pytest.mark.parametrize(("scenario", "overrides"), CONFIGS, ids=IDS)
@@ -134,7 +134,7 @@ def test_supersuit_vector_env():
     assert obs.shape == (4, size)
     first = obs.copy()
     for _ in range(60):  # crosses max_cycles: the vector env must auto-reset
-        obs, rew, term, trunc, _ = vec.step(np.zeros((4, 2), dtype=np.float32))
+        obs, rew, _term, _trunc, _ = vec.step(np.zeros((4, 2), dtype=np.float32))
         assert obs.shape == (4, size)
         assert np.all(np.isfinite(obs)) and np.all(np.isfinite(rew))
     # cars moved: x positions differ from the start
