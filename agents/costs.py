@@ -24,7 +24,7 @@ from marl_social.road_map import Crosswalk
 
 FEATURE_NAMES = ("tracking", "speed", "accel", "jerk", "safety", "crosswalk")
 N_FEATURES = len(FEATURE_NAMES)
-OCCUPANCY_SOFTNESS_M = 0.25  # logistic length scale of crosswalk occupancy [m]
+OCCUPANCY_SOFTNESS_M = 0.1  # logistic length scale of crosswalk occupancy [m]
 
 
 @dataclass(frozen=True)
@@ -36,7 +36,7 @@ class CostWeights:
     accel: float = 0.1
     jerk: float = 0.1
     safety: float = 1.0
-    crosswalk: float = 50.0
+    crosswalk: float = 1000.0
 
     def __post_init__(self):
         for name in FEATURE_NAMES:

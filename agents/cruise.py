@@ -21,6 +21,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from marl_social.agent_spec import AgentSpec
+from marl_social.agents.steering import pure_pursuit
 from marl_social.dynamics import DT_S
 from marl_social.observation import SLOT_FIELDS, ObservationLayout
 from marl_social.road_map import RoadMap
@@ -85,7 +86,8 @@ class CruiseVehiclePolicy:
         s_ego, _, _ = self.route.project(np.array([x, y]))
         gap, closing = self._leader(decoded.objects, float(s_ego), float(v))
         accel = float(idm_acceleration(v, self.v0, gap, closing, self.idm))
-        return np.array([accel, self._steer(x, y, psi, float(s_ego), v)], dtype=np.float32)
+        steer = pure_pursuit(self.route, x, y, psi, v, float(s_ego), self.spec.vehicle.wheelbase_m)
+        return np.array([accel, steer], dtype=np.float32)
 
     def _leader(self, objects: np.ndarray, s_ego: float, v: float) -> tuple[float, float]:
         """Bumper gap [m] to the nearest seen object in the corridor ahead, and closing speed."""
@@ -110,14 +112,6 @@ class CruiseVehiclePolicy:
         gaps = s_entry - s_ego - half_len
         k = int(np.argmin(gaps))
         return float(gaps[k]), v - max(float(along_speed[k]), 0.0)
-
-    def _steer(self, x, y, psi, s_ego, v) -> float:
-        """Pure pursuit towards the route point one look-ahead distance ahead."""
-        lookahead = max(6.0, 1.0 * v)
-        (tx, ty), _ = self.route.point_at(s_ego + lookahead)
-        alpha = math.atan2(ty - y, tx - x) - psi
-        alpha = (alpha + math.pi) % (2 * math.pi) - math.pi
-        return math.atan2(2.0 * self.spec.vehicle.wheelbase_m * math.sin(alpha), lookahead)
 
 
 class CruisePedestrianPolicy:

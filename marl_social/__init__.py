@@ -3,6 +3,8 @@ planners with their own fields of view (Sun, Zhan, Chan, Tomizuka, "Behavior Pla
 Autonomous Cars with Social Perception", IEEE IV 2019)."""
 
 from marl_social.env import SocialDrivingEnv, env, parallel_env, raw_env
+from marl_social.policies import autopilot, policies
 
 __version__ = "0.1.0"
-__all__ = ["SocialDrivingEnv", "__version__", "env", "parallel_env", "raw_env"]
+__all__ = ["SocialDrivingEnv", "__version__", "autopilot", "env", "parallel_env", "policies",
+           "raw_env"]

@@ -63,6 +63,8 @@ class SensorParams:
         pos_noise_m: std of the Gaussian noise added to measured positions [m].
         vel_noise_mps: std of the noise on measured velocities [m/s].
         heading_noise_rad: std of the noise on measured headings [rad].
+        blind_regions: convex polygons (V, 2) [m] in which this agent sees nothing (an object
+            whose centre is inside one is invisible to it: distraction, an A-pillar, glare).
     """
 
     range_m: float = 50.0
@@ -70,6 +72,7 @@ class SensorParams:
     pos_noise_m: float = 0.05
     vel_noise_mps: float = 0.1
     heading_noise_rad: float = 0.01
+    blind_regions: tuple = ()
 
 
 @dataclass(frozen=True)

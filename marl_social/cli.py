@@ -12,7 +12,6 @@ DEFAULT_OUT = "marl_social_out"
 
 def _demo(args) -> int:
     import marl_social
-    from marl_social.agents.cruise import cruise_policies
     from marl_social.episode import record_episode
     from marl_social.metrics import episode_metrics
     from marl_social.render import plot_episode, write_animation
@@ -22,14 +21,14 @@ def _demo(args) -> int:
     env = marl_social.parallel_env(scenario="occluded_crosswalk", pedestrian=args.pedestrian,
                                    render_mode=None if args.no_animation else "rgb_array",
                                    max_cycles=args.max_cycles)
-    policies = cruise_policies(env)
+    policies = marl_social.policies(env)
     trace = record_episode(env, policies, seed=args.seed, render=not args.no_animation)
     metrics = episode_metrics(trace, env.road_map)
-    stem = f"occluded_crosswalk_{args.pedestrian}_cruise"
+    stem = f"occluded_crosswalk_{args.pedestrian}"
     figure = plot_episode(env.road_map, trace.names, trace.roles, trace.times_s, trace.states,
                           trace.active, trace.visible, out / f"{stem}.png",
-                          title=f"occluded_crosswalk, pedestrian={args.pedestrian}, "
-                                "cruise baseline (robot: unseen = absent)")
+                          title=f"occluded_crosswalk, pedestrian={args.pedestrian}: Boltzmann "
+                                "human and pedestrian, cruise robot (unseen = absent)")
     print(f"figure:    {figure}")
     if not args.no_animation:
         gif = write_animation(trace.frames, out / f"{stem}.gif", fps=10)

@@ -32,6 +32,7 @@ from marl_social.scenarios import make_scenario
 from marl_social.world import World
 
 RENDER_MODES = ["human", "rgb_array"]
+RENDER_VIEW_WIDTH_M = 90.0  # frames follow the robot over this much road [m]
 
 
 class SocialDrivingEnv(ParallelEnv, EzPickle):
@@ -86,6 +87,9 @@ class SocialDrivingEnv(ParallelEnv, EzPickle):
             self._np_random, self._np_random_seed = seeding.np_random(seed)
         layout = self.scenario.build(self._np_random)
         self.world = World(layout)
+        if self._renderer is not None:
+            self._renderer.close()
+            self._renderer = None
         self.agents = list(self.possible_agents)
         self._index = {name: i for i, name in enumerate(self.possible_agents)}
         self._cycles = 0
@@ -195,8 +199,16 @@ class SocialDrivingEnv(ParallelEnv, EzPickle):
             raise RuntimeError("render() called before reset()")
         from marl_social.render import Renderer
 
-        if self._renderer is None:
-            self._renderer = Renderer(self.road_map, show=self.render_mode == "human")
+        if self._renderer is None:  # one per episode: the map may change between episodes
+            road_map = self.world.road_map
+            x0, x1, y0, y1 = road_map.extent
+            follow = "robot_0" if "robot_0" in self.possible_agents else None
+            self._renderer = Renderer(
+                road_map, show=self.render_mode == "human",
+                view=(x0, min(x1, x0 + RENDER_VIEW_WIDTH_M), y0, y1) if follow else None,
+                follow=follow,
+                fan_agents=None if len(self.possible_agents) <= 10 else [follow],
+            )
         frame = self._renderer.draw(self.world, self.last_fov if self.render_fov else None)
         return frame if self.render_mode == "rgb_array" else None
 

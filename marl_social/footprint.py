@@ -41,8 +41,11 @@ def covering_circles(xy, heading, length, width, is_pedestrian) -> tuple[np.ndar
         centres (..., N_COVER_CIRCLES, 2) [m], radii (..., N_COVER_CIRCLES) [m].
     """
     xy = np.asarray(xy, dtype=np.float64)
-    length = np.asarray(length, dtype=np.float64)
-    width = np.asarray(width, dtype=np.float64)
+    shape = np.broadcast_shapes(np.shape(heading), np.shape(length), np.shape(is_pedestrian))
+    length = np.broadcast_to(np.asarray(length, dtype=np.float64), shape)
+    width = np.broadcast_to(np.asarray(width, dtype=np.float64), shape)
+    is_pedestrian = np.broadcast_to(is_pedestrian, shape)
+    heading = np.broadcast_to(heading, shape)
     along = np.where(is_pedestrian, 0.0, length)[..., None] * _COVER_OFFSETS  # (..., C)
     centres = np.empty(np.shape(along) + (2,))
     centres[..., 0] = xy[..., 0:1] + along * np.cos(heading)[..., None]

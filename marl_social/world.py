@@ -98,7 +98,9 @@ class World:
         self._progress = None
         self.mirror = GeometryMirror(self.is_pedestrian, self.length_m, self.width_m,
                                      self.road_map.static_polygons)
-        self.fov = FieldOfView(self.mirror, self.road_map.static_polygons, layout.params.n_rays)
+        blind = [(i, poly) for i, s in enumerate(specs) for poly in s.sensor.blind_regions]
+        self.fov = FieldOfView(self.mirror, self.road_map.static_polygons, layout.params.n_rays,
+                               blind)
         self.mirror.sync(self.state[:, :2], self.state[:, 2], self.active)
 
     @property

@@ -79,6 +79,14 @@ def _segments_hit_circles(start, end, centres, radii) -> np.ndarray:
     return wx * wx + wy * wy <= radii * radii
 
 
+def _inside_convex(points, polygon) -> np.ndarray:
+    """Whether points (n, 2) lie inside a convex polygon (V, 2) given in either orientation."""
+    edge = np.roll(polygon, -1, axis=0) - polygon
+    rel = points[:, None, :] - polygon[None]
+    cross = edge[None, :, 0] * rel[..., 1] - edge[None, :, 1] * rel[..., 0]
+    return np.all(cross >= 0, axis=1) | np.all(cross <= 0, axis=1)
+
+
 def _segments_hit_boxes(start, end, box_min, box_max) -> np.ndarray:
     """Slab test of segments (R, 2)->(R, 2) against axis-aligned boxes (S, 2): (R, S) bool."""
     if len(box_min) == 0:
@@ -104,8 +112,11 @@ class FieldOfView:
         n_rays: depth rays per observer.
     """
 
-    def __init__(self, mirror: GeometryMirror, static_polygons, n_rays: int):
+    def __init__(self, mirror: GeometryMirror, static_polygons, n_rays: int,
+                 blind_regions=()):
         self.mirror = mirror
+        # (observer, polygon) pairs: the observer sees no object whose centre is inside
+        self._blind = [(int(o), np.asarray(poly, dtype=np.float64)) for o, poly in blind_regions]
         self.n_rays = int(n_rays)
         polys = list(static_polygons)
         self._box_min = np.array([p.min(axis=0) for p in polys]).reshape(-1, 2)
@@ -151,6 +162,8 @@ class FieldOfView:
         sensed[:, :, 1:] &= ~visible[..., None]
         o2, t2, k2 = np.nonzero(sensed[:, :, 1:])
         self._target_rays(xy, points[t2, k2 + 1], o2, t2, radii, visible)
+        for o, poly in self._blind:
+            visible[o] &= ~_inside_convex(xy, poly)
         # -- depth rays: evenly over each active observer's cone
         angles = self.ray_angles(half_angle_rad)  # (n, R)
         d_obs = np.repeat(np.flatnonzero(active), self.n_rays)

@@ -64,6 +64,8 @@ def make_params(params_cls: type[ScenarioParams], overrides: dict) -> ScenarioPa
                 raise ValueError(f"{params_cls.__name__}.{key}: expected an integer, got {value!r}")
             value = int(value)
         elif isinstance(default, float):
+            if isinstance(value, bool):
+                raise TypeError(f"{params_cls.__name__}.{key}: expected a number, got {value!r}")
             try:
                 value = float(value)
             except (TypeError, ValueError):

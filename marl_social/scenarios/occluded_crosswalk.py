@@ -52,6 +52,12 @@ class OccludedCrosswalkParams(ScenarioParams):
         robot_sensor_range_m, human_sensor_range_m, pedestrian_sensor_range_m: [m].
         robot_half_fov_deg, human_half_fov_deg, pedestrian_half_fov_deg: cone half-angles [deg].
         robot_pos_noise_m, human_pos_noise_m: measurement noise stds [m].
+        human_beta, pedestrian_beta: rationality of the human driver / pedestrian planners
+            (higher = more rational, inf = always the best action, 0 = uniformly random).
+        human_theta: the human driver's cost weights (a mapping of feature names, or 6 numbers
+            in agents/costs.FEATURE_NAMES order); empty = the default CostWeights.
+        human_blind: the human cannot see the pedestrian's side of the crosswalk (its view of
+            the right sidewalk around the crosswalk is blocked), so it cannot act as a sensor.
     """
 
     pedestrian: str = "crossing"
@@ -75,9 +81,21 @@ class OccludedCrosswalkParams(ScenarioParams):
     pedestrian_half_fov_deg: float = 100.0
     robot_pos_noise_m: float = 0.05
     human_pos_noise_m: float = 0.05
+    human_beta: float = 5.0
+    pedestrian_beta: float = 5.0
+    human_theta: tuple = ()
+    human_blind: bool = False
 
     def __post_init__(self):
         super().__post_init__()
+        if self.human_theta not in ((), None):
+            try:
+                theta = CostWeights.from_any(self.human_theta).as_array()
+            except (TypeError, ValueError) as err:
+                raise ValueError(f"OccludedCrosswalkParams.human_theta: {err}") from None
+            object.__setattr__(self, "human_theta", tuple(theta.tolist()))
+        for name in ("human_beta", "pedestrian_beta"):
+            self._check(getattr(self, name) >= 0.0, name, "must be >= 0 (inf allowed)")
         self._check(self.pedestrian in PEDESTRIAN_VARIANTS, "pedestrian",
                     f"must be one of {PEDESTRIAN_VARIANTS}")
         self._check(self.crosswalk_x_m > 10.0, "crosswalk_x_m", "must be > 10 m")
@@ -121,6 +139,12 @@ class OccludedCrosswalk(Scenario):
     name = "occluded_crosswalk"
     params_cls = OccludedCrosswalkParams
 
+    def _blind_region(self) -> np.ndarray:
+        """The right sidewalk and right lane around the crosswalk (x within +-6 m)."""
+        x = self.params.crosswalk_x_m
+        y_far = -(LANE_WIDTH_M + SIDEWALK_WIDTH_M + HOUSE_SETBACK_M)
+        return np.array([[x - 6.0, y_far], [x + 6.0, y_far], [x + 6.0, 0.0], [x - 6.0, 0.0]])
+
     def build(self, rng: np.random.Generator) -> ScenarioLayout:
         p: OccludedCrosswalkParams = self.params
         half_road = LANE_WIDTH_M
@@ -154,9 +178,13 @@ class OccludedCrosswalk(Scenario):
                 "human_0", "vehicle", "human",
                 np.array([p.human_lead_m, right_y, 0.0, p.human_speed_mps]),
                 sensor=SensorParams(p.human_sensor_range_m, math.radians(p.human_half_fov_deg),
-                                    pos_noise_m=p.human_pos_noise_m),
+                                    pos_noise_m=p.human_pos_noise_m,
+                                    blind_regions=(self._blind_region(),) if p.human_blind
+                                    else ()),
                 vehicle=vehicle, v_desired_mps=p.human_desired_speed_mps,
-                cost_weights=theta_vehicle,
+                cost_weights=(CostWeights.from_any(p.human_theta) if p.human_theta
+                              else theta_vehicle),
+                planner={"beta": p.human_beta},
             ),
         ]
         if p.pedestrian != "none":
@@ -172,10 +200,11 @@ class OccludedCrosswalk(Scenario):
                 pedestrian=PedestrianParams(),
                 v_desired_mps=p.pedestrian_speed_mps if p.pedestrian == "crossing" else 0.0,
                 cost_weights=CostWeights(tracking=1.0, speed=1.0, accel=0.01, jerk=0.0,
-                                         safety=5.0, crosswalk=50.0),
+                                         safety=5.0, crosswalk=1000.0),
                 planner={
                     "crossing": p.pedestrian == "crossing",
                     "start_delay_s": p.pedestrian_start_delay_s,
+                    "beta": p.pedestrian_beta,
                 },
             ))
         road_map = RoadMap(

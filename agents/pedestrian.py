@@ -1,0 +1,159 @@
+"""Pedestrians as noisily-optimal planners: walk along their crossing route at one of a few
+speeds (0 = wait), Boltzmann over their own cost, seeing vehicles only through their own field
+of view.
+
+Cost (agents/costs.py, the same features as everyone): speed deviation from the pedestrian's
+wish (its walking speed once it intends to cross, 0 before), acceleration, safety and the
+crosswalk conflict with vehicles predicted at constant velocity from its own tracks. A pedestrian
+has the right of way: it expects a vehicle to yield if that vehicle can still stop before the
+crosswalk with a comfortable deceleration (`expected_yield_decel_mps2`), and then ignores it.
+Gap acceptance emerges from the cost: a close, fast car that could not stop makes waiting
+cheaper than walking into its path.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from marl_social.agent_spec import AgentSpec
+from marl_social.agents.costs import CostWeights, step_features
+from marl_social.agents.human import ScenePrediction, boltzmann
+from marl_social.dynamics import DT_S
+from marl_social.footprint import covering_circles
+from marl_social.observation import ObservationLayout
+from marl_social.perception.tracking import Tracker, TrackSet
+from marl_social.road_map import Crosswalk, RoadMap, Route
+
+
+@dataclass(frozen=True)
+class PedestrianModel:
+    """Attributes:
+        theta: cost weights; beta: rationality (inf = argmin).
+        v_walk_mps: walking speed it wants once it crosses [m/s].
+        speeds_mps: (A,) candidate speeds along its route [m/s] (0 = wait).
+        horizon_s: planning horizon [s]; plan_dt_s: its rollout step [s] (costs scaled by
+            plan_dt / DT_S, as for drivers).
+        expected_yield_decel_mps2: a car that can stop before the crosswalk braking at most
+            this hard is expected to yield [m/s^2].
+        radius_m: its own disc radius [m].
+    """
+
+    theta: CostWeights = field(default_factory=lambda: CostWeights(
+        tracking=1.0, speed=1.0, accel=0.01, jerk=0.0, safety=5.0, crosswalk=1000.0))
+    beta: float = 5.0
+    v_walk_mps: float = 1.3
+    speeds_mps: tuple = (0.0, 0.5, 0.9, 1.3, 1.7, 2.0)
+    horizon_s: float = 4.0
+    plan_dt_s: float = 0.25
+    expected_yield_decel_mps2: float = 4.0
+    radius_m: float = 0.3
+
+
+def vehicles_expected_to_yield(tracks: TrackSet, crosswalk: Crosswalk, decel_mps2: float
+                               ) -> np.ndarray:
+    """(k,) bool: vehicle tracks heading towards the crosswalk that can still stop before it
+    braking at decel_mps2 (v^2 / (2 decel) < distance to the crosswalk's near edge)."""
+    if len(tracks) == 0:
+        return np.zeros(0, dtype=bool)
+    rel = crosswalk.center - tracks.xy
+    speed = np.linalg.norm(tracks.velocity, axis=1)
+    closing = np.einsum("kd,kd->k", rel, tracks.velocity) / np.maximum(speed, 1e-6)
+    # distance from the car's front to the crosswalk's near edge, along its motion
+    gap = (np.linalg.norm(rel, axis=1) - 0.5 * crosswalk.width_m - 0.5 * tracks.length_m)
+    stopping = speed ** 2 / (2.0 * decel_mps2)
+    approaching = closing > 0.0
+    return ~tracks.is_pedestrian & approaching & (stopping < gap)
+
+
+def pedestrian_q_values(model: PedestrianModel, route: Route, s0: float, v_ref: float,
+                        prev_speed: float, scene: ScenePrediction,
+                        crosswalks: tuple[Crosswalk, ...]) -> np.ndarray:
+    """Cost (L, A) of walking at each candidate speed for the horizon, per scene hypothesis."""
+    dt = model.plan_dt_s
+    t = (np.arange(int(round(model.horizon_s / dt))) + 1) * dt
+    speeds = np.asarray(model.speeds_mps, dtype=np.float64)
+    s = np.minimum(s0 + speeds[:, None] * t[None, :], route.length_m)  # (A, T)
+    xy, heading = route.point_at(s)
+    v = np.broadcast_to(speeds[:, None], s.shape)
+    accel = np.zeros_like(v)
+    accel[:, 0] = (speeds - prev_speed) / dt
+    diam = 2.0 * model.radius_m
+    ego_c, ego_r = covering_circles(xy, heading, diam, diam, True)
+    oc, orad = covering_circles(scene.xy, scene.heading, scene.length_m[..., None],
+                                scene.width_m[..., None], scene.is_pedestrian[..., None])
+    to_cand = lambda a: np.moveaxis(a, 1, 2)[:, None]  # (L, 1, T, M, ...)  # noqa: E731
+    phi = step_features(
+        lateral_m=0.0, speed_mps=v, v_ref_mps=v_ref, accel_mps2=accel, prev_accel_mps2=0.0,
+        ego_xy=xy, ego_radius=model.radius_m, ego_is_ped=True, ego_circles=ego_c,
+        ego_circle_r=ego_r, other_xy=to_cand(scene.xy),
+        other_radius=scene.radius_m[:, None, None, :],
+        other_is_ped=scene.is_pedestrian[:, None, None, :], other_circles=to_cand(oc),
+        other_circle_r=to_cand(orad), other_mask=scene.mask[:, None, None, :],
+        crosswalks=crosswalks,
+    )  # (L, A, T, F)
+    return np.einsum("latf,f->la", phi, model.theta.as_array()) * (dt / DT_S)
+
+
+class BoltzmannPedestrian:
+    """A pedestrian policy (see module docstring). Planner parameters from its AgentSpec:
+    "crossing" (intends to cross), "start_delay_s" (when that intent begins), "beta"."""
+
+    def __init__(self, spec: AgentSpec, layout: ObservationLayout, road_map: RoadMap):
+        self.name = spec.name
+        self.layout = layout
+        self.route = road_map.routes[spec.name]
+        self.crosswalks = road_map.crosswalks
+        self.crossing = bool(spec.planner.get("crossing", True))
+        self.start_delay_s = float(spec.planner.get("start_delay_s", 0.0))
+        self.model = PedestrianModel(theta=spec.cost_weights,
+                                     beta=float(spec.planner.get("beta", 5.0)),
+                                     v_walk_mps=max(spec.v_desired_mps, 0.1),
+                                     radius_m=spec.pedestrian.radius_m)
+        self.tracker = Tracker(spec.sensor.pos_noise_m, spec.sensor.vel_noise_mps)
+        dt = self.model.plan_dt_s
+        self._times = (np.arange(int(round(self.model.horizon_s / dt))) + 1) * dt
+        self.reset()
+
+    def reset(self, seed: int | None = None) -> None:
+        self.rng = np.random.default_rng(seed)
+        self.tracker.reset()
+        self.time_s = 0.0
+        self.prev_speed = 0.0
+        self.last_probabilities = None
+
+    def action_distribution(self, obs) -> np.ndarray:
+        """(A,) probabilities over model.speeds_mps for this observation (updates the tracks)."""
+        decoded = self.layout.decode(obs)
+        tracks = self.tracker.update(decoded)
+        wants_to_cross = self.crossing and self.time_s >= self.start_delay_s
+        v_ref = self.model.v_walk_mps if wants_to_cross else 0.0
+        s0, _, _ = self.route.project(decoded.ego[:2].astype(np.float64))
+        scene = ScenePrediction.from_tracks(tracks, self._times)
+        if self.crosswalks:
+            yielding = vehicles_expected_to_yield(tracks, self.crosswalks[0],
+                                                  self.model.expected_yield_decel_mps2)
+            scene = ScenePrediction(scene.xy, scene.heading, scene.length_m, scene.width_m,
+                                    scene.radius_m, scene.is_pedestrian,
+                                    scene.mask & ~yielding[None])
+        q = pedestrian_q_values(self.model, self.route, float(s0), v_ref, self.prev_speed, scene,
+                                self.crosswalks)[0]
+        self.last_q = q
+        self.last_probabilities = boltzmann(q, self.model.beta)
+        return self.last_probabilities
+
+    def __call__(self, obs) -> np.ndarray:
+        p = self.action_distribution(obs)
+        self.time_s += DT_S
+        speed = self.model.speeds_mps[int(self.rng.choice(len(p), p=p))]  # seeded sample
+        self.prev_speed = speed
+        xy = self.layout.decode(obs).ego[:2].astype(np.float64)
+        s, _, _ = self.route.project(xy)
+        if speed == 0.0 or s >= self.route.length_m - 1e-3:
+            return np.zeros(2, dtype=np.float32)
+        (tx, ty), _ = self.route.point_at(min(float(s) + 1.0, self.route.length_m))
+        direction = np.array([tx, ty]) - xy
+        norm = math.hypot(*direction)
+        return (direction / max(norm, 1e-9) * speed).astype(np.float32)
