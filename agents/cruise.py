@@ -19,9 +19,9 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
+from marl_social.agents.steering import pure_pursuit
 
 from marl_social.agent_spec import AgentSpec
-from marl_social.agents.steering import pure_pursuit
 from marl_social.dynamics import DT_S
 from marl_social.observation import SLOT_FIELDS, ObservationLayout
 from marl_social.road_map import RoadMap

@@ -24,14 +24,14 @@ import math
 from dataclasses import dataclass, field
 
 import numpy as np
-
-from marl_social.agent_spec import AgentSpec, VehicleParams
 from marl_social.agents.costs import CostWeights, step_features
 from marl_social.agents.steering import pure_pursuit
+from marl_social.perception.tracking import Tracker, TrackSet
+
+from marl_social.agent_spec import AgentSpec, VehicleParams
 from marl_social.dynamics import DT_S
 from marl_social.footprint import covering_circles
 from marl_social.observation import ObservationLayout
-from marl_social.perception.tracking import Tracker, TrackSet
 from marl_social.road_map import Crosswalk, RoadMap, Route
 
 
@@ -71,7 +71,7 @@ class DriverModel:
     @property
     def plan_times_s(self) -> np.ndarray:
         """(T,) times of the rollout's states after each planner step [s]."""
-        n = int(round(self.horizon_s / self.plan_dt_s))
+        n = round(self.horizon_s / self.plan_dt_s)
         return (np.arange(n) + 1) * self.plan_dt_s
 
 
@@ -140,8 +140,8 @@ def driver_q_values(model: DriverModel, route: Route, s0: float, v0: float, prev
         (L, A) optimal cost-to-go of each first action.
     """
     dt = model.plan_dt_s
-    n_steps = int(round(model.horizon_s / dt))
-    n_first = int(round(model.first_segment_s / dt))
+    n_steps = round(model.horizon_s / dt)
+    n_first = round(model.first_segment_s / dt)
     first = np.asarray(model.first_actions_mps2, dtype=np.float64)
     cont = np.asarray(model.continuations_mps2, dtype=np.float64)
     step = np.arange(n_steps)
@@ -155,7 +155,7 @@ def driver_q_values(model: DriverModel, route: Route, s0: float, v0: float, prev
         scene.is_pedestrian[..., None],
     )  # (L, M, T, C, 2)
     # others to (L, 1, 1, T, M, ...) so they broadcast against the (A, C, T) candidates
-    to_cand = lambda a: np.moveaxis(a, 1, 2)[:, None, None]  # noqa: E731
+    to_cand = lambda a: np.moveaxis(a, 1, 2)[:, None, None]
     prev = np.concatenate([np.full(a_eff.shape[:-1] + (1,), prev_accel), a_eff[..., :-1]], -1)
     phi = step_features(
         lateral_m=0.0, speed_mps=v, v_ref_mps=model.v_desired_mps, accel_mps2=a_eff,

@@ -17,14 +17,14 @@ import math
 from dataclasses import dataclass, field
 
 import numpy as np
-
-from marl_social.agent_spec import AgentSpec
 from marl_social.agents.costs import CostWeights, step_features
 from marl_social.agents.human import ScenePrediction, boltzmann
+from marl_social.perception.tracking import Tracker, TrackSet
+
+from marl_social.agent_spec import AgentSpec
 from marl_social.dynamics import DT_S
 from marl_social.footprint import covering_circles
 from marl_social.observation import ObservationLayout
-from marl_social.perception.tracking import Tracker, TrackSet
 from marl_social.road_map import Crosswalk, RoadMap, Route
 
 
@@ -73,7 +73,7 @@ def pedestrian_q_values(model: PedestrianModel, route: Route, s0: float, v_ref: 
                         crosswalks: tuple[Crosswalk, ...]) -> np.ndarray:
     """Cost (L, A) of walking at each candidate speed for the horizon, per scene hypothesis."""
     dt = model.plan_dt_s
-    t = (np.arange(int(round(model.horizon_s / dt))) + 1) * dt
+    t = (np.arange(round(model.horizon_s / dt)) + 1) * dt
     speeds = np.asarray(model.speeds_mps, dtype=np.float64)
     s = np.minimum(s0 + speeds[:, None] * t[None, :], route.length_m)  # (A, T)
     xy, heading = route.point_at(s)
@@ -84,7 +84,7 @@ def pedestrian_q_values(model: PedestrianModel, route: Route, s0: float, v_ref: 
     ego_c, ego_r = covering_circles(xy, heading, diam, diam, True)
     oc, orad = covering_circles(scene.xy, scene.heading, scene.length_m[..., None],
                                 scene.width_m[..., None], scene.is_pedestrian[..., None])
-    to_cand = lambda a: np.moveaxis(a, 1, 2)[:, None]  # (L, 1, T, M, ...)  # noqa: E731
+    to_cand = lambda a: np.moveaxis(a, 1, 2)[:, None]  # (L, 1, T, M, ...)
     phi = step_features(
         lateral_m=0.0, speed_mps=v, v_ref_mps=v_ref, accel_mps2=accel, prev_accel_mps2=0.0,
         ego_xy=xy, ego_radius=model.radius_m, ego_is_ped=True, ego_circles=ego_c,
@@ -114,7 +114,7 @@ class BoltzmannPedestrian:
                                      radius_m=spec.pedestrian.radius_m)
         self.tracker = Tracker(spec.sensor.pos_noise_m, spec.sensor.vel_noise_mps)
         dt = self.model.plan_dt_s
-        self._times = (np.arange(int(round(self.model.horizon_s / dt))) + 1) * dt
+        self._times = (np.arange(round(self.model.horizon_s / dt)) + 1) * dt
         self.reset()
 
     def reset(self, seed: int | None = None) -> None:

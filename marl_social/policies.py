@@ -94,7 +94,7 @@ class AutopilotEnv(ParallelEnv):
         mine = [a for a in obs if a in self.controlled]
         # once every controlled agent is done, the wrapped episode is over
         self.agents = [a for a in self.env.agents if a in self.controlled]
-        pick = lambda d: {a: d[a] for a in mine}  # noqa: E731
+        pick = lambda d: {a: d[a] for a in mine}
         return pick(obs), pick(rew), pick(term), pick(trunc), pick(infos)
 
     def render(self):

@@ -88,7 +88,7 @@ class Tracker:
         objects = decoded.objects
         measured = {}
         for row in objects:
-            oid = int(round(row[_F["id"]]))
+            oid = round(row[_F["id"]])
             measured[oid] = row
         for oid in list(self._filters):
             self._filters[oid].predict()

@@ -7,11 +7,11 @@ import math
 
 import numpy as np
 import pytest
+from marl_social.agents.human import BoltzmannDriver, boltzmann
+from marl_social.agents.pedestrian import BoltzmannPedestrian
 from scipy import stats
 
 import marl_social
-from marl_social.agents.human import BoltzmannDriver, boltzmann
-from marl_social.agents.pedestrian import BoltzmannPedestrian
 from marl_social.env import SocialDrivingEnv
 from marl_social.world import World
 
