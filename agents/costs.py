@@ -94,35 +94,58 @@ def circle_gap(ego_circles, ego_circle_r, other_circles, other_circle_r) -> np.n
     return np.maximum(gap.min(axis=(-1, -2)), 0.0)
 
 
-def step_features(
-    *, lateral_m, speed_mps, v_ref_mps, accel_mps2, prev_accel_mps2,
-    ego_xy, ego_radius, ego_is_ped, ego_circles, ego_circle_r,
-    other_xy, other_radius, other_is_ped, other_circles, other_circle_r, other_mask,
-    crosswalks: tuple[Crosswalk, ...],
-) -> np.ndarray:
+def _feature_terms(*, lateral_m, speed_mps, v_ref_mps, accel_mps2, prev_accel_mps2,
+                   ego_xy, ego_radius, ego_is_ped, ego_circles, ego_circle_r,
+                   other_xy, other_radius, other_is_ped, other_circles, other_circle_r, other_mask,
+                   crosswalks, needed=(True,) * N_FEATURES) -> list:
+    """The six per-step features in FEATURE_NAMES order (None where not needed)."""
+    terms = [None] * N_FEATURES
+    if needed[0]:
+        terms[0] = np.asarray(lateral_m, dtype=np.float64) ** 2
+    if needed[1]:
+        terms[1] = (np.asarray(speed_mps) - v_ref_mps) ** 2
+    if needed[2]:
+        terms[2] = np.asarray(accel_mps2) ** 2
+    if needed[3]:
+        terms[3] = (np.asarray(accel_mps2) - prev_accel_mps2) ** 2
+    if needed[4]:
+        gap = circle_gap(ego_circles, ego_circle_r, other_circles, other_circle_r)
+        terms[4] = np.sum(np.where(other_mask, np.exp(-gap), 0.0), axis=-1)
+    if needed[5]:
+        conflict = 0.0
+        if crosswalks:
+            other_kind_differs = np.asarray(other_is_ped) != np.asarray(ego_is_ped)[..., None]
+            pair_mask = other_mask & other_kind_differs
+            for cw in crosswalks:
+                occ_ego = crosswalk_occupancy(ego_xy, ego_radius, cw)
+                occ_other = crosswalk_occupancy(other_xy, other_radius, cw)
+                conflict = conflict + occ_ego * np.sum(np.where(pair_mask, occ_other, 0.0),
+                                                       axis=-1)
+        terms[5] = conflict
+    return terms
+
+
+def step_features(**kwargs) -> np.ndarray:
     """Feature vector phi of one step for a batch of egos.
 
-    Ego arrays: (...) ((..., 2) for ego_xy; covering circles (..., C, 2) and radii (..., C)
-    from footprint.covering_circles). Others: (..., M) ((..., M, 2) for other_xy; circles
-    (..., M, C, 2), radii (..., M, C)); other_mask (..., M) bool excludes absent agents and
-    the ego itself. Leading dimensions broadcast.
-    Returns (..., N_FEATURES) in FEATURE_NAMES order.
+    Keyword arguments: lateral_m, speed_mps, v_ref_mps, accel_mps2, prev_accel_mps2;
+    ego_xy (..., 2), ego_radius, ego_is_ped (...), ego_circles (..., C, 2) and ego_circle_r
+    (..., C) from footprint.covering_circles; other_xy (..., M, 2), other_radius,
+    other_is_ped (..., M), other_circles (..., M, C, 2), other_circle_r (..., M, C),
+    other_mask (..., M) bool (excludes absent agents and the ego itself); crosswalks.
+    Leading dimensions broadcast. Returns (..., N_FEATURES) in FEATURE_NAMES order.
     """
-    lateral_m = np.asarray(lateral_m, dtype=np.float64)
-    tracking = lateral_m ** 2
-    speed = (np.asarray(speed_mps) - v_ref_mps) ** 2
-    accel = np.asarray(accel_mps2) ** 2
-    jerk = (np.asarray(accel_mps2) - prev_accel_mps2) ** 2
-    gap = circle_gap(ego_circles, ego_circle_r, other_circles, other_circle_r)
-    safety = np.sum(np.where(other_mask, np.exp(-gap), 0.0), axis=-1)
-    conflict = np.zeros_like(tracking)
-    if crosswalks:
-        other_kind_differs = np.asarray(other_is_ped) != np.asarray(ego_is_ped)[..., None]
-        pair_mask = other_mask & other_kind_differs
-        for cw in crosswalks:
-            occ_ego = crosswalk_occupancy(ego_xy, ego_radius, cw)
-            occ_other = crosswalk_occupancy(other_xy, other_radius, cw)
-            conflict = conflict + occ_ego * np.sum(np.where(pair_mask, occ_other, 0.0), axis=-1)
-    return np.stack(
-        np.broadcast_arrays(tracking, speed, accel, jerk, safety, conflict), axis=-1
-    )
+    terms = _feature_terms(**kwargs)
+    return np.stack(np.broadcast_arrays(*terms), axis=-1)
+
+
+def step_cost(theta: np.ndarray, **kwargs) -> np.ndarray:
+    """theta^T phi of one step (same arguments as step_features), computing only the features
+    whose weight is non-zero. Returns the broadcast batch shape (...)."""
+    theta = np.asarray(theta, dtype=np.float64)
+    terms = _feature_terms(needed=tuple(bool(w != 0.0) for w in theta), **kwargs)
+    total = 0.0
+    for weight, term in zip(theta, terms):
+        if term is not None:
+            total = total + weight * term
+    return total

@@ -24,7 +24,7 @@ import math
 from dataclasses import dataclass, field
 
 import numpy as np
-from marl_social.agents.costs import CostWeights, step_features
+from marl_social.agents.costs import CostWeights, step_cost
 from marl_social.agents.steering import pure_pursuit
 from marl_social.perception.tracking import Tracker, TrackSet
 
@@ -157,8 +157,8 @@ def driver_q_values(model: DriverModel, route: Route, s0: float, v0: float, prev
     # others to (L, 1, 1, T, M, ...) so they broadcast against the (A, C, T) candidates
     to_cand = lambda a: np.moveaxis(a, 1, 2)[:, None, None]
     prev = np.concatenate([np.full(a_eff.shape[:-1] + (1,), prev_accel), a_eff[..., :-1]], -1)
-    phi = step_features(
-        lateral_m=0.0, speed_mps=v, v_ref_mps=model.v_desired_mps, accel_mps2=a_eff,
+    cost = step_cost(
+        model.theta.as_array(), lateral_m=0.0, speed_mps=v, v_ref_mps=model.v_desired_mps, accel_mps2=a_eff,
         prev_accel_mps2=prev,
         ego_xy=xy, ego_radius=0.5 * math.hypot(veh.length_m, veh.width_m), ego_is_ped=False,
         ego_circles=ego_circles, ego_circle_r=ego_r,
@@ -168,9 +168,8 @@ def driver_q_values(model: DriverModel, route: Route, s0: float, v0: float, prev
         other_circles=to_cand(oc), other_circle_r=to_cand(orad),
         other_mask=scene.mask[:, None, None, None, :],
         crosswalks=crosswalks,
-    )  # (L, A, C, T, F)
-    cost = np.einsum("lactf,f->lac", phi, model.theta.as_array()) * (dt / DT_S)
-    return cost.min(axis=-1)
+    )  # (L, A, C, T)
+    return cost.sum(axis=-1).min(axis=-1) * (dt / DT_S)
 
 
 def boltzmann(q_values: np.ndarray, beta: float) -> np.ndarray:
@@ -219,25 +218,26 @@ class BoltzmannDriver:
         x, y = float(decoded.ego[0]), float(decoded.ego[1])
         v = float(decoded.ego[4])
         tracks = self.tracker.update(decoded)
-        s0, _, _ = self.route.project(np.array([x, y]))
+        s0, _ = self.route.project_point(x, y)
+        self._last_pose = (x, y, math.atan2(float(decoded.ego[3]), float(decoded.ego[2])), v, s0)
         scene = ScenePrediction.from_tracks(tracks, self._times)
-        q = driver_q_values(self.model, self.route, float(s0), v, self.prev_accel, scene,
+        q = driver_q_values(self.model, self.route, s0, v, self.prev_accel, scene,
                             self.crosswalks)[0]
         self.last_q = q
         self.last_probabilities = boltzmann(q, self.model.beta)
         return self.last_probabilities
 
     def choose(self, probabilities: np.ndarray) -> int:
-        """Sample an action index from the distribution with the policy's seeded generator."""
-        return int(self.rng.choice(len(probabilities), p=probabilities))
+        """Sample an action index from the distribution with the policy's seeded generator
+        (inverse-CDF sampling: one uniform draw)."""
+        cdf = np.cumsum(probabilities)
+        k = int(np.searchsorted(cdf, self.rng.random() * cdf[-1], side="right"))
+        return min(k, len(probabilities) - 1)
 
     def __call__(self, obs) -> np.ndarray:
         p = self.action_distribution(obs)
         accel = self.model.first_actions_mps2[self.choose(p)]
         self.prev_accel = accel
-        decoded = self.layout.decode(obs)
-        x, y, c, s, v = (float(a) for a in decoded.ego[:5])
-        s_arc, _, _ = self.route.project(np.array([x, y]))
-        steer = pure_pursuit(self.route, x, y, math.atan2(s, c), v, float(s_arc),
-                             self.model.vehicle.wheelbase_m)
+        x, y, psi, v, s_arc = self._last_pose
+        steer = pure_pursuit(self.route, x, y, psi, v, s_arc, self.model.vehicle.wheelbase_m)
         return np.array([accel, steer], dtype=np.float32)

@@ -17,7 +17,7 @@ import math
 from dataclasses import dataclass, field
 
 import numpy as np
-from marl_social.agents.costs import CostWeights, step_features
+from marl_social.agents.costs import CostWeights, step_cost
 from marl_social.agents.human import ScenePrediction, boltzmann
 from marl_social.perception.tracking import Tracker, TrackSet
 
@@ -85,16 +85,16 @@ def pedestrian_q_values(model: PedestrianModel, route: Route, s0: float, v_ref: 
     oc, orad = covering_circles(scene.xy, scene.heading, scene.length_m[..., None],
                                 scene.width_m[..., None], scene.is_pedestrian[..., None])
     to_cand = lambda a: np.moveaxis(a, 1, 2)[:, None]  # (L, 1, T, M, ...)
-    phi = step_features(
-        lateral_m=0.0, speed_mps=v, v_ref_mps=v_ref, accel_mps2=accel, prev_accel_mps2=0.0,
+    cost = step_cost(
+        model.theta.as_array(), lateral_m=0.0, speed_mps=v, v_ref_mps=v_ref, accel_mps2=accel, prev_accel_mps2=0.0,
         ego_xy=xy, ego_radius=model.radius_m, ego_is_ped=True, ego_circles=ego_c,
         ego_circle_r=ego_r, other_xy=to_cand(scene.xy),
         other_radius=scene.radius_m[:, None, None, :],
         other_is_ped=scene.is_pedestrian[:, None, None, :], other_circles=to_cand(oc),
         other_circle_r=to_cand(orad), other_mask=scene.mask[:, None, None, :],
         crosswalks=crosswalks,
-    )  # (L, A, T, F)
-    return np.einsum("latf,f->la", phi, model.theta.as_array()) * (dt / DT_S)
+    )  # (L, A, T)
+    return cost.sum(axis=-1) * (dt / DT_S)
 
 
 class BoltzmannPedestrian:

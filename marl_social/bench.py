@@ -136,3 +136,41 @@ def run_env_benchmark(agent_counts=(3, 10, 30, 100), n_steps: int = 500, peer: b
         echo("\nprofile, long_road n=30:")
         echo(profile_env("long_road", 300, n_vehicles=30, terminate_on_collision=False))
     return rows
+
+
+def bench_humans(n_episodes: int = 3, echo=print) -> dict:
+    """Decision times of the built-in human driver and pedestrian planners on the paper
+    scenario, and env steps/s with every agent on its built-in planner (the robot on the cruise
+    baseline). Returns the numbers; prints a table."""
+    import marl_social
+
+    decide = {"human_0": [], "pedestrian_0": []}
+    steps, loop_s = 0, 0.0
+    for ep in range(n_episodes):
+        env = marl_social.parallel_env(scenario="occluded_crosswalk", pedestrian="crossing")
+        pols = marl_social.policies(env)
+        for i, p in enumerate(pols.values()):
+            p.reset(ep * 10 + i)
+        obs, _ = env.reset(seed=ep)
+        while env.agents:
+            t_loop = time.perf_counter()
+            actions = {}
+            for a in env.agents:
+                t0 = time.perf_counter()
+                actions[a] = pols[a](obs[a])
+                if a in decide:
+                    decide[a].append(time.perf_counter() - t0)
+            obs, *_ = env.step(actions)
+            loop_s += time.perf_counter() - t_loop
+            steps += 1
+    out = {f"{a}_decision_ms_median": 1e3 * float(np.median(v)) for a, v in decide.items()}
+    out.update({f"{a}_decision_ms_p99": 1e3 * float(np.percentile(v, 99))
+                for a, v in decide.items()})
+    out["steps_per_s_all_planners"] = steps / loop_s
+    echo(f"human driver decision   median {out['human_0_decision_ms_median']:.3f} ms   "
+         f"p99 {out['human_0_decision_ms_p99']:.3f} ms")
+    echo(f"pedestrian decision     median {out['pedestrian_0_decision_ms_median']:.3f} ms   "
+         f"p99 {out['pedestrian_0_decision_ms_p99']:.3f} ms")
+    echo(f"paper scenario, every agent on its built-in planner: "
+         f"{out['steps_per_s_all_planners']:.1f} env steps/s ({steps} steps)")
+    return out

@@ -42,13 +42,13 @@ def _demo(args) -> int:
 
 
 def _bench(args) -> int:
-    from marl_social.bench import run_env_benchmark
+    from marl_social.bench import bench_humans, run_env_benchmark
 
-    if args.what != "env":
-        print(f"unknown benchmark {args.what!r}; available: env", file=sys.stderr)
-        return 2
-    rows = run_env_benchmark(tuple(args.agents), n_steps=args.steps, peer=not args.no_peer,
-                             profile=args.profile)
+    if args.what == "humans":
+        rows = bench_humans()
+    else:
+        rows = run_env_benchmark(tuple(args.agents), n_steps=args.steps, peer=not args.no_peer,
+                                 profile=args.profile)
     if args.json:
         Path(args.json).write_text(json.dumps(rows, indent=2))
     return 0
@@ -66,8 +66,8 @@ def main(argv=None) -> int:
     demo.add_argument("--no-animation", action="store_true", help="figure only (faster)")
     demo.set_defaults(func=_demo)
 
-    bench = sub.add_parser("bench", help="benchmarks: `bench env`")
-    bench.add_argument("what", choices=["env"])
+    bench = sub.add_parser("bench", help="benchmarks: `bench env`, `bench humans`")
+    bench.add_argument("what", choices=["env", "humans"])
     bench.add_argument("--agents", type=int, nargs="+", default=[3, 10, 30, 100])
     bench.add_argument("--steps", type=int, default=500)
     bench.add_argument("--no-peer", action="store_true", help="skip highway-env")

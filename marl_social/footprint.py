@@ -41,6 +41,18 @@ def covering_circles(xy, heading, length, width, is_pedestrian) -> tuple[np.ndar
         centres (..., N_COVER_CIRCLES, 2) [m], radii (..., N_COVER_CIRCLES) [m].
     """
     xy = np.asarray(xy, dtype=np.float64)
+    if np.ndim(length) == 0 and np.ndim(width) == 0 and np.ndim(is_pedestrian) == 0:
+        # one footprint for the whole batch (a planner's candidate trajectories)
+        centres = np.empty(np.shape(heading) + (N_COVER_CIRCLES, 2))
+        if is_pedestrian:
+            centres[...] = xy[..., None, :]
+            radius = 0.5 * float(width)
+        else:
+            along = float(length) * _COVER_OFFSETS
+            centres[..., 0] = xy[..., 0:1] + along * np.cos(heading)[..., None]
+            centres[..., 1] = xy[..., 1:2] + along * np.sin(heading)[..., None]
+            radius = float(np.hypot(length / (2 * N_COVER_CIRCLES), width / 2))
+        return centres, np.full(centres.shape[:-1], radius)
     shape = np.broadcast_shapes(np.shape(heading), np.shape(length), np.shape(is_pedestrian))
     length = np.broadcast_to(np.asarray(length, dtype=np.float64), shape)
     width = np.broadcast_to(np.asarray(width, dtype=np.float64), shape)

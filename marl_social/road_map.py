@@ -7,6 +7,7 @@ radians counter-clockwise from +x.
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -43,6 +44,10 @@ class Route:
         self._seg_heading = np.arctan2(seg[:, 1], seg[:, 0])
         self._cum_s = np.concatenate([[0.0], np.cumsum(self._seg_len)])
         self.length_m = float(self._cum_s[-1])
+        self._seg_start_list = self._seg_start.tolist()
+        self._seg_dir_list = self._seg_dir.tolist()
+        self._seg_len_list = self._seg_len.tolist()
+        self._cum_s_list = self._cum_s[:-1].tolist()
 
     def project(self, xy) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """Project points onto the route.
@@ -66,6 +71,23 @@ class Route:
         dir_k = self._seg_dir[k]
         lateral = dir_k[..., 0] * rel_k[..., 1] - dir_k[..., 1] * rel_k[..., 0]
         return self._cum_s[k] + t_k, lateral, self._seg_heading[k]
+
+    def project_point(self, x: float, y: float) -> tuple[float, float]:
+        """Arc length [m] and signed lateral offset [m] of one point: the scalar version of
+        `project`, in plain Python for short routes (a planner's per-step query)."""
+        if len(self._seg_len) > 16:
+            s, lateral, _ = self.project(np.array([x, y]))
+            return float(s), float(lateral)
+        best = (math.inf, 0.0, 0.0)
+        for (sx, sy), (dx, dy), length, s0 in zip(self._seg_start_list, self._seg_dir_list,
+                                                  self._seg_len_list, self._cum_s_list):
+            rx, ry = x - sx, y - sy
+            t = min(max(rx * dx + ry * dy, 0.0), length)
+            cx, cy = rx - t * dx, ry - t * dy
+            d2 = cx * cx + cy * cy
+            if d2 < best[0]:
+                best = (d2, s0 + t, dx * ry - dy * rx)
+        return best[1], best[2]
 
     def point_at(self, s) -> tuple[np.ndarray, np.ndarray]:
         """Position and heading at arc length s.
