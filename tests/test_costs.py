@@ -5,7 +5,6 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-
 from marl_social.agents.costs import (
     FEATURE_NAMES,
     CostWeights,
@@ -13,6 +12,7 @@ from marl_social.agents.costs import (
     step_cost,
     step_features,
 )
+
 from marl_social.footprint import covering_circles
 from marl_social.road_map import Crosswalk, Route
 
@@ -31,15 +31,15 @@ def _features(ego_xy, other_xy, other_is_ped, ego_is_ped=False, **kw):
     el, ew = (0.6, 0.6) if ego_is_ped else (4.5, 1.8)
     ec, er = covering_circles(ego_xy, np.zeros(b), el, ew, ego_is_ped)
     oc, orad = covering_circles(other_xy, np.zeros((b, m)), ol, ow, is_ped)
-    args = dict(
-        lateral_m=kw.get("lateral", 0.0), speed_mps=kw.get("v", 10.0), v_ref_mps=12.0,
-        accel_mps2=kw.get("a", 1.0), prev_accel_mps2=kw.get("a_prev", 0.0),
-        ego_xy=ego_xy, ego_radius=0.5 * np.hypot(el, ew), ego_is_ped=ego_is_ped,
-        ego_circles=ec, ego_circle_r=er, other_xy=other_xy,
-        other_radius=0.5 * np.hypot(ol, ow), other_is_ped=is_ped,
-        other_circles=oc, other_circle_r=orad, other_mask=np.ones((b, m), bool),
-        crosswalks=(CW,),
-    )
+    args = {
+        "lateral_m": kw.get("lateral", 0.0), "speed_mps": kw.get("v", 10.0), "v_ref_mps": 12.0,
+        "accel_mps2": kw.get("a", 1.0), "prev_accel_mps2": kw.get("a_prev", 0.0),
+        "ego_xy": ego_xy, "ego_radius": 0.5 * np.hypot(el, ew), "ego_is_ped": ego_is_ped,
+        "ego_circles": ec, "ego_circle_r": er, "other_xy": other_xy,
+        "other_radius": 0.5 * np.hypot(ol, ow), "other_is_ped": is_ped,
+        "other_circles": oc, "other_circle_r": orad, "other_mask": np.ones((b, m), bool),
+        "crosswalks": (CW,),
+    }
     return step_features(**args), args
 
 

@@ -4,9 +4,9 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from marl_social.perception.tracking import Tracker
 
 from marl_social.observation import EGO_DIM, SLOT_FIELDS, ObservationLayout
-from marl_social.perception.tracking import Tracker
 
 LAYOUT = ObservationLayout(n_slots=4, n_rays=4)
 F = {name: i for i, name in enumerate(SLOT_FIELDS)}
