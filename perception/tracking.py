@@ -1,5 +1,5 @@
-"""Multi-object tracking from an agent's own observations: one filterpy Kalman filter per
-object, constant-velocity model, state [x m, y m, vx m/s, vy m/s].
+"""Multi-object tracking from an agent's own observations: one Kalman filter per object
+(filterpy's predict / update), constant-velocity model, state [x m, y m, vx m/s, vy m/s].
 
 Association is by the object id in the observation slot (a perception stack's track id). A track
 that is not measured coasts on its prediction and is dropped after `timeout_s`.
@@ -11,7 +11,7 @@ from dataclasses import dataclass
 
 import numpy as np
 from filterpy.common import Q_discrete_white_noise
-from filterpy.kalman import KalmanFilter
+from filterpy.kalman import predict, update
 
 from marl_social.dynamics import DT_S
 from marl_social.observation import SLOT_FIELDS, DecodedObservation
@@ -68,20 +68,12 @@ class Tracker:
         self.reset()
 
     def reset(self) -> None:
-        self._filters: dict[int, KalmanFilter] = {}
+        self._filters: dict[int, tuple[np.ndarray, np.ndarray]] = {}  # id -> (x (4,), P (4, 4))
         self._attrs: dict[int, tuple[float, float, bool]] = {}
         self._unseen: dict[int, float] = {}
         self._seen_now: set[int] = set()
 
-    def _new_filter(self, z: np.ndarray) -> KalmanFilter:
-        kf = KalmanFilter(dim_x=4, dim_z=4)
-        kf.F = self._F
-        kf.H = np.eye(4)
-        kf.R = self._R
-        kf.Q = self._Q
-        kf.x = z.copy()
-        kf.P = self._R.copy()
-        return kf
+    _H = np.eye(4)
 
     def update(self, decoded: DecodedObservation) -> TrackSet:
         """Advance every track one step and fold in this step's measurements."""
@@ -91,7 +83,7 @@ class Tracker:
             oid = round(row[_F["id"]])
             measured[oid] = row
         for oid in list(self._filters):
-            self._filters[oid].predict()
+            self._filters[oid] = predict(*self._filters[oid], self._F, self._Q)
             if oid not in measured:
                 self._unseen[oid] += self.dt_s
                 if self._unseen[oid] > self.timeout_s:
@@ -99,9 +91,9 @@ class Tracker:
         for oid, row in measured.items():
             z = row[[_F["x"], _F["y"], _F["vx"], _F["vy"]]].astype(np.float64)
             if oid in self._filters:
-                self._filters[oid].update(z)
+                self._filters[oid] = update(*self._filters[oid], z, self._R, self._H)
             else:
-                self._filters[oid] = self._new_filter(z)
+                self._filters[oid] = (z, self._R.copy())
             self._attrs[oid] = (float(row[_F["length"]]), float(row[_F["width"]]),
                                 bool(row[_F["is_pedestrian"]] > 0.5))
             self._unseen[oid] = 0.0
@@ -114,8 +106,8 @@ class Tracker:
             z2 = np.zeros((0, 2))
             z0 = np.zeros(0)
             return TrackSet(ids, z2, z2, z0, z0, z0, np.zeros(0, bool), np.zeros(0, bool), z0)
-        states = np.array([self._filters[i].x for i in ids])
-        pos_var = np.array([0.5 * (self._filters[i].P[0, 0] + self._filters[i].P[1, 1])
+        states = np.array([self._filters[i][0] for i in ids])
+        pos_var = np.array([0.5 * (self._filters[i][1][0, 0] + self._filters[i][1][1, 1])
                             for i in ids])
         attrs = np.array([self._attrs[i] for i in ids], dtype=np.float64)
         return TrackSet(
