@@ -11,19 +11,12 @@ Labels: agents are 0..n-1, static polygon k is n + k.
 
 from __future__ import annotations
 
-import math
-
 import fcl
 import numpy as np
 import pymunk
 from pymunk._chipmunk import ffi, lib
 
 _TALL_M = 100.0  # z-extent of the fcl solids [m]
-
-
-def _rotation_z(angle: float) -> np.ndarray:
-    c, s = math.cos(angle), math.sin(angle)
-    return np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
 
 
 def _prism(polygon: np.ndarray) -> fcl.Convex:
@@ -110,20 +103,24 @@ class GeometryMirror:
         Args:
             xy: (n, 2) [m]; heading: (n,) [rad]; active: (n,) bool.
         """
-        for i in range(self.n_agents):
-            if not active[i]:
+        space_ptr = self.space._space
+        half = 0.5 * np.asarray(heading, dtype=np.float64)
+        qw, qz = np.cos(half).tolist(), np.sin(half).tolist()
+        for i, (x, y), a, active_i in zip(range(self.n_agents), xy.tolist(),
+                                          np.asarray(heading).tolist(), active.tolist()):
+            if not active_i:
                 self._deactivate(i)
                 continue
-            x, y, a = float(xy[i, 0]), float(xy[i, 1]), float(heading[i])
-            body = self._bodies[i]
-            body.position = (x, y)
-            body.angle = a
-            if self._in_space[i]:
-                self.space.reindex_shapes_for_body(body)
-            else:
-                self.space.add(body, self._shapes[i])
+            if not self._in_space[i]:
+                self.space.add(self._bodies[i], self._shapes[i])
                 self._in_space[i] = True
-            self._fcl_objects[i].setTransform(fcl.Transform(_rotation_z(a), [x, y, 0.0]))
+            # chipmunk's setters (what pymunk's Body.position / Body.angle call), then reindex
+            # so that ray queries see the new pose
+            body_ptr = self._bodies[i]._body
+            lib.cpBodySetPosition(body_ptr, (x, y))
+            lib.cpBodySetAngle(body_ptr, a)
+            lib.cpSpaceReindexShapesForBody(space_ptr, body_ptr)
+            self._fcl_objects[i].setTransform(fcl.Transform([qw[i], 0.0, 0.0, qz[i]], [x, y, 0.0]))
         self.manager.update()
 
     def _deactivate(self, i: int) -> None:

@@ -18,7 +18,7 @@ from marl_social.dynamics import (
     saturate_pedestrian_action,
     saturate_vehicle_action,
 )
-from marl_social.footprint import covering_circles
+from marl_social.footprint import circle_layout, place_along
 from marl_social.geometry import GeometryMirror
 from marl_social.perception.fov import FieldOfView, FovResult
 from marl_social.perception.sensors import Measurements, measure
@@ -90,6 +90,8 @@ class World:
         self.routes = RouteSet([self.road_map.routes[name] for name in self.names])
         self.route_length_m = self.routes.length_m
 
+        self._circle_along, self._circle_r = circle_layout(self.length_m, self.width_m,
+                                                           self.is_pedestrian)
         self.accel_mps2 = np.zeros(self.n)
         self.last_applied_action = np.zeros((self.n, 2))
         self.prev_accel_mps2 = np.zeros(self.n)
@@ -174,8 +176,7 @@ class World:
         """(n, N_FEATURES) each agent's cost features this step (agents/costs.py)."""
         _, lateral = self.route_progress()
         xy, heading = self.state[:, :2], self.state[:, 2]
-        circles, circle_r = covering_circles(xy, heading, self.length_m, self.width_m,
-                                             self.is_pedestrian)
+        circles, circle_r = place_along(xy, heading, self._circle_along), self._circle_r
         others = self.active[None, :] & ~np.eye(self.n, dtype=bool)
         return step_features(
             lateral_m=lateral, speed_mps=self.state[:, 3], v_ref_mps=self.v_desired_mps,

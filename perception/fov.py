@@ -19,7 +19,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from marl_social.footprint import box_corners
+from marl_social.footprint import place_local
 from marl_social.geometry import GeometryMirror
 
 _INNER_FRACTION = 0.85  # sample points sit this fraction of the way from centre to corner
@@ -52,18 +52,20 @@ def depth_ray_angles(half_angle_rad: np.ndarray, n_rays: int) -> np.ndarray:
     return np.where((half >= np.pi)[:, None], full[None, :], half[:, None] * frac[None, :])
 
 
-def target_sample_points(xy, heading, length, width, is_pedestrian) -> np.ndarray:
-    """Points whose sight proves a target visible: centre, then 4 points just inside its outline.
+def sample_point_layout(length, width, is_pedestrian) -> np.ndarray:
+    """Body-frame points whose sight proves a target visible (n, 5, 2) [m]: the centre, then 4
+    points just inside the outline (the corners of a car; 4 points around a pedestrian)."""
+    half = 0.5 * _INNER_FRACTION * np.column_stack([length, width])  # (n, 2)
+    local = np.zeros((len(half), 5, 2))
+    local[:, 1:] = half[:, None, :] * np.array([[-1, -1], [1, -1], [1, 1], [-1, 1.0]])
+    ped_local = half[:, None, :1] * np.array([[1, 0], [0, 1], [-1, 0], [0, -1.0]])
+    local[:, 1:] = np.where(np.asarray(is_pedestrian)[:, None, None], ped_local, local[:, 1:])
+    return local
 
-    Args: xy (n, 2) [m], heading (n,) [rad], length/width (n,) [m], is_pedestrian (n,) bool.
-    Returns: (n, 5, 2) [m].
-    """
-    corners = box_corners(xy, heading, length, width)  # (n, 4, 2)
-    ped_offsets = 0.5 * width[:, None, None] * np.array([[1, 0], [0, 1], [-1, 0], [0, -1]])
-    ped_pts = xy[:, None, :] + ped_offsets
-    outline = np.where(is_pedestrian[:, None, None], ped_pts, corners)
-    inner = xy[:, None, :] + _INNER_FRACTION * (outline - xy[:, None, :])
-    return np.concatenate([xy[:, None, :], inner], axis=1)
+
+def target_sample_points(xy, heading, length, width, is_pedestrian) -> np.ndarray:
+    """World positions (n, 5, 2) [m] of sample_point_layout for poses xy (n, 2), heading (n,)."""
+    return place_local(xy, heading, sample_point_layout(length, width, is_pedestrian))
 
 
 def _segments_hit_circles(start, end, centres, radii) -> np.ndarray:
@@ -123,6 +125,7 @@ class FieldOfView:
         self._box_max = np.array([p.max(axis=0) for p in polys]).reshape(-1, 2)
         self._angles_key = None
         self._angles = None
+        self._local = None  # body-frame sample points, built on first use (sizes are fixed)
 
     def ray_angles(self, half_angle_rad: np.ndarray) -> np.ndarray:
         """depth_ray_angles for these half-angles, cached (sensors do not change in an episode)."""
@@ -143,7 +146,9 @@ class FieldOfView:
         self._queries = 0
         radii = np.where(active, bounding_radius, -1.0)  # inactive agents never occlude
         # -- target sample points within range and cone: (observer, target, point)
-        points = target_sample_points(xy, heading, length, width, is_pedestrian)  # (n, 5, 2)
+        if self._local is None or len(self._local) != n:
+            self._local = sample_point_layout(length, width, is_pedestrian)
+        points = place_local(xy, heading, self._local)  # (n, 5, 2)
         rel = points[None, :, :, :] - xy[:, None, None, :]  # (n, n, 5, 2)
         dist2 = rel[..., 0] ** 2 + rel[..., 1] ** 2
         bearing = np.arctan2(rel[..., 1], rel[..., 0]) - heading[:, None, None]
@@ -155,47 +160,54 @@ class FieldOfView:
             & (bearing <= half_angle_rad[:, None, None])
             & pair_ok[..., None]
         )
-        # -- round 1: centre rays; round 2: corner rays of targets not yet seen
+        # -- round 1, one broad phase for all centre rays and all depth rays
         visible = np.zeros((n, n), dtype=bool)
         o1, t1 = np.nonzero(sensed[:, :, 0])
-        self._target_rays(xy, points[t1, 0], o1, t1, radii, visible)
-        sensed[:, :, 1:] &= ~visible[..., None]
-        o2, t2, k2 = np.nonzero(sensed[:, :, 1:])
-        self._target_rays(xy, points[t2, k2 + 1], o2, t2, radii, visible)
-        for o, poly in self._blind:
-            visible[o] &= ~_inside_convex(xy, poly)
-        # -- depth rays: evenly over each active observer's cone
         angles = self.ray_angles(half_angle_rad)  # (n, R)
         d_obs = np.repeat(np.flatnonzero(active), self.n_rays)
         d_dir = heading[d_obs] + angles[active].ravel()
-        start = xy[d_obs]
-        end = start + np.column_stack([np.cos(d_dir), np.sin(d_dir)]) * range_m[d_obs, None]
-        blockers = _segments_hit_circles(start, end, xy, radii)
-        blockers[np.arange(len(d_obs)), d_obs] = False
-        maybe = blockers.any(axis=1) | _segments_hit_boxes(
-            start, end, self._box_min, self._box_max).any(axis=1)
+        d_end = xy[d_obs] + np.column_stack([np.cos(d_dir), np.sin(d_dir)]) * range_m[d_obs, None]
+        n_t = len(o1)
+        ray_obs = np.concatenate([o1, d_obs])
+        start = xy[ray_obs]
+        end = np.concatenate([points[t1, 0], d_end])
+        maybe = self._maybe_blocked(start, end, ray_obs, t1, xy, radii)
+        self._resolve_targets(start[:n_t], end[:n_t], o1, t1, maybe[:n_t], visible)
         alpha = np.ones(len(d_obs))
         first_hit = self.mirror.first_hit
-        todo = np.flatnonzero(maybe)
-        for r, o, a, b in zip(todo.tolist(), d_obs[todo].tolist(), start[todo].tolist(),
-                              end[todo].tolist()):
+        todo = np.flatnonzero(maybe[n_t:])
+        for r, o, a, b in zip(todo.tolist(), d_obs[todo].tolist(), start[n_t + todo].tolist(),
+                              d_end[todo].tolist()):
             alpha[r] = first_hit(a, b, o)[1]
         self._queries += len(todo)
         depth = np.zeros((n, self.n_rays))
         depth[active] = (alpha * range_m[d_obs]).reshape(-1, self.n_rays)
+        # -- round 2: corner rays of targets in view whose centre was hidden
+        sensed[:, :, 1:] &= ~visible[..., None]
+        o2, t2, k2 = np.nonzero(sensed[:, :, 1:])
+        if len(o2):
+            start2, end2 = xy[o2], points[t2, k2 + 1]
+            maybe2 = self._maybe_blocked(start2, end2, o2, t2, xy, radii)
+            self._resolve_targets(start2, end2, o2, t2, maybe2, visible)
+        for o, poly in self._blind:
+            visible[o] &= ~_inside_convex(xy, poly)
         return FovResult(visible, depth, angles, self._queries)
 
-    def _target_rays(self, xy, end, obs, tgt, radii, visible) -> None:
-        """Mark visible[o, t] for every ray obs -> end that first hits its target tgt."""
-        if len(obs) == 0:
-            return
-        start = xy[obs]
-        blockers = _segments_hit_circles(start, end, xy, radii)
-        rows = np.arange(len(obs))
-        blockers[rows, obs] = False
-        blockers[rows, tgt] = False
-        maybe = blockers.any(axis=1) | _segments_hit_boxes(
-            start, end, self._box_min, self._box_max).any(axis=1)
+    def _maybe_blocked(self, start, end, ray_obs, tgt, centres, radii) -> np.ndarray:
+        """Broad phase: could anything but the ray's observer (and, for the first len(tgt)
+        rays, their target) be in the way? (R,) bool."""
+        blockers = _segments_hit_circles(start, end, centres, radii)
+        rows = np.arange(len(ray_obs))
+        blockers[rows, ray_obs] = False
+        blockers[rows[:len(tgt)], tgt] = False
+        maybe = blockers.any(axis=1)
+        if len(self._box_min):
+            maybe |= _segments_hit_boxes(start, end, self._box_min, self._box_max).any(axis=1)
+        return maybe
+
+    def _resolve_targets(self, start, end, obs, tgt, maybe, visible) -> None:
+        """Mark visible[o, t] for target rays that cannot be blocked, and ask pymunk (narrow
+        phase) for the others, skipping targets an earlier point already proved visible."""
         clear = ~maybe
         visible[obs[clear], tgt[clear]] = True
         first_hit = self.mirror.first_hit
@@ -203,6 +215,6 @@ class FieldOfView:
         for o, t, a, b in zip(obs[todo].tolist(), tgt[todo].tolist(), start[todo].tolist(),
                               end[todo].tolist()):
             if visible[o, t]:
-                continue  # another sample point of this target already proved it visible
+                continue
             self._queries += 1
             visible[o, t] = first_hit(a, b, o)[0] == t
