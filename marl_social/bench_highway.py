@@ -88,6 +88,7 @@ from __future__ import annotations
 import copy
 import importlib.util
 import time
+import warnings
 
 import numpy as np
 
@@ -144,7 +145,9 @@ def _rollout(n_vehicles: int, n_steps: int, seed: int) -> dict:
         raise ValueError("n_steps must be >= 1")
 
     config = _make_config(n_vehicles)
-    env = gym.make(ENV_ID, config=copy.deepcopy(config), render_mode=None)
+    with warnings.catch_warnings():  # "-v1 is out of date": kept on purpose, see docstring
+        warnings.simplefilter("ignore", DeprecationWarning)
+        env = gym.make(ENV_ID, config=copy.deepcopy(config), render_mode=None)
     try:
         base = env.unwrapped
         rng = np.random.default_rng(seed)
