@@ -19,7 +19,7 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
-from marl_social.agents.steering import pure_pursuit
+from marl_social.agents.steering import pure_pursuit, walk_along
 
 from marl_social.agent_spec import AgentSpec
 from marl_social.dynamics import DT_S
@@ -133,18 +133,9 @@ class CruisePedestrianPolicy:
         ego = self.layout.decode(obs).ego
         t = self._time_s
         self._time_s += DT_S
-        if not self.crossing or t < self.start_delay_s:
-            return np.zeros(2, dtype=np.float32)
-        xy = ego[:2].astype(np.float64)
-        s, _, _ = self.route.project(xy)
-        if s >= self.route.length_m - 1e-3:
-            return np.zeros(2, dtype=np.float32)
-        (tx, ty), _ = self.route.point_at(min(float(s) + 1.0, self.route.length_m))
-        direction = np.array([tx, ty]) - xy
-        norm = np.linalg.norm(direction)
-        if norm < 1e-6:
-            return np.zeros(2, dtype=np.float32)
-        return (direction / norm * self.speed).astype(np.float32)
+        walking = self.crossing and t >= self.start_delay_s
+        return walk_along(self.route, float(ego[0]), float(ego[1]),
+                          self.speed if walking else 0.0)
 
 
 def cruise_policies(env) -> dict:

@@ -13,12 +13,12 @@ cheaper than walking into its path.
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass, field
 
 import numpy as np
 from marl_social.agents.costs import CostWeights, step_cost
 from marl_social.agents.human import ScenePrediction, boltzmann
+from marl_social.agents.steering import walk_along
 from marl_social.perception.tracking import Tracker, TrackSet
 
 from marl_social.agent_spec import AgentSpec
@@ -51,6 +51,11 @@ class PedestrianModel:
     expected_yield_decel_mps2: float = 4.0
     radius_m: float = 0.3
 
+    @property
+    def plan_times_s(self) -> np.ndarray:
+        """(T,) times of the rollout's states after each planner step [s]."""
+        return (np.arange(round(self.horizon_s / self.plan_dt_s)) + 1) * self.plan_dt_s
+
 
 def vehicles_expected_to_yield(tracks: TrackSet, crosswalk: Crosswalk, decel_mps2: float
                                ) -> np.ndarray:
@@ -73,7 +78,7 @@ def pedestrian_q_values(model: PedestrianModel, route: Route, s0: float, v_ref: 
                         crosswalks: tuple[Crosswalk, ...]) -> np.ndarray:
     """Cost (L, A) of walking at each candidate speed for the horizon, per scene hypothesis."""
     dt = model.plan_dt_s
-    t = (np.arange(round(model.horizon_s / dt)) + 1) * dt
+    t = model.plan_times_s
     speeds = np.asarray(model.speeds_mps, dtype=np.float64)
     s = np.minimum(s0 + speeds[:, None] * t[None, :], route.length_m)  # (A, T)
     xy, heading = route.point_at(s)
@@ -113,8 +118,7 @@ class BoltzmannPedestrian:
                                      v_walk_mps=max(spec.v_desired_mps, 0.1),
                                      radius_m=spec.pedestrian.radius_m)
         self.tracker = Tracker(spec.sensor.pos_noise_m, spec.sensor.vel_noise_mps)
-        dt = self.model.plan_dt_s
-        self._times = (np.arange(round(self.model.horizon_s / dt)) + 1) * dt
+        self._times = self.model.plan_times_s
         self.reset()
 
     def reset(self, seed: int | None = None) -> None:
@@ -149,11 +153,5 @@ class BoltzmannPedestrian:
         self.time_s += DT_S
         speed = self.model.speeds_mps[int(self.rng.choice(len(p), p=p))]  # seeded sample
         self.prev_speed = speed
-        xy = self.layout.decode(obs).ego[:2].astype(np.float64)
-        s, _, _ = self.route.project(xy)
-        if speed == 0.0 or s >= self.route.length_m - 1e-3:
-            return np.zeros(2, dtype=np.float32)
-        (tx, ty), _ = self.route.point_at(min(float(s) + 1.0, self.route.length_m))
-        direction = np.array([tx, ty]) - xy
-        norm = math.hypot(*direction)
-        return (direction / max(norm, 1e-9) * speed).astype(np.float32)
+        x, y = (float(c) for c in self.layout.decode(obs).ego[:2])
+        return walk_along(self.route, x, y, speed)

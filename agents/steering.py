@@ -1,9 +1,11 @@
-"""Path tracking shared by the built-in vehicle planners (path-velocity decomposition: the
-planners choose the longitudinal behaviour, this supplies the steering)."""
+"""Path tracking shared by the built-in planners (path-velocity decomposition: the planners
+choose the speed along their route, this turns it into an action)."""
 
 from __future__ import annotations
 
 import math
+
+import numpy as np
 
 from marl_social.road_map import Route
 
@@ -18,3 +20,18 @@ def pure_pursuit(route: Route, x: float, y: float, psi: float, v: float, s: floa
     alpha = math.atan2(ty - y, tx - x) - psi
     alpha = (alpha + math.pi) % (2 * math.pi) - math.pi
     return math.atan2(2.0 * wheelbase_m * math.sin(alpha), lookahead)
+
+
+def walk_along(route: Route, x: float, y: float, speed_mps: float,
+               lookahead_m: float = 1.0) -> np.ndarray:
+    """A pedestrian's velocity command (2,) float32 [m/s]: speed_mps towards the route point
+    lookahead_m ahead of its projection; zero when standing or at the route's end."""
+    s, _ = route.project_point(x, y)
+    if speed_mps <= 0.0 or s >= route.length_m - 1e-3:
+        return np.zeros(2, dtype=np.float32)
+    (tx, ty), _ = route.point_at(min(s + lookahead_m, route.length_m))
+    dx, dy = float(tx) - x, float(ty) - y
+    norm = math.hypot(dx, dy)
+    if norm < 1e-6:
+        return np.zeros(2, dtype=np.float32)
+    return np.array([dx / norm * speed_mps, dy / norm * speed_mps], dtype=np.float32)
