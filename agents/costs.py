@@ -88,8 +88,10 @@ def circle_gap(ego_circles, ego_circle_r, other_circles, other_circle_r) -> np.n
     Returns:
         (..., M) smallest circle-to-circle gap per other agent, clipped at 0 [m].
     """
-    diff = ego_circles[..., None, :, None, :] - other_circles[..., :, None, :, :]
-    dist = np.sqrt(np.einsum("...k,...k->...", diff, diff))
+    ex, ey = ego_circles[..., None, :, None, 0], ego_circles[..., None, :, None, 1]
+    ox, oy = other_circles[..., :, None, :, 0], other_circles[..., :, None, :, 1]
+    dx, dy = ex - ox, ey - oy
+    dist = np.sqrt(dx * dx + dy * dy)
     gap = dist - ego_circle_r[..., None, :, None] - other_circle_r[..., :, None, :]
     return np.maximum(gap.min(axis=(-1, -2)), 0.0)
 

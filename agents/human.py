@@ -24,13 +24,17 @@ import math
 from dataclasses import dataclass, field
 
 import numpy as np
-from marl_social.agents.costs import CostWeights, step_cost
+from marl_social.agents.candidates import (  # noqa: F401  (re-exported for planners' users)
+    CandidateSet,
+    ScenePrediction,
+    evaluate_candidates,
+    rollout_speeds,
+)
+from marl_social.agents.costs import CostWeights
 from marl_social.agents.steering import pure_pursuit
-from marl_social.perception.tracking import Tracker, TrackSet
+from marl_social.perception.tracking import Tracker
 
 from marl_social.agent_spec import AgentSpec, VehicleParams
-from marl_social.dynamics import DT_S
-from marl_social.footprint import covering_circles
 from marl_social.observation import ObservationLayout
 from marl_social.road_map import Crosswalk, RoadMap, Route
 
@@ -69,63 +73,14 @@ class DriverModel:
             raise ValueError("DriverModel: need horizon_s > first_segment_s >= plan_dt_s > 0")
 
     @property
+    def candidates(self) -> CandidateSet:
+        return CandidateSet(self.first_actions_mps2, self.continuations_mps2,
+                            self.first_segment_s, self.horizon_s, self.plan_dt_s)
+
+    @property
     def plan_times_s(self) -> np.ndarray:
         """(T,) times of the rollout's states after each planner step [s]."""
-        n = round(self.horizon_s / self.plan_dt_s)
-        return (np.arange(n) + 1) * self.plan_dt_s
-
-
-@dataclass(frozen=True)
-class ScenePrediction:
-    """Predicted others for one or more hypotheses (L of them), M objects, T steps.
-
-    Attributes:
-        xy: (L, M, T, 2) positions after each step [m]; heading: (L, M, T) [rad].
-        length_m, width_m, radius_m: (L, M) footprint [m]; is_pedestrian: (L, M) bool;
-        mask: (L, M) bool, object present in that hypothesis.
-    """
-
-    xy: np.ndarray
-    heading: np.ndarray
-    length_m: np.ndarray
-    width_m: np.ndarray
-    radius_m: np.ndarray
-    is_pedestrian: np.ndarray
-    mask: np.ndarray
-
-    @classmethod
-    def from_tracks(cls, tracks: TrackSet, times_s: np.ndarray) -> ScenePrediction:
-        """One hypothesis: every track at constant velocity."""
-        xy = tracks.predict_xy(times_s)[None]  # (1, M, T, 2)
-        speed = np.linalg.norm(tracks.velocity, axis=1)
-        heading = np.where(speed > 0.05, np.arctan2(tracks.velocity[:, 1], tracks.velocity[:, 0]),
-                           0.0)
-        heading = np.broadcast_to(heading[None, :, None], xy.shape[:-1])
-        radius = 0.5 * np.hypot(tracks.length_m, tracks.width_m)
-        m = len(tracks)
-        return cls(xy, heading, tracks.length_m[None], tracks.width_m[None], radius[None],
-                   tracks.is_pedestrian[None], np.ones((1, m), dtype=bool))
-
-
-def rollout_speeds(v0: float, accel: np.ndarray, dt_s: float = DT_S) -> tuple[np.ndarray, ...]:
-    """Speeds and distances of acceleration profiles with the v >= 0 limit, without a time loop.
-
-    v_{k+1} = max(0, v_k + a_k dt) is a Lindley recursion: with S_k = v0 + sum_{i<k} a_i dt,
-    v_k = S_k - min(0, min_{j<=k} S_j).
-
-    Args:
-        accel: (..., T) commanded accelerations [m/s^2].
-    Returns:
-        v (..., T) speed after each step [m/s], ds (..., T) distance travelled up to each step
-        [m], a_eff (..., T) effective acceleration (dv / dt) [m/s^2].
-    """
-    shape = accel.shape
-    s = v0 + np.cumsum(accel * dt_s, axis=-1)
-    s_full = np.concatenate([np.full(shape[:-1] + (1,), v0), s], axis=-1)
-    v_full = s_full - np.minimum(0.0, np.minimum.accumulate(s_full, axis=-1))
-    v = v_full[..., 1:]
-    ds = np.cumsum(0.5 * (v_full[..., 1:] + v_full[..., :-1]) * dt_s, axis=-1)
-    return v, ds, np.diff(v_full, axis=-1) / dt_s
+        return self.candidates.plan_times_s
 
 
 def driver_q_values(model: DriverModel, route: Route, s0: float, v0: float, prev_accel: float,
@@ -139,37 +94,9 @@ def driver_q_values(model: DriverModel, route: Route, s0: float, v0: float, prev
     Returns:
         (L, A) optimal cost-to-go of each first action.
     """
-    dt = model.plan_dt_s
-    n_steps = round(model.horizon_s / dt)
-    n_first = round(model.first_segment_s / dt)
-    first = np.asarray(model.first_actions_mps2, dtype=np.float64)
-    cont = np.asarray(model.continuations_mps2, dtype=np.float64)
-    step = np.arange(n_steps)
-    accel = np.where(step < n_first, first[:, None, None], cont[None, :, None])  # (A, C, T)
-    v, ds, a_eff = rollout_speeds(v0, accel, dt)
-    xy, heading = route.point_at(s0 + ds)  # (A, C, T, 2), (A, C, T)
-    veh = model.vehicle
-    ego_circles, ego_r = covering_circles(xy, heading, veh.length_m, veh.width_m, False)
-    oc, orad = covering_circles(
-        scene.xy, scene.heading, scene.length_m[..., None], scene.width_m[..., None],
-        scene.is_pedestrian[..., None],
-    )  # (L, M, T, C, 2)
-    # others to (L, 1, 1, T, M, ...) so they broadcast against the (A, C, T) candidates
-    to_cand = lambda a: np.moveaxis(a, 1, 2)[:, None, None]
-    prev = np.concatenate([np.full(a_eff.shape[:-1] + (1,), prev_accel), a_eff[..., :-1]], -1)
-    cost = step_cost(
-        model.theta.as_array(), lateral_m=0.0, speed_mps=v, v_ref_mps=model.v_desired_mps, accel_mps2=a_eff,
-        prev_accel_mps2=prev,
-        ego_xy=xy, ego_radius=0.5 * math.hypot(veh.length_m, veh.width_m), ego_is_ped=False,
-        ego_circles=ego_circles, ego_circle_r=ego_r,
-        other_xy=to_cand(scene.xy),
-        other_radius=scene.radius_m[:, None, None, None, :],
-        other_is_ped=scene.is_pedestrian[:, None, None, None, :],
-        other_circles=to_cand(oc), other_circle_r=to_cand(orad),
-        other_mask=scene.mask[:, None, None, None, :],
-        crosswalks=crosswalks,
-    )  # (L, A, C, T)
-    return cost.sum(axis=-1).min(axis=-1) * (dt / DT_S)
+    ev = evaluate_candidates(model.candidates, model.theta.as_array(), model.v_desired_mps,
+                             model.vehicle, route, s0, v0, prev_accel, scene, crosswalks)
+    return ev.step_cost.sum(axis=-1).min(axis=-1)
 
 
 def boltzmann(q_values: np.ndarray, beta: float) -> np.ndarray:

@@ -4,7 +4,8 @@ Autonomous Cars with Social Perception", IEEE IV 2019)."""
 
 from marl_social.env import SocialDrivingEnv, env, parallel_env, raw_env
 from marl_social.policies import autopilot, policies
+from marl_social.run import run_episode
 
 __version__ = "0.1.0"
 __all__ = ["SocialDrivingEnv", "__version__", "autopilot", "env", "parallel_env", "policies",
-           "raw_env"]
+           "raw_env", "run_episode"]

@@ -54,6 +54,22 @@ def _bench(args) -> int:
     return 0
 
 
+def _reproduce(args) -> int:
+    from marl_social.reproduce import format_table, run_table, write_figures
+
+    out = Path(args.out)
+    out.mkdir(parents=True, exist_ok=True)
+    for path in write_figures(out):
+        print(f"figure: {path}")
+    rows = run_table(args.seeds, workers=args.workers)
+    table = format_table(rows)
+    (out / "table.md").write_text(table + "\n")
+    (out / "table.json").write_text(json.dumps(rows, indent=2))
+    print(f"\n{args.seeds} randomized seeds per cell (marl_social/run.randomized_overrides):\n")
+    print(table)
+    return 0
+
+
 def main(argv=None) -> int:
     parser = argparse.ArgumentParser(prog="marl-social", description=__doc__)
     sub = parser.add_subparsers(dest="command", required=True)
@@ -65,6 +81,12 @@ def main(argv=None) -> int:
     demo.add_argument("--max-cycles", type=int, default=200)
     demo.add_argument("--no-animation", action="store_true", help="figure only (faster)")
     demo.set_defaults(func=_demo)
+
+    rep = sub.add_parser("reproduce", help="the paper's Figs. 3-6 and a table over seeds")
+    rep.add_argument("--out", default=f"{DEFAULT_OUT}/reproduce")
+    rep.add_argument("--seeds", type=int, default=20)
+    rep.add_argument("--workers", type=int, default=2)
+    rep.set_defaults(func=_reproduce)
 
     bench = sub.add_parser("bench", help="benchmarks: `bench env`, `bench humans`")
     bench.add_argument("what", choices=["env", "humans"])

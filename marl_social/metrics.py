@@ -74,3 +74,67 @@ def episode_metrics(trace: Trace, road_map: RoadMap, robot: str = "robot_0") -> 
             ped_in = crosswalk_occupancy(ped_states[:, :2], ped_radius, cw) > _OCCUPIED
             out["yielded"] = not bool(np.any(robot_in & ped_in & trace.active[:, p]))
     return out
+
+
+BELIEF_CONFIDENT = 0.9
+HUMAN_BRAKE_MPS2 = -1.0  # a human's braking onset: first acceleration below this [m/s^2]
+
+
+def belief_metrics(trace: Trace, road_map: RoadMap, robot: str = "robot_0") -> dict:
+    """Metrics of the robot's belief in a crossing pedestrian (trace.extras["p_pedestrian"],
+    (T+1,)); nan where the trace has no belief or no pedestrian.
+
+    Returns:
+        robot_first_sees_pedestrian_s: first time the robot sees a pedestrian [s].
+        p_pedestrian_before_seen: belief at the last step before the robot first sees it.
+        belief_confident_before_seen: belief exceeded BELIEF_CONFIDENT before the robot saw it.
+        brake_to_confident_s: from the first human's braking onset to belief > BELIEF_CONFIDENT
+            [s] (nan if either never happens).
+        p_pedestrian_at_crosswalk: belief when the robot's footprint first reaches the crosswalk.
+        max_p_pedestrian_unseen: largest belief while no pedestrian is visible to the robot.
+        brier: mean squared error of the belief against the truth (a pedestrian that enters the
+            crosswalk during the episode = 1).
+    """
+    nan = float("nan")
+    out = {k: nan for k in ("robot_first_sees_pedestrian_s", "p_pedestrian_before_seen",
+                            "brake_to_confident_s", "p_pedestrian_at_crosswalk",
+                            "max_p_pedestrian_unseen", "brier")}
+    out["belief_confident_before_seen"] = False
+    belief = trace.extras.get("p_pedestrian")
+    r = trace.index(robot)
+    peds = [i for i, role in enumerate(trace.roles) if role == "pedestrian"]
+    times = trace.times_s
+    sees = (trace.visible[:, r, peds].any(axis=1) if peds
+            else np.zeros(len(times), dtype=bool))
+    if sees.any():
+        out["robot_first_sees_pedestrian_s"] = float(times[np.argmax(sees)])
+    if belief is None:
+        return out
+    belief = np.asarray(belief)
+    first_seen = int(np.argmax(sees)) if sees.any() else len(times)
+    if first_seen > 0:
+        out["p_pedestrian_before_seen"] = float(belief[first_seen - 1])
+        out["belief_confident_before_seen"] = bool((belief[:first_seen] > BELIEF_CONFIDENT).any())
+    unseen = ~sees & np.isfinite(belief)  # NaN once the robot has left the episode
+    if unseen.any():
+        out["max_p_pedestrian_unseen"] = float(belief[unseen].max())
+    humans = [i for i, role in enumerate(trace.roles) if role == "human"]
+    if humans and len(trace.accel_mps2):
+        braking = (trace.accel_mps2[:, humans] < HUMAN_BRAKE_MPS2).any(axis=1)
+        confident = belief[1:] > BELIEF_CONFIDENT
+        if braking.any() and confident.any():
+            out["brake_to_confident_s"] = float(
+                times[1 + np.argmax(confident)] - times[1 + np.argmax(braking)])
+    if road_map.crosswalks:
+        cw = road_map.crosswalks[0]
+        robot_occ = crosswalk_occupancy(trace.states[:, r, :2], trace.bounding_radius_m[r], cw)
+        reached = robot_occ > _OCCUPIED
+        if reached.any():
+            out["p_pedestrian_at_crosswalk"] = float(belief[np.argmax(reached)])
+        truth = 0.0
+        for p in peds:
+            ped_occ = crosswalk_occupancy(trace.states[:, p, :2], trace.bounding_radius_m[p], cw)
+            if np.any((ped_occ > _OCCUPIED) & trace.active[:, p]):
+                truth = 1.0
+        out["brier"] = float(np.nanmean((belief - truth) ** 2))
+    return out

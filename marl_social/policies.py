@@ -17,20 +17,26 @@ from marl_social.agents.human import BoltzmannDriver
 from marl_social.agents.pedestrian import BoltzmannPedestrian
 
 
-def make_policy(spec, layout, road_map):
+def make_policy(spec, layout, road_map, agent_names, robot_planner: str = "social"):
     """The built-in planner of one agent: humans and pedestrians are Boltzmann planners; the
-    robot drives the cruise baseline until a robot planner is chosen."""
+    robot runs `robot_planner` (agents/robot.py, or the cruise baseline)."""
     if spec.role == "pedestrian":
         return BoltzmannPedestrian(spec, layout, road_map)
     if spec.role == "human":
         return BoltzmannDriver(spec, layout, road_map)
-    return CruiseVehiclePolicy(spec, layout, road_map)
+    if robot_planner == "cruise":
+        return CruiseVehiclePolicy(spec, layout, road_map)
+    from marl_social.agents.robot import RobotPlanner
+
+    return RobotPlanner(spec, layout, road_map, agent_names, mode=robot_planner)
 
 
 def policies(env) -> dict:
-    """{agent: policy} for every possible agent of a SocialDrivingEnv (or a wrapper of one)."""
+    """{agent: policy} for every possible agent of a SocialDrivingEnv (or a wrapper of one);
+    the robot's planner is the scenario's `robot_planner` parameter."""
     base = getattr(env, "unwrapped", env)
-    return {name: make_policy(spec, base.obs_layout, base.road_map)
+    mode = base.scenario.params.robot_planner
+    return {name: make_policy(spec, base.obs_layout, base.road_map, base.possible_agents, mode)
             for name, spec in base.agent_specs.items()}
 
 
@@ -86,7 +92,12 @@ class AutopilotEnv(ParallelEnv):
         full = dict(actions)
         for a in self.env.agents:
             if a not in self.controlled:
-                full[a] = self._autopilots[a](self._last_obs[a])
+                policy = self._autopilots[a]
+                if getattr(policy, "mode", None) == "oracle":
+                    from marl_social.run import truth_tracks
+
+                    policy.observe_truth(truth_tracks(self.env, a))
+                full[a] = policy(self._last_obs[a])
         if not self.agents:
             return {}, {}, {}, {}, {}
         obs, rew, term, trunc, infos = self.env.step(full)

@@ -50,8 +50,8 @@ class World:
 
     Attributes (n agents, in layout order):
         state: (n, 4) [x m, y m, heading rad, speed m/s].
-        accel_mps2, prev_accel_mps2: (n,) applied longitudinal acceleration this / last step
-            (pedestrians: magnitude of the velocity change / dt).
+        accel_mps2, prev_accel_mps2: (n,) effective longitudinal acceleration this / last step,
+            dv / dt after the speed limits [m/s^2] (pedestrians: |change of velocity| / dt).
         active: (n,) bool, still in the episode.
         time_s: simulated time [s].
     """
@@ -127,9 +127,11 @@ class World:
                 action[veh], self.state[veh, 3], self.wheelbase_m[veh], self.accel_max[veh],
                 self.brake_max[veh], self.steer_max[veh], self.lat_accel_max[veh],
             )
+            v_before = self.state[veh, 3].copy()
             self.state[veh] = bicycle_step(self.state[veh], applied[veh], self.wheelbase_m[veh],
                                            self.speed_max[veh])
-            self.accel_mps2[veh] = applied[veh, 0]
+            # effective acceleration: a stopped car "braking" does not decelerate
+            self.accel_mps2[veh] = (self.state[veh, 3] - v_before) / DT_S
         if ped.any():
             applied[ped] = saturate_pedestrian_action(action[ped], self.speed_max[ped])
             old_velocity = self.velocity_mps[ped]

@@ -16,6 +16,8 @@ import numpy as np
 from marl_social.agent_spec import AgentSpec
 from marl_social.road_map import RoadMap
 
+ROBOT_PLANNER_CHOICES = ("social", "aggressive", "conservative", "oracle", "cruise")
+
 
 @dataclass(frozen=True)
 class ScenarioParams:
@@ -27,14 +29,20 @@ class ScenarioParams:
         terminate_on_collision: if True any collision ends the episode for every agent; if
             False only the agents involved are terminated.
         collision_penalty: reward subtracted from each agent involved in a collision.
+        robot_planner: the robot's built-in planner in `marl_social.policies`: "social" (the
+            paper), "aggressive", "conservative", "oracle" (agents/robot.py) or "cruise" (the
+            rule-based baseline, agents/cruise.py).
     """
 
     n_slots: int = 8
     n_rays: int = 32
     terminate_on_collision: bool = True
     collision_penalty: float = 100.0
+    robot_planner: str = "social"
 
     def __post_init__(self):
+        self._check(self.robot_planner in ROBOT_PLANNER_CHOICES, "robot_planner",
+                    f"must be one of {ROBOT_PLANNER_CHOICES}")
         self._check(self.n_slots >= 1, "n_slots", "must be >= 1")
         self._check(self.n_rays >= 1, "n_rays", "must be >= 1")
         self._check(self.collision_penalty >= 0, "collision_penalty", "must be >= 0")

@@ -31,6 +31,8 @@ HOUSE_SETBACK_M = 2.0  # front gardens between sidewalk and houses [m]
 HOUSE_LENGTH_M, HOUSE_DEPTH_M, HOUSE_GAP_M = 12.0, 8.0, 5.0
 ROAD_START_X_M = -30.0
 PEDESTRIAN_VARIANTS = ("crossing", "waiting", "none")
+# theta_R: the robot values comfort more than the default driver model (smooth, early braking)
+THETA_ROBOT = CostWeights(accel=0.5, jerk=0.5)
 
 
 @dataclass(frozen=True)
@@ -172,7 +174,7 @@ class OccludedCrosswalk(Scenario):
                 sensor=SensorParams(p.robot_sensor_range_m, math.radians(p.robot_half_fov_deg),
                                     pos_noise_m=p.robot_pos_noise_m),
                 vehicle=vehicle, v_desired_mps=p.robot_desired_speed_mps,
-                cost_weights=theta_vehicle,
+                cost_weights=THETA_ROBOT,
             ),
             AgentSpec(
                 "human_0", "vehicle", "human",

@@ -1,0 +1,127 @@
+"""The robot's planners: the same contingency MPC (agents/mpc.py), different beliefs.
+
+* ``social`` (the paper): beliefs over hidden pedestrians from the robot's own sensors
+  (negative information) and from the humans' behaviour (eq. 9-10), perception/belief.py.
+* ``aggressive``: what is not seen is absent (no hidden-pedestrian hypotheses).
+* ``conservative``: every hidden-pedestrian hypothesis its own sensors have not ruled out is
+  assumed true (no social inference).
+* ``oracle``: perfect perception, an upper bound: it is the one planner given the true current
+  state of every agent (through ``observe_truth``, called by `run_episode`), with no hidden
+  hypotheses. It knows where everybody is, not what they will decide.
+
+All but the oracle act on the robot's own observation and the static map only.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from marl_social.agents.candidates import ScenePrediction
+from marl_social.agents.mpc import MpcConfig, MpcResult, plan
+from marl_social.agents.steering import pure_pursuit
+from marl_social.perception.belief import BeliefConfig, PedestrianBelief
+from marl_social.perception.tracking import Tracker, TrackSet
+
+from marl_social.agent_spec import AgentSpec
+from marl_social.observation import ObservationLayout
+from marl_social.road_map import RoadMap
+
+ROBOT_PLANNERS = ("social", "aggressive", "conservative", "oracle")
+
+
+class RobotPlanner:
+    """Contingency-MPC robot (see module docstring).
+
+    Args:
+        spec: the robot's AgentSpec; layout: observation layout; road_map: static map;
+        agent_names: the env's possible_agents (public: maps object ids to names / routes);
+        mode: one of ROBOT_PLANNERS.
+    """
+
+    def __init__(self, spec: AgentSpec, layout: ObservationLayout, road_map: RoadMap,
+                 agent_names: list[str], mode: str = "social",
+                 mpc_config: MpcConfig | None = None, belief_config: BeliefConfig | None = None):
+        if mode not in ROBOT_PLANNERS:
+            raise ValueError(f"robot planner {mode!r}: must be one of {ROBOT_PLANNERS}")
+        self.name = spec.name
+        self.mode = mode
+        self.spec = spec
+        self.layout = layout
+        self.road_map = road_map
+        self.route = road_map.routes[spec.name]
+        self.mpc = mpc_config or MpcConfig(theta=spec.cost_weights)
+        self.v_ref = min(spec.v_desired_mps, road_map.speed_limit_mps)
+        self.tracker = Tracker(spec.sensor.pos_noise_m, spec.sensor.vel_noise_mps)
+        self.belief = PedestrianBelief(
+            road_map, layout, spec.name, list(agent_names), belief_config or BeliefConfig(),
+            use_social=mode == "social", use_own_sensors=mode in ("social", "conservative"),
+        )
+        self._times = self.mpc.candidates.plan_times_s
+        self._truth: TrackSet | None = None
+        self.reset()
+
+    def reset(self, seed: int | None = None) -> None:
+        self.tracker.reset()
+        self.belief.reset()
+        self.prev_accel = 0.0
+        self.last_result: MpcResult | None = None
+        self.weights = None
+
+    def observe_truth(self, tracks: TrackSet) -> None:
+        """Oracle only: the true current state of every other agent, as a TrackSet."""
+        if self.mode != "oracle":
+            raise RuntimeError(f"only the oracle planner may read the true state (mode={self.mode})")
+        self._truth = tracks
+
+    def hypothesis_weights(self) -> np.ndarray:
+        """(L,) the weights the MPC plans with: the belief for `social`, every live present
+        hypothesis for `conservative`, only "none" for `aggressive` and `oracle`."""
+        hyps = self.belief.hypotheses
+        none = np.array([not h.present for h in hyps])
+        if self.mode in ("aggressive", "oracle"):
+            return none.astype(np.float64)
+        b = self.belief.probabilities
+        if self.mode == "social":
+            return b
+        present_live = ~none & (b >= self.mpc.epsilon)
+        if not present_live.any():
+            return none.astype(np.float64)
+        return present_live / present_live.sum()
+
+    def __call__(self, obs) -> np.ndarray:
+        decoded = self.layout.decode(obs)
+        x, y, c, s_, v = (float(a) for a in decoded.ego[:5])
+        psi = math.atan2(s_, c)
+        tracks = self.tracker.update(decoded)
+        if self.mode == "oracle":
+            if self._truth is None:
+                raise RuntimeError("oracle planner: observe_truth() must be called every step")
+            tracks = self._truth
+        else:
+            self.belief.update(obs)
+        weights = self.hypothesis_weights()
+        self.weights = weights
+        scene = self._scene(tracks)
+        s0, _ = self.route.project_point(x, y)
+        result = plan(self.mpc, self.spec.vehicle, self.route, s0, v, self.prev_accel, self.v_ref,
+                      self.road_map.speed_limit_mps, scene, weights, self.road_map.crosswalks)
+        self.last_result = result
+        self.prev_accel = result.accel_mps2
+        steer = pure_pursuit(self.route, x, y, psi, v, s0, self.spec.vehicle.wheelbase_m)
+        return np.array([result.accel_mps2, steer], dtype=np.float32)
+
+    def _scene(self, tracks: TrackSet) -> ScenePrediction:
+        """One scene per hypothesis: the tracked objects plus that hypothesis' pedestrian."""
+        base = ScenePrediction.from_tracks(tracks, self._times)
+        hyps = self.belief.hypotheses
+        n_t = len(self._times)
+        xy = np.zeros((len(hyps), n_t, 2))
+        heading = np.zeros((len(hyps), n_t))
+        for i, h in enumerate(hyps):
+            if h.present:
+                xy[i] = h.predict_xy(self._times)
+                heading[i] = math.atan2(h.walk_dir[1], h.walk_dir[0])
+        present = np.array([h.present for h in hyps])
+        diameter = np.full(len(hyps), 0.6)
+        return base.with_extra(xy, heading, diameter, diameter, np.ones(len(hyps), bool), present)
