@@ -4,10 +4,10 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-
-from marl_social.agent_spec import VehicleParams
 from marl_social.agents.candidates import ScenePrediction
 from marl_social.agents.mpc import MpcConfig, plan
+
+from marl_social.agent_spec import VehicleParams
 from marl_social.road_map import Crosswalk, Route
 
 ROUTE = Route([[-50.0, 1.75], [200.0, 1.75]])
