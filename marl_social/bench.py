@@ -138,16 +138,17 @@ def run_env_benchmark(agent_counts=(3, 10, 30, 100), n_steps: int = 500, peer: b
     return rows
 
 
-def bench_humans(n_episodes: int = 3, echo=print) -> dict:
-    """Decision times of the built-in human driver and pedestrian planners on the paper
-    scenario, and env steps/s with every agent on its built-in planner (the robot on the cruise
-    baseline). Returns the numbers; prints a table."""
+def bench_planners(n_episodes: int = 3, robot_planner: str = "social", echo=print) -> dict:
+    """Decision times of the built-in planners (robot, human driver, pedestrian) on the paper
+    scenario, and env steps/s end to end with every agent on its built-in planner. Returns the
+    numbers; prints a table."""
     import marl_social
 
-    decide = {"human_0": [], "pedestrian_0": []}
+    decide = {"robot_0": [], "human_0": [], "pedestrian_0": []}
     steps, loop_s = 0, 0.0
     for ep in range(n_episodes):
-        env = marl_social.parallel_env(scenario="occluded_crosswalk", pedestrian="crossing")
+        env = marl_social.parallel_env(scenario="occluded_crosswalk", pedestrian="crossing",
+                                       robot_planner=robot_planner)
         pols = marl_social.policies(env)
         for i, p in enumerate(pols.values()):
             p.reset(ep * 10 + i)
@@ -167,6 +168,8 @@ def bench_humans(n_episodes: int = 3, echo=print) -> dict:
     out.update({f"{a}_decision_ms_p99": 1e3 * float(np.percentile(v, 99))
                 for a, v in decide.items()})
     out["steps_per_s_all_planners"] = steps / loop_s
+    echo(f"robot ({robot_planner}) decision  median {out['robot_0_decision_ms_median']:.3f} ms   "
+         f"p99 {out['robot_0_decision_ms_p99']:.3f} ms")
     echo(f"human driver decision   median {out['human_0_decision_ms_median']:.3f} ms   "
          f"p99 {out['human_0_decision_ms_p99']:.3f} ms")
     echo(f"pedestrian decision     median {out['pedestrian_0_decision_ms_median']:.3f} ms   "

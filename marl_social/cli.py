@@ -4,48 +4,75 @@ from __future__ import annotations
 
 import argparse
 import json
+import math
 import sys
 from pathlib import Path
+
+import numpy as np
 
 DEFAULT_OUT = "marl_social_out"
 
 
+def _annotate_belief(frames, p_pedestrian, perceived):
+    """Write the robot's belief onto each frame (a bar and its value), in place order."""
+    from PIL import Image, ImageDraw
+
+    out = []
+    for k, frame in enumerate(frames):
+        img = Image.fromarray(frame)
+        draw = ImageDraw.Draw(img)
+        w, h = img.size
+        p = float(p_pedestrian[min(k, len(p_pedestrian) - 1)])
+        seen = bool(perceived[min(k, len(perceived) - 1)] > 0.5)
+        if not math.isnan(p):  # NaN once the robot has left the episode
+            x0, y0, bar_w = w - 260, h - 34, 200
+            draw.rectangle([x0 - 6, y0 - 20, w - 8, h - 8], fill=(255, 255, 255))
+            draw.text((x0, y0 - 16), f"robot's P(pedestrian) = {p:.2f}"
+                      + ("  (sees it)" if seen else "  (inferred)"), fill=(0, 0, 0))
+            draw.rectangle([x0, y0, x0 + bar_w, y0 + 12], outline=(0, 0, 0))
+            draw.rectangle([x0, y0, x0 + int(bar_w * p), y0 + 12], fill=(31, 119, 180))
+        out.append(np.asarray(img))
+    return out
+
+
 def _demo(args) -> int:
-    import marl_social
-    from marl_social.episode import record_episode
-    from marl_social.metrics import episode_metrics
     from marl_social.render import plot_episode, write_animation
+    from marl_social.run import run_episode
 
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
-    env = marl_social.parallel_env(scenario="occluded_crosswalk", pedestrian=args.pedestrian,
-                                   render_mode=None if args.no_animation else "rgb_array",
-                                   max_cycles=args.max_cycles)
-    policies = marl_social.policies(env)
-    trace = record_episode(env, policies, seed=args.seed, render=not args.no_animation)
-    metrics = episode_metrics(trace, env.road_map)
-    stem = f"occluded_crosswalk_{args.pedestrian}"
-    figure = plot_episode(env.road_map, trace.names, trace.roles, trace.times_s, trace.states,
+    res = run_episode("occluded_crosswalk", seed=args.seed, render=not args.no_animation,
+                      max_cycles=args.max_cycles, pedestrian=args.pedestrian,
+                      robot_planner=args.planner)
+    trace, metrics = res.trace, res.metrics
+    stem = f"occluded_crosswalk_{args.pedestrian}_{args.planner}"
+    beliefs = None
+    if "p_pedestrian" in trace.extras:
+        beliefs = {"robot's P(pedestrian): perceived or inferred": trace.extras["p_pedestrian"]}
+    figure = plot_episode(res.road_map, trace.names, trace.roles, trace.times_s, trace.states,
                           trace.active, trace.visible, out / f"{stem}.png",
-                          title=f"occluded_crosswalk, pedestrian={args.pedestrian}: Boltzmann "
-                                "human and pedestrian, cruise robot (unseen = absent)")
+                          title=f"occluded_crosswalk, pedestrian={args.pedestrian}, robot: "
+                                f"{args.planner} planner", beliefs=beliefs)
     print(f"figure:    {figure}")
     if not args.no_animation:
-        gif = write_animation(trace.frames, out / f"{stem}.gif", fps=10)
+        frames = trace.frames
+        if beliefs:
+            frames = _annotate_belief(frames, trace.extras["p_pedestrian"],
+                                      trace.extras["perceived"])
+        gif = write_animation(frames, out / f"{stem}.gif", fps=10)
         print(f"animation: {gif}")
     (out / f"{stem}_metrics.json").write_text(json.dumps(metrics, indent=2))
     print(f"metrics:   {out / f'{stem}_metrics.json'}")
     for key, value in metrics.items():
-        print(f"  {key:<22} {value:.3f}" if isinstance(value, float) else f"  {key:<22} {value}")
-    env.close()
+        print(f"  {key:<30} {value:.3f}" if isinstance(value, float) else f"  {key:<30} {value}")
     return 0
 
 
 def _bench(args) -> int:
-    from marl_social.bench import bench_humans, run_env_benchmark
+    from marl_social.bench import bench_planners, run_env_benchmark
 
-    if args.what == "humans":
-        rows = bench_humans()
+    if args.what == "planners":
+        rows = bench_planners()
     else:
         rows = run_env_benchmark(tuple(args.agents), n_steps=args.steps, peer=not args.no_peer,
                                  profile=args.profile)
@@ -77,6 +104,8 @@ def main(argv=None) -> int:
     demo = sub.add_parser("demo", help="run the paper scenario; write an animation and a figure")
     demo.add_argument("--out", default=DEFAULT_OUT, help=f"output folder (default {DEFAULT_OUT})")
     demo.add_argument("--pedestrian", default="crossing", choices=["crossing", "waiting", "none"])
+    demo.add_argument("--planner", default="social",
+                      choices=["social", "aggressive", "conservative", "oracle", "cruise"])
     demo.add_argument("--seed", type=int, default=0)
     demo.add_argument("--max-cycles", type=int, default=200)
     demo.add_argument("--no-animation", action="store_true", help="figure only (faster)")
@@ -88,8 +117,8 @@ def main(argv=None) -> int:
     rep.add_argument("--workers", type=int, default=2)
     rep.set_defaults(func=_reproduce)
 
-    bench = sub.add_parser("bench", help="benchmarks: `bench env`, `bench humans`")
-    bench.add_argument("what", choices=["env", "humans"])
+    bench = sub.add_parser("bench", help="benchmarks: `bench env`, `bench planners`")
+    bench.add_argument("what", choices=["env", "planners"])
     bench.add_argument("--agents", type=int, nargs="+", default=[3, 10, 30, 100])
     bench.add_argument("--steps", type=int, default=500)
     bench.add_argument("--no-peer", action="store_true", help="skip highway-env")

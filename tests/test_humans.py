@@ -17,8 +17,9 @@ from marl_social.world import World
 
 
 def _run(max_steps=60, **overrides):
-    """Every agent on its built-in planner; per-step human accelerations and speeds."""
-    env = marl_social.parallel_env(**overrides)
+    """Every agent on its built-in planner (the robot on the cruise baseline: these tests are
+    about the humans); per-step human accelerations and speeds."""
+    env = marl_social.parallel_env(robot_planner="cruise", **overrides)
     pols = marl_social.policies(env)
     for i, p in enumerate(pols.values()):
         p.reset(i)
@@ -213,12 +214,13 @@ def _randomized_overrides(seed: int) -> dict:
 
 
 def test_rational_humans_never_hit_a_crossing_pedestrian_200_seeds():
-    """200 seeded, randomized occluded_crosswalk episodes, every agent on its built-in planner,
-    rational humans (beta = 50): no human-pedestrian collision. Episodes run until the human
+    """200 seeded, randomized occluded_crosswalk episodes, every agent on its built-in planner
+    (robot: cruise baseline), rational humans (beta = 50): no human-pedestrian collision. Episodes run until the human
     has passed the crosswalk (9 s)."""
     hits, yields = [], 0
     for seed in range(200):
         env = marl_social.parallel_env(pedestrian="crossing", human_beta=50.0, max_cycles=90,
+                                       robot_planner="cruise",
                                        **_randomized_overrides(seed))
         pols = marl_social.policies(env)
         for i, p in enumerate(pols.values()):
