@@ -139,6 +139,8 @@ class CandidateEvaluation:
             (inf without objects); only with geometry=True.
         conflict: (L, A, C) largest per-step crosswalk conflict (own occupancy x a pedestrian's)
             [0..1]; only with geometry=True.
+        static_gap_m: (A, C) smallest gap between the covering circles and the bounding boxes
+            of the static polygons [m] (inf without polygons); only with geometry=True.
     """
 
     step_cost: np.ndarray
@@ -146,14 +148,19 @@ class CandidateEvaluation:
     a_eff: np.ndarray
     min_gap_m: np.ndarray | None = None
     conflict: np.ndarray | None = None
+    static_gap_m: np.ndarray | None = None
 
 
 def evaluate_candidates(cands: CandidateSet, theta: np.ndarray, v_ref_mps: float,
                         vehicle: VehicleParams, route: Route, s0: float, v0: float,
                         prev_accel: float, scene: ScenePrediction,
-                        crosswalks: tuple[Crosswalk, ...], geometry: bool = False
-                        ) -> CandidateEvaluation:
-    """Roll out every candidate and cost it against every scene hypothesis (see module doc)."""
+                        crosswalks: tuple[Crosswalk, ...], geometry: bool = False,
+                        static_boxes: np.ndarray | None = None) -> CandidateEvaluation:
+    """Roll out every candidate and cost it against every scene hypothesis (see module doc).
+
+    static_boxes: (S, 4) [xmin, ymin, xmax, ymax] of the static polygons [m], for the
+    static clearance (geometry=True only; boxes contain their polygons, so it is conservative).
+    """
     dt = cands.plan_dt_s
     first = np.asarray(cands.first_actions_mps2, dtype=np.float64)
     cont = np.asarray(cands.continuations_mps2, dtype=np.float64)
@@ -198,4 +205,11 @@ def evaluate_candidates(cands: CandidateSet, theta: np.ndarray, v_ref_mps: float
         occ_ego = crosswalk_occupancy(xy, ego_radius, cw)  # (A, C, T)
         occ_ped = np.where(ped_mask, crosswalk_occupancy(other_xy, other_radius, cw), 0.0)
         conflict = np.maximum(conflict, occ_ego * occ_ped.max(axis=-1))
-    return CandidateEvaluation(cost, v, a_eff, min_gap, conflict.max(axis=-1))
+    static_gap = np.full(v.shape[:2], np.inf)
+    if static_boxes is not None and len(static_boxes):
+        lo, hi = static_boxes[:, :2], static_boxes[:, 2:]
+        c = ego_circles[..., None, :]  # (A, C, T, K, 1, 2)
+        outside = np.maximum(np.maximum(lo - c, c - hi), 0.0)
+        dist = np.sqrt((outside ** 2).sum(axis=-1)) - ego_r[..., None]  # (A, C, T, K, S)
+        static_gap = dist.min(axis=(-1, -2, -3))
+    return CandidateEvaluation(cost, v, a_eff, min_gap, conflict.max(axis=-1), static_gap)

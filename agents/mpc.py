@@ -10,12 +10,15 @@ by one branch per live hypothesis l (continuation c_l). The expected cost over t
 
 where hypotheses with b_l < epsilon are dropped (the paper's tail threshold) and the remaining
 b_l renormalized. A (u, c) is feasible under l if, over the horizon, its covering circles keep
-`min_gap_m` from every object of hypothesis l, it never shares a crosswalk with a pedestrian of
-hypothesis l (conflict below `max_conflict`) and it respects the speed limit; u must have a
+`min_gap_m` from every object of hypothesis l and from the static polygons' bounding boxes, it
+never shares a crosswalk with a pedestrian of hypothesis l (conflict below `max_conflict`) and it
+respects the speed limit; u must have a
 feasible branch under *every* live hypothesis (defensive), while the cost of each branch counts
 only with its belief (not overly conservative). If no u is feasible, the robot brakes as hard as
 it can (the safest action available). Acceleration and curvature limits are those of the
-vehicle (actions saturate in the dynamics); lateral motion is path tracking (pure pursuit).
+vehicle (actions saturate in the dynamics); lateral motion is path tracking (pure pursuit), so
+curvature / lateral-acceleration limits are enforced by the steering saturation (G-G), not by
+the MPC.
 """
 
 from __future__ import annotations
@@ -64,7 +67,8 @@ class MpcResult:
 
 def plan(config: MpcConfig, vehicle: VehicleParams, route: Route, s0: float, v0: float,
          prev_accel: float, v_ref_mps: float, speed_limit_mps: float, scene: ScenePrediction,
-         beliefs: np.ndarray, crosswalks: tuple[Crosswalk, ...]) -> MpcResult:
+         beliefs: np.ndarray, crosswalks: tuple[Crosswalk, ...],
+         static_boxes: np.ndarray | None = None) -> MpcResult:
     """One MPC solve.
 
     Args:
@@ -72,6 +76,7 @@ def plan(config: MpcConfig, vehicle: VehicleParams, route: Route, s0: float, v0:
         v_ref_mps: reference speed (v_traffic) [m/s]; speed_limit_mps: hard limit [m/s].
         scene: L hypotheses of the others (at config.candidates.plan_times_s).
         beliefs: (L,) probability of each hypothesis.
+        static_boxes: (S, 4) bounding boxes [xmin, ymin, xmax, ymax] of the static polygons [m].
     """
     beliefs = np.asarray(beliefs, dtype=np.float64)
     live = beliefs >= config.epsilon
@@ -81,12 +86,14 @@ def plan(config: MpcConfig, vehicle: VehicleParams, route: Route, s0: float, v0:
     weights = weights / weights.sum()
     cands = config.candidates
     ev = evaluate_candidates(cands, config.theta.as_array(), v_ref_mps, vehicle, route, s0, v0,
-                             prev_accel, scene, crosswalks, geometry=True)
+                             prev_accel, scene, crosswalks, geometry=True,
+                             static_boxes=static_boxes)
     n_first = cands.n_first
     first_cost = ev.step_cost[..., :n_first].sum(axis=-1)[..., 0]  # (L, A): shared segment
     branch_cost = ev.step_cost[..., n_first:].sum(axis=-1)  # (L, A, C)
     feasible = ((ev.min_gap_m >= config.min_gap_m) & (ev.conflict <= config.max_conflict)
-                & (ev.v.max(axis=-1) <= speed_limit_mps + 1e-6)[None])  # (L, A, C)
+                & (ev.v.max(axis=-1) <= speed_limit_mps + 1e-6)[None]
+                & (ev.static_gap_m >= config.min_gap_m)[None])  # (L, A, C)
     # the shared first segment is the same for every continuation: it must be feasible itself,
     # which the per-(u, c) check covers because every branch contains it
     best_branch = np.where(feasible, branch_cost, np.inf).min(axis=-1)  # (L, A)

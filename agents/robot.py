@@ -59,6 +59,8 @@ class RobotPlanner:
         )
         self._times = self.mpc.candidates.plan_times_s
         self._truth: TrackSet | None = None
+        self._static_boxes = np.array(
+            [[*p.min(axis=0), *p.max(axis=0)] for p in road_map.static_polygons]).reshape(-1, 4)
         self.reset()
 
     def reset(self, seed: int | None = None) -> None:
@@ -105,7 +107,8 @@ class RobotPlanner:
         scene = self._scene(tracks)
         s0, _ = self.route.project_point(x, y)
         result = plan(self.mpc, self.spec.vehicle, self.route, s0, v, self.prev_accel, self.v_ref,
-                      self.road_map.speed_limit_mps, scene, weights, self.road_map.crosswalks)
+                      self.road_map.speed_limit_mps, scene, weights, self.road_map.crosswalks,
+                      self._static_boxes)
         self.last_result = result
         self.prev_accel = result.accel_mps2
         steer = pure_pursuit(self.route, x, y, psi, v, s0, self.spec.vehicle.wheelbase_m)

@@ -78,3 +78,15 @@ def test_beliefs_are_renormalized_over_live_hypotheses():
     res = _plan([0.5, 0.3, 0.2], [False, True, True], s0=60.0)
     assert res.weights.sum() == pytest.approx(1.0)
     assert res.weights == pytest.approx([0.5, 0.3, 0.2])
+
+
+def test_static_polygon_ahead_is_a_constraint():
+    """A parked truck across the lane 28 m ahead of the robot's front: without it the robot
+    keeps speed; with it the robot plans to stop short of it."""
+    boxes = np.array([[110.0, 0.0, 118.0, 3.5]])  # robot at s0 = 130: x = 80
+    free = plan(CONFIG, VehicleParams(), ROUTE, 130.0, 11.5, 0.0, 11.5, 13.9, _scene([False]),
+                np.array([1.0]), ())
+    blocked = plan(CONFIG, VehicleParams(), ROUTE, 130.0, 11.5, 0.0, 11.5, 13.9,
+                   _scene([False]), np.array([1.0]), (), static_boxes=boxes)
+    assert free.accel_mps2 == 0.0
+    assert blocked.feasible and blocked.accel_mps2 < 0.0
