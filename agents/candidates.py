@@ -182,19 +182,21 @@ def evaluate_candidates(cands: CandidateSet, theta: np.ndarray, v_ref_mps: float
     other_is_ped = scene.is_pedestrian[:, None, None, None, :]
     other_mask = scene.mask[:, None, None, None, :]
     prev = np.concatenate([np.full(a_eff.shape[:-1] + (1,), prev_accel), a_eff[..., :-1]], -1)
+    gap = None
+    if geometry and scene.mask.shape[1]:  # shared by the safety cost and the gap constraint
+        gap = circle_gap(ego_circles, ego_r, other_circles, other_circle_r)  # (L,A,C,T,M)
     cost = step_cost(
         theta, lateral_m=0.0, speed_mps=v, v_ref_mps=v_ref_mps, accel_mps2=a_eff,
         prev_accel_mps2=prev, ego_xy=xy, ego_radius=ego_radius, ego_is_ped=False,
         ego_circles=ego_circles, ego_circle_r=ego_r, other_xy=other_xy,
         other_radius=other_radius, other_is_ped=other_is_ped, other_circles=other_circles,
-        other_circle_r=other_circle_r, other_mask=other_mask, crosswalks=crosswalks,
+        other_circle_r=other_circle_r, other_mask=other_mask, crosswalks=crosswalks, gap=gap,
     ) * (dt / DT_S)
     cost = np.broadcast_to(cost, (len(scene.mask),) + v.shape)
     if not geometry:
         return CandidateEvaluation(cost, v, a_eff)
     n_hyp = len(scene.mask)
-    if scene.mask.shape[1]:
-        gap = circle_gap(ego_circles, ego_r, other_circles, other_circle_r)  # (L,A,C,T,M)
+    if gap is not None:
         gap = np.where(other_mask, gap, np.inf)
         min_gap = np.broadcast_to(gap.min(axis=(-1, -2)), (n_hyp,) + v.shape[:2])
     else:
@@ -206,6 +208,14 @@ def evaluate_candidates(cands: CandidateSet, theta: np.ndarray, v_ref_mps: float
         occ_ped = np.where(ped_mask, crosswalk_occupancy(other_xy, other_radius, cw), 0.0)
         conflict = np.maximum(conflict, occ_ego * occ_ped.max(axis=-1))
     static_gap = np.full(v.shape[:2], np.inf)
+    if static_boxes is not None and len(static_boxes):
+        # only boxes near the candidates' overall bounding box can bind (the 2 m margin is more
+        # than any clearance a planner asks for)
+        reach = float(ego_r.max()) + 2.0
+        lo_all = ego_circles.reshape(-1, 2).min(axis=0) - reach
+        hi_all = ego_circles.reshape(-1, 2).max(axis=0) + reach
+        near = np.all((static_boxes[:, :2] <= hi_all) & (static_boxes[:, 2:] >= lo_all), axis=1)
+        static_boxes = static_boxes[near]
     if static_boxes is not None and len(static_boxes):
         lo, hi = static_boxes[:, :2], static_boxes[:, 2:]
         c = ego_circles[..., None, :]  # (A, C, T, K, 1, 2)

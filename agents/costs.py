@@ -99,8 +99,9 @@ def circle_gap(ego_circles, ego_circle_r, other_circles, other_circle_r) -> np.n
 def _feature_terms(*, lateral_m, speed_mps, v_ref_mps, accel_mps2, prev_accel_mps2,
                    ego_xy, ego_radius, ego_is_ped, ego_circles, ego_circle_r,
                    other_xy, other_radius, other_is_ped, other_circles, other_circle_r, other_mask,
-                   crosswalks, needed=(True,) * N_FEATURES) -> list:
-    """The six per-step features in FEATURE_NAMES order (None where not needed)."""
+                   crosswalks, needed=(True,) * N_FEATURES, gap=None) -> list:
+    """The six per-step features in FEATURE_NAMES order (None where not needed). `gap` may
+    pass circle_gap(ego, others) already computed by the caller."""
     terms = [None] * N_FEATURES
     if needed[0]:
         terms[0] = np.asarray(lateral_m, dtype=np.float64) ** 2
@@ -111,7 +112,8 @@ def _feature_terms(*, lateral_m, speed_mps, v_ref_mps, accel_mps2, prev_accel_mp
     if needed[3]:
         terms[3] = (np.asarray(accel_mps2) - prev_accel_mps2) ** 2
     if needed[4]:
-        gap = circle_gap(ego_circles, ego_circle_r, other_circles, other_circle_r)
+        if gap is None:
+            gap = circle_gap(ego_circles, ego_circle_r, other_circles, other_circle_r)
         terms[4] = np.sum(np.where(other_mask, np.exp(-gap), 0.0), axis=-1)
     if needed[5]:
         conflict = 0.0

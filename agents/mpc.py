@@ -46,7 +46,7 @@ class MpcConfig:
     theta: CostWeights = field(default_factory=CostWeights)
     candidates: CandidateSet = field(default_factory=lambda: CandidateSet(
         first_actions_mps2=(-8.0, -6.0, -4.0, -3.0, -2.0, -1.0, -0.5, 0.0, 0.5, 1.0, 2.0),
-        continuations_mps2=(-8.0, -6.0, -4.0, -2.0, -1.0, 0.0, 1.0),
+        continuations_mps2=(-8.0, -4.0, -2.0, 0.0, 1.0),
         first_segment_s=0.5, horizon_s=4.0, plan_dt_s=0.25))
     epsilon: float = 0.02
     min_gap_m: float = 0.5
