@@ -21,7 +21,7 @@ from marl_social.agents.candidates import ScenePrediction
 from marl_social.agents.mpc import MpcConfig, MpcResult, plan
 from marl_social.agents.steering import pure_pursuit
 from marl_social.perception.belief import BeliefConfig, PedestrianBelief
-from marl_social.perception.tracking import Tracker, TrackSet
+from marl_social.perception.tracking import TrackSet
 
 from marl_social.agent_spec import AgentSpec
 from marl_social.observation import ObservationLayout
@@ -52,7 +52,7 @@ class RobotPlanner:
         self.route = road_map.routes[spec.name]
         self.mpc = mpc_config or MpcConfig(theta=spec.cost_weights)
         self.v_ref = min(spec.v_desired_mps, road_map.speed_limit_mps)
-        self.tracker = Tracker(spec.sensor.pos_noise_m, spec.sensor.vel_noise_mps)
+        # the belief keeps the robot's Kalman tracks of what it sees; the MPC reads the same ones
         self.belief = PedestrianBelief(
             road_map, layout, spec.name, list(agent_names), belief_config or BeliefConfig(),
             use_social=mode == "social", use_own_sensors=mode in ("social", "conservative"),
@@ -64,7 +64,6 @@ class RobotPlanner:
         self.reset()
 
     def reset(self, seed: int | None = None) -> None:
-        self.tracker.reset()
         self.belief.reset()
         self.prev_accel = 0.0
         self.last_result: MpcResult | None = None
@@ -95,13 +94,13 @@ class RobotPlanner:
         decoded = self.layout.decode(obs)
         x, y, c, s_, v = (float(a) for a in decoded.ego[:5])
         psi = math.atan2(s_, c)
-        tracks = self.tracker.update(decoded)
         if self.mode == "oracle":
             if self._truth is None:
                 raise RuntimeError("oracle planner: observe_truth() must be called every step")
             tracks = self._truth
         else:
-            self.belief.update(obs)
+            self.belief.update(obs)  # own tracks (+ negative / social information by mode)
+            tracks = self.belief.tracker.tracks()
         weights = self.hypothesis_weights()
         self.weights = weights
         scene = self._scene(tracks)
