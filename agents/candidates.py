@@ -141,6 +141,7 @@ class CandidateEvaluation:
             [0..1]; only with geometry=True.
         static_gap_m: (A, C) smallest gap between the covering circles and the bounding boxes
             of the static polygons [m] (inf without polygons); only with geometry=True.
+        min_vehicle_gap_m: (L, A, C) as min_gap_m, vehicles only; only with geometry=True.
     """
 
     step_cost: np.ndarray
@@ -149,6 +150,21 @@ class CandidateEvaluation:
     min_gap_m: np.ndarray | None = None
     conflict: np.ndarray | None = None
     static_gap_m: np.ndarray | None = None
+    min_vehicle_gap_m: np.ndarray | None = None
+
+
+def collision_free_totals(ev: CandidateEvaluation) -> np.ndarray:
+    """(L, A, C) total costs of the candidates with every plan whose covering circles touch a
+    predicted vehicle (min_vehicle_gap_m == 0; needs geometry=True) set to +inf, so that a
+    driver's Q* never chooses to run into a car: the safety feature alone saturates at 1 per
+    step, less than the speed cost of stopping behind a stopped car. (Pedestrians are kept
+    out of the ego's way by the crosswalk feature.) A first action all of whose continuations
+    collide gets Q* = inf. Under a hypothesis where every plan collides, all keep their
+    unconstrained costs (the least bad)."""
+    total = ev.step_cost.sum(axis=-1)
+    colliding = ev.min_vehicle_gap_m <= 0.0
+    hopeless = colliding.all(axis=(-1, -2), keepdims=True)
+    return np.where(colliding & ~hopeless, np.inf, total)
 
 
 def evaluate_candidates(cands: CandidateSet, theta: np.ndarray, v_ref_mps: float,
@@ -199,14 +215,17 @@ def evaluate_candidates(cands: CandidateSet, theta: np.ndarray, v_ref_mps: float
     if gap is not None:
         gap = np.where(other_mask, gap, np.inf)
         min_gap = np.broadcast_to(gap.min(axis=(-1, -2)), (n_hyp,) + v.shape[:2])
+        vehicle_gap = np.where(other_is_ped, np.inf, gap)
+        min_vehicle_gap = np.broadcast_to(vehicle_gap.min(axis=(-1, -2)), min_gap.shape)
     else:
         min_gap = np.full((n_hyp,) + v.shape[:2], np.inf)
+        min_vehicle_gap = min_gap
     conflict = np.zeros((n_hyp,) + v.shape)
     ped_mask = other_mask & other_is_ped
     for cw in crosswalks:
         occ_ego = crosswalk_occupancy(xy, ego_radius, cw)  # (A, C, T)
         occ_ped = np.where(ped_mask, crosswalk_occupancy(other_xy, other_radius, cw), 0.0)
-        conflict = np.maximum(conflict, occ_ego * occ_ped.max(axis=-1))
+        conflict = np.maximum(conflict, occ_ego * occ_ped.max(axis=-1, initial=0.0))
     static_gap = np.full(v.shape[:2], np.inf)
     if static_boxes is not None and len(static_boxes):
         # only boxes near the candidates' overall bounding box can bind (the 2 m margin is more
@@ -222,4 +241,5 @@ def evaluate_candidates(cands: CandidateSet, theta: np.ndarray, v_ref_mps: float
         outside = np.maximum(np.maximum(lo - c, c - hi), 0.0)
         dist = np.sqrt((outside ** 2).sum(axis=-1)) - ego_r[..., None]  # (A, C, T, K, S)
         static_gap = dist.min(axis=(-1, -2, -3))
-    return CandidateEvaluation(cost, v, a_eff, min_gap, conflict.max(axis=-1), static_gap)
+    return CandidateEvaluation(cost, v, a_eff, min_gap, conflict.max(axis=-1), static_gap,
+                               min_vehicle_gap)

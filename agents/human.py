@@ -4,6 +4,8 @@ At every step a human driver computes, from its *own* tracks and the static map,
 
     Q*(x_hat, u) = min over continuations c of  sum_k theta^T phi(x_k, u_k)      (eq. 11)
 
+(continuations that run into an object the human predicts are excluded: it never plans a
+collision, whatever its weights);
 for each first action u of a discrete set (held for `first_segment_s`, then continuation c
 held to the end of the horizon; all candidates rolled out at once), and samples
 
@@ -27,6 +29,7 @@ import numpy as np
 from marl_social.agents.candidates import (  # noqa: F401  (re-exported for planners' users)
     CandidateSet,
     ScenePrediction,
+    collision_free_totals,
     evaluate_candidates,
     rollout_speeds,
 )
@@ -92,11 +95,13 @@ def driver_q_values(model: DriverModel, route: Route, s0: float, v0: float, prev
         prev_accel: its last acceleration [m/s^2] (for the jerk term);
         scene: predicted others, L hypotheses, at model.plan_times_s.
     Returns:
-        (L, A) optimal cost-to-go of each first action.
+        (L, A) optimal cost-to-go of each first action; continuations that run into a
+        predicted object are excluded (candidates.collision_free_totals).
     """
     ev = evaluate_candidates(model.candidates, model.theta.as_array(), model.v_desired_mps,
-                             model.vehicle, route, s0, v0, prev_accel, scene, crosswalks)
-    return ev.step_cost.sum(axis=-1).min(axis=-1)
+                             model.vehicle, route, s0, v0, prev_accel, scene, crosswalks,
+                             geometry=True)
+    return collision_free_totals(ev).min(axis=-1)
 
 
 def boltzmann(q_values: np.ndarray, beta: float) -> np.ndarray:

@@ -2,6 +2,9 @@
 
 * ``social`` (the paper): beliefs over hidden pedestrians from the robot's own sensors
   (negative information) and from the humans' behaviour (eq. 9-10), perception/belief.py.
+* ``social+beta`` (beyond the paper): ``social`` that also infers each human's rationality
+  beta on a grid (BeliefConfig.beta_grid_hat; confidence-aware prediction, Fridovich-Keil et
+  al. 2019), so an erratic human's behaviour moves the belief less.
 * ``aggressive``: what is not seen is absent (no hidden-pedestrian hypotheses).
 * ``conservative``: every hidden-pedestrian hypothesis its own sensors have not ruled out is
   assumed true (no social inference).
@@ -10,14 +13,21 @@
   hypotheses. It knows where everybody is, not what they will decide.
 
 All but the oracle act on the robot's own observation and the static map only.
+
+The robot's model of the humans and its tail threshold come from its own spec's planner
+parameters (the robot's private knowledge; scenario knobs robot_theta_hat, robot_beta_hat,
+robot_epsilon): "theta_hat" (cost weights, e.g. learned by agents/irl.py), "beta_hat",
+"epsilon".
 """
 
 from __future__ import annotations
 
 import math
+from dataclasses import replace
 
 import numpy as np
 from marl_social.agents.candidates import ScenePrediction
+from marl_social.agents.costs import CostWeights
 from marl_social.agents.mpc import MpcConfig, MpcResult, plan
 from marl_social.agents.steering import pure_pursuit
 from marl_social.perception.belief import BeliefConfig, PedestrianBelief
@@ -27,7 +37,34 @@ from marl_social.agent_spec import AgentSpec
 from marl_social.observation import ObservationLayout
 from marl_social.road_map import RoadMap
 
-ROBOT_PLANNERS = ("social", "aggressive", "conservative", "oracle")
+ROBOT_PLANNERS = ("social", "social+beta", "aggressive", "conservative", "oracle")
+BETA_GRID_HAT = (0.03, 0.1, 0.3, 1.0, 3.0)  # social+beta's rationality grid (log-spaced)
+
+
+def robot_configs(spec: AgentSpec, mode: str) -> tuple[MpcConfig, BeliefConfig]:
+    """The MPC and belief configuration of a robot from its spec (see module docstring)."""
+    params = spec.planner
+    unknown = sorted(set(params) - {"theta_hat", "beta_hat", "epsilon"})
+    if unknown:
+        raise ValueError(f"robot {spec.name}: unknown planner parameter(s) {unknown}; known: "
+                         "theta_hat, beta_hat, epsilon")
+    belief = BeliefConfig()
+    updates = {}
+    if "theta_hat" in params:
+        updates["theta_hat"] = CostWeights.from_any(params["theta_hat"])
+    if "beta_hat" in params:
+        beta_hat = float(params["beta_hat"])
+        if not beta_hat >= 0:
+            raise ValueError(f"robot {spec.name}: beta_hat must be >= 0, got {beta_hat}")
+        updates["beta_hat"] = beta_hat
+    epsilon = float(params.get("epsilon", belief.epsilon))
+    if not 0.0 <= epsilon < 1.0:
+        raise ValueError(f"robot {spec.name}: epsilon must be in [0, 1), got {epsilon}")
+    updates["epsilon"] = epsilon
+    if mode == "social+beta":
+        updates["beta_grid_hat"] = BETA_GRID_HAT
+    return (MpcConfig(theta=spec.cost_weights, epsilon=epsilon),
+            replace(belief, **updates))
 
 
 class RobotPlanner:
@@ -50,12 +87,14 @@ class RobotPlanner:
         self.layout = layout
         self.road_map = road_map
         self.route = road_map.routes[spec.name]
-        self.mpc = mpc_config or MpcConfig(theta=spec.cost_weights)
+        default_mpc, default_belief = robot_configs(spec, mode)
+        self.mpc = mpc_config or default_mpc
         self.v_ref = min(spec.v_desired_mps, road_map.speed_limit_mps)
         # the belief keeps the robot's Kalman tracks of what it sees; the MPC reads the same ones
         self.belief = PedestrianBelief(
-            road_map, layout, spec.name, list(agent_names), belief_config or BeliefConfig(),
-            use_social=mode == "social", use_own_sensors=mode in ("social", "conservative"),
+            road_map, layout, spec.name, list(agent_names), belief_config or default_belief,
+            use_social=mode in ("social", "social+beta"),
+            use_own_sensors=mode in ("social", "social+beta", "conservative"),
         )
         self._times = self.mpc.candidates.plan_times_s
         self._truth: TrackSet | None = None
@@ -83,7 +122,7 @@ class RobotPlanner:
         if self.mode in ("aggressive", "oracle"):
             return none.astype(np.float64)
         b = self.belief.probabilities
-        if self.mode == "social":
+        if self.mode in ("social", "social+beta"):
             return b
         present_live = ~none & (b >= self.mpc.epsilon)
         if not present_live.any():

@@ -17,9 +17,7 @@ from pathlib import Path
 
 import numpy as np
 
-from marl_social.scenarios.base import ROBOT_PLANNER_CHOICES
-
-ROBOT_PLANNERS = tuple(p for p in ROBOT_PLANNER_CHOICES if p != "cruise")
+ROBOT_PLANNERS = ("social", "aggressive", "conservative", "oracle")  # the paper's four
 VARIANTS = ("crossing", "waiting", "none")
 FIGURES = (
     ("fig3_aggressive_crossing", "aggressive", "crossing"),

@@ -59,7 +59,11 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 from filterpy.discrete_bayes import normalize
 from filterpy.discrete_bayes import update as bayes_update
-from marl_social.agents.candidates import ScenePrediction, evaluate_candidates
+from marl_social.agents.candidates import (
+    ScenePrediction,
+    collision_free_totals,
+    evaluate_candidates,
+)
 from marl_social.agents.costs import CostWeights
 from marl_social.agents.human import DriverModel, boltzmann
 from marl_social.perception.fov import depth_ray_angles
@@ -339,6 +343,11 @@ class BeliefConfig:
         floor: beliefs never drop below this before normalization.
         epsilon: the paper's tail threshold (for the planner; see `PedestrianBelief.live`).
         beta_hat: the robot's model of the humans' rationality.
+        beta_grid_hat: if non-empty, beta_hat is not fixed: each tracked human's rationality is
+            inferred on this grid jointly with the hidden state (a per-human belief b_i(beta),
+            uniform at first; P(a_i | l, v) = sum_beta b_i(beta) P(a_i | l, v, beta), and
+            b_i(beta) ∝ b_i(beta) sum_{l,v} b(l, v) P(a_i | l, v, beta)). An erratic human is
+            then explained by a low beta and moves the pedestrian belief less.
         theta_hat: the robot's model of the humans' cost weights.
         prior_present: prior mass spread evenly over the present hypotheses.
         v_traffic_grid_mps: grid of the traffic-speed belief [m/s].
@@ -363,6 +372,7 @@ class BeliefConfig:
     floor: float = 1e-6
     epsilon: float = 0.02
     beta_hat: float = 0.3
+    beta_grid_hat: tuple = ()
     theta_hat: CostWeights = field(default_factory=CostWeights)
     prior_present: float = 0.5
     v_traffic_grid_mps: tuple = (8.0, 10.0, 11.5, 13.0)
@@ -378,6 +388,10 @@ class BeliefConfig:
             value = getattr(self, name)
             if not 0.0 <= value <= 1.0:
                 raise ValueError(f"BeliefConfig.{name} must be in [0, 1], got {value}")
+        grid = np.asarray(self.beta_grid_hat, dtype=np.float64)
+        if grid.ndim != 1 or not np.all(grid >= 0):  # also rejects NaN
+            raise ValueError(f"BeliefConfig.beta_grid_hat must be a sequence of betas >= 0, "
+                             f"got {self.beta_grid_hat!r}")
         if not (self.accel_noise_mps2 > 0 and self.hazard_per_s >= 0 and self.floor > 0):
             raise ValueError("BeliefConfig: need accel_noise_mps2 > 0, hazard_per_s >= 0, "
                              "floor > 0")
@@ -387,12 +401,14 @@ class BeliefConfig:
 class _HumanState:
     """What the robot remembers of one tracked human until the next step: its along-route speed
     [m/s], Q*_H (L, V, A) of its candidate actions and the accelerations (A,) they execute as
-    [m/s^2]."""
+    [m/s^2], and the belief (B,) over its rationality on BeliefConfig.beta_grid_hat (empty when
+    beta is fixed)."""
 
     v_mps: float
     q_values: np.ndarray
     actions_mps2: np.ndarray
     n_seen: int = 1
+    beta_belief: np.ndarray = field(default_factory=lambda: np.zeros(0))
 
 
 class PedestrianBelief:
@@ -459,6 +475,8 @@ class PedestrianBelief:
         self._times = self._candidates.plan_times_s
         self._first = np.asarray(self._candidates.first_actions_mps2, dtype=np.float64)
         self._hyp_scene = self._hypothesis_objects()
+        self._beta_grid = np.asarray(config.beta_grid_hat, dtype=np.float64)
+        self._beta_prior = np.full(len(self._beta_grid), 1.0 / max(len(self._beta_grid), 1))
         self._ray_cache: tuple | None = None
         self._empty_scene: ScenePrediction | None = None
         self.reset()
@@ -695,8 +713,9 @@ class PedestrianBelief:
         """
         scene = self.hypothesis_scene(others)
         ev = evaluate_candidates(self._candidates, self._theta_no_speed, 0.0, self.model.vehicle,
-                                 route, s0, v0, prev_accel, scene, self.road_map.crosswalks)
-        base = ev.step_cost.sum(axis=-1)  # (L, A, C)
+                                 route, s0, v0, prev_accel, scene, self.road_map.crosswalks,
+                                 geometry=True)
+        base = collision_free_totals(ev)  # (L, A, C), predicted collisions excluded
         scale = self._candidates.plan_dt_s / DT_S
         v_ref = self.traffic.grid_mps
         speed = (self.config.theta_hat.speed * scale
@@ -708,6 +727,36 @@ class PedestrianBelief:
         veh = self.model.vehicle
         a = np.clip(self._first, -veh.brake_max_mps2, veh.accel_max_mps2)
         return np.maximum(a, -max(v0, 0.0) / DT_S)
+
+    def _human_log_likelihood(self, prev: _HumanState, a_est: float):
+        """(L, V) log P(a_est | x_l, v) of one human, and its updated rationality belief (B,).
+        With a fixed beta_hat this is eq. 10; with a beta grid the likelihood is marginalized
+        over the human's beta belief, which is then updated with the predicted joint b(l, v)."""
+        cfg = self.config
+        if not len(self._beta_grid):
+            return action_log_likelihood(prev.q_values, cfg.beta_hat, a_est, prev.actions_mps2,
+                                         cfg.accel_noise_mps2, cfg.outlier_prob), prev.beta_belief
+        ll = np.stack([action_log_likelihood(prev.q_values, beta, a_est, prev.actions_mps2,
+                                             cfg.accel_noise_mps2, cfg.outlier_prob)
+                       for beta in self._beta_grid])  # (B, L, V)
+        if not np.all(np.isfinite(ll)):
+            return np.zeros(ll.shape[1:]), prev.beta_belief
+        log_b = np.log(prev.beta_belief)[:, None, None]
+        marginal = _logsumexp((ll + log_b).reshape(len(ll), -1), axis=0).reshape(ll.shape[1:])
+        joint = np.outer(self.transition @ self.probabilities,
+                         self.traffic.transition @ self.traffic.probabilities)
+        top = ll.max()
+        evidence = (np.exp(ll - top) * joint[None]).sum(axis=(1, 2))  # (B,) up to a constant
+        beta_belief = bayes_update(evidence, prev.beta_belief)
+        beta_belief = normalize(np.maximum(beta_belief, cfg.floor))
+        return marginal, beta_belief
+
+    def beta_beliefs(self) -> dict:
+        """{human name: (B,) belief over its rationality on config.beta_grid_hat} for the humans
+        tracked now (social+beta only; empty otherwise)."""
+        if not len(self._beta_grid):
+            return {}
+        return {self.agent_names[oid - 1]: h.beta_belief.copy() for oid, h in self._humans.items()}
 
     def _social_log_likelihoods(self, decoded, tracks: TrackSet):
         """Eq. 9-10 and 12 for every tracked human seen this step and the last: (H, L, V)
@@ -728,17 +777,18 @@ class PedestrianBelief:
             v = vx * math.cos(heading) + vy * math.sin(heading)
             prev = self._humans.get(oid)
             a_est, n_seen = 0.0, 1
+            beta_belief = self._beta_prior
             if prev is not None:
                 a_est, n_seen = (v - prev.v_mps) / DT_S, prev.n_seen + 1
                 a_obs_all[self.agent_names[oid - 1]] = a_est
+                beta_belief = prev.beta_belief
                 if n_seen > cfg.min_track_steps:
-                    out.append(action_log_likelihood(prev.q_values, cfg.beta_hat, a_est,
-                                                     prev.actions_mps2, cfg.accel_noise_mps2,
-                                                     cfg.outlier_prob))
+                    ll, beta_belief = self._human_log_likelihood(prev, a_est)
+                    out.append(ll)
             others = self._others_scene(np.array([x, y]), heading, oid, decoded, tracks)
             v0 = max(v, 0.0)
             q = self.human_q_values(route, s0, v0, a_est, others)
-            current[oid] = _HumanState(v, q, self._executed(v0), n_seen)
+            current[oid] = _HumanState(v, q, self._executed(v0), n_seen, beta_belief)
         self._humans = current  # a human not seen this step starts afresh when seen again
         n, n_v = len(self.hypotheses), len(self.traffic.grid_mps)
         return np.array(out).reshape(-1, n, n_v), a_obs_all

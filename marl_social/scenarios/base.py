@@ -16,7 +16,8 @@ import numpy as np
 from marl_social.agent_spec import AgentSpec
 from marl_social.road_map import RoadMap
 
-ROBOT_PLANNER_CHOICES = ("social", "aggressive", "conservative", "oracle", "cruise")
+ROBOT_PLANNER_CHOICES = ("social", "social+beta", "aggressive", "conservative", "oracle",
+                         "cruise")
 
 
 @dataclass(frozen=True)
@@ -30,7 +31,7 @@ class ScenarioParams:
             False only the agents involved are terminated.
         collision_penalty: reward subtracted from each agent involved in a collision.
         robot_planner: the robot's built-in planner in `marl_social.policies`: "social" (the
-            paper), "aggressive", "conservative", "oracle" (agents/robot.py) or "cruise" (the
+            paper), "social+beta" (also infers each human's rationality), "aggressive", "conservative", "oracle" (agents/robot.py) or "cruise" (the
             rule-based baseline, agents/cruise.py).
     """
 

@@ -33,6 +33,8 @@ ROAD_START_X_M = -30.0
 PEDESTRIAN_VARIANTS = ("crossing", "waiting", "none")
 # theta_R: the robot values comfort more than the default driver model (smooth, early braking)
 THETA_ROBOT = CostWeights(accel=0.5, jerk=0.5)
+MAX_HUMANS = 4
+HUMAN_SPACING_M = 20.0  # gap between successive human cars' start positions [m]
 
 
 @dataclass(frozen=True)
@@ -60,6 +62,14 @@ class OccludedCrosswalkParams(ScenarioParams):
             in agents/costs.FEATURE_NAMES order); empty = the default CostWeights.
         human_blind: the human cannot see the pedestrian's side of the crosswalk (its view of
             the right sidewalk around the crosswalk is blocked), so it cannot act as a sensor.
+        n_humans: number of human drivers (0-4). human_0 leads by human_lead_m in the right
+            lane; human_k (k >= 1) follows in the same lane HUMAN_SPACING_M * k behind it (so
+            the second one drives beside the robot). With 0 the pedestrian is not hidden by a
+            car (only the robot's range limits its view). Every human gets the human_* knobs.
+        robot_theta_hat, robot_beta_hat: the robot's model of the humans' cost weights (a
+            mapping or 6 numbers, e.g. learned by `marl-social irl fit`; empty = the default
+            CostWeights) and rationality (the social planner's beta_hat).
+        robot_epsilon: the robot's tail threshold on beliefs (MPC and belief).
     """
 
     pedestrian: str = "crossing"
@@ -87,15 +97,26 @@ class OccludedCrosswalkParams(ScenarioParams):
     pedestrian_beta: float = 5.0
     human_theta: tuple = ()
     human_blind: bool = False
+    n_humans: int = 1
+    robot_theta_hat: tuple = ()
+    robot_beta_hat: float = 0.3
+    robot_epsilon: float = 0.02
 
     def __post_init__(self):
         super().__post_init__()
-        if self.human_theta not in ((), None):
+        for name in ("human_theta", "robot_theta_hat"):
+            value = getattr(self, name)
+            if value in ((), None):
+                object.__setattr__(self, name, ())
+                continue
             try:
-                theta = CostWeights.from_any(self.human_theta).as_array()
+                theta = CostWeights.from_any(value).as_array()
             except (TypeError, ValueError) as err:
-                raise ValueError(f"OccludedCrosswalkParams.human_theta: {err}") from None
-            object.__setattr__(self, "human_theta", tuple(theta.tolist()))
+                raise ValueError(f"OccludedCrosswalkParams.{name}: {err}") from None
+            object.__setattr__(self, name, tuple(theta.tolist()))
+        self._check(0 <= self.n_humans <= MAX_HUMANS, "n_humans", f"must be in [0, {MAX_HUMANS}]")
+        self._check(self.robot_beta_hat >= 0.0, "robot_beta_hat", "must be >= 0 (inf allowed)")
+        self._check(0.0 <= self.robot_epsilon < 1.0, "robot_epsilon", "must be in [0, 1)")
         for name in ("human_beta", "pedestrian_beta"):
             self._check(getattr(self, name) >= 0.0, name, "must be >= 0 (inf allowed)")
         self._check(self.pedestrian in PEDESTRIAN_VARIANTS, "pedestrian",
@@ -162,10 +183,10 @@ class OccludedCrosswalk(Scenario):
         houses = tuple(_houses(x0, x1, y_houses, +1) + _houses(x0, x1, y_houses, -1))
 
         ped_y = -(half_road + p.pedestrian_curb_offset_m)
-        routes = {
-            "robot_0": Route([[x0, left_y], [x1, left_y]], "robot_0"),
-            "human_0": Route([[x0, right_y], [x1, right_y]], "human_0"),
-        }
+        routes = {"robot_0": Route([[x0, left_y], [x1, left_y]], "robot_0")}
+        robot_model = {"beta_hat": p.robot_beta_hat, "epsilon": p.robot_epsilon}
+        if p.robot_theta_hat:
+            robot_model["theta_hat"] = p.robot_theta_hat
         vehicle = VehicleParams()
         theta_vehicle = CostWeights()
         agents = [
@@ -174,11 +195,15 @@ class OccludedCrosswalk(Scenario):
                 sensor=SensorParams(p.robot_sensor_range_m, math.radians(p.robot_half_fov_deg),
                                     pos_noise_m=p.robot_pos_noise_m),
                 vehicle=vehicle, v_desired_mps=p.robot_desired_speed_mps,
-                cost_weights=THETA_ROBOT,
+                cost_weights=THETA_ROBOT, planner=robot_model,
             ),
-            AgentSpec(
-                "human_0", "vehicle", "human",
-                np.array([p.human_lead_m, right_y, 0.0, p.human_speed_mps]),
+        ]
+        for k in range(p.n_humans):
+            name = f"human_{k}"
+            routes[name] = Route([[x0, right_y], [x1, right_y]], name)
+            agents.append(AgentSpec(
+                name, "vehicle", "human",
+                np.array([p.human_lead_m - HUMAN_SPACING_M * k, right_y, 0.0, p.human_speed_mps]),
                 sensor=SensorParams(p.human_sensor_range_m, math.radians(p.human_half_fov_deg),
                                     pos_noise_m=p.human_pos_noise_m,
                                     blind_regions=(self._blind_region(),) if p.human_blind
@@ -187,8 +212,7 @@ class OccludedCrosswalk(Scenario):
                 cost_weights=(CostWeights.from_any(p.human_theta) if p.human_theta
                               else theta_vehicle),
                 planner={"beta": p.human_beta},
-            ),
-        ]
+            ))
         if p.pedestrian != "none":
             far_y = half_road + 1.0
             routes["pedestrian_0"] = Route(
