@@ -67,8 +67,9 @@ class CostWeights:
 
 def crosswalk_occupancy(xy, bounding_radius_m, crosswalk: Crosswalk) -> np.ndarray:
     """Smooth 0..1 indicator that a footprint (centre xy (..., 2) [m], bounding radius (...) [m])
-    overlaps the crosswalk rectangle."""
-    rel = np.asarray(xy, dtype=np.float64) - crosswalk.center
+    overlaps the crosswalk rectangle. xy may be an agents/jets.Jet (derivatives along a path)."""
+    xy = xy if getattr(xy, "is_jet", False) else np.asarray(xy, dtype=np.float64)
+    rel = xy - crosswalk.center
     c, s = np.cos(crosswalk.walk_heading_rad), np.sin(crosswalk.walk_heading_rad)
     u = rel[..., 0] * c + rel[..., 1] * s
     w = -rel[..., 0] * s + rel[..., 1] * c

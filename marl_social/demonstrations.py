@@ -82,7 +82,7 @@ class Demonstration:
     v_ref_mps: float
     path_xy: np.ndarray
     length_m: float = 4.5
-    width_m: float = 1.9
+    width_m: float = 1.8
     others_xy: np.ndarray = field(default_factory=lambda: np.zeros((0, 1, 2)))
     others_heading: np.ndarray = field(default_factory=lambda: np.zeros((0, 1)))
     others_length_m: np.ndarray = field(default_factory=lambda: np.zeros(0))

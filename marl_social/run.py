@@ -17,11 +17,13 @@ from marl_social.road_map import RoadMap
 class EpisodeResult:
     """Attributes: metrics (dict of floats / bools, marl_social/metrics.py); trace (Trace, with
     extras "p_pedestrian", "perceived" and "p_<hypothesis>" for a belief-based robot);
-    road_map (the episode's static map)."""
+    road_map (the episode's static map); specs ({agent: AgentSpec}, every agent's own
+    parameters, incl. its true cost weights and rationality)."""
 
     metrics: dict
     trace: Trace
     road_map: RoadMap
+    specs: dict | None = None
 
 
 def truth_tracks(env, observer: str) -> TrackSet:
@@ -95,7 +97,7 @@ def run_episode(scenario: str = "occluded_crosswalk", seed: int = 0, render: boo
     metrics = episode_metrics(trace, env.road_map)
     metrics.update(belief_metrics(trace, env.road_map))
     env.close()
-    return EpisodeResult(metrics, trace, env.road_map)
+    return EpisodeResult(metrics, trace, env.road_map, dict(env.agent_specs))
 
 
 def randomized_overrides(seed: int) -> dict:

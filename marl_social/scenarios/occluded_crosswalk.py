@@ -17,6 +17,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from pathlib import Path
 
 import numpy as np
 
@@ -67,8 +68,9 @@ class OccludedCrosswalkParams(ScenarioParams):
             the second one drives beside the robot). With 0 the pedestrian is not hidden by a
             car (only the robot's range limits its view). Every human gets the human_* knobs.
         robot_theta_hat, robot_beta_hat: the robot's model of the humans' cost weights (a
-            mapping or 6 numbers, e.g. learned by `marl-social irl fit`; empty = the default
-            CostWeights) and rationality (the social planner's beta_hat).
+            mapping, 6 numbers, or the path of a `marl-social irl fit` result: its learned
+            direction scaled to the default weights' norm, agents/irl.robot_model_from_fit;
+            empty = the default CostWeights) and rationality (the social planner's beta_hat).
         robot_epsilon: the robot's tail threshold on beliefs (MPC and belief).
     """
 
@@ -104,6 +106,11 @@ class OccludedCrosswalkParams(ScenarioParams):
 
     def __post_init__(self):
         super().__post_init__()
+        if isinstance(self.robot_theta_hat, (str, Path)):  # a `marl-social irl fit` result
+            from marl_social.agents.irl import load_fit, robot_model_from_fit
+
+            theta_hat, _ = robot_model_from_fit(load_fit(self.robot_theta_hat))
+            object.__setattr__(self, "robot_theta_hat", tuple(theta_hat.as_array().tolist()))
         for name in ("human_theta", "robot_theta_hat"):
             value = getattr(self, name)
             if value in ((), None):
