@@ -97,6 +97,63 @@ def _reproduce(args) -> int:
     return 0
 
 
+def _record(args) -> int:
+    from marl_social.demonstrations import save_demonstrations
+
+    if args.synthetic:
+        from marl_social.synthetic_demos import near_rational_demonstrations
+
+        theta = np.array(args.theta, dtype=np.float64) * args.beta
+        demos = near_rational_demonstrations(theta, args.segments, seed=args.seed0,
+                                             n_steps=args.segment_steps)
+    else:
+        from marl_social.record import record_demonstrations
+
+        overrides = {"robot_planner": args.robot_planner, "pedestrian": args.pedestrian}
+        if args.human_beta is not None:
+            overrides["human_beta"] = args.human_beta
+        demos = record_demonstrations(
+            args.scenario, range(args.seed0, args.seed0 + args.episodes), overrides,
+            max_cycles=args.max_cycles, segment_steps=args.segment_steps,
+            stride_steps=args.stride, workers=args.workers, progress=True)
+    if not demos:
+        print("no demonstration segments recorded (episodes too short?)", file=sys.stderr)
+        return 1
+    path = save_demonstrations(args.out, demos)
+    print(f"{len(demos)} demonstrations ({demos[0].n_steps} steps of {demos[0].dt_s} s) -> {path}")
+    return 0
+
+
+def _irl_fit(args) -> int:
+    from marl_social.agents.irl import FITTABLE, cosine_similarity, fit_theta
+    from marl_social.demonstrations import load_demonstrations
+
+    demos = []
+    for path in args.demos:
+        if str(path).lower().endswith(".csv"):
+            from marl_social.interaction import load_interaction
+
+            demos += load_interaction([path])
+        else:
+            demos += load_demonstrations(path)
+    result = fit_theta(demos, fitted=tuple(args.features or FITTABLE))
+    truth = np.array([d.theta_true for d in demos])
+    if np.all(np.isfinite(truth)) and np.allclose(truth, truth[0]):
+        result.extra["cosine_to_true"] = cosine_similarity(result.theta, truth[0],
+                                                           result.fitted)
+    path = result.save(args.out)
+    print(f"fitted {len(demos)} demonstrations in {result.fit_time_s:.2f} s "
+          f"(converged: {result.converged}; {result.n_regularized} Hessians regularized)")
+    for name, w, d in zip(result.to_json()["features"], result.theta, result.direction):
+        if np.isfinite(w):
+            print(f"  {name:<10} theta {w:12.4f}   direction {d:8.4f}")
+    print(f"  scale (rationality) {result.scale:.4f}")
+    if "cosine_to_true" in result.extra:
+        print(f"  cosine to the demonstrators' true theta: {result.extra['cosine_to_true']:.4f}")
+    print(f"-> {path}  (use it as the robot's model: robot_theta_hat={path})")
+    return 0
+
+
 def main(argv=None) -> int:
     parser = argparse.ArgumentParser(prog="marl-social", description=__doc__)
     sub = parser.add_subparsers(dest="command", required=True)
@@ -126,8 +183,50 @@ def main(argv=None) -> int:
     bench.add_argument("--json", help="also write the rows to this JSON file")
     bench.set_defaults(func=_bench)
 
+    rec = sub.add_parser("record", help="record human demonstrations for inverse optimal "
+                         "control (npz, marl_social/demonstrations.py)")
+    rec.add_argument("-o", "--out", default=f"{DEFAULT_OUT}/demos.npz")
+    rec.add_argument("--scenario", default="occluded_crosswalk")
+    rec.add_argument("--episodes", type=int, default=20)
+    rec.add_argument("--seed0", type=int, default=0, help="first seed")
+    rec.add_argument("--pedestrian", default="crossing", choices=["crossing", "waiting", "none"])
+    rec.add_argument("--robot-planner", default="cruise")
+    rec.add_argument("--human-beta", type=float, default=None)
+    rec.add_argument("--max-cycles", type=int, default=150)
+    rec.add_argument("--segment-steps", type=int, default=30)
+    rec.add_argument("--stride", type=int, default=10)
+    rec.add_argument("--workers", type=int, default=1)
+    rec.add_argument("--synthetic", action="store_true",
+                     help="near-rational continuous demonstrations with a known theta instead "
+                          "(marl_social/synthetic_demos.py)")
+    rec.add_argument("--theta", type=float, nargs=6, default=[0.0, 1.0, 0.1, 0.1, 1.0, 1000.0],
+                     help="--synthetic: the demonstrator's weights (agents/costs.FEATURE_NAMES)")
+    rec.add_argument("--beta", type=float, default=10.0, help="--synthetic: its rationality")
+    rec.add_argument("--segments", type=int, default=100, help="--synthetic: how many")
+    rec.set_defaults(func=_record)
+
+    irl = sub.add_parser("irl", help="inverse optimal control: `irl fit DEMOS -o theta.json`")
+    irl_sub = irl.add_subparsers(dest="irl_command", required=True)
+    fit = irl_sub.add_parser("fit", help="fit theta to demonstrations (Laplace approximation)")
+    fit.add_argument("demos", nargs="+", help=".npz from `record`, or INTERACTION-format .csv")
+    fit.add_argument("-o", "--out", default=f"{DEFAULT_OUT}/theta.json")
+    fit.add_argument("--features", nargs="+", default=None,
+                     help="features to fit (default: speed accel jerk safety crosswalk)")
+    fit.set_defaults(func=_irl_fit)
+
+    try:
+        from marl_social.studies import register_cli
+    except ImportError:  # pragma: no cover - the study runner is part of the package
+        register_cli = None
+    if register_cli is not None:
+        register_cli(sub)
+
     args = parser.parse_args(argv)
-    return args.func(args)
+    try:
+        return args.func(args)
+    except (ValueError, FileNotFoundError) as err:
+        print(f"marl-social {args.command}: error: {err}", file=sys.stderr)
+        return 2
 
 
 if __name__ == "__main__":
