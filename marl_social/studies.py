@@ -953,7 +953,7 @@ def register_cli(subparsers) -> argparse.ArgumentParser:
     """Add the `study` subcommand to the `marl-social` CLI's subparsers."""
     parser = subparsers.add_parser(
         "study", help="run a sensitivity study (parameter sweeps x planners x seeds)",
-        description=__doc__.split("\n\n")[0], formatter_class=argparse.RawTextHelpFormatter)
+        description=__doc__.split("\n\n")[0])
     add_arguments(parser)
     parser.set_defaults(func=cli)
     return parser
