@@ -30,20 +30,21 @@ FIGURES = (
 def _one(job):
     from marl_social.run import randomized_overrides, run_episode
 
-    planner, variant, seed, max_cycles = job
+    planner, variant, seed, max_cycles, extra = job
     try:
         res = run_episode("occluded_crosswalk", seed=seed, robot_planner=planner,
                           pedestrian=variant, max_cycles=max_cycles,
-                          **randomized_overrides(seed))
+                          **{**randomized_overrides(seed), **extra})
         return planner, variant, seed, res.metrics, None
     except Exception as err:  # noqa: BLE001  (a failed run is recorded, the table goes on)
         return planner, variant, seed, None, f"{type(err).__name__}: {err}"
 
 
 def run_episodes(jobs, workers: int = 2, max_cycles: int = 200, progress: bool = False):
-    """Run (planner, variant, seed) jobs of randomized occluded_crosswalk episodes on a process
-    pool; returns (planner, variant, seed, metrics or None, error or None) in job order."""
-    jobs = [(p, v, s, max_cycles) for p, v, s in jobs]
+    """Run (planner, variant, seed) or (planner, variant, seed, overrides) jobs of randomized
+    occluded_crosswalk episodes on a process pool (overrides on top of the randomization);
+    returns (planner, variant, seed, metrics or None, error or None) in job order."""
+    jobs = [(*job[:3], max_cycles, dict(job[3]) if len(job) > 3 else {}) for job in jobs]
     if workers > 1:
         with mp.get_context("spawn").Pool(workers) as pool:
             return list(_progress(pool.imap(_one, jobs), len(jobs), progress))
