@@ -38,7 +38,7 @@ from marl_social.observation import ObservationLayout
 from marl_social.road_map import RoadMap
 
 ROBOT_PLANNERS = ("social", "social+beta", "aggressive", "conservative", "oracle")
-BETA_GRID_HAT = (0.03, 0.1, 0.3, 1.0, 3.0)  # social+beta's rationality grid (log-spaced)
+BETA_GRID_HAT = (0.03, 0.1, 0.3, 1.0, 3.0)  # social+beta: rationality grid (log-spaced)
 
 
 def robot_configs(spec: AgentSpec, mode: str) -> tuple[MpcConfig, BeliefConfig]:

@@ -362,3 +362,39 @@ def test_belief_never_nan_or_all_zero_with_absurd_inputs():
             assert np.all(np.isfinite(p)) and p.min() > 0 and abs(p.sum() - 1.0) < 1e-9
             assert np.all(np.isfinite(belief.traffic.probabilities))
             assert 0.0 <= belief.p_pedestrian <= 1.0
+
+
+# -- social+beta: the human's rationality inferred jointly --------------------------------------
+def test_rationality_belief_separates_an_erratic_human_from_a_rational_one():
+    """social+beta (BeliefConfig.beta_grid_hat): the robot's belief over the human's beta ends
+    at the grid's low end for a nearly random human (beta 0.003) and well above it for a
+    rational one (beta 10), and the erratic human's random braking raises the pedestrian
+    belief less on average than under a fixed beta_hat."""
+    from marl_social.agents.robot import BETA_GRID_HAT
+
+    log_grid = np.log(BETA_GRID_HAT)
+    false_alarm = {"fixed": [], "inferred": []}
+    for human_beta in (0.003, 10.0):
+        for seed in range(6):
+            obs, _, robot_x, _, env = _robot_episode("none", seed, (("human_beta", human_beta),))
+            window = (robot_x >= CROSSWALK_X_M - 50.0) & (robot_x <= CROSSWALK_X_M + 5.0)
+            for name, cfg in (("fixed", BeliefConfig()),
+                              ("inferred", BeliefConfig(beta_grid_hat=BETA_GRID_HAT))):
+                belief = PedestrianBelief(env.road_map, env.obs_layout, "robot_0",
+                                          env.possible_agents, cfg)
+                p_ped, beta_mean = [], None
+                for o in obs:
+                    belief.update(o)
+                    p_ped.append(belief.p_pedestrian)
+                    b = belief.beta_beliefs().get("human_0")
+                    beta_mean = math.exp(b @ log_grid) if b is not None else beta_mean
+                if name == "fixed":
+                    assert belief.beta_beliefs() == {}
+                else:
+                    if human_beta < 1:
+                        assert beta_mean < 0.05, (seed, beta_mean)
+                    else:
+                        assert beta_mean > 0.2, (seed, beta_mean)
+                if human_beta < 1:
+                    false_alarm[name].append(max(np.array(p_ped)[window]))
+    assert np.mean(false_alarm["inferred"]) < np.mean(false_alarm["fixed"])

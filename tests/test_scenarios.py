@@ -75,3 +75,48 @@ def test_rewards_penalize_speed_deviation_and_collisions():
     assert rew["robot_0"] < rew["human_0"]
     assert rew["robot_0"] == pytest.approx(-(1.5 ** 2) - env.world.step_features()[0, 4],
                                            rel=1e-6)
+
+
+def test_n_humans_knob_builds_a_platoon_and_is_validated():
+    for n in range(5):
+        env = marl_social.parallel_env(scenario="occluded_crosswalk", n_humans=n)
+        humans = [a for a in env.possible_agents if a.startswith("human")]
+        assert humans == [f"human_{k}" for k in range(n)]
+    with pytest.raises(ValueError, match="n_humans"):
+        marl_social.parallel_env(scenario="occluded_crosswalk", n_humans=5)
+    with pytest.raises(ValueError, match="robot_epsilon"):
+        marl_social.parallel_env(scenario="occluded_crosswalk", robot_epsilon=1.0)
+    with pytest.raises(ValueError, match="robot_beta_hat"):
+        marl_social.parallel_env(scenario="occluded_crosswalk", robot_beta_hat=-1.0)
+
+
+def test_robot_planner_parameters_are_validated():
+    from dataclasses import replace
+
+    from marl_social.agents.robot import robot_configs
+
+    env = marl_social.parallel_env(scenario="occluded_crosswalk", robot_beta_hat=2.0,
+                                   robot_epsilon=0.1, robot_theta_hat={"crosswalk": 500.0})
+    spec = env.agent_specs["robot_0"]
+    mpc, belief = robot_configs(spec, "social")
+    assert (belief.beta_hat, belief.epsilon, mpc.epsilon) == (2.0, 0.1, 0.1)
+    assert belief.theta_hat.crosswalk == 500.0 and belief.beta_grid_hat == ()
+    assert robot_configs(spec, "social+beta")[1].beta_grid_hat
+    with pytest.raises(ValueError, match="unknown planner parameter"):
+        robot_configs(replace(spec, planner={"beta": 1.0}), "social")
+
+
+def test_following_humans_stop_behind_the_braking_leader():
+    """Human drivers never plan into a predicted vehicle collision: with three humans in a
+    platoon braking for a crossing pedestrian, no human rear-ends another (the safety feature
+    alone, at most 1 per step, is cheaper than the speed cost of stopping)."""
+    from marl_social.run import randomized_overrides, run_episode
+
+    for seed in range(3):
+        result = run_episode("occluded_crosswalk", seed=seed, max_cycles=100, n_humans=3,
+                             robot_planner="cruise", **randomized_overrides(seed))
+        trace = result.trace
+        assert not trace.collided.any(), seed
+        x = trace.states[:, 1:4, 0]  # human_0..2 along the lane
+        assert np.all(np.diff(x, axis=1) < -4.5)  # ordered, never overlapping (4.5 m cars)
+        assert trace.states[:, 1, 3].min() < 3.0  # the leader really slowed down
