@@ -274,7 +274,7 @@ def test_builtin_specs_are_valid():
         assert spec.name == name and set(spec.pedestrians) >= {"crossing", "none"}
         assert set(spec.planners) >= {"social", "aggressive", "conservative", "oracle"}
         swept[name] = {p: len(v) for p, v in studies.axes(spec)}
-    assert swept["rationality"] == {"human_beta": 5, "robot_beta_hat": 4}
+    assert swept["rationality"] == {"human_beta": 6, "robot_beta_hat": 4}
     assert "social+beta" in studies.load_spec("rationality").planners
     assert swept["blind-human"] == {"human_blind": 2, "human_sensor_range_m": 3}
     assert swept["sensor-noise"] == {"robot_pos_noise_m": 3, "human_pos_noise_m": 3}
