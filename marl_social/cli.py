@@ -141,6 +141,10 @@ def _irl_fit(args) -> int:
     if np.all(np.isfinite(truth)) and np.allclose(truth, truth[0]):
         result.extra["cosine_to_true"] = cosine_similarity(result.theta, truth[0],
                                                            result.fitted)
+        rest = tuple(f for f in result.fitted if f != "crosswalk")
+        if rest != result.fitted and len(rest) > 1:  # the crosswalk weight dominates the norm
+            result.extra["cosine_to_true_without_crosswalk"] = cosine_similarity(
+                result.theta, truth[0], rest)
     path = result.save(args.out)
     print(f"fitted {len(demos)} demonstrations in {result.fit_time_s:.2f} s "
           f"(converged: {result.converged}; {result.n_regularized} Hessians regularized)")
@@ -150,6 +154,9 @@ def _irl_fit(args) -> int:
     print(f"  scale (rationality) {result.scale:.4f}")
     if "cosine_to_true" in result.extra:
         print(f"  cosine to the demonstrators' true theta: {result.extra['cosine_to_true']:.4f}")
+    if "cosine_to_true_without_crosswalk" in result.extra:
+        print("  cosine without the crosswalk weight:     "
+              f"{result.extra['cosine_to_true_without_crosswalk']:.4f}")
     print(f"-> {path}  (use it as the robot's model: robot_theta_hat={path})")
     return 0
 
