@@ -265,6 +265,14 @@ def _error_lines(table: StudyTable) -> list[str]:
     return lines
 
 
+def _spec_label(source: str) -> str:
+    """A built-in spec by its name (`marl-social study NAME`), not by this machine's path."""
+    source_path = Path(source)
+    if source_path.parent.name == "study_specs" and source_path.parent.parent.name == "marl_social":
+        return f"built-in `{source_path.stem}` (`marl-social study {source_path.stem}`)"
+    return f"`{source}`"
+
+
 def write_summary_md(table: StudyTable, gs: GroupStats, path: Path,
                      figures: list[Path]) -> Path:
     """summary.md: the study's settings, one table per metric, errors and plots."""
@@ -272,7 +280,7 @@ def write_summary_md(table: StudyTable, gs: GroupStats, path: Path,
     n_err = int((table.errors != "").sum())
     settings = (f"Scenario `{meta['scenario']}`, {len(table)} runs ({n_err} failed), "
                 f"max_cycles {meta['max_cycles']}, randomize "
-                f"{str(meta['randomize']).lower()}; spec: `{meta['source']}`.")
+                f"{str(meta['randomize']).lower()}; spec: {_spec_label(meta['source'])}.")
     lines = [f"# Study `{meta['name']}`", ""]
     if meta.get("description"):
         lines += [meta["description"], ""]
