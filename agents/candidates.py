@@ -13,7 +13,7 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
-from marl_social.agents.costs import circle_gap, crosswalk_occupancy, step_cost
+from marl_social.agents.costs import circle_gap, crosswalk_occupancy, step_cost, step_features
 
 from marl_social.agent_spec import VehicleParams
 from marl_social.dynamics import DT_S
@@ -142,6 +142,9 @@ class CandidateEvaluation:
         static_gap_m: (A, C) smallest gap between the covering circles and the bounding boxes
             of the static polygons [m] (inf without polygons); only with geometry=True.
         min_vehicle_gap_m: (L, A, C) as min_gap_m, vehicles only; only with geometry=True.
+        feature_totals: (L, A, C, N_FEATURES) per-feature totals over the horizon, in
+            simulator-step units (step_cost summed over T is theta . feature_totals); only with
+            features=True.
     """
 
     step_cost: np.ndarray
@@ -151,6 +154,7 @@ class CandidateEvaluation:
     conflict: np.ndarray | None = None
     static_gap_m: np.ndarray | None = None
     min_vehicle_gap_m: np.ndarray | None = None
+    feature_totals: np.ndarray | None = None
 
 
 def collision_free_totals(ev: CandidateEvaluation) -> np.ndarray:
@@ -171,8 +175,12 @@ def evaluate_candidates(cands: CandidateSet, theta: np.ndarray, v_ref_mps: float
                         vehicle: VehicleParams, route: Route, s0: float, v0: float,
                         prev_accel: float, scene: ScenePrediction,
                         crosswalks: tuple[Crosswalk, ...], geometry: bool = False,
-                        static_boxes: np.ndarray | None = None) -> CandidateEvaluation:
+                        static_boxes: np.ndarray | None = None,
+                        features: bool = False) -> CandidateEvaluation:
     """Roll out every candidate and cost it against every scene hypothesis (see module doc).
+
+    features: also return the per-feature totals (for discrete-choice IRL, agents/choice_irl.py);
+    the costs are computed exactly as without it.
 
     static_boxes: (S, 4) [xmin, ymin, xmax, ymax] of the static polygons [m], for the
     static clearance (geometry=True only; boxes contain their polygons, so it is conservative).
@@ -201,16 +209,22 @@ def evaluate_candidates(cands: CandidateSet, theta: np.ndarray, v_ref_mps: float
     gap = None
     if geometry and scene.mask.shape[1]:  # shared by the safety cost and the gap constraint
         gap = circle_gap(ego_circles, ego_r, other_circles, other_circle_r)  # (L,A,C,T,M)
-    cost = step_cost(
-        theta, lateral_m=0.0, speed_mps=v, v_ref_mps=v_ref_mps, accel_mps2=a_eff,
-        prev_accel_mps2=prev, ego_xy=xy, ego_radius=ego_radius, ego_is_ped=False,
-        ego_circles=ego_circles, ego_circle_r=ego_r, other_xy=other_xy,
-        other_radius=other_radius, other_is_ped=other_is_ped, other_circles=other_circles,
-        other_circle_r=other_circle_r, other_mask=other_mask, crosswalks=crosswalks, gap=gap,
-    ) * (dt / DT_S)
+    feature_args = {
+        "lateral_m": 0.0, "speed_mps": v, "v_ref_mps": v_ref_mps, "accel_mps2": a_eff,
+        "prev_accel_mps2": prev, "ego_xy": xy, "ego_radius": ego_radius, "ego_is_ped": False,
+        "ego_circles": ego_circles, "ego_circle_r": ego_r, "other_xy": other_xy,
+        "other_radius": other_radius, "other_is_ped": other_is_ped,
+        "other_circles": other_circles, "other_circle_r": other_circle_r,
+        "other_mask": other_mask, "crosswalks": crosswalks, "gap": gap,
+    }
+    cost = step_cost(theta, **feature_args) * (dt / DT_S)
     cost = np.broadcast_to(cost, (len(scene.mask),) + v.shape)
+    totals = None
+    if features:
+        phi = step_features(**feature_args) * (dt / DT_S)  # (L or 1, A, C, T, F)
+        totals = np.broadcast_to(phi.sum(axis=-2), cost.shape[:-1] + (phi.shape[-1],))
     if not geometry:
-        return CandidateEvaluation(cost, v, a_eff)
+        return CandidateEvaluation(cost, v, a_eff, feature_totals=totals)
     n_hyp = len(scene.mask)
     if gap is not None:
         gap = np.where(other_mask, gap, np.inf)
@@ -242,4 +256,4 @@ def evaluate_candidates(cands: CandidateSet, theta: np.ndarray, v_ref_mps: float
         dist = np.sqrt((outside ** 2).sum(axis=-1)) - ego_r[..., None]  # (A, C, T, K, S)
         static_gap = dist.min(axis=(-1, -2, -3))
     return CandidateEvaluation(cost, v, a_eff, min_gap, conflict.max(axis=-1), static_gap,
-                               min_vehicle_gap)
+                               min_vehicle_gap, totals)

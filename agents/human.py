@@ -104,6 +104,23 @@ def driver_q_values(model: DriverModel, route: Route, s0: float, v0: float, prev
     return collision_free_totals(ev).min(axis=-1)
 
 
+def driver_choice_features(model: DriverModel, route: Route, s0: float, v0: float,
+                           prev_accel: float, scene: ScenePrediction,
+                           crosswalks: tuple[Crosswalk, ...]) -> tuple[np.ndarray, np.ndarray]:
+    """What a driver's decision depends on, linear in theta (for discrete-choice IRL,
+    agents/choice_irl.py): Q*(u) = min over allowed c of theta . features[u, c].
+
+    Returns:
+        features (A, C, N_FEATURES): per-feature totals of each candidate [simulator-step units];
+        allowed (A, C) bool: the continuations collision_free_totals keeps.
+        Both for the first scene hypothesis.
+    """
+    ev = evaluate_candidates(model.candidates, model.theta.as_array(), model.v_desired_mps,
+                             model.vehicle, route, s0, v0, prev_accel, scene, crosswalks,
+                             geometry=True, features=True)
+    return ev.feature_totals[0].copy(), np.isfinite(collision_free_totals(ev)[0])
+
+
 def boltzmann(q_values: np.ndarray, beta: float) -> np.ndarray:
     """P(u) = softmax(-beta * Q) along the last axis; beta = inf puts all mass on the argmin
     (ties split evenly), beta = 0 is uniform."""
@@ -135,6 +152,7 @@ class BoltzmannDriver:
         )
         self.tracker = Tracker(spec.sensor.pos_noise_m, spec.sensor.vel_noise_mps)
         self._times = self.model.plan_times_s
+        self.record_decisions = False
         self.reset()
 
     def reset(self, seed: int | None = None) -> None:
@@ -143,6 +161,8 @@ class BoltzmannDriver:
         self.prev_accel = 0.0
         self.last_probabilities = None
         self.last_q = None
+        self.decisions = []  # with record_decisions: (features, allowed, chosen index) per step
+        self._pending_features = None
 
     def action_distribution(self, obs) -> np.ndarray:
         """(A,) probabilities of the first actions for this observation (updates the tracks)."""
@@ -157,6 +177,9 @@ class BoltzmannDriver:
                             self.crosswalks)[0]
         self.last_q = q
         self.last_probabilities = boltzmann(q, self.model.beta)
+        if self.record_decisions:  # computed apart: the decision itself is unchanged
+            self._pending_features = driver_choice_features(
+                self.model, self.route, s0, v, self.prev_accel, scene, self.crosswalks)
         return self.last_probabilities
 
     def choose(self, probabilities: np.ndarray) -> int:
@@ -168,7 +191,11 @@ class BoltzmannDriver:
 
     def __call__(self, obs) -> np.ndarray:
         p = self.action_distribution(obs)
-        accel = self.model.first_actions_mps2[self.choose(p)]
+        chosen = self.choose(p)
+        if self._pending_features is not None:
+            self.decisions.append((*self._pending_features, chosen))
+            self._pending_features = None
+        accel = self.model.first_actions_mps2[chosen]
         self.prev_accel = accel
         x, y, psi, v, s_arc = self._last_pose
         steer = pure_pursuit(self.route, x, y, psi, v, s_arc, self.model.vehicle.wheelbase_m)

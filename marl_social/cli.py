@@ -100,6 +100,8 @@ def _reproduce(args) -> int:
 def _record(args) -> int:
     from marl_social.demonstrations import save_demonstrations
 
+    if args.decisions:
+        return _record_decisions(args)
     if args.synthetic:
         from marl_social.synthetic_demos import near_rational_demonstrations
 
@@ -109,11 +111,9 @@ def _record(args) -> int:
     else:
         from marl_social.record import record_demonstrations
 
-        overrides = {"robot_planner": args.robot_planner, "pedestrian": args.pedestrian}
-        if args.human_beta is not None:
-            overrides["human_beta"] = args.human_beta
         demos = record_demonstrations(
-            args.scenario, range(args.seed0, args.seed0 + args.episodes), overrides,
+            args.scenario, range(args.seed0, args.seed0 + args.episodes),
+            _recording_overrides(args),
             max_cycles=args.max_cycles, segment_steps=args.segment_steps,
             stride_steps=args.stride, workers=args.workers, progress=True)
     if not demos:
@@ -124,20 +124,68 @@ def _record(args) -> int:
     return 0
 
 
-def _irl_fit(args) -> int:
-    from marl_social.agents.irl import FITTABLE, cosine_similarity, fit_theta
+def _recording_overrides(args) -> dict:
+    overrides = {"robot_planner": args.robot_planner, "pedestrian": args.pedestrian}
+    if args.human_beta is not None:
+        overrides["human_beta"] = args.human_beta
+    return overrides
+
+
+def _record_decisions(args) -> int:
+    from marl_social.decisions import save_decisions
+    from marl_social.record import record_decisions
+
+    decisions = record_decisions(
+        args.scenario, range(args.seed0, args.seed0 + args.episodes), _recording_overrides(args),
+        max_cycles=args.max_cycles, workers=args.workers, progress=True)
+    if decisions is None:
+        print("no human decisions recorded (no human driver in the scenario?)", file=sys.stderr)
+        return 1
+    path = save_decisions(args.out, decisions)
+    print(f"{len(decisions)} decisions of {len(set(decisions.agent))} human driver(s) -> {path}")
+    return 0
+
+
+def _load_fit_data(paths):
+    """Demonstrations (list) or, if every file is a decision file, a DecisionSet."""
+    from marl_social.decisions import DecisionSet, is_decision_file, load_decisions
     from marl_social.demonstrations import load_demonstrations
 
+    for path in paths:
+        if not Path(path).exists():
+            raise FileNotFoundError(f"irl fit: {path} does not exist")
+    kinds = [is_decision_file(p) for p in paths]
+    if all(kinds):
+        return DecisionSet.concatenate([load_decisions(p) for p in paths])
+    if any(kinds):
+        raise ValueError("irl fit: mix of decision files (`record --decisions`) and "
+                         "demonstrations; fit them separately")
     demos = []
-    for path in args.demos:
+    for path in paths:
         if str(path).lower().endswith(".csv"):
             from marl_social.interaction import load_interaction
 
             demos += load_interaction([path])
         else:
             demos += load_demonstrations(path)
-    result = fit_theta(demos, fitted=tuple(args.features or FITTABLE))
-    truth = np.array([d.theta_true for d in demos])
+    return demos
+
+
+def _irl_fit(args) -> int:
+    from marl_social.agents.irl import FITTABLE, cosine_similarity, fit_theta
+
+    data = _load_fit_data(args.demos)
+    fitted = tuple(args.features or FITTABLE)
+    if isinstance(data, list):
+        result = fit_theta(data, fitted=fitted)
+        truth = np.array([d.theta_true for d in data])
+        n_what = f"{len(data)} demonstrations"
+    else:
+        from marl_social.agents.choice_irl import fit_choice_theta
+
+        result = fit_choice_theta(data, fitted=fitted)
+        truth = data.theta_true * data.beta_true[:, None]  # the choice fit recovers beta * theta
+        n_what = f"{len(data)} decisions (discrete choice, exact likelihood)"
     if np.all(np.isfinite(truth)) and np.allclose(truth, truth[0]):
         result.extra["cosine_to_true"] = cosine_similarity(result.theta, truth[0],
                                                            result.fitted)
@@ -146,8 +194,9 @@ def _irl_fit(args) -> int:
             result.extra["cosine_to_true_without_crosswalk"] = cosine_similarity(
                 result.theta, truth[0], rest)
     path = result.save(args.out)
-    print(f"fitted {len(demos)} demonstrations in {result.fit_time_s:.2f} s "
-          f"(converged: {result.converged}; {result.n_regularized} Hessians regularized)")
+    print(f"fitted {n_what} in {result.fit_time_s:.2f} s (converged: {result.converged}"
+          + (f"; {result.n_regularized} Hessians regularized)" if isinstance(data, list)
+             else ")"))
     for name, w, d in zip(result.to_json()["features"], result.theta, result.direction):
         if np.isfinite(w):
             print(f"  {name:<10} theta {w:12.4f}   direction {d:8.4f}")
@@ -158,6 +207,12 @@ def _irl_fit(args) -> int:
         print("  cosine without the crosswalk weight:     "
               f"{result.extra['cosine_to_true_without_crosswalk']:.4f}")
     print(f"-> {path}  (use it as the robot's model: robot_theta_hat={path})")
+    if not isinstance(data, list):
+        from marl_social.agents.irl import robot_model_from_fit
+
+        _, beta_hat = robot_model_from_fit(result.to_json())
+        print(f"   the scale is in the robot's units: add robot_beta_hat={beta_hat:.4g} to use "
+              "the learned rationality too")
     return 0
 
 
@@ -203,6 +258,9 @@ def main(argv=None) -> int:
     rec.add_argument("--segment-steps", type=int, default=30)
     rec.add_argument("--stride", type=int, default=10)
     rec.add_argument("--workers", type=int, default=1)
+    rec.add_argument("--decisions", action="store_true",
+                     help="record every human decision (what its discrete choice depends on, "
+                          "marl_social/decisions.py) for the exact discrete-choice fit")
     rec.add_argument("--synthetic", action="store_true",
                      help="near-rational continuous demonstrations with a known theta instead "
                           "(marl_social/synthetic_demos.py)")
@@ -214,8 +272,10 @@ def main(argv=None) -> int:
 
     irl = sub.add_parser("irl", help="inverse optimal control: `irl fit DEMOS -o theta.json`")
     irl_sub = irl.add_subparsers(dest="irl_command", required=True)
-    fit = irl_sub.add_parser("fit", help="fit theta to demonstrations (Laplace approximation)")
-    fit.add_argument("demos", nargs="+", help=".npz from `record`, or INTERACTION-format .csv")
+    fit = irl_sub.add_parser("fit", help="fit theta to demonstrations (Laplace approximation) "
+                             "or to recorded decisions (exact discrete-choice likelihood)")
+    fit.add_argument("demos", nargs="+", help=".npz from `record` (demonstrations: Laplace fit; "
+                     "`record --decisions`: discrete-choice fit), or INTERACTION-format .csv")
     fit.add_argument("-o", "--out", default=f"{DEFAULT_OUT}/theta.json")
     fit.add_argument("--features", nargs="+", default=None,
                      help="features to fit (default: speed accel jerk safety crosswalk)")

@@ -1,5 +1,6 @@
 """`marl-social record`: demonstrations (marl_social/demonstrations.py) of the simulated human
-drivers, for inverse optimal control (agents/irl.py).
+drivers, for inverse optimal control (agents/irl.py), or their decisions
+(marl_social/decisions.py, `record_decisions`), for discrete-choice IRL (agents/choice_irl.py).
 
 Every human driver of every episode is cut into segments of `segment_steps` simulator steps
 (every `stride_steps`). A segment holds the human's executed accelerations along its route, its
@@ -16,6 +17,8 @@ import multiprocessing as mp
 
 import numpy as np
 
+from marl_social.agents.human import DriverModel
+from marl_social.decisions import DecisionSet
 from marl_social.demonstrations import Demonstration
 
 
@@ -66,12 +69,38 @@ def episode_demonstrations(result, segment_steps: int = 30, stride_steps: int = 
     return out
 
 
+def episode_decisions(result, source: str = "") -> DecisionSet | None:
+    """Every human driver's recorded decisions of one `run_episode(...,
+    record_human_decisions=True)` result as a DecisionSet (None if there were none)."""
+    if result.decisions is None:
+        raise ValueError("episode_decisions: run the episode with record_human_decisions=True")
+    parts = []
+    for name, rows in result.decisions.items():
+        if not rows:
+            continue
+        spec = result.specs[name]
+        n = len(rows)
+        first = np.asarray(DriverModel().first_actions_mps2)  # BoltzmannDriver's candidate set
+        parts.append(DecisionSet(
+            features=np.stack([r[0] for r in rows]), allowed=np.stack([r[1] for r in rows]),
+            chosen=np.array([r[2] for r in rows]), first_actions_mps2=first,
+            theta_true=np.tile(spec.cost_weights.as_array(), (n, 1)),
+            beta_true=np.full(n, float(spec.planner.get("beta", np.nan))),
+            agent=np.full(n, name), source=np.full(n, source),
+            t_s=np.asarray(result.trace.times_s[:n], dtype=np.float64)))
+    return DecisionSet.concatenate(parts) if parts else None
+
+
 def _record_one(job):
     from marl_social.run import randomized_overrides, run_episode
 
     scenario, seed, max_cycles, overrides, randomize, segment_steps, stride_steps = job
     params = {**(randomized_overrides(seed) if randomize else {}), **overrides}
-    result = run_episode(scenario, seed=seed, max_cycles=max_cycles, **params)
+    decisions = segment_steps is None
+    result = run_episode(scenario, seed=seed, max_cycles=max_cycles,
+                         record_human_decisions=decisions, **params)
+    if decisions:
+        return episode_decisions(result, source=f"{scenario} seed={seed}")
     return episode_demonstrations(result, segment_steps, stride_steps,
                                   source=f"{scenario} seed={seed}")
 
@@ -85,12 +114,26 @@ def record_demonstrations(scenario: str = "occluded_crosswalk", seeds=range(20),
     overrides = dict(overrides or {})
     jobs = [(scenario, int(s), max_cycles, overrides, randomize, segment_steps, stride_steps)
             for s in seeds]
+    return [d for chunk in _run_jobs(jobs, workers, progress) for d in chunk]
+
+
+def record_decisions(scenario: str = "occluded_crosswalk", seeds=range(20),
+                     overrides: dict | None = None, randomize: bool = True,
+                     max_cycles: int = 150, workers: int = 1,
+                     progress: bool = False) -> DecisionSet | None:
+    """Run one episode per seed (as record_demonstrations) and keep every human driver's
+    decisions (marl_social/decisions.py); None if no human decided."""
+    overrides = dict(overrides or {})
+    jobs = [(scenario, int(s), max_cycles, overrides, randomize, None, None) for s in seeds]
+    parts = [p for p in _run_jobs(jobs, workers, progress) if p is not None]
+    return DecisionSet.concatenate(parts) if parts else None
+
+
+def _run_jobs(jobs, workers, progress) -> list:
     if workers > 1:
         with mp.get_context("spawn").Pool(workers) as pool:
-            chunks = list(_progress(pool.imap(_record_one, jobs), len(jobs), progress))
-    else:
-        chunks = list(_progress(map(_record_one, jobs), len(jobs), progress))
-    return [d for chunk in chunks for d in chunk]
+            return list(_progress(pool.imap(_record_one, jobs), len(jobs), progress))
+    return list(_progress(map(_record_one, jobs), len(jobs), progress))
 
 
 def _progress(iterable, total, enabled):

@@ -7,6 +7,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from marl_social.agents.human import BoltzmannDriver
 from marl_social.episode import Trace, record_episode
 from marl_social.metrics import belief_metrics, episode_metrics
 from marl_social.perception.tracking import TrackSet
@@ -18,12 +19,15 @@ class EpisodeResult:
     """Attributes: metrics (dict of floats / bools, marl_social/metrics.py); trace (Trace, with
     extras "p_pedestrian", "perceived" and "p_<hypothesis>" for a belief-based robot);
     road_map (the episode's static map); specs ({agent: AgentSpec}, every agent's own
-    parameters, incl. its true cost weights and rationality)."""
+    parameters, incl. its true cost weights and rationality); decisions ({human: [(features,
+    allowed, chosen), ...]}, agents/human.BoltzmannDriver.decisions) with
+    record_human_decisions."""
 
     metrics: dict
     trace: Trace
     road_map: RoadMap
     specs: dict | None = None
+    decisions: dict | None = None
 
 
 def truth_tracks(env, observer: str) -> TrackSet:
@@ -66,13 +70,16 @@ class _RecordingRobot:
 
 
 def run_episode(scenario: str = "occluded_crosswalk", seed: int = 0, render: bool = False,
-                max_cycles: int = 200, **overrides) -> EpisodeResult:
+                max_cycles: int = 200, record_human_decisions: bool = False,
+                **overrides) -> EpisodeResult:
     """Run one episode with `marl_social.policies` (the robot's planner from the
     `robot_planner` override) and return its metrics and trace.
 
     Args:
         seed: seeds the env (sensor noise) and every policy (Boltzmann sampling).
         render: also keep rgb frames in trace.frames.
+        record_human_decisions: also keep every human driver's decisions (what its choice
+            depends on, for agents/choice_irl.py; the episode itself is unchanged).
         overrides: scenario parameters (e.g. pedestrian="none", robot_planner="aggressive").
     """
     import marl_social
@@ -80,6 +87,9 @@ def run_episode(scenario: str = "occluded_crosswalk", seed: int = 0, render: boo
     env = marl_social.parallel_env(scenario=scenario, max_cycles=max_cycles,
                                    render_mode="rgb_array" if render else None, **overrides)
     pols = marl_social.policies(env)
+    humans = {a: p for a, p in pols.items() if isinstance(p, BoltzmannDriver)}
+    for policy in humans.values():
+        policy.record_decisions = record_human_decisions
     extras: dict = {}
     if "robot_0" in pols:
         pols["robot_0"] = _RecordingRobot(env, "robot_0", pols["robot_0"], extras)
@@ -97,7 +107,9 @@ def run_episode(scenario: str = "occluded_crosswalk", seed: int = 0, render: boo
     metrics = episode_metrics(trace, env.road_map)
     metrics.update(belief_metrics(trace, env.road_map))
     env.close()
-    return EpisodeResult(metrics, trace, env.road_map, dict(env.agent_specs))
+    decisions = ({a: list(p.decisions) for a, p in humans.items()}
+                 if record_human_decisions else None)
+    return EpisodeResult(metrics, trace, env.road_map, dict(env.agent_specs), decisions)
 
 
 def randomized_overrides(seed: int) -> dict:
