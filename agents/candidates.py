@@ -41,12 +41,10 @@ class ScenePrediction:
 
     @classmethod
     def from_tracks(cls, tracks, times_s: np.ndarray) -> ScenePrediction:
-        """One hypothesis: every track of a TrackSet at constant velocity."""
+        """One hypothesis: every track of a TrackSet at constant velocity, footprints at the
+        tracks' measured headings."""
         xy = tracks.predict_xy(times_s)[None]  # (1, M, T, 2)
-        speed = np.linalg.norm(tracks.velocity, axis=1)
-        heading = np.where(speed > 0.05, np.arctan2(tracks.velocity[:, 1], tracks.velocity[:, 0]),
-                           0.0)
-        heading = np.broadcast_to(heading[None, :, None], xy.shape[:-1])
+        heading = np.broadcast_to(tracks.heading_rad[None, :, None], xy.shape[:-1])
         radius = 0.5 * np.hypot(tracks.length_m, tracks.width_m)
         m = len(tracks)
         return cls(xy, heading, tracks.length_m[None], tracks.width_m[None], radius[None],

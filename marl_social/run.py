@@ -42,7 +42,7 @@ def truth_tracks(env, observer: str) -> TrackSet:
         velocity=world.velocity_mps[others].copy(), pos_std_m=np.zeros(len(others)),
         length_m=world.length_m[others], width_m=world.width_m[others],
         is_pedestrian=world.is_pedestrian[others], seen=np.ones(len(others), bool),
-        age_unseen_s=np.zeros(len(others)),
+        age_unseen_s=np.zeros(len(others)), heading_rad=world.state[others, 2].copy(),
     )
 
 

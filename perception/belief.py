@@ -674,8 +674,7 @@ class PedestrianBelief:
         is_ped = np.append(tracks.is_pedestrian, False)[keep]
         m = len(vel)
         pred = xy[keep][:, None, :] + vel[:, None, :] * self._times[None, :, None]
-        speed = np.hypot(vel[:, 0], vel[:, 1])
-        heading = np.where(speed > 0.05, np.arctan2(vel[:, 1], vel[:, 0]), 0.0)
+        heading = np.append(tracks.heading_rad, math.atan2(ego[3], ego[2]))[keep]
         heading = np.broadcast_to(heading[:, None], (m, len(self._times)))
         return ScenePrediction(pred[None], heading[None], length[None], width[None],
                                0.5 * np.hypot(length, width)[None], is_ped[None],

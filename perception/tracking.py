@@ -3,6 +3,11 @@
 
 Association is by the object id in the observation slot (a perception stack's track id). A track
 that is not measured coasts on its prediction and is dropped after `timeout_s`.
+
+A track's heading (its footprint's orientation) is the direction of the filtered velocity while
+the object moves at `MOVING_MPS` or more, else the last measured box heading: a stopped car's
+velocity estimate is noise, and a 4.5 m box turned to its direction would sweep across the
+neighbouring lane.
 """
 
 from __future__ import annotations
@@ -17,6 +22,7 @@ from marl_social.dynamics import DT_S
 from marl_social.observation import SLOT_FIELDS, DecodedObservation
 
 _F = {name: i for i, name in enumerate(SLOT_FIELDS)}
+MOVING_MPS = 1.0  # below this tracked speed the heading is the measured box heading [m/s]
 
 
 @dataclass(frozen=True)
@@ -28,6 +34,7 @@ class TrackSet:
         xy: (k, 2) [m]; velocity: (k, 2) [m/s]; pos_std_m: (k,) sqrt of the mean position
             variance [m]; length_m, width_m: (k,) [m]; is_pedestrian: (k,) bool;
         seen: (k,) bool, measured this step; age_unseen_s: (k,) time since last measured [s].
+        heading_rad: (k,) footprint heading [rad] (module docstring).
     """
 
     ids: np.ndarray
@@ -39,6 +46,7 @@ class TrackSet:
     is_pedestrian: np.ndarray
     seen: np.ndarray
     age_unseen_s: np.ndarray
+    heading_rad: np.ndarray
 
     def __len__(self) -> int:
         return len(self.ids)
@@ -69,7 +77,7 @@ class Tracker:
 
     def reset(self) -> None:
         self._filters: dict[int, tuple[np.ndarray, np.ndarray]] = {}  # id -> (x (4,), P (4, 4))
-        self._attrs: dict[int, tuple[float, float, bool]] = {}
+        self._attrs: dict[int, tuple[float, float, bool, float]] = {}  # length, width, ped, psi
         self._unseen: dict[int, float] = {}
         self._seen_now: set[int] = set()
 
@@ -95,7 +103,8 @@ class Tracker:
             else:
                 self._filters[oid] = (z, self._R.copy())
             self._attrs[oid] = (float(row[_F["length"]]), float(row[_F["width"]]),
-                                bool(row[_F["is_pedestrian"]] > 0.5))
+                                bool(row[_F["is_pedestrian"]] > 0.5),
+                                float(np.arctan2(row[_F["sin_psi"]], row[_F["cos_psi"]])))
             self._unseen[oid] = 0.0
         self._seen_now = set(measured)
         return self.tracks()
@@ -105,7 +114,8 @@ class Tracker:
         if len(ids) == 0:
             z2 = np.zeros((0, 2))
             z0 = np.zeros(0)
-            return TrackSet(ids, z2, z2, z0, z0, z0, np.zeros(0, bool), np.zeros(0, bool), z0)
+            return TrackSet(ids, z2, z2, z0, z0, z0, np.zeros(0, bool), np.zeros(0, bool), z0,
+                            z0)
         states = np.array([self._filters[i][0] for i in ids])
         pos_var = np.array([0.5 * (self._filters[i][1][0, 0] + self._filters[i][1][1, 1])
                             for i in ids])
@@ -113,5 +123,13 @@ class Tracker:
         return TrackSet(
             ids, states[:, :2], states[:, 2:], np.sqrt(pos_var), attrs[:, 0], attrs[:, 1],
             attrs[:, 2] > 0.5, np.array([i in self._seen_now for i in ids]),
-            np.array([self._unseen[i] for i in ids]),
+            np.array([self._unseen[i] for i in ids]), track_heading(states[:, 2:], attrs[:, 3]),
         )
+
+
+def track_heading(velocity_mps: np.ndarray, measured_heading_rad: np.ndarray) -> np.ndarray:
+    """(k,) footprint headings [rad]: the velocity's direction where the speed is at least
+    MOVING_MPS, else the measured box heading. velocity_mps (k, 2) [m/s]; measured (k,) [rad]."""
+    speed = np.hypot(velocity_mps[:, 0], velocity_mps[:, 1])
+    return np.where(speed >= MOVING_MPS, np.arctan2(velocity_mps[:, 1], velocity_mps[:, 0]),
+                    measured_heading_rad)

@@ -90,3 +90,38 @@ def test_static_polygon_ahead_is_a_constraint():
                    _scene([False]), np.array([1.0]), (), static_boxes=boxes)
     assert free.accel_mps2 == 0.0
     assert blocked.feasible and blocked.accel_mps2 < 0.0
+
+
+def test_car_stopped_in_the_next_lane_does_not_block_the_robot():
+    """A stopped car's velocity estimate is noise: its tracked footprint keeps the measured
+    heading (along the road), so the robot passing it in its own lane keeps its speed. Turned
+    to the direction of the noise (across the road), the 4.5 m car would reach into the
+    robot's lane and force it to brake."""
+    from marl_social.perception.tracking import Tracker
+
+    from marl_social.observation import EGO_DIM, SLOT_FIELDS, ObservationLayout
+
+    layout = ObservationLayout(n_slots=2, n_rays=4)
+    f = {name: i for i, name in enumerate(SLOT_FIELDS)}
+    tracker = Tracker(pos_noise_m=0.05, vel_noise_mps=0.1)
+    rng = np.random.default_rng(3)
+    for _ in range(20):  # stopped at x = 95 in the right lane (y = -1.75), heading along +x
+        vec = np.zeros(layout.size, dtype=np.float32)
+        slot = vec[EGO_DIM:EGO_DIM + len(SLOT_FIELDS)]
+        slot[f["present"]], slot[f["id"]] = 1.0, 2.0
+        slot[f["x"]], slot[f["y"]] = 95.0 + rng.normal(0, 0.05), -1.75 + rng.normal(0, 0.05)
+        slot[f["vx"]], slot[f["vy"]] = 0.0, 0.3  # the noise points across the road
+        slot[f["cos_psi"]], slot[f["sin_psi"]] = 1.0, 0.0
+        slot[f["length"]], slot[f["width"]] = 4.5, 1.8
+        tracks = tracker.update(layout.decode(vec))
+    assert tracks.heading_rad[0] == pytest.approx(0.0)
+    scene = ScenePrediction.from_tracks(tracks, TIMES)
+    assert np.allclose(scene.heading, 0.0)
+    res = plan(CONFIG, VehicleParams(), ROUTE, 130.0, 11.5, 0.0, 11.5, 13.9, scene,
+               np.array([1.0]), ())
+    assert res.feasible and res.accel_mps2 == 0.0
+    across = ScenePrediction(scene.xy, np.full_like(scene.heading, np.pi / 2), scene.length_m,
+                             scene.width_m, scene.radius_m, scene.is_pedestrian, scene.mask)
+    blocked = plan(CONFIG, VehicleParams(), ROUTE, 130.0, 11.5, 0.0, 11.5, 13.9, across,
+                   np.array([1.0]), ())
+    assert blocked.accel_mps2 < 0.0
