@@ -224,7 +224,8 @@ def main(argv=None) -> int:
     demo.add_argument("--out", default=DEFAULT_OUT, help=f"output folder (default {DEFAULT_OUT})")
     demo.add_argument("--pedestrian", default="crossing", choices=["crossing", "waiting", "none"])
     demo.add_argument("--planner", default="social",
-                      choices=["social", "aggressive", "conservative", "oracle", "cruise"])
+                      choices=["social", "social+beta", "aggressive", "conservative", "oracle",
+                               "cruise"])
     demo.add_argument("--seed", type=int, default=0)
     demo.add_argument("--max-cycles", type=int, default=200)
     demo.add_argument("--no-animation", action="store_true", help="figure only (faster)")
