@@ -42,7 +42,7 @@ class ScenePrediction:
     @classmethod
     def from_tracks(cls, tracks, times_s: np.ndarray) -> ScenePrediction:
         """One hypothesis: every track of a TrackSet at constant velocity, footprints at the
-        tracks' measured headings."""
+        tracks' headings (TrackSet.heading_rad, perception/tracking.py)."""
         xy = tracks.predict_xy(times_s)[None]  # (1, M, T, 2)
         heading = np.broadcast_to(tracks.heading_rad[None, :, None], xy.shape[:-1])
         radius = 0.5 * np.hypot(tracks.length_m, tracks.width_m)
