@@ -19,12 +19,12 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
-from marl_social.agents.steering import pure_pursuit, walk_along
 
-from marl_social.agent_spec import AgentSpec
-from marl_social.dynamics import DT_S
-from marl_social.observation import SLOT_FIELDS, ObservationLayout
-from marl_social.road_map import RoadMap
+from marl_social.models.steering import pure_pursuit, walk_along
+from marl_social.sim.agent_spec import AgentSpec
+from marl_social.sim.dynamics import DT_S
+from marl_social.sim.observation import SLOT_FIELDS, ObservationLayout
+from marl_social.sim.road_map import RoadMap
 
 PREDICTION_HORIZON_S = 3.0
 _F = {name: i for i, name in enumerate(SLOT_FIELDS)}
@@ -53,7 +53,8 @@ class IdmParams:
 
 def idm_acceleration(v_mps, v0_mps, gap_m, closing_mps, p: IdmParams) -> np.ndarray:
     """IDM acceleration [m/s^2] for speed v, desired speed v0, gap to the leader (inf = none)
-    and closing speed v - v_leader. All arguments broadcast."""
+    and closing speed v - v_leader. All arguments broadcast.
+    """
     s_star = p.min_gap_m + np.maximum(
         0.0, v_mps * p.headway_s
         + v_mps * closing_mps / (2.0 * math.sqrt(p.accel_mps2 * p.comfort_brake_mps2))

@@ -15,122 +15,24 @@ with the episode's seeded generator; beta = inf is the argmin (perfectly rationa
 uniform. Others are predicted at constant velocity from the human's tracks. The human chooses
 its acceleration along its route (path-velocity decomposition); pure pursuit steers.
 
-`driver_q_values` is the same computation for arbitrary hypotheses about the scene: the robot's
-model of a human (issue: social perception) calls it with its own hypotheses and (theta_hat,
-beta_hat).
+The decision model itself (`models/driver.py`, `models/boltzmann.py`) is shared: the robot's
+model of a human calls `driver_q_values` with its own hypotheses and (theta_hat, beta_hat).
 """
 
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
 
 import numpy as np
-from marl_social.agents.candidates import (  # noqa: F401  (re-exported for planners' users)
-    CandidateSet,
-    ScenePrediction,
-    collision_free_totals,
-    evaluate_candidates,
-    rollout_speeds,
-)
-from marl_social.agents.costs import CostWeights
-from marl_social.agents.steering import pure_pursuit
 from marl_social.perception.tracking import Tracker
 
-from marl_social.agent_spec import AgentSpec, VehicleParams
-from marl_social.observation import ObservationLayout
-from marl_social.road_map import Crosswalk, RoadMap, Route
-
-
-@dataclass(frozen=True)
-class DriverModel:
-    """What defines a driver's decision (its own, or the robot's estimate of it).
-
-    Attributes:
-        theta: cost weights.
-        beta: rationality (>= 0; inf = always the best action).
-        v_desired_mps: speed it wants [m/s] (its v_ref).
-        first_actions_mps2: (A,) candidate first accelerations [m/s^2].
-        continuations_mps2: (C,) accelerations held after the first segment [m/s^2].
-        first_segment_s: how long the first action is held in the rollout [s].
-        horizon_s: planning horizon N [s].
-        plan_dt_s: time step of the planner's rollout [s] (coarser than the simulator's;
-            per-step costs are scaled by plan_dt / DT_S so Q is in simulator-step units).
-        vehicle: its physical parameters.
-    """
-
-    theta: CostWeights = field(default_factory=CostWeights)
-    beta: float = 5.0
-    v_desired_mps: float = 11.5
-    first_actions_mps2: tuple = (-8.0, -6.0, -4.0, -3.0, -2.0, -1.0, 0.0, 1.0, 2.0)
-    continuations_mps2: tuple = (-4.0, -2.0, -1.0, 0.0, 1.0)
-    first_segment_s: float = 0.5
-    horizon_s: float = 3.0
-    plan_dt_s: float = 0.25
-    vehicle: VehicleParams = field(default_factory=VehicleParams)
-
-    def __post_init__(self):
-        if not (self.beta >= 0):  # also rejects NaN
-            raise ValueError(f"DriverModel.beta must be >= 0 (inf allowed), got {self.beta}")
-        if not self.horizon_s > self.first_segment_s >= self.plan_dt_s > 0:
-            raise ValueError("DriverModel: need horizon_s > first_segment_s >= plan_dt_s > 0")
-
-    @property
-    def candidates(self) -> CandidateSet:
-        return CandidateSet(self.first_actions_mps2, self.continuations_mps2,
-                            self.first_segment_s, self.horizon_s, self.plan_dt_s)
-
-    @property
-    def plan_times_s(self) -> np.ndarray:
-        """(T,) times of the rollout's states after each planner step [s]."""
-        return self.candidates.plan_times_s
-
-
-def driver_q_values(model: DriverModel, route: Route, s0: float, v0: float, prev_accel: float,
-                    scene: ScenePrediction, crosswalks: tuple[Crosswalk, ...]) -> np.ndarray:
-    """Q*(x_hat, u) for each first action u and each scene hypothesis (eq. 11).
-
-    Args:
-        route: the driver's route; s0 [m], v0 [m/s]: its arc length and speed;
-        prev_accel: its last acceleration [m/s^2] (for the jerk term);
-        scene: predicted others, L hypotheses, at model.plan_times_s.
-    Returns:
-        (L, A) optimal cost-to-go of each first action; continuations that run into a
-        predicted object are excluded (candidates.collision_free_totals).
-    """
-    ev = evaluate_candidates(model.candidates, model.theta.as_array(), model.v_desired_mps,
-                             model.vehicle, route, s0, v0, prev_accel, scene, crosswalks,
-                             geometry=True)
-    return collision_free_totals(ev).min(axis=-1)
-
-
-def driver_choice_features(model: DriverModel, route: Route, s0: float, v0: float,
-                           prev_accel: float, scene: ScenePrediction,
-                           crosswalks: tuple[Crosswalk, ...]) -> tuple[np.ndarray, np.ndarray]:
-    """What a driver's decision depends on, linear in theta (for discrete-choice IRL,
-    agents/choice_irl.py): Q*(u) = min over allowed c of theta . features[u, c].
-
-    Returns:
-        features (A, C, N_FEATURES): per-feature totals of each candidate [simulator-step units];
-        allowed (A, C) bool: the continuations collision_free_totals keeps.
-        Both for the first scene hypothesis.
-    """
-    ev = evaluate_candidates(model.candidates, model.theta.as_array(), model.v_desired_mps,
-                             model.vehicle, route, s0, v0, prev_accel, scene, crosswalks,
-                             geometry=True, features=True)
-    return ev.feature_totals[0].copy(), np.isfinite(collision_free_totals(ev)[0])
-
-
-def boltzmann(q_values: np.ndarray, beta: float) -> np.ndarray:
-    """P(u) = softmax(-beta * Q) along the last axis; beta = inf puts all mass on the argmin
-    (ties split evenly), beta = 0 is uniform."""
-    q = np.asarray(q_values, dtype=np.float64)
-    if math.isinf(beta):
-        best = q == q.min(axis=-1, keepdims=True)
-        return best / best.sum(axis=-1, keepdims=True)
-    z = -beta * (q - q.min(axis=-1, keepdims=True))
-    p = np.exp(z)
-    return p / p.sum(axis=-1, keepdims=True)
+from marl_social.models.boltzmann import boltzmann
+from marl_social.models.candidates import ScenePrediction
+from marl_social.models.driver import DriverModel, driver_choice_features, driver_q_values
+from marl_social.models.steering import pure_pursuit
+from marl_social.sim.agent_spec import AgentSpec
+from marl_social.sim.observation import ObservationLayout
+from marl_social.sim.road_map import RoadMap
 
 
 class BoltzmannDriver:
@@ -184,7 +86,8 @@ class BoltzmannDriver:
 
     def choose(self, probabilities: np.ndarray) -> int:
         """Sample an action index from the distribution with the policy's seeded generator
-        (inverse-CDF sampling: one uniform draw)."""
+        (inverse-CDF sampling: one uniform draw).
+        """
         cdf = np.cumsum(probabilities)
         k = int(np.searchsorted(cdf, self.rng.random() * cdf[-1], side="right"))
         return min(k, len(probabilities) - 1)

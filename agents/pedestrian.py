@@ -13,54 +13,24 @@ cheaper than walking into its path.
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
-
 import numpy as np
-from marl_social.agents.costs import CostWeights, step_cost
-from marl_social.agents.human import ScenePrediction, boltzmann
-from marl_social.agents.steering import walk_along
 from marl_social.perception.tracking import Tracker, TrackSet
 
-from marl_social.agent_spec import AgentSpec
-from marl_social.dynamics import DT_S
-from marl_social.footprint import covering_circles
-from marl_social.observation import ObservationLayout
-from marl_social.road_map import Crosswalk, RoadMap, Route
-
-
-@dataclass(frozen=True)
-class PedestrianModel:
-    """Attributes:
-        theta: cost weights; beta: rationality (inf = argmin).
-        v_walk_mps: walking speed it wants once it crosses [m/s].
-        speeds_mps: (A,) candidate speeds along its route [m/s] (0 = wait).
-        horizon_s: planning horizon [s]; plan_dt_s: its rollout step [s] (costs scaled by
-            plan_dt / DT_S, as for drivers).
-        expected_yield_decel_mps2: a car that can stop before the crosswalk braking at most
-            this hard is expected to yield [m/s^2].
-        radius_m: its own disc radius [m].
-    """
-
-    theta: CostWeights = field(default_factory=lambda: CostWeights(
-        tracking=1.0, speed=1.0, accel=0.01, jerk=0.0, safety=5.0, crosswalk=1000.0))
-    beta: float = 5.0
-    v_walk_mps: float = 1.3
-    speeds_mps: tuple = (0.0, 0.5, 0.9, 1.3, 1.7, 2.0)
-    horizon_s: float = 4.0
-    plan_dt_s: float = 0.25
-    expected_yield_decel_mps2: float = 4.0
-    radius_m: float = 0.3
-
-    @property
-    def plan_times_s(self) -> np.ndarray:
-        """(T,) times of the rollout's states after each planner step [s]."""
-        return (np.arange(round(self.horizon_s / self.plan_dt_s)) + 1) * self.plan_dt_s
+from marl_social.models.boltzmann import boltzmann
+from marl_social.models.candidates import ScenePrediction
+from marl_social.models.pedestrian import PedestrianModel, pedestrian_q_values
+from marl_social.models.steering import walk_along
+from marl_social.sim.agent_spec import AgentSpec
+from marl_social.sim.dynamics import DT_S
+from marl_social.sim.observation import ObservationLayout
+from marl_social.sim.road_map import Crosswalk, RoadMap
 
 
 def vehicles_expected_to_yield(tracks: TrackSet, crosswalk: Crosswalk, decel_mps2: float
                                ) -> np.ndarray:
     """(k,) bool: vehicle tracks heading towards the crosswalk that can still stop before it
-    braking at decel_mps2 (v^2 / (2 decel) < distance to the crosswalk's near edge)."""
+    braking at decel_mps2 (v^2 / (2 decel) < distance to the crosswalk's near edge).
+    """
     if len(tracks) == 0:
         return np.zeros(0, dtype=bool)
     rel = crosswalk.center - tracks.xy
@@ -73,38 +43,10 @@ def vehicles_expected_to_yield(tracks: TrackSet, crosswalk: Crosswalk, decel_mps
     return ~tracks.is_pedestrian & approaching & (stopping < gap)
 
 
-def pedestrian_q_values(model: PedestrianModel, route: Route, s0: float, v_ref: float,
-                        prev_speed: float, scene: ScenePrediction,
-                        crosswalks: tuple[Crosswalk, ...]) -> np.ndarray:
-    """Cost (L, A) of walking at each candidate speed for the horizon, per scene hypothesis."""
-    dt = model.plan_dt_s
-    t = model.plan_times_s
-    speeds = np.asarray(model.speeds_mps, dtype=np.float64)
-    s = np.minimum(s0 + speeds[:, None] * t[None, :], route.length_m)  # (A, T)
-    xy, heading = route.point_at(s)
-    v = np.broadcast_to(speeds[:, None], s.shape)
-    accel = np.zeros_like(v)
-    accel[:, 0] = (speeds - prev_speed) / dt
-    diam = 2.0 * model.radius_m
-    ego_c, ego_r = covering_circles(xy, heading, diam, diam, True)
-    oc, orad = covering_circles(scene.xy, scene.heading, scene.length_m[..., None],
-                                scene.width_m[..., None], scene.is_pedestrian[..., None])
-    to_cand = lambda a: np.moveaxis(a, 1, 2)[:, None]  # (L, 1, T, M, ...)
-    cost = step_cost(
-        model.theta.as_array(), lateral_m=0.0, speed_mps=v, v_ref_mps=v_ref, accel_mps2=accel, prev_accel_mps2=0.0,
-        ego_xy=xy, ego_radius=model.radius_m, ego_is_ped=True, ego_circles=ego_c,
-        ego_circle_r=ego_r, other_xy=to_cand(scene.xy),
-        other_radius=scene.radius_m[:, None, None, :],
-        other_is_ped=scene.is_pedestrian[:, None, None, :], other_circles=to_cand(oc),
-        other_circle_r=to_cand(orad), other_mask=scene.mask[:, None, None, :],
-        crosswalks=crosswalks,
-    )  # (L, A, T)
-    return cost.sum(axis=-1) * (dt / DT_S)
-
-
 class BoltzmannPedestrian:
     """A pedestrian policy (see module docstring). Planner parameters from its AgentSpec:
-    "crossing" (intends to cross), "start_delay_s" (when that intent begins), "beta"."""
+    "crossing" (intends to cross), "start_delay_s" (when that intent begins), "beta".
+    """
 
     def __init__(self, spec: AgentSpec, layout: ObservationLayout, road_map: RoadMap):
         self.name = spec.name

@@ -18,7 +18,7 @@ import tempfile
 import time
 from pathlib import Path
 
-from marl_social import studies
+from marl_social.studies import runner as studies
 
 
 def _table(path: Path) -> list[tuple]:

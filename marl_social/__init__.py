@@ -1,10 +1,12 @@
 """marl-social: a PettingZoo multi-agent driving simulator in which humans are explicit
 planners with their own fields of view (Sun, Zhan, Chan, Tomizuka, "Behavior Planning of
-Autonomous Cars with Social Perception", IEEE IV 2019)."""
+Autonomous Cars with Social Perception", IEEE IV 2019).
+"""
 
-from marl_social.env import SocialDrivingEnv, env, parallel_env, raw_env
-from marl_social.policies import autopilot, policies
-from marl_social.run import run_episode
+from marl_social.envs.autopilot import autopilot
+from marl_social.envs.parallel import SocialDrivingEnv, env, parallel_env, raw_env
+from marl_social.envs.policies import policies
+from marl_social.evaluation.run import run_episode
 
 __version__ = "0.1.0"
 __all__ = ["SocialDrivingEnv", "__version__", "autopilot", "env", "parallel_env", "policies",

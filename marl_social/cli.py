@@ -36,8 +36,8 @@ def _annotate_belief(frames, p_pedestrian, perceived):
 
 
 def _demo(args) -> int:
-    from marl_social.render import plot_episode, write_animation
-    from marl_social.run import run_episode
+    from marl_social.evaluation.run import run_episode
+    from marl_social.viz.render import plot_episode, write_animation
 
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
@@ -69,7 +69,7 @@ def _demo(args) -> int:
 
 
 def _bench(args) -> int:
-    from marl_social.bench import bench_planners, run_env_benchmark
+    from marl_social.bench.env_bench import bench_planners, run_env_benchmark
 
     if args.what == "planners":
         rows = bench_planners()
@@ -82,7 +82,7 @@ def _bench(args) -> int:
 
 
 def _reproduce(args) -> int:
-    from marl_social.reproduce import format_table, run_table, write_figures
+    from marl_social.evaluation.reproduce import format_table, run_table, write_figures
 
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
@@ -98,18 +98,18 @@ def _reproduce(args) -> int:
 
 
 def _record(args) -> int:
-    from marl_social.demonstrations import save_demonstrations
+    from marl_social.data.demonstrations import save_demonstrations
 
     if args.decisions:
         return _record_decisions(args)
     if args.synthetic:
-        from marl_social.synthetic_demos import near_rational_demonstrations
+        from marl_social.agents.irl.synthetic import near_rational_demonstrations
 
         theta = np.array(args.theta, dtype=np.float64) * args.beta
         demos = near_rational_demonstrations(theta, args.segments, seed=args.seed0,
                                              n_steps=args.segment_steps)
     else:
-        from marl_social.record import record_demonstrations
+        from marl_social.evaluation.record import record_demonstrations
 
         demos = record_demonstrations(
             args.scenario, range(args.seed0, args.seed0 + args.episodes),
@@ -132,8 +132,8 @@ def _recording_overrides(args) -> dict:
 
 
 def _record_decisions(args) -> int:
-    from marl_social.decisions import save_decisions
-    from marl_social.record import record_decisions
+    from marl_social.data.decisions import save_decisions
+    from marl_social.evaluation.record import record_decisions
 
     decisions = record_decisions(
         args.scenario, range(args.seed0, args.seed0 + args.episodes), _recording_overrides(args),
@@ -148,8 +148,8 @@ def _record_decisions(args) -> int:
 
 def _load_fit_data(paths):
     """Demonstrations (list) or, if every file is a decision file, a DecisionSet."""
-    from marl_social.decisions import DecisionSet, is_decision_file, load_decisions
-    from marl_social.demonstrations import load_demonstrations
+    from marl_social.data.decisions import DecisionSet, is_decision_file, load_decisions
+    from marl_social.data.demonstrations import load_demonstrations
 
     for path in paths:
         if not Path(path).exists():
@@ -163,7 +163,7 @@ def _load_fit_data(paths):
     demos = []
     for path in paths:
         if str(path).lower().endswith(".csv"):
-            from marl_social.interaction import load_interaction
+            from marl_social.data.interaction import load_interaction
 
             demos += load_interaction([path])
         else:
@@ -172,7 +172,7 @@ def _load_fit_data(paths):
 
 
 def _irl_fit(args) -> int:
-    from marl_social.agents.irl import FITTABLE, cosine_similarity, fit_theta
+    from marl_social.agents.irl.laplace import FITTABLE, cosine_similarity, fit_theta
 
     data = _load_fit_data(args.demos)
     fitted = tuple(args.features or FITTABLE)
@@ -181,7 +181,7 @@ def _irl_fit(args) -> int:
         truth = np.array([d.theta_true for d in data])
         n_what = f"{len(data)} demonstrations"
     else:
-        from marl_social.agents.choice_irl import fit_choice_theta
+        from marl_social.agents.irl.choice import fit_choice_theta
 
         result = fit_choice_theta(data, fitted=fitted)
         truth = data.theta_true * data.beta_true[:, None]  # the choice fit recovers beta * theta
@@ -208,7 +208,7 @@ def _irl_fit(args) -> int:
               f"{result.extra['cosine_to_true_without_crosswalk']:.4f}")
     print(f"-> {path}  (use it as the robot's model: robot_theta_hat={path})")
     if not isinstance(data, list):
-        from marl_social.agents.irl import robot_model_from_fit
+        from marl_social.agents.irl.laplace import robot_model_from_fit
 
         _, beta_hat = robot_model_from_fit(result.to_json())
         print(f"   the scale is in the robot's units: add robot_beta_hat={beta_hat:.4g} to use "
@@ -283,7 +283,7 @@ def main(argv=None) -> int:
     fit.set_defaults(func=_irl_fit)
 
     try:
-        from marl_social.studies import register_cli
+        from marl_social.studies.runner import register_cli
     except ImportError:  # pragma: no cover - the study runner is part of the package
         register_cli = None
     if register_cli is not None:

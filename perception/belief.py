@@ -59,20 +59,21 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 from filterpy.discrete_bayes import normalize
 from filterpy.discrete_bayes import update as bayes_update
-from marl_social.agents.candidates import (
+from marl_social.perception.fov import depth_ray_angles
+from marl_social.perception.tracking import Tracker, TrackSet
+
+from marl_social.models.boltzmann import boltzmann
+from marl_social.models.candidates import (
     ScenePrediction,
     collision_free_totals,
     evaluate_candidates,
 )
-from marl_social.agents.costs import CostWeights
-from marl_social.agents.human import DriverModel, boltzmann
-from marl_social.perception.fov import depth_ray_angles
-from marl_social.perception.tracking import Tracker, TrackSet
-
-from marl_social.agent_spec import VehicleParams
-from marl_social.dynamics import DT_S
-from marl_social.observation import SLOT_FIELDS, ObservationLayout
-from marl_social.road_map import Crosswalk, RoadMap, Route
+from marl_social.models.driver import DriverModel
+from marl_social.sim.agent_spec import VehicleParams
+from marl_social.sim.costs import CostWeights
+from marl_social.sim.dynamics import DT_S
+from marl_social.sim.observation import SLOT_FIELDS, ObservationLayout
+from marl_social.sim.road_map import Crosswalk, RoadMap, Route
 
 _F = {name: i for i, name in enumerate(SLOT_FIELDS)}
 PEDESTRIAN_DIAMETER_M = 0.6  # footprint of a hypothesised pedestrian [m]
@@ -111,7 +112,8 @@ class Hypothesis:
 
     def predict_xy(self, times_s) -> np.ndarray:
         """Positions (T, 2) [m] at future times (T,) [s]: at the curb entry now, walking across
-        at walk_speed_mps, stopping at the far entry. Raises for the "none" hypothesis."""
+        at walk_speed_mps, stopping at the far entry. Raises for the "none" hypothesis.
+        """
         if not self.present:
             raise ValueError(f"hypothesis {self.name!r} has no pedestrian to predict")
         t = np.asarray(times_s, dtype=np.float64)
@@ -120,7 +122,8 @@ class Hypothesis:
 
     def region(self) -> np.ndarray:
         """(K, 2) sample points [m] of where the pedestrian would be now or soon: the curb entry
-        area and the first metre of road (5 along x 3 across). Empty (0, 2) for "none"."""
+        area and the first metre of road (5 along x 3 across). Empty (0, 2) for "none".
+        """
         if not self.present:
             return np.zeros((0, 2))
         along = np.linspace(_REGION_ALONG_M[0], self.curb_offset_m + _REGION_ALONG_M[1], 5)
@@ -133,7 +136,8 @@ class Hypothesis:
 
     def corridor_coords(self, xy) -> tuple[np.ndarray, np.ndarray]:
         """Coordinates of points (n, 2) [m] in this hypothesis' frame: `along` from start_xy in
-        walk_dir and `across` (left of walk_dir) [m], each (n,)."""
+        walk_dir and `across` (left of walk_dir) [m], each (n,).
+        """
         rel = np.asarray(xy, dtype=np.float64) - self.start_xy
         along = rel @ self.walk_dir
         across = rel @ np.array([-self.walk_dir[1], self.walk_dir[0]])
@@ -142,7 +146,8 @@ class Hypothesis:
 
 def _side_name(road_map: RoadMap, crosswalk: Crosswalk, entry: np.ndarray) -> str:
     """"right" / "left" of the traffic direction of the lane nearest the crosswalk (or "a"/"b"
-    by walking direction without lanes)."""
+    by walking direction without lanes).
+    """
     if not road_map.lanes:
         return ""
     best = None
@@ -185,7 +190,8 @@ def crosswalk_hypotheses(road_map: RoadMap, walk_speed_mps: float = 1.3,
 # -- discrete Bayes -----------------------------------------------------------------------------
 def markov_transition(n: int, p_move: float) -> np.ndarray:
     """(n, n) column-stochastic Markov matrix: each hypothesis keeps 1 - p_move of its mass and
-    spreads p_move evenly over the others (identity for n = 1)."""
+    spreads p_move evenly over the others (identity for n = 1).
+    """
     if n <= 1:
         return np.ones((max(n, 0), max(n, 0)))
     p = float(np.clip(p_move, 0.0, 1.0))
@@ -197,7 +203,8 @@ def markov_transition(n: int, p_move: float) -> np.ndarray:
 def _sanitize_log_likelihood(log_lik: np.ndarray) -> np.ndarray:
     """Log-likelihoods (..., L) of one or more sources made safe and shifted so that each
     source's maximum is 0. A source with NaN or +inf anywhere, or -inf everywhere (nothing
-    explains it), carries no usable information: zeros."""
+    explains it), carries no usable information: zeros.
+    """
     ll = np.asarray(log_lik, dtype=np.float64)
     top = ll.max(axis=-1, keepdims=True)  # NaN if any NaN, +inf if any +inf
     good = np.isfinite(top)
@@ -214,6 +221,7 @@ def bayes_step(prior, log_likelihoods, transition=None, floor: float = 1e-6) -> 
             with NaN or +inf anywhere, or -inf everywhere, is ignored.
         transition: (L, L) column-stochastic Markov matrix applied first (prediction), or None.
         floor: every belief is raised to at least this before the final normalization.
+
     Returns:
         (L,) posterior, finite, positive, summing to 1.
     """
@@ -236,7 +244,7 @@ def bayes_step(prior, log_likelihoods, transition=None, floor: float = 1e-6) -> 
 def action_log_likelihood(q_values: np.ndarray, beta: float, a_obs: float,
                           actions_mps2: np.ndarray, sigma_mps2: float,
                           outlier_prob: float = 0.0) -> np.ndarray:
-    """log P(a_obs | x) of one observed acceleration under several hypotheses x (eq. 9-10):
+    """Log P(a_obs | x) of one observed acceleration under several hypotheses x (eq. 9-10):
 
         P(a_obs | x) = (1 - rho) sum_u softmax(-beta Q*(x, .))[u] N(a_obs; u, sigma^2)
                        + rho U(a_obs)
@@ -252,6 +260,7 @@ def action_log_likelihood(q_values: np.ndarray, beta: float, a_obs: float,
         actions_mps2: (A,) accelerations the candidate actions execute as [m/s^2].
         sigma_mps2: std of the observation noise on a_obs [m/s^2].
         outlier_prob: rho in [0, 1).
+
     Returns:
         (...) log-likelihoods.
     """
@@ -279,7 +288,7 @@ def action_log_likelihood(q_values: np.ndarray, beta: float, a_obs: float,
 
 
 def _logsumexp(x: np.ndarray, axis: int) -> np.ndarray:
-    """log sum exp along axis, safe for -inf entries (all -inf gives -inf)."""
+    """Log sum exp along axis, safe for -inf entries (all -inf gives -inf)."""
     top = np.max(x, axis=axis, keepdims=True)
     top = np.where(np.isfinite(top), top, 0.0)
     with np.errstate(divide="ignore"):
@@ -314,7 +323,8 @@ class TrafficSpeedBelief:
 
     def update(self, log_likelihoods) -> np.ndarray:
         """Fold in one step: log_likelihoods (H, V) log P(a_obs,i | v) for H humans (H may be 0:
-        prediction only). Returns the (V,) posterior."""
+        prediction only). Returns the (V,) posterior.
+        """
         ll = np.asarray(log_likelihoods, dtype=np.float64).reshape(-1, len(self.grid_mps))
         if len(ll) == 0:
             ll = np.zeros((1, len(self.grid_mps)))
@@ -402,7 +412,8 @@ class _HumanState:
     """What the robot remembers of one tracked human until the next step: its along-route speed
     [m/s], Q*_H (L, V, A) of its candidate actions and the accelerations (A,) they execute as
     [m/s^2], and the belief (B,) over its rationality on BeliefConfig.beta_grid_hat (empty when
-    beta is fixed)."""
+    beta is fixed).
+    """
 
     v_mps: float
     q_values: np.ndarray
@@ -508,7 +519,8 @@ class PedestrianBelief:
 
     def live(self, epsilon: float | None = None) -> np.ndarray:
         """(L,) bool: hypotheses with belief >= epsilon (default config.epsilon), the ones the
-        planner keeps (the paper's tail threshold)."""
+        planner keeps (the paper's tail threshold).
+        """
         eps = self.config.epsilon if epsilon is None else float(epsilon)
         return self.probabilities >= eps
 
@@ -519,7 +531,8 @@ class PedestrianBelief:
         The pedestrian hypotheses x_l and the traffic speed v are updated jointly,
         b(l, v) ∝ b(l) b(v) P(own | l) prod_i P(a_i | l, v)  (eq. 9 and 12), and stored as
         their marginals, so that a human braking for a pedestrian is not also read as slow
-        traffic (and the other way round)."""
+        traffic (and the other way round).
+        """
         decoded = self.layout.decode(obs)
         n, n_v = len(self.hypotheses), len(self.traffic.grid_mps)
         tracks = self.tracker.update(decoded)
@@ -564,7 +577,8 @@ class PedestrianBelief:
     def visible_fraction(self, decoded) -> np.ndarray:
         """(L,) fraction of each hypothesis' region the robot's depth rays show free (0 for
         "none"). A point is visible if within range and cone and the depth along its bearing
-        (the shorter of the two neighbouring rays) reaches it, less a pedestrian's radius."""
+        (the shorter of the two neighbouring rays) reaches it, less a pedestrian's radius.
+        """
         ego, depth = decoded.ego, np.asarray(decoded.depth_m, dtype=np.float64)
         out = np.zeros(len(self.hypotheses))
         if len(self._present_idx) == 0 or len(depth) == 0:
@@ -601,7 +615,8 @@ class PedestrianBelief:
         velocity (n, 2) [m/s]: inside the hypothesis' corridor (the crosswalk from its entry to
         the far end, +-1 m) and either on the road not walking against its direction, or
         walking in its direction at >= walking_speed_min_mps. A pedestrian standing on the
-        sidewalk matches nothing."""
+        sidewalk matches nothing.
+        """
         out = np.zeros(len(self.hypotheses), dtype=bool)
         xy = np.asarray(xy, dtype=np.float64).reshape(-1, 2)
         vel = np.asarray(velocity, dtype=np.float64).reshape(-1, 2)
@@ -621,7 +636,8 @@ class PedestrianBelief:
 
     def _own_sensor_log_likelihood(self, decoded, tracks: TrackSet):
         """Positive and negative information from the robot's own sensors: (L,) log-likelihood,
-        (L,) visible fraction, (L,) bool matched detections."""
+        (L,) visible fraction, (L,) bool matched detections.
+        """
         cfg = self.config
         seen_ped = tracks.is_pedestrian & tracks.seen
         detected = self.match_pedestrians(tracks.xy[seen_ped], tracks.velocity[seen_ped])
@@ -656,7 +672,8 @@ class PedestrianBelief:
         hypothesised pedestrian: the vehicles it tracks (other than the human) and the robot
         itself inside the human's assumed field of view, at constant velocity; None if there
         is nothing. Seen pedestrians are left to the hypotheses (a crossing one is the detected
-        hypothesis)."""
+        hypothesis).
+        """
         ego = decoded.ego
         xy = np.vstack([tracks.xy, ego[None, :2]])
         rel = xy - human_xy
@@ -682,7 +699,8 @@ class PedestrianBelief:
 
     def hypothesis_scene(self, others: ScenePrediction | None = None) -> ScenePrediction:
         """The L scenes the human is modelled against: `others` (one hypothesis, or None for
-        nothing else) plus each hypothesis' pedestrian (masked out for "none")."""
+        nothing else) plus each hypothesis' pedestrian (masked out for "none").
+        """
         if others is None:
             if self._empty_scene is None:
                 n_t = len(self._times)
@@ -707,6 +725,7 @@ class PedestrianBelief:
             route, s0 [m], v0 [m/s], prev_accel [m/s^2]: the human on its route.
             others: one-hypothesis scene of the other objects the human reacts to (None:
                 nothing but the hypothesised pedestrian).
+
         Returns:
             (L, V, A) optimal cost-to-go of each first action.
         """
@@ -730,7 +749,8 @@ class PedestrianBelief:
     def _human_log_likelihood(self, prev: _HumanState, a_est: float):
         """(L, V) log P(a_est | x_l, v) of one human, and its updated rationality belief (B,).
         With a fixed beta_hat this is eq. 10; with a beta grid the likelihood is marginalized
-        over the human's beta belief, which is then updated with the predicted joint b(l, v)."""
+        over the human's beta belief, which is then updated with the predicted joint b(l, v).
+        """
         cfg = self.config
         if not len(self._beta_grid):
             return action_log_likelihood(prev.q_values, cfg.beta_hat, a_est, prev.actions_mps2,
@@ -752,7 +772,8 @@ class PedestrianBelief:
 
     def beta_beliefs(self) -> dict:
         """{human name: (B,) belief over its rationality on config.beta_grid_hat} for the humans
-        tracked now (social+beta only; empty otherwise)."""
+        tracked now (social+beta only; empty otherwise).
+        """
         if not len(self._beta_grid):
             return {}
         return {self.agent_names[oid - 1]: h.beta_belief.copy() for oid, h in self._humans.items()}
@@ -760,7 +781,8 @@ class PedestrianBelief:
     def _social_log_likelihoods(self, decoded, tracks: TrackSet):
         """Eq. 9-10 and 12 for every tracked human seen this step and the last: (H, L, V)
         log P(a_obs,i | x_l, v) and {name: a_obs [m/s^2]}. The action distribution predicted
-        at the previous step is scored with the acceleration observed since."""
+        at the previous step is scored with the acceleration observed since.
+        """
         cfg = self.config
         out, a_obs_all = [], {}
         current = {}

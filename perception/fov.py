@@ -19,8 +19,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from marl_social.footprint import place_local
-from marl_social.geometry import GeometryMirror
+from marl_social.sim.footprint import place_local
+from marl_social.sim.geometry import GeometryMirror
 
 _INNER_FRACTION = 0.85  # sample points sit this fraction of the way from centre to corner
 
@@ -45,7 +45,8 @@ class FovResult:
 
 def depth_ray_angles(half_angle_rad: np.ndarray, n_rays: int) -> np.ndarray:
     """Relative ray directions (n, n_rays) [rad]: evenly across each cone, edges included; a full
-    circle (half-angle >= pi) is split evenly without repeating -pi/+pi."""
+    circle (half-angle >= pi) is split evenly without repeating -pi/+pi.
+    """
     half = np.asarray(half_angle_rad, dtype=np.float64)
     frac = np.linspace(-1.0, 1.0, n_rays) if n_rays > 1 else np.zeros(1)
     full = np.linspace(-np.pi, np.pi, n_rays, endpoint=False)
@@ -54,7 +55,8 @@ def depth_ray_angles(half_angle_rad: np.ndarray, n_rays: int) -> np.ndarray:
 
 def sample_point_layout(length, width, is_pedestrian) -> np.ndarray:
     """Body-frame points whose sight proves a target visible (n, 5, 2) [m]: the centre, then 4
-    points just inside the outline (the corners of a car; 4 points around a pedestrian)."""
+    points just inside the outline (the corners of a car; 4 points around a pedestrian).
+    """
     half = 0.5 * _INNER_FRACTION * np.column_stack([length, width])  # (n, 2)
     local = np.zeros((len(half), 5, 2))
     local[:, 1:] = half[:, None, :] * np.array([[-1, -1], [1, -1], [1, 1], [-1, 1.0]])
@@ -195,7 +197,8 @@ class FieldOfView:
 
     def _maybe_blocked(self, start, end, ray_obs, tgt, centres, radii) -> np.ndarray:
         """Broad phase: could anything but the ray's observer (and, for the first len(tgt)
-        rays, their target) be in the way? (R,) bool."""
+        rays, their target) be in the way? (R,) bool.
+        """
         blockers = _segments_hit_circles(start, end, centres, radii)
         rows = np.arange(len(ray_obs))
         blockers[rows, ray_obs] = False
@@ -207,7 +210,8 @@ class FieldOfView:
 
     def _resolve_targets(self, start, end, obs, tgt, maybe, visible) -> None:
         """Mark visible[o, t] for target rays that cannot be blocked, and ask pymunk (narrow
-        phase) for the others, skipping targets an earlier point already proved visible."""
+        phase) for the others, skipping targets an earlier point already proved visible.
+        """
         clear = ~maybe
         visible[obs[clear], tgt[clear]] = True
         first_hit = self.mirror.first_hit

@@ -7,28 +7,9 @@ fixed order (so an episode is reproducible bit for bit).
 
 from __future__ import annotations
 
-from dataclasses import dataclass
-
 import numpy as np
 
-
-@dataclass(frozen=True)
-class Measurements:
-    """Measured objects, one row per visible (observer, target) pair, sorted by observer then
-    true distance.
-
-    Attributes:
-        observer, target: (P,) agent indices.
-        xy: (P, 2) measured position [m]; velocity: (P, 2) [m/s]; heading: (P,) [rad].
-        distance_m: (P,) true centre distance, for slot ordering [m].
-    """
-
-    observer: np.ndarray
-    target: np.ndarray
-    xy: np.ndarray
-    velocity: np.ndarray
-    heading: np.ndarray
-    distance_m: np.ndarray
+from marl_social.sim.observation import Measurements
 
 
 def measure(visible, xy, heading, speed, pos_noise_m, vel_noise_mps, heading_noise_rad,

@@ -18,8 +18,8 @@ import numpy as np
 from filterpy.common import Q_discrete_white_noise
 from filterpy.kalman import predict, update
 
-from marl_social.dynamics import DT_S
-from marl_social.observation import SLOT_FIELDS, DecodedObservation
+from marl_social.sim.dynamics import DT_S
+from marl_social.sim.observation import SLOT_FIELDS, DecodedObservation
 
 _F = {name: i for i, name in enumerate(SLOT_FIELDS)}
 MOVING_MPS = 1.0  # below this tracked speed the heading is the measured box heading [m/s]
@@ -129,7 +129,8 @@ class Tracker:
 
 def track_heading(velocity_mps: np.ndarray, measured_heading_rad: np.ndarray) -> np.ndarray:
     """(k,) footprint headings [rad]: the velocity's direction where the speed is at least
-    MOVING_MPS, else the measured box heading. velocity_mps (k, 2) [m/s]; measured (k,) [rad]."""
+    MOVING_MPS, else the measured box heading. velocity_mps (k, 2) [m/s]; measured (k,) [rad].
+    """
     speed = np.hypot(velocity_mps[:, 0], velocity_mps[:, 1])
     return np.where(speed >= MOVING_MPS, np.arctan2(velocity_mps[:, 1], velocity_mps[:, 0]),
                     measured_heading_rad)

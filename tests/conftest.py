@@ -1,20 +1,14 @@
-"""Shared fixtures and helpers for the test suite."""
+"""Shared fixtures of the test suite (helpers to import live in tests/helpers.py)."""
 
 from __future__ import annotations
 
 import os
 
 import matplotlib
-import numpy as np
 import pytest
 
 matplotlib.use("Agg")
 os.environ.setdefault("MPLBACKEND", "Agg")
-
-
-def zero_actions(env) -> dict:
-    """Zero action for every live agent (cars keep their speed, pedestrians stand)."""
-    return {a: np.zeros(2, dtype=np.float32) for a in env.agents}
 
 
 @pytest.fixture

@@ -13,8 +13,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from marl_social.agent_spec import AgentSpec
-from marl_social.road_map import RoadMap
+from marl_social.sim.agent_spec import AgentSpec
+from marl_social.sim.road_map import RoadMap
 
 ROBOT_PLANNER_CHOICES = ("social", "social+beta", "aggressive", "conservative", "oracle",
                          "cruise")
@@ -101,6 +101,9 @@ class Scenario(ABC):
 
     name: str = ""
     params_cls: type[ScenarioParams] = ScenarioParams
+    # representative parameter sets, one per behaviour the scenario shows (the API tests run
+    # each of them)
+    variants: tuple[dict, ...] = ({},)
 
     def __init__(self, **overrides):
         self.params = make_params(self.params_cls, overrides)

@@ -12,9 +12,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from marl_social.agent_spec import AgentSpec, SensorParams
-from marl_social.road_map import Lane, RoadMap, Route
 from marl_social.scenarios.base import Scenario, ScenarioLayout, ScenarioParams
+from marl_social.sim.agent_spec import AgentSpec, SensorParams
+from marl_social.sim.road_map import Lane, RoadMap, Route
 
 LANE_WIDTH_M = 3.5
 
@@ -22,11 +22,11 @@ LANE_WIDTH_M = 3.5
 @dataclass(frozen=True)
 class LongRoadParams(ScenarioParams):
     """Attributes:
-        n_vehicles: number of cars (robot included).
-        n_lanes: lanes in the +x direction.
-        spacing_m: distance between consecutive cars in a lane [m].
-        speed_mps: initial and desired speed [m/s].
-        sensor_range_m, half_fov_deg: every car's field of view [m, deg].
+    n_vehicles: number of cars (robot included).
+    n_lanes: lanes in the +x direction.
+    spacing_m: distance between consecutive cars in a lane [m].
+    speed_mps: initial and desired speed [m/s].
+    sensor_range_m, half_fov_deg: every car's field of view [m, deg].
     """
 
     n_vehicles: int = 30
@@ -50,6 +50,7 @@ class LongRoadParams(ScenarioParams):
 class LongRoad(Scenario):
     name = "long_road"
     params_cls = LongRoadParams
+    variants = ({"n_vehicles": 6, "terminate_on_collision": False},)
 
     def build(self, rng: np.random.Generator) -> ScenarioLayout:
         p: LongRoadParams = self.params

@@ -21,10 +21,10 @@ from pathlib import Path
 
 import numpy as np
 
-from marl_social.agent_spec import AgentSpec, PedestrianParams, SensorParams, VehicleParams
-from marl_social.agents.costs import CostWeights
-from marl_social.road_map import Crosswalk, Lane, RoadMap, Route
 from marl_social.scenarios.base import Scenario, ScenarioLayout, ScenarioParams
+from marl_social.sim.agent_spec import AgentSpec, PedestrianParams, SensorParams, VehicleParams
+from marl_social.sim.costs import CostWeights
+from marl_social.sim.road_map import Crosswalk, Lane, RoadMap, Route
 
 LANE_WIDTH_M = 3.5
 SIDEWALK_WIDTH_M = 3.0
@@ -107,7 +107,7 @@ class OccludedCrosswalkParams(ScenarioParams):
     def __post_init__(self):
         super().__post_init__()
         if isinstance(self.robot_theta_hat, (str, Path)):  # a `marl-social irl fit` result
-            from marl_social.agents.irl import load_fit, robot_model_from_fit
+            from marl_social.agents.irl.laplace import load_fit, robot_model_from_fit
 
             theta_hat, _ = robot_model_from_fit(load_fit(self.robot_theta_hat))
             object.__setattr__(self, "robot_theta_hat", tuple(theta_hat.as_array().tolist()))
@@ -168,6 +168,7 @@ class OccludedCrosswalk(Scenario):
 
     name = "occluded_crosswalk"
     params_cls = OccludedCrosswalkParams
+    variants = ({"pedestrian": "crossing"}, {"pedestrian": "waiting"}, {"pedestrian": "none"})
 
     def _blind_region(self) -> np.ndarray:
         """The right sidewalk and right lane around the crosswalk (x within +-6 m)."""

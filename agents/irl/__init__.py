@@ -1,0 +1,4 @@
+"""Learning the humans' costs: continuous IRL with the Laplace approximation (laplace, with
+exact derivatives from jets), discrete-choice IRL on recorded decisions (choice), and near-
+rational synthetic demonstrations (synthetic).
+"""

@@ -1,0 +1,1 @@
+"""The robot: the social-perception planner (planner) and its contingency MPC (mpc)."""

@@ -1,0 +1,179 @@
+"""Benchmarks (never timed unit tests): env steps per second vs number of agents, side by side
+with highway-env's intersection-multi-agent-v1 at the same agent count and dt = 0.1 s.
+
+Random actions: accelerations uniform over each car's full range; steering uniform within
+STEER_FRACTION of its limit, so that cars stay roughly on the road (full-range random
+steering sends every car off the road within a second and the benchmark would time an empty
+world). Pedestrians: uniform velocity commands. Every agent's field of view is computed every
+step. Episodes that end are reset inside the timed loop, as in a real rollout.
+"""
+
+from __future__ import annotations
+
+import cProfile
+import io
+import pstats
+import time
+from dataclasses import dataclass
+
+import numpy as np
+
+from marl_social.envs.parallel import parallel_env
+from marl_social.envs.policies import policies
+
+STEER_FRACTION = 0.01
+
+
+@dataclass(frozen=True)
+class EnvBenchResult:
+    label: str
+    n_agents: int
+    steps: int
+    seconds: float
+    mean_live_agents: float
+    ray_queries_per_step: float
+
+    @property
+    def steps_per_s(self) -> float:
+        return self.steps / self.seconds
+
+
+def _action_bounds(env) -> tuple[np.ndarray, np.ndarray]:
+    """(n, 2) low / high of the random actions, in possible_agents order."""
+    low = np.array([env.action_space(a).low for a in env.possible_agents], dtype=np.float64)
+    high = np.array([env.action_space(a).high for a in env.possible_agents], dtype=np.float64)
+    vehicle = np.array([env.agent_specs[a].kind == "vehicle" for a in env.possible_agents])
+    low[vehicle, 1] *= STEER_FRACTION
+    high[vehicle, 1] *= STEER_FRACTION
+    return low, high
+
+
+def _random_actions(env, rng: np.random.Generator, bounds=None) -> dict:
+    low, high = bounds if bounds is not None else _action_bounds(env)
+    acts = rng.uniform(low, high)
+    index = {a: i for i, a in enumerate(env.possible_agents)}
+    return {a: acts[index[a]] for a in env.agents}
+
+
+def bench_env(scenario: str, n_steps: int, seed: int = 0, label: str | None = None,
+              **overrides) -> EnvBenchResult:
+    """Steps/s of one scenario with random actions (see module docstring)."""
+    env = parallel_env(scenario=scenario, max_cycles=100_000, **overrides)
+    rng = np.random.default_rng(seed)
+    env.reset(seed=seed)
+    for _ in range(10):  # warm-up
+        if not env.agents:
+            env.reset()
+        env.step(_random_actions(env, rng))
+    env.reset(seed=seed)
+    bounds = _action_bounds(env)
+    live, queries = 0, 0
+    start = time.perf_counter()
+    for _ in range(n_steps):
+        if not env.agents:
+            env.reset()
+        live += len(env.agents)
+        env.step(_random_actions(env, rng, bounds))
+        queries += env.last_fov.n_queries
+    seconds = time.perf_counter() - start
+    return EnvBenchResult(label or scenario, len(env.possible_agents), n_steps, seconds,
+                          live / n_steps, queries / n_steps)
+
+
+def profile_env(scenario: str, n_steps: int, top: int = 15, **overrides) -> str:
+    """CProfile of a random-action rollout, top functions by own time, as text."""
+    env = parallel_env(scenario=scenario, max_cycles=100_000, **overrides)
+    rng = np.random.default_rng(0)
+    env.reset(seed=0)
+    bounds = _action_bounds(env)
+    profiler = cProfile.Profile()
+    profiler.enable()
+    for _ in range(n_steps):
+        if not env.agents:
+            env.reset()
+        env.step(_random_actions(env, rng, bounds))
+    profiler.disable()
+    buf = io.StringIO()
+    pstats.Stats(profiler, stream=buf).sort_stats("tottime").print_stats(top)
+    return buf.getvalue()
+
+
+def run_env_benchmark(agent_counts=(3, 10, 30, 100), n_steps: int = 500, peer: bool = True,
+                      profile: bool = False, echo=print) -> list[dict]:
+    """The `marl-social bench env` job. Returns one row per configuration."""
+    rows = []
+    configs = [("paper scenario (occluded_crosswalk)", "occluded_crosswalk", 3, {})]
+    configs += [(f"long_road n={n}", "long_road", n,
+                 {"n_vehicles": n, "terminate_on_collision": False}) for n in agent_counts]
+    peer_fn = None
+    if peer:
+        from marl_social.bench import highway as bench_highway
+
+        if bench_highway.highway_env_available():
+            peer_fn = bench_highway.highway_env_steps_per_second
+        else:
+            echo("highway-env not installed (pip install 'marl-social[bench]'): no peer column")
+    echo(f"{'configuration':<38}{'agents':>7}{'live':>7}{'steps/s':>10}{'rays/step':>10}"
+         f"{'highway-env':>13}{'ratio':>8}")
+    for label, scenario, n, overrides in configs:
+        steps = max(50, n_steps // max(1, n // 10))
+        res = bench_env(scenario, steps, label=label, **overrides)
+        row = {"configuration": label, "agents": n, "live_agents": res.mean_live_agents,
+               "steps_per_s": res.steps_per_s, "ray_queries_per_step": res.ray_queries_per_step}
+        peer_txt, ratio_txt = "", ""
+        if peer_fn is not None and scenario == "long_road":
+            peer_res = peer_fn(n, n_steps=max(30, steps // 4))
+            row["highway_env_steps_per_s"] = peer_res["steps_per_s"]
+            row["highway_env_vehicles"] = peer_res["n_vehicles_in_scene"]
+            row["ratio"] = res.steps_per_s / peer_res["steps_per_s"]
+            peer_txt = f"{peer_res['steps_per_s']:.1f}"
+            ratio_txt = f"{row['ratio']:.1f}x"
+        echo(f"{label:<38}{n:>7}{res.mean_live_agents:>7.1f}{res.steps_per_s:>10.1f}"
+             f"{res.ray_queries_per_step:>10.1f}{peer_txt:>13}{ratio_txt:>8}")
+        rows.append(row)
+    if profile:
+        echo("\nprofile, paper scenario (top functions by own time):")
+        echo(profile_env("occluded_crosswalk", 2000))
+        echo("\nprofile, long_road n=30:")
+        echo(profile_env("long_road", 300, n_vehicles=30, terminate_on_collision=False))
+    return rows
+
+
+def bench_planners(n_episodes: int = 3, robot_planner: str = "social", echo=print) -> dict:
+    """Decision times of the built-in planners (robot, human driver, pedestrian) on the paper
+    scenario, and env steps/s end to end with every agent on its built-in planner. Returns the
+    numbers; prints a table.
+    """
+    decide = {"robot_0": [], "human_0": [], "pedestrian_0": []}
+    steps, loop_s = 0, 0.0
+    for ep in range(n_episodes):
+        env = parallel_env(scenario="occluded_crosswalk", pedestrian="crossing",
+                                       robot_planner=robot_planner)
+        pols = policies(env)
+        for i, p in enumerate(pols.values()):
+            p.reset(ep * 10 + i)
+        obs, _ = env.reset(seed=ep)
+        while env.agents:
+            t_loop = time.perf_counter()
+            actions = {}
+            for a in env.agents:
+                t0 = time.perf_counter()
+                actions[a] = pols[a](obs[a])
+                if a in decide:
+                    decide[a].append(time.perf_counter() - t0)
+            obs, *_ = env.step(actions)
+            loop_s += time.perf_counter() - t_loop
+            steps += 1
+    out = {f"{a}_decision_ms_median": 1e3 * float(np.median(v)) for a, v in decide.items()}
+    out.update({f"{a}_decision_ms_p99": 1e3 * float(np.percentile(v, 99))
+                for a, v in decide.items()})
+    out["steps_per_s_all_planners"] = steps / loop_s
+    echo(f"robot ({robot_planner}) decision  median {out['robot_0_decision_ms_median']:.3f} ms   "
+         f"p99 {out['robot_0_decision_ms_p99']:.3f} ms")
+    echo(f"human driver decision   median {out['human_0_decision_ms_median']:.3f} ms   "
+         f"p99 {out['human_0_decision_ms_p99']:.3f} ms")
+    echo(f"pedestrian decision     median {out['pedestrian_0_decision_ms_median']:.3f} ms   "
+         f"p99 {out['pedestrian_0_decision_ms_p99']:.3f} ms")
+    echo(f"paper scenario, every agent on its built-in planner: "
+         f"{out['steps_per_s_all_planners']:.1f} env steps/s ({steps} steps)")
+    return out

@@ -1,0 +1,3 @@
+"""Learning data: demonstration and decision files (formats, validation) and the INTERACTION
+dataset loader.
+"""

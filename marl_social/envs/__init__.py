@@ -1,0 +1,3 @@
+"""The PettingZoo environment: the world (true state, one step of physics, perception and
+costs), the parallel and AEC envs, the built-in policies of an env and the autopilot wrapper.
+"""

@@ -1,0 +1,255 @@
+"""PettingZoo environment: every agent acts on its own field of view.
+
+    env = marl_social.parallel_env(scenario="occluded_crosswalk", max_cycles=200, **overrides)
+
+* Agents: `robot_0`, `human_0...` (human drivers), `pedestrian_0...`.
+* Observation: one float32 Box layout for all agents (marl_social/observation.py).
+* Actions: vehicles Box [a m/s^2, delta rad] within [-brake_max, accel_max] x [-steer_max,
+  steer_max]; pedestrians Box [vx, vy] m/s within [-v_max, v_max]^2. Values outside the physical
+  limits saturate (marl_social/dynamics.py); NaN/inf, a wrong shape or an unknown agent raise a
+  ValueError naming the agent.
+* Rewards: -(theta . phi) of the agent's own step cost (agents/costs.py) minus the scenario's
+  collision penalty when it collides.
+* Terminations: collision (every agent if the scenario's terminate_on_collision, else those
+  involved) or reaching the end of its route; truncation after max_cycles steps.
+* infos[agent]: "visible" (names the agent truly sees), "collision" (bool), "collided_with"
+  (names, "static" for a building or parked car), "arrived" (bool).
+"""
+
+from __future__ import annotations
+
+from typing import ClassVar
+
+import numpy as np
+from gymnasium import spaces
+from gymnasium.utils import EzPickle, seeding
+from pettingzoo import ParallelEnv
+from pettingzoo.utils import wrappers
+from pettingzoo.utils.conversions import parallel_to_aec
+
+from marl_social.envs.world import World
+from marl_social.scenarios import make_scenario
+from marl_social.sim.observation import ObservationLayout
+
+RENDER_MODES = ["human", "rgb_array"]
+RENDER_VIEW_WIDTH_M = 90.0  # frames follow the robot over this much road [m]
+
+
+class SocialDrivingEnv(ParallelEnv, EzPickle):
+    """Parallel multi-agent driving env; see the module docstring."""
+
+    metadata: ClassVar[dict] = {
+        "name": "marl_social_v0",
+        "render_modes": RENDER_MODES,
+        "render_fps": 10,
+        "is_parallelizable": True,
+    }
+
+    def __init__(self, scenario: str = "occluded_crosswalk", render_mode: str | None = None,
+                 max_cycles: int = 200, render_fov: bool = True, **overrides):
+        EzPickle.__init__(self, scenario=scenario, render_mode=render_mode,
+                          max_cycles=max_cycles, render_fov=render_fov, **overrides)
+        if render_mode is not None and render_mode not in RENDER_MODES:
+            raise ValueError(f"render_mode {render_mode!r}: must be None or one of {RENDER_MODES}")
+        if isinstance(max_cycles, bool) or not float(max_cycles).is_integer() or max_cycles < 1:
+            raise ValueError(f"max_cycles must be a positive integer, got {max_cycles!r}")
+        self.scenario_name = scenario
+        self.scenario = make_scenario(scenario, **overrides)
+        self.render_mode = render_mode
+        self.render_fov = bool(render_fov)
+        self.max_cycles = int(max_cycles)
+        template = self.scenario.build(np.random.default_rng(0))
+        self.road_map = template.road_map
+        self.agent_specs = {s.name: s for s in template.agents}
+        self.possible_agents = [s.name for s in template.agents]
+        self.obs_layout = ObservationLayout(template.params.n_slots, template.params.n_rays)
+        obs_space = self.obs_layout.space()
+        self.observation_spaces = {a: obs_space for a in self.possible_agents}
+        self.action_spaces = {s.name: _action_space(s) for s in template.agents}
+        self.agents: list[str] = []
+        self.world: World | None = None
+        self.last_fov = None
+        self._np_random = None
+        self._np_random_seed = None
+        self._renderer = None
+        self._cycles = 0
+
+    # -- spaces ------------------------------------------------------------------------------
+    def observation_space(self, agent: str) -> spaces.Box:
+        return self.observation_spaces[agent]
+
+    def action_space(self, agent: str) -> spaces.Box:
+        return self.action_spaces[agent]
+
+    # -- episode -----------------------------------------------------------------------------
+    def reset(self, seed: int | None = None, options: dict | None = None):
+        if seed is not None or self._np_random is None:
+            self._np_random, self._np_random_seed = seeding.np_random(seed)
+        layout = self.scenario.build(self._np_random)
+        self.world = World(layout)
+        if self._renderer is not None:
+            self._renderer.close()
+            self._renderer = None
+        self.agents = list(self.possible_agents)
+        self._index = {name: i for i, name in enumerate(self.possible_agents)}
+        self._cycles = 0
+        observations, infos = self._observe(
+            collided_with={a: [] for a in self.agents}, arrived=np.zeros(self.world.n, bool)
+        )
+        if self.render_mode == "human":
+            self.render()
+        return observations, infos
+
+    def step(self, actions: dict):
+        if self.world is None:
+            raise RuntimeError("step() called before reset()")
+        raw = self._validate_actions(actions)
+        if not self.agents:  # finished episode: nothing left to step (PettingZoo convention)
+            return {}, {}, {}, {}, {}
+        world = self.world
+        events = world.step(raw)
+        self._cycles += 1
+
+        cost = np.einsum("nf,nf->n", world.theta, world.step_features())
+        penalty = self.scenario.params.collision_penalty
+        reward = -cost - penalty * events.collided
+        collided_with = {a: [] for a in self.agents}
+        for a, b in events.contacts:
+            for me, other in ((a, b), (b, a)):
+                if me < world.n and self.possible_agents[me] in collided_with:
+                    collided_with[self.possible_agents[me]].append(
+                        self.possible_agents[other] if other < world.n else "static"
+                    )
+        live = np.array([self._index[a] for a in self.agents])
+        any_collision = bool(events.collided[live].any())
+        if any_collision and self.scenario.params.terminate_on_collision:
+            terminated = np.ones(world.n, dtype=bool)
+        else:
+            terminated = events.collided | events.arrived
+        truncated = self._cycles >= self.max_cycles
+
+        observations, infos = self._observe(collided_with, events.arrived)
+        rewards = {a: float(reward[self._index[a]]) for a in self.agents}
+        terminations = {a: bool(terminated[self._index[a]]) for a in self.agents}
+        truncations = {a: truncated for a in self.agents}
+
+        done = np.zeros(world.n, dtype=bool)
+        for a in self.agents:
+            done[self._index[a]] = terminations[a] or truncations[a]
+        self.agents = [a for a in self.agents if not done[self._index[a]]]
+        world.deactivate(done)
+        if self.render_mode == "human":
+            self.render()
+        return observations, rewards, terminations, truncations, infos
+
+    def _validate_actions(self, actions: dict) -> np.ndarray:
+        if not isinstance(actions, dict):
+            raise TypeError(f"actions must be a dict {{agent: action}}, got {type(actions).__name__}")
+        raw = np.zeros((self.world.n, 2))
+        for agent, action in actions.items():
+            if agent not in self._index:
+                raise ValueError(f"action for unknown agent {agent!r}; agents: {self.possible_agents}")
+            if agent not in self.agents:
+                raise ValueError(f"action for agent {agent!r}, which is no longer in the episode "
+                                 f"(live agents: {self.agents})")
+            try:
+                arr = np.asarray(action, dtype=np.float64)
+            except (TypeError, ValueError):
+                raise ValueError(f"agent {agent!r}: action {action!r} is not numeric") from None
+            if arr.shape != (2,):
+                raise ValueError(f"agent {agent!r}: action must have shape (2,), got {arr.shape}")
+            if not np.all(np.isfinite(arr)):
+                raise ValueError(f"agent {agent!r}: action {arr.tolist()} has NaN or inf")
+            raw[self._index[agent]] = arr
+        missing = [a for a in self.agents if a not in actions]
+        if missing:
+            raise ValueError(f"no action for live agent(s) {missing}")
+        return raw
+
+    def _observe(self, collided_with: dict, arrived: np.ndarray):
+        world = self.world
+        fov, meas = world.perceive(self._np_random)
+        self.last_fov = fov
+        obs = self.obs_layout.encode(
+            world.state[:, :2], world.state[:, 2], world.state[:, 3], world.sensor_range_m,
+            world.sensor_half_angle_rad, world.is_pedestrian, world.length_m, world.width_m,
+            meas, fov.depth_m,
+        )
+        names = self.possible_agents
+        observations, infos = {}, {}
+        for agent in self.agents:
+            i = self._index[agent]
+            observations[agent] = obs[i]
+            infos[agent] = {
+                "visible": [names[j] for j in np.flatnonzero(fov.visible[i])],
+                "collision": bool(collided_with[agent]),
+                "collided_with": collided_with[agent],
+                "arrived": bool(arrived[i]),
+            }
+        return observations, infos
+
+    # -- rendering ---------------------------------------------------------------------------
+    def render(self):
+        if self.render_mode is None:
+            import gymnasium
+
+            gymnasium.logger.warn("render() called without a render_mode; nothing to draw")
+            return None
+        if self.world is None:
+            raise RuntimeError("render() called before reset()")
+        from marl_social.viz.render import Renderer
+
+        if self._renderer is None:  # one per episode: the map may change between episodes
+            road_map = self.world.road_map
+            x0, x1, y0, y1 = road_map.extent
+            follow = "robot_0" if "robot_0" in self.possible_agents else None
+            self._renderer = Renderer(
+                road_map, show=self.render_mode == "human",
+                view=(x0, min(x1, x0 + RENDER_VIEW_WIDTH_M), y0, y1) if follow else None,
+                follow=follow,
+                fan_agents=None if len(self.possible_agents) <= 10 else [follow],
+            )
+        frame = self._renderer.draw(self.world, self.last_fov if self.render_fov else None)
+        return frame if self.render_mode == "rgb_array" else None
+
+    def close(self):
+        if self._renderer is not None:
+            self._renderer.close()
+            self._renderer = None
+
+    def state(self) -> np.ndarray:
+        """Global true state (n, 4) [x, y, heading, speed], for centralized critics; planners
+        never receive it.
+        """
+        return self.world.state.astype(np.float32).copy()
+
+
+def _action_space(spec) -> spaces.Box:
+    if spec.kind == "pedestrian":
+        v = spec.pedestrian.speed_max_mps
+        return spaces.Box(-v, v, shape=(2,), dtype=np.float32)
+    veh = spec.vehicle
+    return spaces.Box(
+        low=np.array([-veh.brake_max_mps2, -veh.steer_max_rad], dtype=np.float32),
+        high=np.array([veh.accel_max_mps2, veh.steer_max_rad], dtype=np.float32),
+        dtype=np.float32,
+    )
+
+
+def parallel_env(scenario: str = "occluded_crosswalk", render_mode: str | None = None,
+                 max_cycles: int = 200, **overrides) -> SocialDrivingEnv:
+    """The PettingZoo ParallelEnv (see SocialDrivingEnv)."""
+    return SocialDrivingEnv(scenario=scenario, render_mode=render_mode, max_cycles=max_cycles,
+                            **overrides)
+
+
+def raw_env(**kwargs):
+    """AEC version without wrappers."""
+    return parallel_to_aec(parallel_env(**kwargs))
+
+
+def env(**kwargs):
+    """AEC version with PettingZoo's standard wrappers (order enforcing, bounds for Box)."""
+    aec = raw_env(**kwargs)
+    aec = wrappers.OrderEnforcingWrapper(aec)
+    return aec

@@ -1,0 +1,193 @@
+"""The true world: struct-of-arrays state, dynamics, geometry mirrors, contacts and costs.
+
+The world never calls a planner. It is built from a ScenarioLayout at every reset (its fcl
+mirror cannot be pickled, so an env pickles its constructor arguments, not its world).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from marl_social.perception.fov import FieldOfView, FovResult
+from marl_social.perception.sensors import Measurements, measure
+from marl_social.scenarios.base import ScenarioLayout
+from marl_social.sim.costs import N_FEATURES, step_features
+from marl_social.sim.dynamics import (
+    DT_S,
+    bicycle_step,
+    pedestrian_step,
+    saturate_pedestrian_action,
+    saturate_vehicle_action,
+)
+from marl_social.sim.footprint import circle_layout, place_along
+from marl_social.sim.geometry import GeometryMirror
+from marl_social.sim.road_map import RouteSet
+
+ROUTE_END_MARGIN_M = 0.5  # an agent within this of its route's end has arrived [m]
+
+
+@dataclass(frozen=True)
+class StepEvents:
+    """What happened in one world step.
+
+    Attributes:
+        collided: (n,) bool, agent touches another agent or a static polygon.
+        contacts: list of (label_a, label_b); labels >= n are static polygons (label - n).
+        arrived: (n,) bool, agent reached its route's end.
+        applied_action: (n, 2) actions after saturation.
+    """
+
+    collided: np.ndarray
+    contacts: list
+    arrived: np.ndarray
+    applied_action: np.ndarray
+
+
+class World:
+    """True state of every agent plus the static map.
+
+    Attributes (n agents, in layout order):
+        state: (n, 4) [x m, y m, heading rad, speed m/s].
+        accel_mps2, prev_accel_mps2: (n,) effective longitudinal acceleration this / last step,
+            dv / dt after the speed limits [m/s^2] (pedestrians: |change of velocity| / dt).
+        active: (n,) bool, still in the episode.
+        time_s: simulated time [s].
+    """
+
+    def __init__(self, layout: ScenarioLayout):
+        self.layout = layout
+        self.road_map = layout.road_map
+        specs = layout.agents
+        self.specs = specs
+        self.names = [s.name for s in specs]
+        self.n = len(specs)
+        self.state = np.array([s.initial_state for s in specs], dtype=np.float64).reshape(-1, 4)
+        self.is_pedestrian = np.array([s.kind == "pedestrian" for s in specs], dtype=bool)
+        diameter = np.array([2.0 * s.pedestrian.radius_m for s in specs])
+        self.length_m = np.where(self.is_pedestrian, diameter, [s.vehicle.length_m for s in specs])
+        self.width_m = np.where(self.is_pedestrian, diameter, [s.vehicle.width_m for s in specs])
+        self.bounding_radius_m = np.array([s.bounding_radius_m for s in specs])
+        veh = [s.vehicle for s in specs]
+        self.wheelbase_m = np.array([v.wheelbase_m for v in veh])
+        self.accel_max = np.array([v.accel_max_mps2 for v in veh])
+        self.brake_max = np.array([v.brake_max_mps2 for v in veh])
+        self.steer_max = np.array([v.steer_max_rad for v in veh])
+        self.lat_accel_max = np.array([v.lat_accel_max_mps2 for v in veh])
+        self.speed_max = np.where(
+            self.is_pedestrian, [s.pedestrian.speed_max_mps for s in specs],
+            [v.speed_max_mps for v in veh],
+        )
+        sensors = [s.sensor for s in specs]
+        self.sensor_range_m = np.array([s.range_m for s in sensors])
+        self.sensor_half_angle_rad = np.array([s.half_angle_rad for s in sensors])
+        self.pos_noise_m = np.array([s.pos_noise_m for s in sensors])
+        self.vel_noise_mps = np.array([s.vel_noise_mps for s in sensors])
+        self.heading_noise_rad = np.array([s.heading_noise_rad for s in sensors])
+        self.v_desired_mps = np.array([s.v_desired_mps for s in specs])
+        self.theta = np.array([s.cost_weights.as_array() for s in specs]).reshape(-1, N_FEATURES)
+        self.routes = RouteSet([self.road_map.routes[name] for name in self.names])
+        self.route_length_m = self.routes.length_m
+
+        self._circle_along, self._circle_r = circle_layout(self.length_m, self.width_m,
+                                                           self.is_pedestrian)
+        self.accel_mps2 = np.zeros(self.n)
+        self.last_applied_action = np.zeros((self.n, 2))
+        self.prev_accel_mps2 = np.zeros(self.n)
+        self.active = np.ones(self.n, dtype=bool)
+        self.time_s = 0.0
+        self._progress = None
+        self.mirror = GeometryMirror(self.is_pedestrian, self.length_m, self.width_m,
+                                     self.road_map.static_polygons)
+        blind = [(i, poly) for i, s in enumerate(specs) for poly in s.sensor.blind_regions]
+        self.fov = FieldOfView(self.mirror, self.road_map.static_polygons, layout.params.n_rays,
+                               blind)
+        self.mirror.sync(self.state[:, :2], self.state[:, 2], self.active)
+
+    @property
+    def velocity_mps(self) -> np.ndarray:
+        """(n, 2) velocity vectors [m/s]."""
+        return self.state[:, 3:4] * np.column_stack([np.cos(self.state[:, 2]),
+                                                     np.sin(self.state[:, 2])])
+
+    def step(self, action: np.ndarray) -> StepEvents:
+        """Advance one step of DT_S.
+
+        Args:
+            action: (n, 2) finite raw actions (vehicles [a m/s^2, delta rad], pedestrians
+                [vx, vy] m/s); rows of inactive agents are ignored. Out-of-range values saturate.
+        """
+        applied = np.zeros_like(action)
+        veh = self.active & ~self.is_pedestrian
+        ped = self.active & self.is_pedestrian
+        self.prev_accel_mps2 = self.accel_mps2.copy()
+        if veh.any():
+            applied[veh] = saturate_vehicle_action(
+                action[veh], self.state[veh, 3], self.wheelbase_m[veh], self.accel_max[veh],
+                self.brake_max[veh], self.steer_max[veh], self.lat_accel_max[veh],
+            )
+            v_before = self.state[veh, 3].copy()
+            self.state[veh] = bicycle_step(self.state[veh], applied[veh], self.wheelbase_m[veh],
+                                           self.speed_max[veh])
+            # effective acceleration: a stopped car "braking" does not decelerate
+            self.accel_mps2[veh] = (self.state[veh, 3] - v_before) / DT_S
+        if ped.any():
+            applied[ped] = saturate_pedestrian_action(action[ped], self.speed_max[ped])
+            old_velocity = self.velocity_mps[ped]
+            self.state[ped] = pedestrian_step(self.state[ped], applied[ped])
+            self.accel_mps2[ped] = np.linalg.norm(applied[ped] - old_velocity, axis=1) / DT_S
+        self.last_applied_action = applied
+        self.time_s += DT_S
+        self.mirror.sync(self.state[:, :2], self.state[:, 2], self.active)
+
+        contacts = self.mirror.contacts(self.state[:, :2], self.bounding_radius_m, self.active)
+        collided = np.zeros(self.n, dtype=bool)
+        for a, b in contacts:
+            for label in (a, b):
+                if label < self.n:
+                    collided[label] = True
+        self._progress = None
+        s, _ = self.route_progress()
+        arrived = self.active & (s >= self.route_length_m - ROUTE_END_MARGIN_M)
+        return StepEvents(collided, contacts, arrived, applied)
+
+    def deactivate(self, mask: np.ndarray) -> None:
+        """Remove agents from the world and from its geometry mirrors."""
+        if np.any(mask & self.active):
+            self.active &= ~mask
+            self.mirror.sync(self.state[:, :2], self.state[:, 2], self.active)
+
+    def route_progress(self) -> tuple[np.ndarray, np.ndarray]:
+        """Arc length along and signed lateral offset from each agent's route, (n,) each [m]."""
+        if self._progress is None:  # cached until the next step moves the agents
+            self._progress = self.routes.project(self.state[:, :2])
+        return self._progress
+
+    def perceive(self, rng: np.random.Generator) -> tuple[FovResult, Measurements]:
+        """Every agent's field of view and noisy measurements of what it sees."""
+        fov = self.fov.compute(
+            self.state[:, :2], self.state[:, 2], self.length_m, self.width_m, self.is_pedestrian,
+            self.bounding_radius_m, self.active, self.sensor_range_m, self.sensor_half_angle_rad,
+        )
+        meas = measure(fov.visible, self.state[:, :2], self.state[:, 2], self.state[:, 3],
+                       self.pos_noise_m, self.vel_noise_mps, self.heading_noise_rad, rng)
+        return fov, meas
+
+    def step_features(self) -> np.ndarray:
+        """(n, N_FEATURES) each agent's cost features this step (agents/costs.py)."""
+        _, lateral = self.route_progress()
+        xy, heading = self.state[:, :2], self.state[:, 2]
+        circles, circle_r = place_along(xy, heading, self._circle_along), self._circle_r
+        others = self.active[None, :] & ~np.eye(self.n, dtype=bool)
+        return step_features(
+            lateral_m=lateral, speed_mps=self.state[:, 3], v_ref_mps=self.v_desired_mps,
+            accel_mps2=self.accel_mps2, prev_accel_mps2=self.prev_accel_mps2,
+            ego_xy=xy, ego_radius=self.bounding_radius_m, ego_is_ped=self.is_pedestrian,
+            ego_circles=circles, ego_circle_r=circle_r,
+            # (1, n, ...): every agent has the same others; the mask removes itself
+            other_xy=xy[None], other_radius=self.bounding_radius_m[None],
+            other_is_ped=self.is_pedestrian[None], other_circles=circles[None],
+            other_circle_r=circle_r[None], other_mask=others,
+            crosswalks=self.road_map.crosswalks,
+        )

@@ -1,0 +1,4 @@
+"""Decision models shared by acting and inferring: candidate rollouts, Boltzmann choice, the
+driver and pedestrian Q-models, path tracking. A human plans with them; the robot models a human
+with the same code.
+"""

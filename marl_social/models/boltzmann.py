@@ -1,0 +1,20 @@
+"""Boltzmann (noisily-rational) choice, paper eq. 8: P(u) = softmax(-beta * Q*(x_hat, u))."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+
+def boltzmann(q_values: np.ndarray, beta: float) -> np.ndarray:
+    """P(u) = softmax(-beta * Q) along the last axis; beta = inf puts all mass on the argmin
+    (ties split evenly), beta = 0 is uniform.
+    """
+    q = np.asarray(q_values, dtype=np.float64)
+    if math.isinf(beta):
+        best = q == q.min(axis=-1, keepdims=True)
+        return best / best.sum(axis=-1, keepdims=True)
+    z = -beta * (q - q.min(axis=-1, keepdims=True))
+    p = np.exp(z)
+    return p / p.sum(axis=-1, keepdims=True)

@@ -1,0 +1,261 @@
+"""Candidate longitudinal plans along a route, evaluated against scene hypotheses.
+
+A candidate is a first acceleration u (held for the first segment) followed by a continuation c
+(held to the end of the horizon). All A x C candidates are rolled out at once (path-velocity
+decomposition: position along the route, the route gives x, y, heading) and their per-step costs
+(agents/costs.py) computed against L scene hypotheses in one batch. The human drivers' Q*
+(agents/human.py) and the robot's contingency MPC (agents/mpc.py) are both built on this.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from marl_social.sim.agent_spec import VehicleParams
+from marl_social.sim.costs import circle_gap, crosswalk_occupancy, step_cost, step_features
+from marl_social.sim.dynamics import DT_S
+from marl_social.sim.footprint import covering_circles
+from marl_social.sim.road_map import Crosswalk, Route
+
+
+@dataclass(frozen=True)
+class ScenePrediction:
+    """Predicted others for one or more hypotheses (L of them), M objects, T steps.
+
+    Attributes:
+        xy: (L, M, T, 2) positions after each planner step [m]; heading: (L, M, T) [rad].
+        length_m, width_m, radius_m: (L, M) footprint [m]; is_pedestrian: (L, M) bool;
+        mask: (L, M) bool, object present in that hypothesis.
+    """
+
+    xy: np.ndarray
+    heading: np.ndarray
+    length_m: np.ndarray
+    width_m: np.ndarray
+    radius_m: np.ndarray
+    is_pedestrian: np.ndarray
+    mask: np.ndarray
+
+    @classmethod
+    def from_tracks(cls, tracks, times_s: np.ndarray) -> ScenePrediction:
+        """One hypothesis: every track of a TrackSet at constant velocity, footprints at the
+        tracks' headings (TrackSet.heading_rad, perception/tracking.py).
+        """
+        xy = tracks.predict_xy(times_s)[None]  # (1, M, T, 2)
+        heading = np.broadcast_to(tracks.heading_rad[None, :, None], xy.shape[:-1])
+        radius = 0.5 * np.hypot(tracks.length_m, tracks.width_m)
+        m = len(tracks)
+        return cls(xy, heading, tracks.length_m[None], tracks.width_m[None], radius[None],
+                   tracks.is_pedestrian[None], np.ones((1, m), dtype=bool))
+
+    def with_extra(self, xy, heading, length_m, width_m, is_pedestrian, mask) -> ScenePrediction:
+        """Append one object per hypothesis: xy (L, T, 2), heading (L, T), sizes (L,) [m],
+        is_pedestrian (L,) bool, mask (L,) bool. The L of self must be 1 (broadcast) or L.
+        """
+        n_hyp = len(mask)
+        grow = lambda a: np.broadcast_to(a, (n_hyp,) + a.shape[1:])
+        radius = 0.5 * np.hypot(length_m, width_m)
+        return ScenePrediction(
+            np.concatenate([grow(self.xy), xy[:, None]], axis=1),
+            np.concatenate([grow(self.heading), heading[:, None]], axis=1),
+            np.concatenate([grow(self.length_m), np.asarray(length_m)[:, None]], axis=1),
+            np.concatenate([grow(self.width_m), np.asarray(width_m)[:, None]], axis=1),
+            np.concatenate([grow(self.radius_m), radius[:, None]], axis=1),
+            np.concatenate([grow(self.is_pedestrian), np.asarray(is_pedestrian)[:, None]],
+                           axis=1),
+            np.concatenate([grow(self.mask), np.asarray(mask)[:, None]], axis=1),
+        )
+
+
+@dataclass(frozen=True)
+class CandidateSet:
+    """The candidate plans.
+
+    Attributes:
+        first_actions_mps2: (A,) first accelerations [m/s^2].
+        continuations_mps2: (C,) accelerations after the first segment [m/s^2].
+        first_segment_s: how long the first action is held [s].
+        horizon_s: planning horizon [s].
+        plan_dt_s: rollout step [s]; per-step costs are scaled by plan_dt / DT_S so that sums
+            are in simulator-step units.
+    """
+
+    first_actions_mps2: tuple
+    continuations_mps2: tuple
+    first_segment_s: float
+    horizon_s: float
+    plan_dt_s: float = 0.25
+
+    def __post_init__(self):
+        if not self.horizon_s > self.first_segment_s >= self.plan_dt_s > 0:
+            raise ValueError("CandidateSet: need horizon_s > first_segment_s >= plan_dt_s > 0")
+
+    @property
+    def n_steps(self) -> int:
+        return round(self.horizon_s / self.plan_dt_s)
+
+    @property
+    def n_first(self) -> int:
+        return round(self.first_segment_s / self.plan_dt_s)
+
+    @property
+    def plan_times_s(self) -> np.ndarray:
+        """(T,) times of the rollout's states after each planner step [s]."""
+        return (np.arange(self.n_steps) + 1) * self.plan_dt_s
+
+
+def rollout_speeds(v0: float, accel: np.ndarray, dt_s: float = DT_S) -> tuple[np.ndarray, ...]:
+    """Speeds and distances of acceleration profiles with the v >= 0 limit, without a time loop.
+
+    v_{k+1} = max(0, v_k + a_k dt) is a Lindley recursion: with S_k = v0 + sum_{i<k} a_i dt,
+    v_k = S_k - min(0, min_{j<=k} S_j).
+
+    Args:
+        accel: (..., T) commanded accelerations [m/s^2].
+
+    Returns:
+        v (..., T) speed after each step [m/s], ds (..., T) distance travelled up to each step
+        [m], a_eff (..., T) effective acceleration (dv / dt) [m/s^2].
+    """
+    shape = accel.shape
+    s = v0 + np.cumsum(accel * dt_s, axis=-1)
+    s_full = np.concatenate([np.full(shape[:-1] + (1,), v0), s], axis=-1)
+    v_full = s_full - np.minimum(0.0, np.minimum.accumulate(s_full, axis=-1))
+    v = v_full[..., 1:]
+    ds = np.cumsum(0.5 * (v_full[..., 1:] + v_full[..., :-1]) * dt_s, axis=-1)
+    return v, ds, np.diff(v_full, axis=-1) / dt_s
+
+
+@dataclass(frozen=True)
+class CandidateEvaluation:
+    """Candidates against L hypotheses.
+
+    Attributes:
+        step_cost: (L, A, C, T) theta . phi per planner step, in simulator-step units.
+        v: (A, C, T) speeds [m/s]; a_eff: (A, C, T) accelerations [m/s^2].
+        min_gap_m: (L, A, C) smallest covering-circle gap to any present object [m]
+            (inf without objects); only with geometry=True.
+        conflict: (L, A, C) largest per-step crosswalk conflict (own occupancy x a pedestrian's)
+            [0..1]; only with geometry=True.
+        static_gap_m: (A, C) smallest gap between the covering circles and the bounding boxes
+            of the static polygons [m] (inf without polygons); only with geometry=True.
+        min_vehicle_gap_m: (L, A, C) as min_gap_m, vehicles only; only with geometry=True.
+        feature_totals: (L, A, C, N_FEATURES) per-feature totals over the horizon, in
+            simulator-step units (step_cost summed over T is theta . feature_totals); only with
+            features=True.
+    """
+
+    step_cost: np.ndarray
+    v: np.ndarray
+    a_eff: np.ndarray
+    min_gap_m: np.ndarray | None = None
+    conflict: np.ndarray | None = None
+    static_gap_m: np.ndarray | None = None
+    min_vehicle_gap_m: np.ndarray | None = None
+    feature_totals: np.ndarray | None = None
+
+
+def collision_free_totals(ev: CandidateEvaluation) -> np.ndarray:
+    """(L, A, C) total costs of the candidates with every plan whose covering circles touch a
+    predicted vehicle (min_vehicle_gap_m == 0; needs geometry=True) set to +inf, so that a
+    driver's Q* never chooses to run into a car: the safety feature alone saturates at 1 per
+    step, less than the speed cost of stopping behind a stopped car. (Pedestrians are kept
+    out of the ego's way by the crosswalk feature.) A first action all of whose continuations
+    collide gets Q* = inf. Under a hypothesis where every plan collides, all keep their
+    unconstrained costs (the least bad).
+    """
+    total = ev.step_cost.sum(axis=-1)
+    colliding = ev.min_vehicle_gap_m <= 0.0
+    hopeless = colliding.all(axis=(-1, -2), keepdims=True)
+    return np.where(colliding & ~hopeless, np.inf, total)
+
+
+def evaluate_candidates(cands: CandidateSet, theta: np.ndarray, v_ref_mps: float,
+                        vehicle: VehicleParams, route: Route, s0: float, v0: float,
+                        prev_accel: float, scene: ScenePrediction,
+                        crosswalks: tuple[Crosswalk, ...], geometry: bool = False,
+                        static_boxes: np.ndarray | None = None,
+                        features: bool = False) -> CandidateEvaluation:
+    """Roll out every candidate and cost it against every scene hypothesis (see module doc).
+
+    features: also return the per-feature totals (for discrete-choice IRL, agents/choice_irl.py);
+    the costs are computed exactly as without it.
+
+    static_boxes: (S, 4) [xmin, ymin, xmax, ymax] of the static polygons [m], for the
+    static clearance (geometry=True only; boxes contain their polygons, so it is conservative).
+    """
+    dt = cands.plan_dt_s
+    first = np.asarray(cands.first_actions_mps2, dtype=np.float64)
+    cont = np.asarray(cands.continuations_mps2, dtype=np.float64)
+    step = np.arange(cands.n_steps)
+    accel = np.where(step < cands.n_first, first[:, None, None], cont[None, :, None])  # (A,C,T)
+    v, ds, a_eff = rollout_speeds(v0, accel, dt)
+    xy, heading = route.point_at(s0 + ds)  # (A, C, T, 2), (A, C, T)
+    ego_circles, ego_r = covering_circles(xy, heading, vehicle.length_m, vehicle.width_m, False)
+    ego_radius = 0.5 * math.hypot(vehicle.length_m, vehicle.width_m)
+    oc, orad = covering_circles(
+        scene.xy, scene.heading, scene.length_m[..., None], scene.width_m[..., None],
+        scene.is_pedestrian[..., None],
+    )  # (L, M, T, C, 2)
+    # others to (L, 1, 1, T, M, ...) so they broadcast against the (A, C, T) candidates
+    to_cand = lambda a: np.moveaxis(a, 1, 2)[:, None, None]
+    other_circles, other_circle_r = to_cand(oc), to_cand(orad)
+    other_xy = to_cand(scene.xy)
+    other_radius = scene.radius_m[:, None, None, None, :]
+    other_is_ped = scene.is_pedestrian[:, None, None, None, :]
+    other_mask = scene.mask[:, None, None, None, :]
+    prev = np.concatenate([np.full(a_eff.shape[:-1] + (1,), prev_accel), a_eff[..., :-1]], -1)
+    gap = None
+    if geometry and scene.mask.shape[1]:  # shared by the safety cost and the gap constraint
+        gap = circle_gap(ego_circles, ego_r, other_circles, other_circle_r)  # (L,A,C,T,M)
+    feature_args = {
+        "lateral_m": 0.0, "speed_mps": v, "v_ref_mps": v_ref_mps, "accel_mps2": a_eff,
+        "prev_accel_mps2": prev, "ego_xy": xy, "ego_radius": ego_radius, "ego_is_ped": False,
+        "ego_circles": ego_circles, "ego_circle_r": ego_r, "other_xy": other_xy,
+        "other_radius": other_radius, "other_is_ped": other_is_ped,
+        "other_circles": other_circles, "other_circle_r": other_circle_r,
+        "other_mask": other_mask, "crosswalks": crosswalks, "gap": gap,
+    }
+    cost = step_cost(theta, **feature_args) * (dt / DT_S)
+    cost = np.broadcast_to(cost, (len(scene.mask),) + v.shape)
+    totals = None
+    if features:
+        phi = step_features(**feature_args) * (dt / DT_S)  # (L or 1, A, C, T, F)
+        totals = np.broadcast_to(phi.sum(axis=-2), cost.shape[:-1] + (phi.shape[-1],))
+    if not geometry:
+        return CandidateEvaluation(cost, v, a_eff, feature_totals=totals)
+    n_hyp = len(scene.mask)
+    if gap is not None:
+        gap = np.where(other_mask, gap, np.inf)
+        min_gap = np.broadcast_to(gap.min(axis=(-1, -2)), (n_hyp,) + v.shape[:2])
+        vehicle_gap = np.where(other_is_ped, np.inf, gap)
+        min_vehicle_gap = np.broadcast_to(vehicle_gap.min(axis=(-1, -2)), min_gap.shape)
+    else:
+        min_gap = np.full((n_hyp,) + v.shape[:2], np.inf)
+        min_vehicle_gap = min_gap
+    conflict = np.zeros((n_hyp,) + v.shape)
+    ped_mask = other_mask & other_is_ped
+    for cw in crosswalks:
+        occ_ego = crosswalk_occupancy(xy, ego_radius, cw)  # (A, C, T)
+        occ_ped = np.where(ped_mask, crosswalk_occupancy(other_xy, other_radius, cw), 0.0)
+        conflict = np.maximum(conflict, occ_ego * occ_ped.max(axis=-1, initial=0.0))
+    static_gap = np.full(v.shape[:2], np.inf)
+    if static_boxes is not None and len(static_boxes):
+        # only boxes near the candidates' overall bounding box can bind (the 2 m margin is more
+        # than any clearance a planner asks for)
+        reach = float(ego_r.max()) + 2.0
+        lo_all = ego_circles.reshape(-1, 2).min(axis=0) - reach
+        hi_all = ego_circles.reshape(-1, 2).max(axis=0) + reach
+        near = np.all((static_boxes[:, :2] <= hi_all) & (static_boxes[:, 2:] >= lo_all), axis=1)
+        static_boxes = static_boxes[near]
+    if static_boxes is not None and len(static_boxes):
+        lo, hi = static_boxes[:, :2], static_boxes[:, 2:]
+        c = ego_circles[..., None, :]  # (A, C, T, K, 1, 2)
+        outside = np.maximum(np.maximum(lo - c, c - hi), 0.0)
+        dist = np.sqrt((outside ** 2).sum(axis=-1)) - ego_r[..., None]  # (A, C, T, K, S)
+        static_gap = dist.min(axis=(-1, -2, -3))
+    return CandidateEvaluation(cost, v, a_eff, min_gap, conflict.max(axis=-1), static_gap,
+                               min_vehicle_gap, totals)

@@ -1,0 +1,40 @@
+"""Path tracking shared by the built-in planners (path-velocity decomposition: the planners
+choose the speed along their route, this turns it into an action).
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from marl_social.sim.road_map import Route
+
+
+def pure_pursuit(route: Route, x: float, y: float, psi: float, v: float, s: float,
+                 wheelbase_m: float, min_lookahead_m: float = 6.0,
+                 lookahead_time_s: float = 1.0) -> float:
+    """Pure-pursuit steering angle [rad] towards the route point one look-ahead distance
+    (max(min_lookahead, v * lookahead_time) [m]) ahead of arc length s [m].
+    """
+    lookahead = max(min_lookahead_m, lookahead_time_s * v)
+    (tx, ty), _ = route.point_at(s + lookahead)
+    alpha = math.atan2(ty - y, tx - x) - psi
+    alpha = (alpha + math.pi) % (2 * math.pi) - math.pi
+    return math.atan2(2.0 * wheelbase_m * math.sin(alpha), lookahead)
+
+
+def walk_along(route: Route, x: float, y: float, speed_mps: float,
+               lookahead_m: float = 1.0) -> np.ndarray:
+    """A pedestrian's velocity command (2,) float32 [m/s]: speed_mps towards the route point
+    lookahead_m ahead of its projection; zero when standing or at the route's end.
+    """
+    s, _ = route.project_point(x, y)
+    if speed_mps <= 0.0 or s >= route.length_m - 1e-3:
+        return np.zeros(2, dtype=np.float32)
+    (tx, ty), _ = route.point_at(min(s + lookahead_m, route.length_m))
+    dx, dy = float(tx) - x, float(ty) - y
+    norm = math.hypot(dx, dy)
+    if norm < 1e-6:
+        return np.zeros(2, dtype=np.float32)
+    return np.array([dx / norm * speed_mps, dy / norm * speed_mps], dtype=np.float32)

@@ -1,0 +1,160 @@
+"""One cost feature set for every agent (paper eq. 13): c = theta^T phi(x, I, u_R, u_H).
+
+The env's rewards, the human and pedestrian planners, the robot's model of the humans, the
+robot's MPC and IRL all use this module. Every function is vectorized over arbitrary leading
+batch dimensions (candidates, time steps, agents).
+
+Features per step (units):
+  tracking   lateral offset from the agent's route, squared [m^2]
+  speed      (v - v_ref)^2, v_ref = v_traffic or the agent's desired speed [m^2/s^2]
+  accel      a^2 [m^2/s^4]
+  jerk       (a_k - a_{k-1})^2, change of acceleration over one step [m^2/s^4]
+  safety     sum_i exp(-d_i), d_i = gap to other agent i between covering circles [m], >= 0
+  crosswalk  sum over crosswalks of occupancy(ego) * sum over agents of the other kind of
+             occupancy(other): a vehicle and a pedestrian in the same crosswalk at once [-]
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from marl_social.sim.road_map import Crosswalk
+
+FEATURE_NAMES = ("tracking", "speed", "accel", "jerk", "safety", "crosswalk")
+N_FEATURES = len(FEATURE_NAMES)
+OCCUPANCY_SOFTNESS_M = 0.1  # logistic length scale of crosswalk occupancy [m]
+
+
+@dataclass(frozen=True)
+class CostWeights:
+    """Linear weights theta (one per feature, see FEATURE_NAMES); all must be finite, >= 0."""
+
+    tracking: float = 1.0
+    speed: float = 1.0
+    accel: float = 0.1
+    jerk: float = 0.1
+    safety: float = 1.0
+    crosswalk: float = 1000.0
+
+    def __post_init__(self):
+        for name in FEATURE_NAMES:
+            value = getattr(self, name)
+            if not np.isfinite(value) or value < 0:
+                raise ValueError(f"cost weight {name!r} must be finite and >= 0, got {value}")
+
+    def as_array(self) -> np.ndarray:
+        """(N_FEATURES,) in FEATURE_NAMES order."""
+        return np.array([getattr(self, n) for n in FEATURE_NAMES], dtype=np.float64)
+
+    @classmethod
+    def from_any(cls, value) -> CostWeights:
+        """Accept a CostWeights, a mapping of feature names, or a length-6 sequence."""
+        if isinstance(value, cls):
+            return value
+        if isinstance(value, dict):
+            unknown = set(value) - set(FEATURE_NAMES)
+            if unknown:
+                raise ValueError(f"unknown cost features {sorted(unknown)}; "
+                                 f"known: {list(FEATURE_NAMES)}")
+            return cls(**{k: float(v) for k, v in value.items()})
+        arr = np.asarray(value, dtype=np.float64)
+        if arr.shape != (N_FEATURES,):
+            raise ValueError(f"cost weights: expected {N_FEATURES} values, got shape {arr.shape}")
+        return cls(*arr.tolist())
+
+
+def crosswalk_occupancy(xy, bounding_radius_m, crosswalk: Crosswalk) -> np.ndarray:
+    """Smooth 0..1 indicator that a footprint (centre xy (..., 2) [m], bounding radius (...) [m])
+    overlaps the crosswalk rectangle. xy may be an agents/jets.Jet (derivatives along a path).
+    """
+    xy = xy if getattr(xy, "is_jet", False) else np.asarray(xy, dtype=np.float64)
+    rel = xy - crosswalk.center
+    c, s = np.cos(crosswalk.walk_heading_rad), np.sin(crosswalk.walk_heading_rad)
+    u = rel[..., 0] * c + rel[..., 1] * s
+    w = -rel[..., 0] * s + rel[..., 1] * c
+    depth = np.minimum(
+        0.5 * crosswalk.length_m - np.abs(u), 0.5 * crosswalk.width_m - np.abs(w)
+    ) + bounding_radius_m
+    return 0.5 * (1.0 + np.tanh(0.5 * depth / OCCUPANCY_SOFTNESS_M))
+
+
+def circle_gap(ego_circles, ego_circle_r, other_circles, other_circle_r) -> np.ndarray:
+    """Gap between two footprints given by their covering circles [m], >= 0.
+
+    Args:
+        ego_circles (..., C, 2), ego_circle_r (..., C): the ego's covering circles
+            (footprint.covering_circles).
+        other_circles (..., M, C, 2), other_circle_r (..., M, C): the others'.
+
+    Returns:
+        (..., M) smallest circle-to-circle gap per other agent, clipped at 0 [m].
+    """
+    ex, ey = ego_circles[..., None, :, None, 0], ego_circles[..., None, :, None, 1]
+    ox, oy = other_circles[..., :, None, :, 0], other_circles[..., :, None, :, 1]
+    dx, dy = ex - ox, ey - oy
+    dist = np.sqrt(dx * dx + dy * dy)
+    gap = dist - ego_circle_r[..., None, :, None] - other_circle_r[..., :, None, :]
+    return np.maximum(gap.min(axis=(-1, -2)), 0.0)
+
+
+def _feature_terms(*, lateral_m, speed_mps, v_ref_mps, accel_mps2, prev_accel_mps2,
+                   ego_xy, ego_radius, ego_is_ped, ego_circles, ego_circle_r,
+                   other_xy, other_radius, other_is_ped, other_circles, other_circle_r, other_mask,
+                   crosswalks, needed=(True,) * N_FEATURES, gap=None) -> list:
+    """The six per-step features in FEATURE_NAMES order (None where not needed). `gap` may
+    pass circle_gap(ego, others) already computed by the caller.
+    """
+    terms = [None] * N_FEATURES
+    if needed[0]:
+        terms[0] = np.asarray(lateral_m, dtype=np.float64) ** 2
+    if needed[1]:
+        terms[1] = (np.asarray(speed_mps) - v_ref_mps) ** 2
+    if needed[2]:
+        terms[2] = np.asarray(accel_mps2) ** 2
+    if needed[3]:
+        terms[3] = (np.asarray(accel_mps2) - prev_accel_mps2) ** 2
+    if needed[4]:
+        if gap is None:
+            gap = circle_gap(ego_circles, ego_circle_r, other_circles, other_circle_r)
+        terms[4] = np.sum(np.where(other_mask, np.exp(-gap), 0.0), axis=-1)
+    if needed[5]:
+        conflict = 0.0
+        if crosswalks:
+            other_kind_differs = np.asarray(other_is_ped) != np.asarray(ego_is_ped)[..., None]
+            pair_mask = other_mask & other_kind_differs
+            for cw in crosswalks:
+                occ_ego = crosswalk_occupancy(ego_xy, ego_radius, cw)
+                occ_other = crosswalk_occupancy(other_xy, other_radius, cw)
+                conflict = conflict + occ_ego * np.sum(np.where(pair_mask, occ_other, 0.0),
+                                                       axis=-1)
+        terms[5] = conflict
+    return terms
+
+
+def step_features(**kwargs) -> np.ndarray:
+    """Feature vector phi of one step for a batch of egos.
+
+    Keyword arguments: lateral_m, speed_mps, v_ref_mps, accel_mps2, prev_accel_mps2;
+    ego_xy (..., 2), ego_radius, ego_is_ped (...), ego_circles (..., C, 2) and ego_circle_r
+    (..., C) from footprint.covering_circles; other_xy (..., M, 2), other_radius,
+    other_is_ped (..., M), other_circles (..., M, C, 2), other_circle_r (..., M, C),
+    other_mask (..., M) bool (excludes absent agents and the ego itself); crosswalks.
+    Leading dimensions broadcast. Returns (..., N_FEATURES) in FEATURE_NAMES order.
+    """
+    terms = _feature_terms(**kwargs)
+    return np.stack(np.broadcast_arrays(*terms), axis=-1)
+
+
+def step_cost(theta: np.ndarray, **kwargs) -> np.ndarray:
+    """theta^T phi of one step (same arguments as step_features), computing only the features
+    whose weight is non-zero. Returns the broadcast batch shape (...).
+    """
+    theta = np.asarray(theta, dtype=np.float64)
+    terms = _feature_terms(needed=tuple(bool(w != 0.0) for w in theta), **kwargs)
+    total = 0.0
+    for weight, term in zip(theta, terms):
+        if term is not None:
+            total = total + weight * term
+    return total

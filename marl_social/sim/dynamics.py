@@ -1,0 +1,95 @@
+"""Vectorized agent dynamics: kinematic bicycle for vehicles, velocity-commanded discs for
+pedestrians. Physical limits saturate (documented per function); nothing here raises on
+out-of-range values — input validation lives in the env.
+
+State layout for every agent: [x m, y m, heading rad, speed m/s].
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+DT_S = 0.1  # simulation step [s] (paper, section V)
+
+
+def saturate_vehicle_action(
+    action: np.ndarray,
+    speed_mps: np.ndarray,
+    wheelbase_m: np.ndarray,
+    accel_max_mps2: np.ndarray,
+    brake_max_mps2: np.ndarray,
+    steer_max_rad: np.ndarray,
+    lat_accel_max_mps2: np.ndarray,
+) -> np.ndarray:
+    """Clip [acceleration, steering] to the physical limits.
+
+    Acceleration is clipped to [-brake_max, accel_max]; steering to
+    |delta| <= min(steer_max, atan(wheelbase * lat_accel_max / v^2)) so that the lateral
+    acceleration v^2 * kappa (kappa = tan(delta) / wheelbase) stays within the G-G limit.
+
+    Args:
+        action: (n, 2) [a m/s^2, delta rad].
+        speed_mps, wheelbase_m, ...: (n,) per-vehicle values.
+
+    Returns:
+        (n, 2) saturated actions.
+    """
+    accel = np.clip(action[:, 0], -brake_max_mps2, accel_max_mps2)
+    v2 = np.maximum(speed_mps, 1e-3) ** 2
+    steer_lim = np.minimum(steer_max_rad, np.arctan(wheelbase_m * lat_accel_max_mps2 / v2))
+    steer = np.clip(action[:, 1], -steer_lim, steer_lim)
+    return np.stack([accel, steer], axis=1)
+
+
+def bicycle_step(
+    state: np.ndarray, action: np.ndarray, wheelbase_m: np.ndarray, speed_max_mps: np.ndarray,
+    dt_s: float = DT_S,
+) -> np.ndarray:
+    """Kinematic bicycle model (Rajamani 2011, ch. 2) with the reference point at the footprint
+    centre and the rear axle wheelbase/2 behind it.
+
+    beta = atan(tan(delta) / 2);  x' = v cos(psi + beta);  y' = v sin(psi + beta);
+    psi' = v cos(beta) tan(delta) / wheelbase;  v' = a.
+    Speed saturates to [0, speed_max] (no reversing); the position update uses the mean of the
+    speeds at the start and end of the step, so a car braking to a stop stops where it should.
+
+    Args:
+        state: (n, 4) [x, y, psi, v]; action: (n, 2) saturated [a, delta].
+        wheelbase_m, speed_max_mps: (n,).
+
+    Returns:
+        (n, 4) next state.
+    """
+    x, y, psi, v = state.T
+    accel, steer = action.T
+    v_next = np.clip(v + accel * dt_s, 0.0, speed_max_mps)
+    v_mid = 0.5 * (v + v_next)
+    tan_d = np.tan(steer)
+    beta = np.arctan(0.5 * tan_d)
+    psi_next = psi + v_mid * np.cos(beta) * tan_d / wheelbase_m * dt_s
+    psi_mid = 0.5 * (psi + psi_next)
+    x_next = x + v_mid * np.cos(psi_mid + beta) * dt_s
+    y_next = y + v_mid * np.sin(psi_mid + beta) * dt_s
+    psi_next = (psi_next + np.pi) % (2.0 * np.pi) - np.pi
+    return np.stack([x_next, y_next, psi_next, v_next], axis=1)
+
+
+def saturate_pedestrian_action(action: np.ndarray, speed_max_mps: np.ndarray) -> np.ndarray:
+    """Scale each velocity command (n, 2) [m/s] so that its norm is <= speed_max (n,) [m/s]."""
+    norm = np.linalg.norm(action, axis=1)
+    scale = np.where(norm > speed_max_mps, speed_max_mps / np.maximum(norm, 1e-12), 1.0)
+    return action * scale[:, None]
+
+
+def pedestrian_step(state: np.ndarray, velocity_mps: np.ndarray, dt_s: float = DT_S) -> np.ndarray:
+    """Point-mass pedestrian: moves by its (saturated) velocity command (n, 2) [m/s].
+
+    Heading follows the velocity; a standing pedestrian (|v| < 1 cm/s) keeps its heading.
+    Returns (n, 4) [x, y, psi, speed].
+    """
+    speed = np.linalg.norm(velocity_mps, axis=1)
+    heading = np.where(
+        speed > 1e-2, np.arctan2(velocity_mps[:, 1], velocity_mps[:, 0]), state[:, 2]
+    )
+    xy = state[:, :2] + velocity_mps * dt_s
+    return np.column_stack([xy, heading, speed])

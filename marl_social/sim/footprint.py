@@ -1,0 +1,86 @@
+"""Footprint geometry shared by the geometry mirrors, fields of view, costs and rendering.
+
+Vehicles are rectangles centred on their reference point; pedestrians are discs.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+N_COVER_CIRCLES = 3
+_COVER_OFFSETS = (np.arange(N_COVER_CIRCLES) - (N_COVER_CIRCLES - 1) / 2) / N_COVER_CIRCLES
+_CORNER_SIGNS = np.array([[-1.0, -1.0], [1.0, -1.0], [1.0, 1.0], [-1.0, 1.0]])
+
+
+def box_corners(xy, heading, length, width) -> np.ndarray:
+    """Corners of oriented rectangles.
+
+    Args:
+        xy: (..., 2) centres [m]; heading: (...) [rad]; length, width: (...) [m].
+
+    Returns:
+        (..., 4, 2) corners [m], counter-clockwise from rear-right.
+    """
+    xy = np.asarray(xy, dtype=np.float64)
+    c, s = np.cos(heading)[..., None], np.sin(heading)[..., None]
+    hl = 0.5 * np.asarray(length, dtype=np.float64)[..., None] * _CORNER_SIGNS[:, 0]
+    hw = 0.5 * np.asarray(width, dtype=np.float64)[..., None] * _CORNER_SIGNS[:, 1]
+    corners = np.empty(np.shape(hl) + (2,))
+    corners[..., 0] = xy[..., 0:1] + hl * c - hw * s
+    corners[..., 1] = xy[..., 1:2] + hl * s + hw * c
+    return corners
+
+
+def circle_layout(length, width, is_pedestrian) -> tuple[np.ndarray, np.ndarray]:
+    """Per-footprint constants of the covering circles: signed offsets of the circle centres
+    along the heading (..., C) [m] and their radii (..., C) [m] (Ziegler et al. 2014: vehicles
+    get N_COVER_CIRCLES equal circles along their length, pedestrians the same disc repeated).
+
+    Args: length, width (...) [m] (pedestrians: both = diameter); is_pedestrian (...) bool.
+    """
+    length = np.asarray(length, dtype=np.float64)
+    width = np.asarray(width, dtype=np.float64)
+    along = np.where(is_pedestrian, 0.0, length)[..., None] * _COVER_OFFSETS
+    veh_r = np.sqrt((length / (2 * N_COVER_CIRCLES)) ** 2 + (width / 2) ** 2)
+    radius = np.where(is_pedestrian, 0.5 * width, veh_r)
+    return along, np.repeat(radius[..., None], N_COVER_CIRCLES, axis=-1)
+
+
+def place_along(xy, heading, along) -> np.ndarray:
+    """Points at signed distances along (..., C) [m] from xy (..., 2) [m] in the heading
+    direction (...) [rad]: (..., C, 2) [m]. Shapes broadcast.
+    """
+    xy = np.asarray(xy, dtype=np.float64)
+    along = np.asarray(along, dtype=np.float64)
+    shape = np.broadcast_shapes(xy.shape[:-1], np.shape(heading), along.shape[:-1])
+    out = np.empty(shape + (along.shape[-1], 2))
+    out[..., 0] = xy[..., 0:1] + along * np.cos(heading)[..., None]
+    out[..., 1] = xy[..., 1:2] + along * np.sin(heading)[..., None]
+    return out
+
+
+def place_local(xy, heading, local) -> np.ndarray:
+    """Body-frame points local (..., K, 2) [m] (x forward, y left) placed at poses xy (..., 2)
+    [m], heading (...) [rad]: (..., K, 2) world points [m].
+    """
+    c = np.cos(heading)[..., None]
+    s = np.sin(heading)[..., None]
+    out = np.empty(np.broadcast_shapes(local.shape, np.shape(xy)[:-1] + (1, 2)))
+    out[..., 0] = xy[..., 0:1] + local[..., 0] * c - local[..., 1] * s
+    out[..., 1] = xy[..., 1:2] + local[..., 0] * s + local[..., 1] * c
+    return out
+
+
+def covering_circles(xy, heading, length, width, is_pedestrian) -> tuple[np.ndarray, np.ndarray]:
+    """Circles covering each footprint (see circle_layout).
+
+    Args:
+        xy: (..., 2) [m]; heading, length, width: (...) [m, rad]; is_pedestrian: (...) bool.
+            For pedestrians length = width = diameter. Shapes broadcast.
+
+    Returns:
+        centres (..., N_COVER_CIRCLES, 2) [m], radii (..., N_COVER_CIRCLES) [m].
+    """
+    along, radius = circle_layout(length, width, is_pedestrian)
+    centres = place_along(xy, heading, along)
+    return centres, np.broadcast_to(radius, centres.shape[:-1])

@@ -1,0 +1,249 @@
+"""Static map: lanes, routes (reference paths), crosswalks and static polygons.
+
+The static map is what every agent knows in advance (like an HD map): planners may read it, the
+world's dynamic state they may not. All coordinates are metres in the world frame, angles are
+radians counter-clockwise from +x.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+
+
+def _as_polyline(points, name: str) -> np.ndarray:
+    """Validate a polyline given as (P, 2) points, P >= 2, finite, no zero-length segment."""
+    arr = np.asarray(points, dtype=np.float64)
+    if arr.ndim != 2 or arr.shape[1] != 2 or arr.shape[0] < 2:
+        raise ValueError(f"{name}: expected a polyline of shape (P>=2, 2), got {arr.shape}")
+    if not np.all(np.isfinite(arr)):
+        raise ValueError(f"{name}: polyline has non-finite coordinates")
+    if np.any(np.linalg.norm(np.diff(arr, axis=0), axis=1) <= 1e-9):
+        raise ValueError(f"{name}: polyline has a zero-length segment")
+    return arr
+
+
+class Route:
+    """A reference path as a polyline with arc length.
+
+    Args:
+        points: (P, 2) vertices [m], in travel order.
+        name: used in error messages.
+    """
+
+    def __init__(self, points, name: str = "route"):
+        self.points = _as_polyline(points, name)
+        self.name = name
+        seg = np.diff(self.points, axis=0)
+        self._seg_start = self.points[:-1]
+        self._seg_vec = seg
+        self._seg_len = np.linalg.norm(seg, axis=1)
+        self._seg_dir = seg / self._seg_len[:, None]
+        self._seg_heading = np.arctan2(seg[:, 1], seg[:, 0])
+        self._cum_s = np.concatenate([[0.0], np.cumsum(self._seg_len)])
+        self.length_m = float(self._cum_s[-1])
+        self._seg_start_list = self._seg_start.tolist()
+        self._seg_dir_list = self._seg_dir.tolist()
+        self._seg_len_list = self._seg_len.tolist()
+        self._cum_s_list = self._cum_s[:-1].tolist()
+
+    def project(self, xy) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Project points onto the route.
+
+        Args:
+            xy: (..., 2) positions [m].
+
+        Returns:
+            s: (...) arc length of the closest point [m] (clamped to [0, length]),
+            lateral: (...) signed lateral offset [m], positive to the left of travel,
+            heading: (...) route heading at the closest point [rad].
+        """
+        xy = np.asarray(xy, dtype=np.float64)
+        rel = xy[..., None, :] - self._seg_start  # (..., S, 2)
+        t = np.einsum("...sk,sk->...s", rel, self._seg_dir)
+        t = np.clip(t, 0.0, self._seg_len)
+        closest = self._seg_start + t[..., None] * self._seg_dir
+        d2 = np.sum((xy[..., None, :] - closest) ** 2, axis=-1)
+        k = np.argmin(d2, axis=-1)
+        t_k = np.take_along_axis(t, k[..., None], axis=-1)[..., 0]
+        rel_k = np.take_along_axis(rel, k[..., None, None], axis=-2)[..., 0, :]
+        dir_k = self._seg_dir[k]
+        lateral = dir_k[..., 0] * rel_k[..., 1] - dir_k[..., 1] * rel_k[..., 0]
+        return self._cum_s[k] + t_k, lateral, self._seg_heading[k]
+
+    def project_point(self, x: float, y: float) -> tuple[float, float]:
+        """Arc length [m] and signed lateral offset [m] of one point: the scalar version of
+        `project`, in plain Python for short routes (a planner's per-step query).
+        """
+        if len(self._seg_len) > 16:
+            s, lateral, _ = self.project(np.array([x, y]))
+            return float(s), float(lateral)
+        best = (math.inf, 0.0, 0.0)
+        for (sx, sy), (dx, dy), length, s0 in zip(self._seg_start_list, self._seg_dir_list,
+                                                  self._seg_len_list, self._cum_s_list):
+            rx, ry = x - sx, y - sy
+            t = min(max(rx * dx + ry * dy, 0.0), length)
+            cx, cy = rx - t * dx, ry - t * dy
+            d2 = cx * cx + cy * cy
+            if d2 < best[0]:
+                best = (d2, s0 + t, dx * ry - dy * rx)
+        return best[1], best[2]
+
+    def point_at(self, s) -> tuple[np.ndarray, np.ndarray]:
+        """Position and heading at arc length s.
+
+        Args:
+            s: (...) arc length [m]; values beyond the ends extrapolate along the end segments.
+
+        Returns:
+            xy: (..., 2) [m], heading: (...) [rad].
+        """
+        s = np.asarray(s, dtype=np.float64)
+        k = np.clip(np.searchsorted(self._cum_s, s, side="right") - 1, 0, len(self._seg_len) - 1)
+        local = s - self._cum_s[k]
+        xy = self._seg_start[k] + local[..., None] * self._seg_dir[k]
+        return xy, self._seg_heading[k]
+
+
+@dataclass(frozen=True)
+class Lane:
+    """A lane: centerline polyline (P, 2) [m] in travel direction and width [m]."""
+
+    centerline: np.ndarray
+    width_m: float
+
+    def polygon(self) -> np.ndarray:
+        """(2P, 2) outline of the lane (left edge forward, right edge backward) [m]."""
+        route = Route(self.centerline)
+        _, heading = route.point_at(route._cum_s)
+        normal = np.stack([-np.sin(heading), np.cos(heading)], axis=-1)
+        left = self.centerline + 0.5 * self.width_m * normal
+        right = self.centerline - 0.5 * self.width_m * normal
+        return np.concatenate([left, right[::-1]], axis=0)
+
+
+@dataclass(frozen=True)
+class Crosswalk:
+    """A rectangular crosswalk.
+
+    Attributes:
+        center: (2,) [m].
+        walk_heading_rad: direction in which pedestrians cross [rad].
+        length_m: extent along the walking direction (curb to curb, plus margins) [m].
+        width_m: extent across the walking direction (along the road) [m].
+    """
+
+    center: np.ndarray
+    walk_heading_rad: float
+    length_m: float
+    width_m: float
+
+    def polygon(self) -> np.ndarray:
+        """(4, 2) corners [m], counter-clockwise."""
+        c, s = np.cos(self.walk_heading_rad), np.sin(self.walk_heading_rad)
+        along = np.array([c, s]) * 0.5 * self.length_m
+        across = np.array([-s, c]) * 0.5 * self.width_m
+        return np.array(
+            [
+                self.center - along - across,
+                self.center + along - across,
+                self.center + along + across,
+                self.center - along + across,
+            ]
+        )
+
+    def contains(self, xy, margin_m: float = 0.0) -> np.ndarray:
+        """Whether points (..., 2) [m] lie inside the crosswalk grown by margin_m [m]."""
+        rel = np.asarray(xy, dtype=np.float64) - self.center
+        c, s = np.cos(self.walk_heading_rad), np.sin(self.walk_heading_rad)
+        u = rel[..., 0] * c + rel[..., 1] * s
+        w = -rel[..., 0] * s + rel[..., 1] * c
+        return (np.abs(u) <= 0.5 * self.length_m + margin_m) & (
+            np.abs(w) <= 0.5 * self.width_m + margin_m
+        )
+
+
+def _validate_convex_polygon(poly, name: str) -> np.ndarray:
+    """Validate a static polygon: (V>=3, 2), finite, strictly convex; returned counter-clockwise."""
+    arr = np.asarray(poly, dtype=np.float64)
+    if arr.ndim != 2 or arr.shape[1] != 2 or arr.shape[0] < 3:
+        raise ValueError(f"{name}: expected a polygon of shape (V>=3, 2), got {arr.shape}")
+    if not np.all(np.isfinite(arr)):
+        raise ValueError(f"{name}: polygon has non-finite coordinates")
+    edge = np.roll(arr, -1, axis=0) - arr
+    nxt = np.roll(edge, -1, axis=0)
+    cross = edge[:, 0] * nxt[:, 1] - edge[:, 1] * nxt[:, 0]
+    if np.all(cross < 0):
+        arr = arr[::-1].copy()
+    elif not np.all(cross > 0):
+        raise ValueError(f"{name}: static polygons must be strictly convex (split concave ones)")
+    return arr
+
+
+@dataclass(frozen=True)
+class RoadMap:
+    """Everything static in a scenario.
+
+    Attributes:
+        lanes: drivable lanes.
+        crosswalks: pedestrian crossings.
+        static_polygons: convex obstacles (buildings, parked cars), each (V, 2) [m], CCW.
+        routes: reference path per agent name.
+        speed_limit_mps: legal speed limit [m/s].
+        extent: (xmin, xmax, ymin, ymax) of the area worth drawing [m].
+    """
+
+    lanes: tuple[Lane, ...]
+    crosswalks: tuple[Crosswalk, ...]
+    static_polygons: tuple[np.ndarray, ...]
+    routes: dict[str, Route] = field(default_factory=dict)
+    speed_limit_mps: float = 13.9
+    extent: tuple[float, float, float, float] = (0.0, 100.0, -20.0, 20.0)
+
+    def __post_init__(self):
+        polys = tuple(
+            _validate_convex_polygon(p, f"static_polygons[{i}]")
+            for i, p in enumerate(self.static_polygons)
+        )
+        object.__setattr__(self, "static_polygons", polys)
+
+
+class RouteSet:
+    """Several routes stacked (segments padded) so that n agents project in one array op.
+
+    Args:
+        routes: one Route per agent.
+    """
+
+    def __init__(self, routes: list[Route]):
+        n = len(routes)
+        n_seg = max((len(r._seg_len) for r in routes), default=1)
+        self.seg_start = np.zeros((n, n_seg, 2))
+        self.seg_dir = np.tile([1.0, 0.0], (n, n_seg, 1))
+        self.seg_len = np.zeros((n, n_seg))
+        self.cum_s = np.zeros((n, n_seg))
+        self.valid = np.zeros((n, n_seg), dtype=bool)
+        for i, r in enumerate(routes):
+            k = len(r._seg_len)
+            self.seg_start[i, :k] = r._seg_start
+            self.seg_dir[i, :k] = r._seg_dir
+            self.seg_len[i, :k] = r._seg_len
+            self.cum_s[i, :k] = r._cum_s[:-1]
+            self.valid[i, :k] = True
+        self.length_m = np.array([r.length_m for r in routes])
+
+    def project(self, xy) -> tuple[np.ndarray, np.ndarray]:
+        """Arc length s (n,) [m] and signed lateral offset (n,) [m] (left positive) of each
+        agent's position xy (n, 2) on its own route.
+        """
+        rel = xy[:, None, :] - self.seg_start  # (n, S, 2)
+        t = np.clip(np.einsum("nsk,nsk->ns", rel, self.seg_dir), 0.0, self.seg_len)
+        closest = self.seg_start + t[..., None] * self.seg_dir
+        d2 = np.where(self.valid, np.sum((xy[:, None, :] - closest) ** 2, axis=-1), np.inf)
+        k = np.argmin(d2, axis=1)
+        rows = np.arange(len(xy))
+        rel_k, dir_k = rel[rows, k], self.seg_dir[rows, k]
+        lateral = dir_k[:, 0] * rel_k[:, 1] - dir_k[:, 1] * rel_k[:, 0]
+        return self.cum_s[rows, k] + t[rows, k], lateral

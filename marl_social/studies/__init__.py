@@ -1,0 +1,3 @@
+"""Sensitivity studies: TOML specs (spec), execution on a process pool or Ray (runner), the
+results folder (results) and its analysis (analysis).
+"""

@@ -1,0 +1,383 @@
+"""Sensitivity studies: sweeps of scenario parameters x robot planners x pedestrian variants x
+seeds, one simulated episode (`run.run_episode`) per run, on a local process pool or on Ray.
+
+This module runs studies (`run_study`: one job per run, `execute` on a backend) and holds the
+`marl-social study` CLI. The TOML spec format, its parsing and validation are in
+`marl_social/study_spec.py`; the results table (results.csv, study.json, resume) is in
+`marl_social/study_results.py`. Their public names are re-exported here.
+
+Backends: "local" runs in process with 1 worker, else on a spawn-context process pool;
+"ray" sends one remote task per run to the cluster at `address`, to the one this process is
+already connected to, to a running local cluster (address "auto"), or else to a new local Ray
+with `workers` CPUs (shut down at the end). Ray is optional: `pip install marl-social[ray]`;
+every cluster node needs marl-social installed.
+
+Analysis (`marl_social/study_analysis.py`) runs at the end of a study: plots and summary.md /
+summary.csv next to results.csv.
+"""
+
+from __future__ import annotations
+
+import argparse
+import itertools
+import os
+import re
+import sys
+import time
+from collections.abc import Iterator
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from marl_social.studies.results import (
+    DEFAULT_OUT_ROOT,
+    HEAD_COLUMNS,
+    LOCK_FILE,
+    META_FILE,
+    RESULTS_FILE,
+    TAIL_COLUMNS,
+    _appender,
+    _exclusive,
+    _finalize,
+    _prepare_out,
+    _row,
+    default_out,
+    read_results,
+    result_columns,
+    study_metadata,
+)
+from marl_social.studies.spec import (
+    DEFAULT_MAX_CYCLES,
+    DEFAULT_METRICS,
+    DEFAULT_PEDESTRIANS,
+    DEFAULT_PLANNERS,
+    DEFAULT_SEEDS,
+    SPEC_PACKAGE_DIR,
+    Run,
+    StudySpec,
+    _is_int,
+    available_metrics,
+    axes,
+    builtin_specs,
+    expand,
+    format_value,
+    load_spec,
+    parse_spec,
+    run_key,
+    with_seeds,
+)
+
+# the public names of this module, marl_social.study_spec and marl_social.study_results
+__all__ = [
+    "BACKENDS", "DEFAULT_MAX_CYCLES", "DEFAULT_METRICS", "DEFAULT_OUT_ROOT",
+    "DEFAULT_PEDESTRIANS", "DEFAULT_PLANNERS", "DEFAULT_SEEDS", "HEAD_COLUMNS", "LOCK_FILE",
+    "META_FILE", "RESULTS_FILE", "SPEC_PACKAGE_DIR", "TAIL_COLUMNS", "Run", "StudyOutcome",
+    "StudySpec", "add_arguments", "available_metrics", "axes", "builtin_specs", "cli",
+    "default_out", "execute", "expand", "format_value", "load_spec", "main", "parse_spec",
+    "read_results", "register_cli", "result_columns", "run_job", "run_key", "run_study",
+    "study_metadata", "with_seeds",
+]
+
+BACKENDS = ("local", "ray")
+_MAX_ERROR_CHARS = 500
+
+
+@dataclass
+class StudyOutcome:
+    """What `run_study` did: the output folder and table, and counts of runs."""
+
+    out_dir: Path
+    results_path: Path
+    n_runs: int  # runs in the spec
+    n_skipped: int  # already in the table (resume)
+    n_executed: int
+    n_errors: int  # errors among the executed runs
+    analysis: Any = None  # study_analysis.AnalysisOutputs, or None
+
+
+# ---------------------------------------------------------------------------- running runs
+
+
+def _error_text(err: BaseException) -> str:
+    text = re.sub(r"\s+", " ", f"{type(err).__name__}: {err}").strip()
+    return text if len(text) <= _MAX_ERROR_CHARS else text[: _MAX_ERROR_CHARS - 3] + "..."
+
+
+def _plain(value):
+    """A metric value as a plain Python bool / int / float (pickles and formats the same)."""
+    if isinstance(value, (bool, np.bool_)):
+        return bool(value)
+    if isinstance(value, (int, np.integer)):
+        return int(value)
+    return float(value)
+
+
+def run_job(job: tuple) -> tuple[str, dict | None, str | None, float]:
+    """Run one study job (key, scenario, seed, max_cycles, overrides, metrics) in this process.
+
+    Returns (key, metric values or None, error text or None, elapsed wall time [s]). Any
+    exception of the episode is caught and returned as "TypeName: message".
+    """
+    key, scenario, seed, max_cycles, overrides, metrics = job
+    from marl_social.evaluation import run  # looked up per call: tests may patch run.run_episode
+
+    start = time.perf_counter()
+    try:
+        result = run.run_episode(scenario, seed=seed, max_cycles=max_cycles, **overrides)
+        missing = [m for m in metrics if m not in result.metrics]
+        if missing:
+            raise KeyError(f"run_episode returned no metric(s) {missing}")
+        values, error = {m: _plain(result.metrics[m]) for m in metrics}, None
+    except Exception as err:  # noqa: BLE001  (a failed run is recorded; the study goes on)
+        values, error = None, _error_text(err)
+    return key, values, error, time.perf_counter() - start
+
+
+def _local_results(jobs: list[tuple], workers: int) -> Iterator[tuple]:
+    """Results of jobs as they finish: in process for 1 worker, else a spawn process pool."""
+    if workers == 1 or len(jobs) <= 1:
+        yield from map(run_job, jobs)
+        return
+    import multiprocessing as mp
+    from concurrent.futures import ProcessPoolExecutor, as_completed
+
+    pool = ProcessPoolExecutor(min(workers, len(jobs)), mp_context=mp.get_context("spawn"))
+    try:
+        futures = [pool.submit(run_job, job) for job in jobs]
+        for future in as_completed(futures):
+            yield future.result()
+    finally:  # an interrupted study cancels what has not started
+        pool.shutdown(wait=True, cancel_futures=True)
+
+
+def _import_ray():
+    try:
+        import ray
+    except ImportError as err:
+        raise ImportError("the Ray backend needs Ray: pip install marl-social[ray]") from err
+    return ray
+
+
+def _ray_init(ray, address: str | None, workers: int) -> bool:
+    """Connect to (or start) Ray; True if this call started it (and must shut it down)."""
+    if ray.is_initialized():
+        return False
+    if address is not None:
+        ray.init(address=address, logging_level="WARNING")
+        return True
+    try:
+        ray.init(address="auto", logging_level="WARNING")
+    except ConnectionError:
+        ray.init(num_cpus=workers, include_dashboard=False, logging_level="WARNING")
+    return True
+
+
+def _ray_results(jobs: list[tuple], workers: int, address: str | None) -> Iterator[tuple]:
+    """Results of jobs as they finish, one Ray task per job (at most 2 per CPU in flight); a
+    task that fails inside Ray (e.g. its worker crashed) yields an error result.
+    """
+    ray = _import_ray()
+    started = _ray_init(ray, address, workers)
+    try:
+        remote = ray.remote(num_cpus=1)(run_job)
+        window = max(2 * int(ray.cluster_resources().get("CPU", workers)), 2)
+        queue, pending = iter(jobs), {}
+        for job in itertools.islice(queue, window):
+            pending[remote.remote(job)] = job
+        while pending:
+            done, _ = ray.wait(list(pending), num_returns=1)
+            for ref in done:
+                job = pending.pop(ref)
+                try:
+                    yield ray.get(ref)
+                except ray.exceptions.RayError as err:
+                    yield job[0], None, _error_text(err), float("nan")
+                for nxt in itertools.islice(queue, 1):
+                    pending[remote.remote(nxt)] = nxt
+    finally:
+        if started:
+            ray.shutdown()
+
+
+def execute(jobs: list[tuple], workers: int = 1, backend: str = "local",
+            address: str | None = None) -> Iterator[tuple]:
+    """Run jobs (see `run_job`) on a backend; yields results in completion order."""
+    if backend == "ray":
+        return _ray_results(jobs, workers, address)
+    return _local_results(jobs, workers)
+
+
+# ----------------------------------------------------------------------------------- running a study
+
+
+def run_study(spec: StudySpec | str | os.PathLike, out: str | os.PathLike | None = None, *,
+              workers: int = 1, backend: str = "local", address: str | None = None,
+              resume: bool = False, retry_failed: bool = False, overwrite: bool = False,
+              seeds: int | None = None, progress: bool = True, analyze: bool = True,
+              plots: bool = True) -> StudyOutcome:
+    """Run a study (a StudySpec, a spec file or a built-in name) into `out`
+    (default marl_social_out/studies/<name>/), writing results.csv row by row.
+
+    Args:
+        workers: parallel episodes (local processes, or the CPUs of a new local Ray).
+        backend: "local" or "ray" (see the module docstring).
+        address: Ray cluster address (backend "ray").
+        resume: keep the finished rows of an existing results.csv, run the rest.
+        retry_failed: with resume, also run again the runs recorded with an error.
+        overwrite: delete an existing study's outputs in `out` first.
+        seeds: use range(seeds) instead of the spec's seeds.
+        progress: show a tqdm progress bar with ETA.
+        analyze, plots: write summary.md / summary.csv (and the plots) at the end.
+
+    Raises:
+        ValueError: invalid spec or arguments, or `out` holds a different study.
+        FileExistsError: results.csv exists and neither resume nor overwrite is set.
+        RuntimeError: another process is running a study into `out`.
+    """
+    if not isinstance(spec, StudySpec):
+        spec = load_spec(spec, validate=False)
+    if seeds is not None:
+        spec = with_seeds(spec, seeds)
+    if backend not in BACKENDS:
+        raise ValueError(f"backend must be one of {BACKENDS}, got {backend!r}")
+    if not _is_int(workers) or workers < 1:
+        raise ValueError(f"workers must be an integer >= 1, got {workers!r}")
+    if resume and overwrite:
+        raise ValueError("choose one of resume and overwrite")
+    runs = expand(spec)
+    if backend == "ray":
+        _import_ray()
+    out_dir = Path(out) if out is not None else default_out(spec.name)
+    table = out_dir / RESULTS_FILE
+    out_dir.mkdir(parents=True, exist_ok=True)
+    with _exclusive(out_dir):
+        done = _prepare_out(spec, out_dir, resume, overwrite, retry_failed)
+        n_errors = _execute_into(spec, runs, done, table, result_columns(spec), workers,
+                                 backend, address, progress)
+        _finalize(table, result_columns(spec), runs)
+    todo = sum(r.key not in done for r in runs)
+    outcome = StudyOutcome(out_dir, table, len(runs), len(runs) - todo, todo, n_errors)
+    if analyze:
+        from marl_social.studies.analysis import analyze as analyze_study
+
+        outcome.analysis = analyze_study(out_dir, plots=plots)
+    return outcome
+
+
+def _execute_into(spec: StudySpec, runs: list[Run], done: dict, table: Path,
+                  columns: list[str], workers: int, backend: str, address: str | None,
+                  progress: bool) -> int:
+    """Run what is not done yet (seed-major order), appending rows; returns the error count."""
+    from tqdm import tqdm
+
+    seed_rank = {s: i for i, s in enumerate(spec.seeds)}
+    todo = sorted((r for r in runs if r.key not in done), key=lambda r: seed_rank[r.seed])
+    by_key = {r.key: r for r in todo}
+    jobs = [(r.key, spec.scenario, r.seed, spec.max_cycles, r.overrides, spec.metrics)
+            for r in todo]
+    n_errors = 0
+    with _appender(table, columns, done) as write, tqdm(
+            total=len(runs), initial=len(runs) - len(todo), desc=f"study {spec.name}",
+            unit="run", disable=not progress or not todo, dynamic_ncols=True) as bar:
+        for key, values, error, elapsed_s in execute(jobs, workers, backend, address):
+            write(_row(spec, by_key[key], values, error, elapsed_s))
+            n_errors += error is not None
+            bar.update(1)
+            if n_errors:
+                bar.set_postfix(errors=n_errors)
+    return n_errors
+
+
+# --------------------------------------------------------------------------------------- CLI
+
+
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    """The `study` command's arguments."""
+    parser.add_argument("spec", nargs="?", help="built-in study name (see --list) or a TOML "
+                        "spec file")
+    parser.add_argument("--out", help="output folder (default marl_social_out/studies/<name>)")
+    parser.add_argument("--workers", type=int, default=os.cpu_count() or 1,
+                        help="parallel episodes (default: the number of CPUs)")
+    parser.add_argument("--backend", choices=BACKENDS, default="local")
+    parser.add_argument("--address", help="Ray cluster address (default: the running cluster "
+                        "or a new local Ray)")
+    parser.add_argument("--resume", action="store_true",
+                        help="keep the finished runs of an existing results.csv")
+    parser.add_argument("--retry-failed", action="store_true", help="with --resume, run again "
+                        "the runs recorded with an error (by default they count as finished)")
+    parser.add_argument("--overwrite", action="store_true",
+                        help="delete the existing study in --out first")
+    parser.add_argument("--seeds", type=int, help="use seeds 0..N-1 instead of the spec's")
+    parser.add_argument("--no-plots", action="store_true", help="summary tables only")
+    parser.add_argument("--no-progress", action="store_true", help="no progress bar")
+    parser.add_argument("--analyze-only", action="store_true",
+                        help="only (re)write the plots and summary of an existing study")
+    parser.add_argument("--list", action="store_true", help="list the built-in studies")
+
+
+def register_cli(subparsers) -> argparse.ArgumentParser:
+    """Add the `study` subcommand to the `marl-social` CLI's subparsers."""
+    parser = subparsers.add_parser(
+        "study", help="run a sensitivity study (parameter sweeps x planners x seeds)",
+        description=__doc__.split("\n\n")[0])
+    add_arguments(parser)
+    parser.set_defaults(func=cli)
+    return parser
+
+
+def _list_builtin() -> int:
+    for name, path in builtin_specs().items():
+        try:
+            spec = load_spec(path, validate=False)
+            n = f"{len(expand(spec))} runs"
+        except ValueError as err:
+            spec, n = None, f"invalid: {err}"
+        description = spec.description if spec is not None else ""
+        print(f"{name:<16} {n:<12} {description}")
+    return 0
+
+
+def cli(args: argparse.Namespace) -> int:
+    """Entry of `marl-social study`; returns the exit code."""
+    if args.list:
+        return _list_builtin()
+    if not args.spec:
+        print("error: name a study (see --list) or a spec file", file=sys.stderr)
+        return 2
+    try:
+        if args.analyze_only:
+            from marl_social.studies.analysis import analyze
+
+            out = Path(args.out) if args.out else default_out(load_spec(args.spec, False).name)
+            outputs = analyze(out, plots=not args.no_plots)
+        else:
+            outcome = run_study(
+                args.spec, args.out, workers=args.workers, backend=args.backend,
+                address=args.address, resume=args.resume, retry_failed=args.retry_failed,
+                overwrite=args.overwrite, seeds=args.seeds, progress=not args.no_progress,
+                plots=not args.no_plots)
+            print(f"results: {outcome.results_path} ({outcome.n_runs} runs: "
+                  f"{outcome.n_executed} run now, {outcome.n_skipped} already done, "
+                  f"{outcome.n_errors} errors now)")
+            outputs = outcome.analysis
+    except (ValueError, RuntimeError, FileExistsError, FileNotFoundError, ImportError) as err:
+        print(f"error: {err}", file=sys.stderr)
+        return 2
+    print(f"summary: {outputs.summary_md}")
+    if outputs.figures:
+        print(f"plots:   {len(outputs.figures)} in {outputs.figures[0].parent}")
+    return 0
+
+
+def main(argv: list[str] | None = None) -> int:
+    """`python -m marl_social.studies ...`: the same as `marl-social study ...`."""
+    parser = argparse.ArgumentParser(prog="python -m marl_social.studies",
+                                     description=__doc__.split("\n\n")[0])
+    add_arguments(parser)
+    return cli(parser.parse_args(argv))
+
+
+if __name__ == "__main__":
+    sys.exit(main())

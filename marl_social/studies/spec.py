@@ -1,0 +1,489 @@
+"""Study specs: the TOML model of a sensitivity study, its parsing and its validation against
+the scenario, and the expansion into runs (`expand`). Studies run with `marl_social/studies.py`.
+
+A study is a TOML spec; the built-in ones live in `marl_social/studies/specs/`
+(`marl-social study --list`)::
+
+    name = "my-study"                     # output folder name (default: the file's stem)
+    description = "what it asks"          # optional
+    scenario = "occluded_crosswalk"       # default
+    seeds = 20                            # range(20), or a list such as [0, 5, 7]
+    planners = ["social", "aggressive"]   # default: social, aggressive, conservative, oracle
+    pedestrians = ["crossing", "none"]    # default: crossing, waiting, none
+    max_cycles = 150                      # episode length limit [steps of 0.1 s]
+    randomize = true                      # start every run from run.randomized_overrides(seed)
+    sample_seed = 0                       # seeds the [random] draws
+    metrics = ["robot_collision", "time_to_pass_s"]   # default: DEFAULT_METRICS
+
+    [fixed]                               # one value per parameter
+    human_blind = true
+    [grid]                                # lists of values, combined by cartesian product
+    human_beta = [0.5, 1, 3, 10, inf]
+    [random]                              # n values drawn once from sample_seed
+    human_lead_m = {low = 17, high = 23, n = 4}                 # uniform (log = true: log-uniform)
+    pedestrian_speed_mps = {choices = [1.1, 1.3, 1.5], n = 2}   # n distinct choices
+
+Every [random] parameter is an axis of n distinct values (drawn deterministically from
+sample_seed and the parameter's name; integer parameters draw distinct integers in [low, high]);
+the grid and random axes are combined by cartesian product. A run's overrides are, in order of
+precedence (last wins): `run.randomized_overrides(seed)` if randomize, [fixed], the run's
+grid/random point, its planner (`robot_planner`) and its pedestrian variant. A spec is fully
+validated before anything runs: unknown keys, parameters, planners or metrics and values the
+scenario rejects are a `ValueError` naming the file and the key.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import itertools
+import math
+import os
+import re
+import tomllib
+import zlib
+from dataclasses import dataclass, field
+from functools import cache
+from importlib import resources
+from pathlib import Path
+from typing import NamedTuple
+
+import numpy as np
+
+DEFAULT_PLANNERS = ("social", "aggressive", "conservative", "oracle")
+DEFAULT_PEDESTRIANS = ("crossing", "waiting", "none")
+DEFAULT_METRICS = (
+    "robot_collision", "yielded", "hard_brake", "max_decel_mps2", "time_to_pass_s",
+    "mean_speed_mps", "min_gap_pedestrian_m",
+    # belief metrics (nan for the oracle, which has no belief)
+    "robot_first_sees_pedestrian_s", "p_pedestrian_before_seen", "belief_confident_before_seen",
+    "brake_to_confident_s", "p_pedestrian_at_crosswalk", "brier",
+)
+DEFAULT_MAX_CYCLES = 150
+DEFAULT_SEEDS = 10
+SPEC_PACKAGE_DIR = "specs"  # inside marl_social.studies
+# spec keys that are not scenario parameters, and scenario fields a spec may not sweep directly
+_SPEC_KEYS = ("name", "description", "scenario", "seeds", "planners", "pedestrians",
+              "max_cycles", "randomize", "sample_seed", "metrics", "fixed", "grid", "random")
+_RESERVED = {"robot_planner": "planners", "pedestrian": "pedestrians"}
+_NAME_RE = re.compile(r"^[A-Za-z0-9][A-Za-z0-9_.+-]*$")
+
+
+class Run(NamedTuple):
+    """One episode of a study: its canonical key, the overrides passed to `run_episode`
+    (randomized, fixed and swept parameters, robot_planner, pedestrian) and its seed.
+    """
+
+    key: str
+    overrides: dict
+    seed: int
+
+
+@dataclass(frozen=True)
+class StudySpec:
+    """A parsed study spec (see the module docstring for the TOML format).
+
+    Attributes:
+        name: study name (the default output folder's name).
+        source: where the spec came from (a file path), used in error messages.
+        scenario: registered scenario name.
+        seeds: episode seeds.
+        planners: robot planners (`robot_planner` values).
+        pedestrians: pedestrian variants; None = DEFAULT_PEDESTRIANS if the scenario has a
+            `pedestrian` parameter, else no variant.
+        fixed: parameter -> value applied to every run.
+        grid: parameter -> tuple of values (cartesian product).
+        random: parameter -> draw rule ({low, high, n[, log]} or {choices, n}).
+        max_cycles: episode length limit [steps].
+        randomize: start every run from `run.randomized_overrides(seed)`.
+        sample_seed: seeds the [random] draws.
+        metrics: `run_episode` metric names stored per run.
+    """
+
+    name: str
+    source: str = "<spec>"
+    description: str = ""
+    scenario: str = "occluded_crosswalk"
+    seeds: tuple[int, ...] = tuple(range(DEFAULT_SEEDS))
+    planners: tuple[str, ...] = DEFAULT_PLANNERS
+    pedestrians: tuple[str, ...] | None = None
+    fixed: dict = field(default_factory=dict)
+    grid: dict = field(default_factory=dict)
+    random: dict = field(default_factory=dict)
+    max_cycles: int = DEFAULT_MAX_CYCLES
+    randomize: bool = True
+    sample_seed: int = 0
+    metrics: tuple[str, ...] = DEFAULT_METRICS
+
+    @property
+    def param_names(self) -> list[str]:
+        """The spec's scenario parameters ([fixed], [grid] and [random]), sorted."""
+        return sorted({*self.fixed, *self.grid, *self.random})
+
+    def section_of(self, name: str) -> str:
+        """Where a parameter is set in the spec, e.g. "[grid] human_beta"."""
+        for section in ("fixed", "grid", "random"):
+            if name in getattr(self, section):
+                return f"[{section}] {name}"
+        return _RESERVED.get(name, name)
+
+
+# ----------------------------------------------------------------------------- spec parsing
+
+
+def _spec_error(source: str, key: str, message: str) -> ValueError:
+    return ValueError(f"{source}: {key}: {message}")
+
+
+def _is_int(value) -> bool:
+    return isinstance(value, int) and not isinstance(value, bool)
+
+
+def _is_number(value) -> bool:
+    return isinstance(value, (int, float)) and not isinstance(value, bool)
+
+
+def _str_list(data: dict, key: str, source: str) -> tuple[str, ...] | None:
+    if key not in data:
+        return None
+    value = data[key]
+    if (not isinstance(value, list) or not value
+            or not all(isinstance(v, str) and v for v in value)):
+        raise _spec_error(source, key, f"expected a non-empty list of names, got {value!r}")
+    duplicates = sorted({v for v in value if value.count(v) > 1})
+    if duplicates:
+        raise _spec_error(source, key, f"duplicate entries {duplicates}")
+    return tuple(value)
+
+
+def _parse_seeds(value, source: str) -> tuple[int, ...]:
+    if _is_int(value):
+        if value < 1:
+            raise _spec_error(source, "seeds", f"the number of seeds must be >= 1, got {value}")
+        return tuple(range(value))
+    if (isinstance(value, list) and value and all(_is_int(s) and s >= 0 for s in value)):
+        if len(set(value)) != len(value):
+            raise _spec_error(source, "seeds", f"duplicate seeds in {value}")
+        return tuple(value)
+    raise _spec_error(source, "seeds", "expected a number of seeds N (range(N)) or a non-empty "
+                      f"list of distinct integers >= 0, got {value!r}")
+
+
+def _parse_table(data: dict, key: str, source: str) -> dict:
+    value = data.get(key, {})
+    if not isinstance(value, dict):
+        raise _spec_error(source, key, f"expected a table [{key}], got {value!r}")
+    return dict(value)
+
+
+def _parse_grid(data: dict, source: str) -> dict:
+    grid = _parse_table(data, "grid", source)
+    for name, values in grid.items():
+        if not isinstance(values, list) or not values:
+            raise _spec_error(source, f"[grid] {name}", f"expected a non-empty list of values, "
+                              f"got {values!r}")
+        grid[name] = tuple(values)
+    return grid
+
+
+def _parse_random(data: dict, source: str) -> dict:
+    rules = _parse_table(data, "random", source)
+    for name, rule in rules.items():
+        where = f"[random] {name}"
+        if not isinstance(rule, dict):
+            raise _spec_error(source, where, "expected {low, high, n} or {choices, n}, "
+                              f"got {rule!r}")
+        n = rule.get("n")
+        if not _is_int(n) or n < 1:
+            raise _spec_error(source, where, f"n must be an integer >= 1, got {n!r}")
+        if "choices" in rule:
+            unknown = sorted(set(rule) - {"choices", "n"})
+            choices = rule["choices"]
+            if unknown:
+                raise _spec_error(source, where, f"unknown key(s) {unknown} with choices")
+            if not isinstance(choices, list) or len(choices) < n:
+                raise _spec_error(source, where, f"choices must be a list of at least n={n} "
+                                  f"values, got {choices!r}")
+            continue
+        unknown = sorted(set(rule) - {"low", "high", "n", "log"})
+        if unknown:
+            raise _spec_error(source, where, f"unknown key(s) {unknown}; expected low, high, n "
+                              "and optionally log (or choices and n)")
+        low, high = rule.get("low"), rule.get("high")
+        if not (_is_number(low) and _is_number(high) and math.isfinite(low)
+                and math.isfinite(high) and low < high):
+            raise _spec_error(source, where, f"need finite numbers low < high, got low={low!r}, "
+                              f"high={high!r}")
+        if not isinstance(rule.get("log", False), bool):
+            raise _spec_error(source, where, f"log must be true or false, got {rule['log']!r}")
+        if rule.get("log", False) and low <= 0:
+            raise _spec_error(source, where, f"log = true needs low > 0, got {low}")
+    return rules
+
+
+def _get(data: dict, key: str, kind, default, source: str, check=None, expected: str = ""):
+    value = data.get(key, default)
+    ok = isinstance(value, kind) and not (kind is int and isinstance(value, bool))
+    if not ok or (check is not None and not check(value)):
+        raise _spec_error(source, key, f"expected {expected}, got {value!r}")
+    return value
+
+
+def parse_spec(data: dict, source: str = "<spec>", default_name: str = "") -> StudySpec:
+    """Check a spec's structure (keys and types) and build a StudySpec; `validate` and
+    `expand` check it against the scenario. Raises ValueError naming `source` and the key.
+    """
+    unknown = sorted(set(data) - set(_SPEC_KEYS))
+    if unknown:
+        raise _spec_error(source, ", ".join(unknown), f"unknown key(s); valid: {list(_SPEC_KEYS)} "
+                          "(scenario parameters go in [fixed], [grid] or [random])")
+    name = _get(data, "name", str, default_name, source, lambda v: bool(_NAME_RE.match(v)),
+                "a name of letters, digits and _ . + - (it names the output folder)")
+    fixed, grid, rand = (_parse_table(data, "fixed", source), _parse_grid(data, source),
+                         _parse_random(data, source))
+    section_of: dict[str, str] = {}
+    for section, table in (("fixed", fixed), ("grid", grid), ("random", rand)):
+        for param in table:
+            if param in section_of:
+                raise _spec_error(source, f"[{section}] {param}", f"also set in "
+                                  f"[{section_of[param]}]; a parameter belongs to one of "
+                                  "[fixed], [grid], [random]")
+            if param in _RESERVED:
+                raise _spec_error(source, f"[{section}] {param}", "set it with the top-level "
+                                  f"`{_RESERVED[param]}` list")
+            section_of[param] = section
+    return StudySpec(
+        name=name, source=source, fixed=fixed, grid=grid, random=rand,
+        description=_get(data, "description", str, "", source, expected="a string"),
+        scenario=_get(data, "scenario", str, "occluded_crosswalk", source,
+                      expected="a scenario name"),
+        seeds=_parse_seeds(data.get("seeds", DEFAULT_SEEDS), source),
+        planners=_str_list(data, "planners", source) or DEFAULT_PLANNERS,
+        pedestrians=_str_list(data, "pedestrians", source),
+        max_cycles=_get(data, "max_cycles", int, DEFAULT_MAX_CYCLES, source, lambda v: v >= 1,
+                        "an integer >= 1 [steps]"),
+        randomize=_get(data, "randomize", bool, True, source, expected="true or false"),
+        sample_seed=_get(data, "sample_seed", int, 0, source, lambda v: v >= 0,
+                         "an integer >= 0"),
+        metrics=_str_list(data, "metrics", source) or DEFAULT_METRICS,
+    )
+
+
+def builtin_specs() -> dict[str, Path]:
+    """Built-in study specs shipped with the package: name -> path."""
+    folder = resources.files("marl_social.studies").joinpath(SPEC_PACKAGE_DIR)
+    return {Path(str(p)).stem: Path(str(p)) for p in sorted(folder.iterdir(), key=str)
+            if str(p).endswith(".toml")}
+
+
+def _resolve_spec_path(name_or_path: str | os.PathLike) -> Path:
+    path = Path(name_or_path)
+    if path.is_file():
+        return path
+    specs = builtin_specs()
+    if str(name_or_path) in specs:
+        return specs[str(name_or_path)]
+    if path.suffix == ".toml":
+        raise ValueError(f"{path}: no such spec file")
+    raise ValueError(f"unknown study {str(name_or_path)!r}: not a file and not a built-in spec "
+                     f"(built-in: {sorted(specs)})")
+
+
+def load_spec(name_or_path: str | os.PathLike, validate: bool = True) -> StudySpec:
+    """Read a spec from a TOML file or a built-in name and (by default) validate it fully:
+    structure, scenario, parameter names, planners, metrics and every run's parameter values.
+
+    Raises:
+        ValueError: naming the file and the key at fault.
+    """
+    path = _resolve_spec_path(name_or_path)
+    try:
+        data = tomllib.loads(path.read_text(encoding="utf-8"))
+    except tomllib.TOMLDecodeError as err:
+        raise ValueError(f"{path}: malformed TOML: {err}") from None
+    spec = parse_spec(data, source=str(path), default_name=path.stem)
+    if validate:
+        expand(spec)
+    return spec
+
+
+def with_seeds(spec: StudySpec, n_seeds: int) -> StudySpec:
+    """The spec with seeds range(n_seeds) (the CLI's --seeds, for quick runs)."""
+    if not _is_int(n_seeds) or n_seeds < 1:
+        raise ValueError(f"--seeds: expected an integer >= 1, got {n_seeds!r}")
+    return dataclasses.replace(spec, seeds=tuple(range(n_seeds)))
+
+
+# ------------------------------------------------------------------------- validation, runs
+
+
+@cache
+def available_metrics(scenario: str) -> tuple[str, ...]:
+    """The metric names `run_episode` returns for a scenario (from a one-step episode)."""
+    from marl_social.evaluation import run
+
+    return tuple(run.run_episode(scenario, seed=0, max_cycles=1).metrics)
+
+
+def _scenario_fields(spec: StudySpec) -> tuple[type, dict]:
+    from marl_social.scenarios import SCENARIOS
+
+    if spec.scenario not in SCENARIOS:
+        raise _spec_error(spec.source, "scenario", f"unknown scenario {spec.scenario!r}; "
+                          f"available: {sorted(SCENARIOS)}")
+    cls = SCENARIOS[spec.scenario].params_cls
+    return cls, {f.name: f for f in dataclasses.fields(cls)}
+
+
+def _check_names(spec: StudySpec, params_cls: type, fields: dict) -> None:
+    from marl_social.evaluation.run import randomized_overrides
+    from marl_social.scenarios.base import ROBOT_PLANNER_CHOICES
+
+    for name in spec.param_names:
+        if name not in fields:
+            raise _spec_error(spec.source, spec.section_of(name),
+                              f"unknown parameter for scenario {spec.scenario!r} "
+                              f"({params_cls.__name__}); valid: {sorted(fields)}")
+    bad = [p for p in spec.planners if p not in ROBOT_PLANNER_CHOICES]
+    if bad:
+        raise _spec_error(spec.source, "planners", f"unknown planner(s) {bad}; valid: "
+                          f"{list(ROBOT_PLANNER_CHOICES)}")
+    if spec.pedestrians is not None and "pedestrian" not in fields:
+        raise _spec_error(spec.source, "pedestrians", f"scenario {spec.scenario!r} has no "
+                          "pedestrian variants; remove the key")
+    if spec.randomize:
+        foreign = sorted(set(randomized_overrides(0)) - set(fields))
+        if foreign:
+            raise _spec_error(spec.source, "randomize", "run.randomized_overrides sets "
+                              f"{foreign}, which scenario {spec.scenario!r} does not have; "
+                              "set randomize = false")
+    valid = available_metrics(spec.scenario)
+    bad = [m for m in spec.metrics if m not in valid]
+    if bad:
+        raise _spec_error(spec.source, "metrics", f"unknown metric(s) {bad}; run_episode "
+                          f"returns {sorted(valid)}")
+
+
+def _draw(spec: StudySpec, name: str, field_default) -> tuple:
+    """The n values of a [random] parameter: deterministic in (sample_seed, name)."""
+    rule = spec.random[name]
+    n = rule["n"]
+    rng = np.random.default_rng([spec.sample_seed, zlib.crc32(name.encode())])
+    if "choices" in rule:
+        return tuple(rule["choices"][i] for i in rng.choice(len(rule["choices"]), n,
+                                                            replace=False))
+    low, high = rule["low"], rule["high"]
+    if _is_int(field_default):
+        lo_i, hi_i = math.ceil(low), math.floor(high)
+        if hi_i - lo_i + 1 < n:
+            raise _spec_error(spec.source, f"[random] {name}", f"an integer parameter: "
+                              f"[{low}, {high}] holds fewer than n={n} integers")
+        return tuple(int(v) for v in rng.choice(np.arange(lo_i, hi_i + 1), n, replace=False))
+    if rule.get("log", False):
+        return tuple(float(v) for v in np.exp(rng.uniform(np.log(low), np.log(high), n)))
+    return tuple(float(v) for v in rng.uniform(low, high, n))
+
+
+def _same_value_key(value) -> str:
+    """Text under which values a scenario would treat alike compare equal (1 and 1.0)."""
+    if _is_number(value):
+        return repr(float(value))
+    return format_value(value)
+
+
+def axes(spec: StudySpec) -> list[tuple[str, tuple]]:
+    """The swept axes: (parameter, values) for [grid] then [random] parameters, in file order;
+    [random] values are drawn here (deterministically).
+
+    Raises:
+        ValueError: an axis holds the same value twice.
+    """
+    _, fields = _scenario_fields(spec)
+    out = list(spec.grid.items())
+    for name in spec.random:
+        default = fields[name].default if name in fields else None
+        out.append((name, _draw(spec, name, default)))
+    for name, values in out:
+        texts = [_same_value_key(v) for v in values]
+        duplicates = sorted({t for t in texts if texts.count(t) > 1})
+        if duplicates:
+            raise _spec_error(spec.source, spec.section_of(name),
+                              f"duplicate values {duplicates}")
+    return out
+
+
+def format_value(value) -> str:
+    """Canonical text of a parameter or metric value: floats in repr precision (exact round
+    trip), bools true/false, sequences [a b c]; identical in every process.
+    """
+    if isinstance(value, (bool, np.bool_)):
+        return "true" if value else "false"
+    if isinstance(value, (int, np.integer)):
+        return str(int(value))
+    if isinstance(value, (float, np.floating)):
+        return repr(float(value))
+    if isinstance(value, str):
+        return value
+    if isinstance(value, (tuple, list, np.ndarray)):
+        return "[" + " ".join(format_value(v) for v in value) + "]"
+    if isinstance(value, dict):
+        return "{" + " ".join(f"{k}:{format_value(v)}" for k, v in sorted(value.items())) + "}"
+    raise TypeError(f"cannot format {value!r} ({type(value).__name__})")
+
+
+def run_key(scenario: str, params: dict, seed: int) -> str:
+    """Canonical key of a run: scenario|name=value|...(sorted by name)|seed=N."""
+    items = "|".join(f"{k}={format_value(v)}" for k, v in sorted(params.items()))
+    return f"{scenario}|{items}|seed={int(seed)}"
+
+
+def _located_error(spec: StudySpec, err: Exception, point: dict) -> ValueError:
+    """A scenario's rejection of a value, attributed to the spec key that set it."""
+    message = str(err)
+    names = [n for n in point if re.search(rf"\b{re.escape(n)}\b", message)]
+    where = (", ".join(spec.section_of(n) for n in names) if names else
+             "parameter point " + ", ".join(f"{k}={format_value(v)}" for k, v in point.items()))
+    return ValueError(f"{spec.source}: {where}: {message}")
+
+
+def _sweep_keys(spec: StudySpec) -> str:
+    return ", ".join(spec.section_of(n) for n in (*spec.grid, *spec.random)) or "[fixed]"
+
+
+def expand(spec: StudySpec) -> list[Run]:
+    """Validate the spec against its scenario and list its runs in table order (planner,
+    pedestrian, grid/random point, seed). Every run's parameters are built once with
+    `scenarios.base.make_params`, so bad values fail here with the scenario's own message.
+
+    Raises:
+        ValueError: naming the spec file and the key at fault.
+    """
+    from marl_social.evaluation.run import randomized_overrides
+    from marl_social.scenarios.base import make_params
+
+    params_cls, fields = _scenario_fields(spec)
+    _check_names(spec, params_cls, fields)
+    swept = axes(spec)
+    pedestrians = (None,) if "pedestrian" not in fields else (spec.pedestrians
+                                                              or DEFAULT_PEDESTRIANS)
+    randomized = {s: randomized_overrides(s) if spec.randomize else {} for s in spec.seeds}
+    runs, seen = [], set()
+    for planner, pedestrian in itertools.product(spec.planners, pedestrians):
+        for values in itertools.product(*(v for _, v in swept)):
+            point = {**spec.fixed, **dict(zip((n for n, _ in swept), values)),
+                     "robot_planner": planner}
+            if pedestrian is not None:
+                point["pedestrian"] = pedestrian
+            for seed in spec.seeds:
+                overrides = {**randomized[seed], **point}
+                try:
+                    params = make_params(params_cls, overrides)
+                except (TypeError, ValueError) as err:
+                    raise _located_error(spec, err, point) from None
+                clean = {k: getattr(params, k) for k in overrides}
+                key = run_key(spec.scenario, {k: clean[k] for k in point}, seed)
+                if key in seen:  # values the scenario normalizes alike
+                    raise ValueError(f"{spec.source}: {_sweep_keys(spec)}: two parameter "
+                                     f"points give the same run {key!r}")
+                seen.add(key)
+                runs.append(Run(key, clean, seed))
+    return runs

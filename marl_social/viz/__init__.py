@@ -1,0 +1,1 @@
+"""Visualization: live frames of a world, animations and the paper-style episode figure."""

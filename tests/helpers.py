@@ -1,0 +1,40 @@
+"""Helpers shared by the tests: small hand-made worlds for geometry tests, zero actions."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from marl_social.envs.world import World
+from marl_social.scenarios.base import ScenarioLayout, ScenarioParams
+from marl_social.sim.agent_spec import AgentSpec, SensorParams
+from marl_social.sim.road_map import RoadMap, Route
+
+
+def vehicle(name, x, y, heading=0.0, speed=0.0, range_m=50.0, half_fov_deg=70.0):
+    return AgentSpec(name, "vehicle", "human", np.array([x, y, heading, speed]),
+                     sensor=SensorParams(range_m, math.radians(half_fov_deg), pos_noise_m=0.0,
+                                         vel_noise_mps=0.0, heading_noise_rad=0.0))
+
+
+def pedestrian(name, x, y, heading=0.0):
+    return AgentSpec(name, "pedestrian", "pedestrian", np.array([x, y, heading, 0.0]),
+                     sensor=SensorParams(50.0, math.radians(100.0)))
+
+
+def make_world(agents, statics=(), n_rays=16) -> World:
+    routes = {a.name: Route([[a.initial_state[0] - 1.0, a.initial_state[1]],
+                             [a.initial_state[0] + 500.0, a.initial_state[1]]], a.name)
+              for a in agents}
+    road_map = RoadMap(lanes=(), crosswalks=(), static_polygons=tuple(statics), routes=routes)
+    return World(ScenarioLayout(road_map, tuple(agents), ScenarioParams(n_rays=n_rays)))
+
+
+def box(x0, y0, x1, y1):
+    return np.array([[x0, y0], [x1, y0], [x1, y1], [x0, y1]], dtype=float)
+
+
+def zero_actions(env) -> dict:
+    """Zero action for every live agent (cars keep their speed, pedestrians stand)."""
+    return {a: np.zeros(2, dtype=np.float32) for a in env.agents}

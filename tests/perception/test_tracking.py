@@ -1,0 +1,67 @@
+"""Kalman-filter tracks built only from an agent's own noisy observations."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from marl_social.perception.tracking import Tracker
+
+from marl_social.sim.observation import EGO_DIM, SLOT_FIELDS, ObservationLayout
+
+LAYOUT = ObservationLayout(n_slots=4, n_rays=4)
+F = {name: i for i, name in enumerate(SLOT_FIELDS)}
+
+
+def _obs(objects):
+    """An observation vector with the given objects: (id, x, y, vx, vy) tuples."""
+    vec = np.zeros(LAYOUT.size, dtype=np.float32)
+    for k, (oid, x, y, vx, vy) in enumerate(objects):
+        base = EGO_DIM + k * len(SLOT_FIELDS)
+        vec[base + F["present"]] = 1.0
+        vec[base + F["id"]] = oid
+        vec[base + F["x"]], vec[base + F["y"]] = x, y
+        vec[base + F["vx"]], vec[base + F["vy"]] = vx, vy
+        vec[base + F["length"]], vec[base + F["width"]] = 4.5, 1.8
+    return LAYOUT.decode(vec)
+
+
+def test_track_filters_noise_towards_the_true_motion():
+    rng = np.random.default_rng(0)
+    tracker = Tracker(pos_noise_m=0.5, vel_noise_mps=1.0)
+    raw_err, kf_err, raw_verr, kf_verr = [], [], [], []
+    for k in range(60):
+        true = np.array([10.0 + 0.1 * k * 8.0, 2.0])
+        meas = true + rng.normal(0, 0.5, 2)
+        vel = np.array([8.0, 0.0]) + rng.normal(0, 1.0, 2)
+        tracks = tracker.update(_obs([(3, *meas, *vel)]))
+        if k >= 20:
+            raw_err.append(np.linalg.norm(meas - true))
+            kf_err.append(np.linalg.norm(tracks.xy[0] - true))
+            raw_verr.append(np.linalg.norm(vel - [8.0, 0.0]))
+            kf_verr.append(np.linalg.norm(tracks.velocity[0] - [8.0, 0.0]))
+    assert np.mean(kf_err) < 0.6 * np.mean(raw_err)
+    assert np.mean(kf_verr) < 0.8 * np.mean(raw_verr)
+
+
+def test_unseen_track_coasts_then_is_dropped():
+    tracker = Tracker(timeout_s=1.0)
+    for k in range(10):
+        tracker.update(_obs([(2, 5.0 + k, 0.0, 10.0, 0.0)]))
+    seen = tracker.tracks()
+    assert seen.seen[0] and seen.age_unseen_s[0] == 0.0
+    x_last = seen.xy[0, 0]
+    for _ in range(5):  # hidden for 0.5 s: the track coasts on at ~10 m/s
+        coast = tracker.update(_obs([]))
+    assert list(coast.ids) == [2] and not coast.seen[0]
+    assert coast.xy[0, 0] == pytest.approx(x_last + 0.5 * 10.0, abs=0.3)
+    assert coast.pos_std_m[0] > seen.pos_std_m[0]  # uncertainty grows while coasting
+    for _ in range(6):  # past the 1 s timeout
+        gone = tracker.update(_obs([]))
+    assert len(gone) == 0
+
+
+def test_new_objects_get_their_own_tracks_in_id_order():
+    tracker = Tracker()
+    tracks = tracker.update(_obs([(5, 0, 0, 0, 0), (2, 10, 0, 1, 0)]))
+    assert list(tracks.ids) == [2, 5]
+    assert tracks.xy[0] == pytest.approx([10, 0])

@@ -1,0 +1,108 @@
+"""The one cost module: features mean what their docstrings say; the weighted fast path equals
+theta . phi; the scalar route projection equals the vectorized one."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from marl_social.sim.costs import (
+    FEATURE_NAMES,
+    CostWeights,
+    crosswalk_occupancy,
+    step_cost,
+    step_features,
+)
+from marl_social.sim.footprint import covering_circles
+from marl_social.sim.road_map import Crosswalk, Route
+
+CW = Crosswalk(np.array([50.0, 0.0]), np.pi / 2, 7.0, 4.0)
+
+
+def _features(ego_xy, other_xy, other_is_ped, ego_is_ped=False, **kw):
+    """Features of B egos (B, 2) against M others each (B, M, 2) (or (M, 2) for B = 1)."""
+    ego_xy = np.atleast_2d(np.asarray(ego_xy, float))
+    other_xy = np.asarray(other_xy, float)
+    if other_xy.ndim == 2:
+        other_xy = other_xy[None]
+    b, m = other_xy.shape[:2]
+    is_ped = np.broadcast_to(np.asarray(other_is_ped, bool), (b, m))
+    ol, ow = np.where(is_ped, 0.6, 4.5), np.where(is_ped, 0.6, 1.8)
+    el, ew = (0.6, 0.6) if ego_is_ped else (4.5, 1.8)
+    ec, er = covering_circles(ego_xy, np.zeros(b), el, ew, ego_is_ped)
+    oc, orad = covering_circles(other_xy, np.zeros((b, m)), ol, ow, is_ped)
+    args = {
+        "lateral_m": kw.get("lateral", 0.0), "speed_mps": kw.get("v", 10.0), "v_ref_mps": 12.0,
+        "accel_mps2": kw.get("a", 1.0), "prev_accel_mps2": kw.get("a_prev", 0.0),
+        "ego_xy": ego_xy, "ego_radius": 0.5 * np.hypot(el, ew), "ego_is_ped": ego_is_ped,
+        "ego_circles": ec, "ego_circle_r": er, "other_xy": other_xy,
+        "other_radius": 0.5 * np.hypot(ol, ow), "other_is_ped": is_ped,
+        "other_circles": oc, "other_circle_r": orad, "other_mask": np.ones((b, m), bool),
+        "crosswalks": (CW,),
+    }
+    return step_features(**args), args
+
+
+def test_feature_values_and_units():
+    phi, _ = _features([0.0, 0.0], [[30.0, 0.0]], [False], lateral=0.5, v=10.0, a=1.5,
+                       a_prev=-0.5)
+    f = dict(zip(FEATURE_NAMES, phi[0]))
+    assert f["tracking"] == pytest.approx(0.25)
+    assert f["speed"] == pytest.approx(4.0)
+    assert f["accel"] == pytest.approx(2.25)
+    assert f["jerk"] == pytest.approx(4.0)
+    assert 0.0 < f["safety"] < np.exp(-20.0)
+    assert f["crosswalk"] == pytest.approx(0.0, abs=1e-9)
+
+
+def test_safety_grows_as_others_come_closer():
+    far = _features([0.0, 0.0], [[20.0, 0.0]], [False])[0][0, 4]
+    near = _features([0.0, 0.0], [[8.0, 0.0]], [False])[0][0, 4]
+    touching = _features([0.0, 0.0], [[4.5, 0.0]], [False])[0][0, 4]
+    assert far < near < touching == pytest.approx(1.0)
+
+
+def test_crosswalk_conflict_needs_a_car_and_a_pedestrian_in_it_at_once():
+    car_in, ped_in, ped_out = [50.0, 1.75], [50.0, -1.0], [50.0, -6.0]
+    both = _features([car_in], [ped_in], [True])[0][0, 5]
+    ped_on_curb = _features([car_in], [ped_out], [True])[0][0, 5]
+    two_cars = _features([car_in], [[50.0, -1.75]], [False])[0][0, 5]
+    car_before = _features([[40.0, 1.75]], [ped_in], [True])[0][0, 5]
+    assert both == pytest.approx(1.0, abs=1e-3)
+    assert ped_on_curb < 1e-6 and two_cars == 0.0 and car_before < 1e-6
+    # symmetric: the pedestrian's own feature sees the car
+    ped_view = _features([ped_in], [car_in], [False], ego_is_ped=True)[0][0, 5]
+    assert ped_view == pytest.approx(both)
+
+
+def test_occupancy_is_smooth_and_bounded():
+    y = np.linspace(-8, 8, 161)
+    occ = crosswalk_occupancy(np.column_stack([np.full_like(y, 50.0), y]), 0.3, CW)
+    assert np.all((occ >= 0) & (occ <= 1)) and np.all(np.abs(np.diff(occ)) < 0.5)
+
+
+def test_step_cost_is_theta_dot_features():
+    rng = np.random.default_rng(0)
+    for _ in range(20):
+        theta = rng.uniform(0, 5, 6) * (rng.random(6) > 0.3)
+        phi, args = _features(rng.uniform([40, -3], [60, 3], (7, 2)),
+                              rng.uniform([40, -5], [60, 5], (7, 3, 2)),
+                              [True, False, True])
+        assert step_cost(theta, **args) == pytest.approx(phi @ theta)
+
+
+def test_cost_weights_validation():
+    with pytest.raises(ValueError, match="speed"):
+        CostWeights(speed=-1.0)
+    with pytest.raises(ValueError, match="unknown cost features"):
+        CostWeights.from_any({"velocity": 1.0})
+    assert CostWeights.from_any([1, 2, 3, 4, 5, 6]).crosswalk == 6.0
+
+
+def test_scalar_projection_matches_vectorized():
+    route = Route([[0, 0], [10, 0], [15, 5], [15, 20]])
+    rng = np.random.default_rng(1)
+    for x, y in rng.uniform([-5, -5], [25, 25], (200, 2)):
+        s, lat, _ = route.project(np.array([x, y]))
+        s2, lat2 = route.project_point(float(x), float(y))
+        assert s2 == pytest.approx(float(s)) and lat2 == pytest.approx(float(lat))

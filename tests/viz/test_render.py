@@ -1,0 +1,297 @@
+"""Rendering: frames show the right things in the right places, GIFs and episode figures."""
+
+from __future__ import annotations
+
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+from marl_social.perception.fov import FovResult
+from PIL import Image
+
+import marl_social
+from marl_social.envs.world import World
+from marl_social.scenarios import make_scenario
+from marl_social.viz.render import Renderer, plot_episode, write_animation
+
+W, H = 1000, 360
+
+
+def _world(**overrides) -> World:
+    return World(make_scenario("occluded_crosswalk", **overrides).build(np.random.default_rng(0)))
+
+
+def _red(frame: np.ndarray) -> np.ndarray:
+    """(H, W) bool: the robot's saturated red."""
+    r, g, b = (frame[..., c].astype(int) for c in range(3))
+    return (r > 190) & (g < 90) & (b < 90)
+
+
+def _green(frame: np.ndarray) -> np.ndarray:
+    """(H, W) bool: the pedestrian's saturated green."""
+    r, g, b = (frame[..., c].astype(int) for c in range(3))
+    return (g > 120) & (r < 80) & (b < 80)
+
+
+def _window(mask: np.ndarray, col: float, row: float, half: int) -> np.ndarray:
+    r, c = round(row), round(col)
+    return mask[max(r - half, 0):r + half + 1, max(c - half, 0):c + half + 1]
+
+
+def _no_fov(world: World) -> FovResult:
+    """A field of view in which nobody sees anything and no fan is drawn."""
+    n = world.n
+    return FovResult(np.zeros((n, n), bool), np.zeros((n, 8)), np.zeros((n, 8)), 0)
+
+
+@pytest.fixture
+def world() -> World:
+    return _world()
+
+
+# -- Renderer ---------------------------------------------------------------------------------
+def test_frame_is_rgb_uint8_and_shows_the_robot_where_it_is(world):
+    renderer = Renderer(world.road_map)
+    frame = renderer.draw(world)
+    assert frame.shape == (H, W, 3)
+    assert frame.dtype == np.uint8
+    assert frame.std() > 10.0  # not a blank image
+    red = _red(frame)
+    col, row = renderer.world_to_pixel(world.state[0, :2])
+    assert 0 <= col < W and 0 <= row < H
+    # a 4.5 x 1.8 m car at ~0.18 m/px covers ~250 px; all the saturated red is the robot
+    near = _window(red, col, row, 20)
+    assert near.sum() > 100
+    assert near.sum() == red.sum()
+    rows, cols = np.nonzero(red)
+    assert abs(cols.mean() - col) < 3.0 and abs(rows.mean() - row) < 2.0
+
+
+def test_robot_box_moves_with_the_robot(world):
+    renderer = Renderer(world.road_map)
+    before = _red(renderer.draw(world))
+    m_per_px = (renderer.view_limits()[1] - renderer.view_limits()[0]) / W
+    world.state[0, 0] += 10.0
+    after = _red(renderer.draw(world))
+    shift = np.nonzero(after)[1].mean() - np.nonzero(before)[1].mean()
+    assert shift == pytest.approx(10.0 / m_per_px, abs=1.5)
+    assert abs(np.nonzero(after)[0].mean() - np.nonzero(before)[0].mean()) < 0.5
+
+
+def test_pedestrian_is_a_visible_green_disc(world):
+    renderer = Renderer(world.road_map)
+    frame = renderer.draw(world)
+    ped = world.names.index("pedestrian_0")
+    col, row = renderer.world_to_pixel(world.state[ped, :2])
+    assert _window(_green(frame), col, row, 6).sum() >= 30  # at least a 5 px radius disc
+
+
+def test_inactive_agents_are_not_drawn(world):
+    renderer = Renderer(world.road_map)
+    ped = world.names.index("pedestrian_0")
+    assert _red(renderer.draw(world)).sum() > 100
+    col, row = renderer.world_to_pixel(world.state[ped, :2])
+    world.deactivate(np.array([True, False, False]))
+    frame = renderer.draw(world)
+    assert _red(frame).sum() == 0
+    assert _window(_green(frame), col, row, 6).sum() >= 30  # the others still are
+
+
+def test_fov_fan_covers_the_visibility_polygon_only(world):
+    renderer = Renderer(world.road_map)
+    plain = renderer.draw(world, _no_fov(world)).astype(int)
+    assert np.array_equal(plain, renderer.draw(world).astype(int))
+    n, rays = world.n, 33
+    depth = np.zeros((n, rays))
+    depth[0] = 10.0  # the robot sees 10 m in every direction of its cone
+    angles = np.tile(np.linspace(-1.0, 1.0, rays), (n, 1))
+    fov = FovResult(np.zeros((n, n), bool), depth, angles, 0)
+    fan = renderer.draw(world, fov).astype(int)
+    x, y = world.state[0, :2]
+    inside = renderer.world_to_pixel([x + 6.0, y - 0.5])
+    beyond = renderer.world_to_pixel([x + 25.0, y - 0.5])
+    px = (lambda img, p: img[round(p[1]), round(p[0])])
+    assert np.abs(px(fan, inside) - px(plain, inside)).sum() > 15  # tinted red
+    assert px(fan, inside)[0] > px(fan, inside)[1]
+    assert np.array_equal(px(fan, beyond), px(plain, beyond))  # cut at the 10 m depth
+
+
+def test_robot_marks_the_agents_it_sees(world):
+    renderer = Renderer(world.road_map)
+    human = world.names.index("human_0")
+    fov = _no_fov(world)
+    unseen = renderer.draw(world, fov)
+    fov.visible[0, human] = True
+    seen = renderer.draw(world, fov)
+    col, row = renderer.world_to_pixel(world.state[human, :2])
+    # the dashed red outline appears around the human car (and nowhere else changes colour)
+    assert _window(_red(seen), col, row, 25).sum() > _window(_red(unseen), col, row, 25).sum() + 20
+    assert _red(seen).sum() - _red(unseen).sum() == (
+        _window(_red(seen), col, row, 25).sum() - _window(_red(unseen), col, row, 25).sum())
+
+
+def test_real_fov_changes_the_image(world):
+    fov, _ = world.perceive(np.random.default_rng(0))
+    renderer = Renderer(world.road_map)
+    with_fov = renderer.draw(world, fov)
+    without = renderer.draw(world)
+    changed = np.any(with_fov != without, axis=-1).mean()
+    assert changed > 0.02
+
+
+def test_zoomed_view_makes_the_robot_bigger(world):
+    wide = _red(Renderer(world.road_map).draw(world)).sum()
+    zoom = _red(Renderer(world.road_map, view=(-10.0, 30.0, -8.0, 8.0)).draw(world)).sum()
+    assert zoom > 10 * wide
+
+
+def test_follow_keeps_the_agent_centred_and_stitches_the_map(world):
+    follow = Renderer(world.road_map, follow="robot_0", view=(-10.0, 50.0, -12.5, 12.5))
+    for dx in (0.0, 37.3, 81.9):  # crosses tile boundaries of the cached static map
+        world.state[0, 0] = dx
+        frame = follow.draw(world)
+        col, _ = follow.world_to_pixel(world.state[0, :2])
+        assert abs(col - W / 2) <= 0.5  # centred to the nearest pixel
+        assert abs(np.nonzero(_red(frame))[1].mean() - col) < 3.0  # and drawn there
+        # the same limits drawn by a fixed-view renderer give the same picture
+        fixed = Renderer(world.road_map, view=follow.view_limits(world)).draw(world)
+        diff = np.abs(frame.astype(int) - fixed.astype(int))
+        assert diff.mean() < 0.5 and (diff.max(axis=-1) > 30).mean() < 0.002
+
+
+def test_frame_size_and_errors(world):
+    small = Renderer(world.road_map, width_px=320, height_px=200)
+    assert small.draw(world).shape == (200, 320, 3)
+    with pytest.raises(ValueError, match="view"):
+        Renderer(world.road_map, view=(10.0, 0.0, -5.0, 5.0))
+    with pytest.raises(ValueError, match="follow"):
+        Renderer(world.road_map, follow="nobody").draw(world)
+    small.close()
+    small.close()  # idempotent
+    with pytest.raises(RuntimeError):
+        small.draw(world)
+
+
+def test_show_mode_on_a_headless_machine_behaves_like_rgb_array(world):
+    renderer = Renderer(world.road_map, show=True)
+    frame = renderer.draw(world)
+    assert frame.shape == (H, W, 3) and _red(frame).sum() > 100
+    renderer.close()
+
+
+def test_rgb_rendering_never_imports_pyplot():
+    code = (
+        "import sys, numpy as np, marl_social\n"
+        "env = marl_social.parallel_env(render_mode='rgb_array')\n"
+        "env.reset(seed=0)\n"
+        "frame = env.render()\n"
+        "assert frame.shape == (360, 1000, 3), frame.shape\n"
+        "assert 'matplotlib.pyplot' not in sys.modules\n"
+    )
+    subprocess.run([sys.executable, "-c", code], check=True, timeout=120)
+
+
+# -- the env ----------------------------------------------------------------------------------
+def test_env_render_rgb_array_returns_frames_that_follow_the_episode():
+    env = marl_social.parallel_env(render_mode="rgb_array", render_fov=False)
+    env.reset(seed=0)
+    first = env.render()
+    assert first.shape == (H, W, 3) and first.dtype == np.uint8
+    x0 = env.world.state[0, 0]
+    left0 = env._renderer.view_limits(env.world)[0]
+    for _ in range(10):
+        env.step({a: np.zeros(2) for a in env.agents})
+    later = env.render()
+    assert later.shape == (H, W, 3)
+    # frames follow the robot: it stays centred while the view slides with it
+    for frame in (first, later):
+        assert np.nonzero(_red(frame))[1].mean() == pytest.approx(W / 2, abs=6)
+    x_min, x_max = env._renderer.view_limits(env.world)[:2]
+    m_per_px = (x_max - x_min) / W
+    moved = env.world.state[0, 0] - x0
+    assert moved > 10.0
+    assert x_min - left0 == pytest.approx(moved, abs=1.5 * m_per_px)
+    assert np.any(first != later)
+    env.close()
+
+
+def test_env_render_with_fov_and_human_mode():
+    env = marl_social.parallel_env(render_mode="rgb_array")
+    env.reset(seed=0)
+    with_fov = env.render()
+    env.close()
+    env = marl_social.parallel_env(render_mode="rgb_array", render_fov=False)
+    env.reset(seed=0)
+    assert np.any(with_fov != env.render())
+    env.close()
+    env = marl_social.parallel_env(render_mode="human")
+    env.reset(seed=0)
+    env.step({a: np.zeros(2) for a in env.agents})
+    assert env.render() is None
+    env.close()
+
+
+# -- animations and figures -------------------------------------------------------------------
+def test_write_animation_writes_a_gif_with_every_frame(tmp_path):
+    frames = []
+    for k in range(5):
+        frame = np.full((40, 60, 3), 200, np.uint8)
+        frame[10:20, 5 + 10 * k:15 + 10 * k] = (220, 30, 30)  # a red box moving right
+        frames.append(frame)
+    path = write_animation(frames, tmp_path / "nested" / "dir" / "anim.gif", fps=5)
+    assert path.exists()
+    with Image.open(path) as gif:
+        assert gif.format == "GIF"
+        assert gif.n_frames == 5
+        assert gif.size == (60, 40)
+        assert gif.info["duration"] == 200
+        gif.seek(4)
+        last = np.asarray(gif.convert("RGB"))
+    assert _red(last)[15, 50] and not _red(last)[15, 10]
+    with pytest.raises(ValueError):
+        write_animation([], tmp_path / "empty.gif")
+    with pytest.raises(ValueError):
+        write_animation([frames[0], frames[0][:20]], tmp_path / "ragged.gif")
+
+
+def _episode(steps: int = 25):
+    env = marl_social.parallel_env()
+    env.reset(seed=0)
+    times, states, active, visible = [], [], [], []
+    for _ in range(steps):
+        w = env.world
+        times.append(w.time_s)
+        states.append(w.state.copy())
+        active.append(w.active.copy())
+        visible.append(env.last_fov.visible.copy())
+        env.step({a: np.zeros(2) for a in env.agents})
+    roles = [env.agent_specs[a].role for a in env.possible_agents]
+    return (env.road_map, env.possible_agents, roles, np.array(times), np.array(states),
+            np.array(active), np.array(visible))
+
+
+def test_plot_episode_writes_a_readable_png(tmp_path):
+    road_map, names, roles, times, states, active, visible = _episode()
+    belief = np.linspace(0.0, 1.0, len(times))
+    path = plot_episode(road_map, names, roles, times, states, active, visible,
+                        tmp_path / "figs" / "episode.png", title="test episode",
+                        beliefs={"robot belief": belief})
+    assert path.exists()
+    with Image.open(path) as img:
+        assert img.format == "PNG"
+        assert img.size[0] >= 1000 and img.size[1] >= 700
+        pixels = np.asarray(img.convert("RGB"))
+    assert pixels.std() > 10.0
+    assert _red(pixels).sum() > 200  # robot boxes and its curves
+    assert _green(pixels).sum() > 20  # pedestrian dots
+
+
+def test_plot_episode_rejects_inconsistent_shapes(tmp_path):
+    road_map, names, roles, times, states, active, visible = _episode(5)
+    with pytest.raises(ValueError, match="states"):
+        plot_episode(road_map, names, roles, times, states[:-1], active, visible,
+                     tmp_path / "x.png")
+    with pytest.raises(ValueError, match="belief"):
+        plot_episode(road_map, names, roles, times, states, active, visible, tmp_path / "x.png",
+                     beliefs={"belief": np.zeros(3)})
