@@ -44,8 +44,13 @@ class FovResult:
 
 
 def depth_ray_angles(half_angle_rad: np.ndarray, n_rays: int) -> np.ndarray:
-    """Relative ray directions (n, n_rays) [rad]: evenly across each cone, edges included; a full
-    circle (half-angle >= pi) is split evenly without repeating -pi/+pi.
+    """Relative ray directions (n, n_rays) [rad], evenly across each cone, edges included.
+
+    A full circle (half-angle >= pi) is split evenly without repeating -pi/+pi.
+
+    Args:
+        half_angle_rad: (n,) half-angles of the observers' view cones [rad].
+        n_rays: depth rays per observer.
     """
     half = np.asarray(half_angle_rad, dtype=np.float64)
     frac = np.linspace(-1.0, 1.0, n_rays) if n_rays > 1 else np.zeros(1)
@@ -54,8 +59,15 @@ def depth_ray_angles(half_angle_rad: np.ndarray, n_rays: int) -> np.ndarray:
 
 
 def sample_point_layout(length, width, is_pedestrian) -> np.ndarray:
-    """Body-frame points whose sight proves a target visible (n, 5, 2) [m]: the centre, then 4
-    points just inside the outline (the corners of a car; 4 points around a pedestrian).
+    """Body-frame points whose sight proves a target visible (n, 5, 2) [m].
+
+    The centre, then 4 points just inside the outline (the corners of a car; 4 points around a
+    pedestrian).
+
+    Args:
+        length: (n,) target lengths [m].
+        width: (n,) target widths [m].
+        is_pedestrian: (n,) bool.
     """
     half = 0.5 * _INNER_FRACTION * np.column_stack([length, width])  # (n, 2)
     local = np.zeros((len(half), 5, 2))
@@ -114,10 +126,13 @@ class FieldOfView:
         mirror: the synced geometry (its pymunk Space answers the narrow phase).
         static_polygons: the same convex polygons the mirror holds, (V, 2) each [m].
         n_rays: depth rays per observer.
+        blind_regions: (observer index, convex polygon (V, 2) [m]) pairs: the observer sees no
+            object whose centre is inside the polygon.
     """
 
     def __init__(self, mirror: GeometryMirror, static_polygons, n_rays: int,
                  blind_regions=()):
+        """Cache the static polygons' bounding boxes for the broad phase."""
         self.mirror = mirror
         # (observer, polygon) pairs: the observer sees no object whose centre is inside
         self._blind = [(int(o), np.asarray(poly, dtype=np.float64)) for o, poly in blind_regions]
@@ -141,8 +156,15 @@ class FieldOfView:
         """Fields of view of all active agents.
 
         Args:
-            xy (n, 2) [m]; heading (n,) [rad]; length, width, bounding_radius (n,) [m];
-            is_pedestrian, active (n,) bool; range_m, half_angle_rad (n,) [m, rad].
+            xy: (n, 2) positions [m].
+            heading: (n,) headings [rad].
+            length: (n,) lengths [m].
+            width: (n,) widths [m].
+            is_pedestrian: (n,) bool.
+            bounding_radius: (n,) bounding-circle radii [m] (broad phase).
+            active: (n,) bool; inactive agents neither see nor occlude.
+            range_m: (n,) sensor ranges [m].
+            half_angle_rad: (n,) half-angles of the view cones [rad].
         """
         n = len(xy)
         self._queries = 0
@@ -196,8 +218,9 @@ class FieldOfView:
         return FovResult(visible, depth, angles, self._queries)
 
     def _maybe_blocked(self, start, end, ray_obs, tgt, centres, radii) -> np.ndarray:
-        """Broad phase: could anything but the ray's observer (and, for the first len(tgt)
-        rays, their target) be in the way? (R,) bool.
+        """Broad phase: could anything be in the way of each ray? (R,) bool.
+
+        Anything but the ray's observer and, for the first len(tgt) rays, their target.
         """
         blockers = _segments_hit_circles(start, end, centres, radii)
         rows = np.arange(len(ray_obs))
@@ -209,8 +232,9 @@ class FieldOfView:
         return maybe
 
     def _resolve_targets(self, start, end, obs, tgt, maybe, visible) -> None:
-        """Mark visible[o, t] for target rays that cannot be blocked, and ask pymunk (narrow
-        phase) for the others, skipping targets an earlier point already proved visible.
+        """Mark visible[o, t] for target rays that cannot be blocked; ask pymunk for the others.
+
+        The narrow phase skips targets an earlier sample point already proved visible.
         """
         clear = ~maybe
         visible[obs[clear], tgt[clear]] = True

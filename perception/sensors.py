@@ -17,10 +17,17 @@ def measure(visible, xy, heading, speed, pos_noise_m, vel_noise_mps, heading_noi
     """Measure every visible target.
 
     Args:
-        visible: (n, n) bool from the field of view.
-        xy (n, 2) [m], heading (n,) [rad], speed (n,) [m/s]: true states.
-        pos_noise_m, vel_noise_mps, heading_noise_rad: (n,) each observer's noise stds.
+        visible: (n, n) bool from the field of view, visible[observer, target].
+        xy: (n, 2) true positions [m].
+        heading: (n,) true headings [rad].
+        speed: (n,) true speeds [m/s].
+        pos_noise_m: (n,) each observer's position noise std [m].
+        vel_noise_mps: (n,) each observer's velocity noise std [m/s].
+        heading_noise_rad: (n,) each observer's heading noise std [rad].
         rng: the episode's generator.
+
+    Returns:
+        Measurements, one row per visible pair, sorted by observer then true distance.
     """
     obs, tgt = np.nonzero(visible)
     dist = np.linalg.norm(xy[tgt] - xy[obs], axis=1)

@@ -1,5 +1,6 @@
-"""Multi-object tracking from an agent's own observations: one Kalman filter per object
-(filterpy's predict / update), constant-velocity model, state [x m, y m, vx m/s, vy m/s].
+"""Multi-object tracking from an agent's own observations: one Kalman filter per object.
+
+filterpy's predict / update, constant-velocity model, state [x m, y m, vx m/s, vy m/s].
 
 Association is by the object id in the observation slot (a perception stack's track id). A track
 that is not measured coasts on its prediction and is dropped after `timeout_s`.
@@ -19,10 +20,12 @@ from filterpy.common import Q_discrete_white_noise
 from filterpy.kalman import predict, update
 
 from marl_social.sim.dynamics import DT_S
-from marl_social.sim.observation import SLOT_FIELDS, DecodedObservation
+from marl_social.sim.observation import SLOT_INDEX, DecodedObservation
 
-_F = {name: i for i, name in enumerate(SLOT_FIELDS)}
 MOVING_MPS = 1.0  # below this tracked speed the heading is the measured box heading [m/s]
+MIN_NOISE_STD = 1e-3  # measurement noise stds are at least this [m, m/s]
+# slot columns of the measured state [x m, y m, vx m/s, vy m/s]
+_MEASURED_STATE = [SLOT_INDEX["x"], SLOT_INDEX["y"], SLOT_INDEX["vx"], SLOT_INDEX["vy"]]
 
 
 @dataclass(frozen=True)
@@ -49,6 +52,7 @@ class TrackSet:
     heading_rad: np.ndarray
 
     def __len__(self) -> int:
+        """Number of tracks k."""
         return len(self.ids)
 
     def predict_xy(self, times_s: np.ndarray) -> np.ndarray:
@@ -60,22 +64,27 @@ class Tracker:
     """Kalman-filter tracks of what one agent has seen.
 
     Args:
-        pos_noise_m, vel_noise_mps: measurement noise stds of the agent's sensor.
+        pos_noise_m: position measurement noise std of the agent's sensor [m].
+        vel_noise_mps: velocity measurement noise std [m/s].
         accel_noise_mps2: process noise (white acceleration) std [m/s^2].
         timeout_s: an unseen track is dropped after this long [s].
+        dt_s: step length [s].
     """
 
     def __init__(self, pos_noise_m: float = 0.05, vel_noise_mps: float = 0.1,
                  accel_noise_mps2: float = 2.0, timeout_s: float = 2.0, dt_s: float = DT_S):
+        """Build the constant-velocity model matrices and start with no tracks."""
         self.dt_s = dt_s
         self.timeout_s = timeout_s
-        self._R = np.diag([max(pos_noise_m, 1e-3) ** 2] * 2 + [max(vel_noise_mps, 1e-3) ** 2] * 2)
+        self._R = np.diag([max(pos_noise_m, MIN_NOISE_STD) ** 2] * 2
+                          + [max(vel_noise_mps, MIN_NOISE_STD) ** 2] * 2)
         self._Q = Q_discrete_white_noise(dim=2, dt=dt_s, var=accel_noise_mps2 ** 2, block_size=2,
                                          order_by_dim=False)
         self._F = np.array([[1, 0, dt_s, 0], [0, 1, 0, dt_s], [0, 0, 1, 0], [0, 0, 0, 1.0]])
         self.reset()
 
     def reset(self) -> None:
+        """Drop every track."""
         self._filters: dict[int, tuple[np.ndarray, np.ndarray]] = {}  # id -> (x (4,), P (4, 4))
         self._attrs: dict[int, tuple[float, float, bool, float]] = {}  # length, width, ped, psi
         self._unseen: dict[int, float] = {}
@@ -84,11 +93,15 @@ class Tracker:
     _H = np.eye(4)
 
     def update(self, decoded: DecodedObservation) -> TrackSet:
-        """Advance every track one step and fold in this step's measurements."""
+        """Advance every track one step and fold in this step's measurements.
+
+        Args:
+            decoded: the agent's decoded observation (its present slots are the measurements).
+        """
         objects = decoded.objects
         measured = {}
         for row in objects:
-            oid = round(row[_F["id"]])
+            oid = round(row[SLOT_INDEX["id"]])
             measured[oid] = row
         for oid in list(self._filters):
             self._filters[oid] = predict(*self._filters[oid], self._F, self._Q)
@@ -97,19 +110,21 @@ class Tracker:
                 if self._unseen[oid] > self.timeout_s:
                     del self._filters[oid], self._attrs[oid], self._unseen[oid]
         for oid, row in measured.items():
-            z = row[[_F["x"], _F["y"], _F["vx"], _F["vy"]]].astype(np.float64)
+            z = row[_MEASURED_STATE].astype(np.float64)
             if oid in self._filters:
                 self._filters[oid] = update(*self._filters[oid], z, self._R, self._H)
             else:
                 self._filters[oid] = (z, self._R.copy())
-            self._attrs[oid] = (float(row[_F["length"]]), float(row[_F["width"]]),
-                                bool(row[_F["is_pedestrian"]] > 0.5),
-                                float(np.arctan2(row[_F["sin_psi"]], row[_F["cos_psi"]])))
+            self._attrs[oid] = (float(row[SLOT_INDEX["length"]]), float(row[SLOT_INDEX["width"]]),
+                                bool(row[SLOT_INDEX["is_pedestrian"]] > 0.5),
+                                float(np.arctan2(row[SLOT_INDEX["sin_psi"]],
+                                                 row[SLOT_INDEX["cos_psi"]])))
             self._unseen[oid] = 0.0
         self._seen_now = set(measured)
         return self.tracks()
 
     def tracks(self) -> TrackSet:
+        """The current tracks, ascending object id."""
         ids = np.array(sorted(self._filters), dtype=np.int64)
         if len(ids) == 0:
             z2 = np.zeros((0, 2))
@@ -128,8 +143,11 @@ class Tracker:
 
 
 def track_heading(velocity_mps: np.ndarray, measured_heading_rad: np.ndarray) -> np.ndarray:
-    """(k,) footprint headings [rad]: the velocity's direction where the speed is at least
-    MOVING_MPS, else the measured box heading. velocity_mps (k, 2) [m/s]; measured (k,) [rad].
+    """(k,) footprint headings [rad]: the velocity's direction when moving, else the box's.
+
+    Args:
+        velocity_mps: (k, 2) tracked velocities [m/s]; the direction counts from MOVING_MPS.
+        measured_heading_rad: (k,) last measured box headings [rad].
     """
     speed = np.hypot(velocity_mps[:, 0], velocity_mps[:, 1])
     return np.where(speed >= MOVING_MPS, np.arctan2(velocity_mps[:, 1], velocity_mps[:, 0]),

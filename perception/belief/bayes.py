@@ -1,0 +1,126 @@
+"""Discrete Bayes filtering in log space (Algorithm 1) and the traffic-speed belief (eq. 12).
+
+`bayes_step` is one filter step on a discrete belief (L,): a Markov prediction
+(`markov_transition`, so beliefs never lock), the product of the likelihoods of independent
+sources (summed log-likelihoods, eq. 9 and 12), and a normalization with a floor, so that a
+belief is never NaN or all-zero. `TrafficSpeedBelief` is the social information I = v_traffic
+over a small grid of speeds, filtered the same way.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from filterpy.discrete_bayes import normalize
+from filterpy.discrete_bayes import update as bayes_update
+
+BELIEF_FLOOR = 1e-6  # default: no belief drops below this before normalization
+TRAFFIC_HAZARD_PER_STEP = 0.002  # default mass moving between traffic speeds per step
+
+
+def markov_transition(n: int, p_move: float) -> np.ndarray:
+    """(n, n) column-stochastic Markov matrix of a hazard p_move.
+
+    Each hypothesis keeps 1 - p_move of its mass and spreads p_move evenly over the others
+    (identity for n = 1).
+
+    Args:
+        n: number of hypotheses.
+        p_move: mass moving away from each hypothesis per step, clipped to [0, 1].
+    """
+    if n <= 1:
+        return np.ones((max(n, 0), max(n, 0)))
+    p = float(np.clip(p_move, 0.0, 1.0))
+    mat = np.full((n, n), p / (n - 1))
+    np.fill_diagonal(mat, 1.0 - p)
+    return mat
+
+
+def sanitize_log_likelihood(log_lik: np.ndarray) -> np.ndarray:
+    """Log-likelihoods (..., L) of one or more sources made safe, each source's maximum 0.
+
+    A source with NaN or +inf anywhere, or -inf everywhere (nothing explains it), carries no
+    usable information: zeros.
+    """
+    ll = np.asarray(log_lik, dtype=np.float64)
+    top = ll.max(axis=-1, keepdims=True)  # NaN if any NaN, +inf if any +inf
+    good = np.isfinite(top)
+    return np.where(good, ll - np.where(good, top, 0.0), 0.0)
+
+
+def bayes_step(prior, log_likelihoods, transition=None, floor: float = BELIEF_FLOOR
+               ) -> np.ndarray:
+    """One discrete Bayes filter step (Algorithm 1, steps 2-3; eq. 9 and 12).
+
+    Args:
+        prior: (L,) belief after the previous step.
+        log_likelihoods: (L,) or (S, L) log P(observation_s | hypothesis l) for S independent
+            sources (own sensors, each human...), multiplied (summed in log space). A source
+            with NaN or +inf anywhere, or -inf everywhere, is ignored.
+        transition: (L, L) column-stochastic Markov matrix applied first (prediction), or None.
+        floor: every belief is raised to at least this before the final normalization.
+
+    Returns:
+        (L,) posterior, finite, positive, summing to 1.
+    """
+    prior = np.asarray(prior, dtype=np.float64)
+    total_prior = prior.sum()
+    if not (math.isfinite(total_prior) and total_prior > 0.0 and prior.min() >= 0.0):
+        prior, total_prior = np.ones_like(prior), float(len(prior))
+    predicted = prior / total_prior
+    if transition is not None:
+        predicted = np.asarray(transition) @ predicted
+    predicted = np.maximum(predicted, 0.0)
+    ll = np.atleast_2d(np.asarray(log_likelihoods, dtype=np.float64))
+    total = sanitize_log_likelihood(sanitize_log_likelihood(ll).sum(axis=0))
+    posterior = bayes_update(np.exp(total), predicted)
+    if not np.all(np.isfinite(posterior)):
+        posterior = predicted / predicted.sum() if predicted.sum() > 0 else np.ones(len(prior))
+    return normalize(np.maximum(posterior, floor))
+
+
+class TrafficSpeedBelief:
+    """Belief over the traffic speed v_traffic on a grid (social information, eq. 12).
+
+        b(v | u_H) ∝ b(v) prod_i P(u_H,i | v)
+
+    with a small Markov transition (hazard_per_step) before each update.
+
+    Args:
+        grid_mps: (V,) candidate traffic speeds [m/s].
+        hazard_per_step: mass moving between grid values per step.
+        floor: belief floor before normalization.
+    """
+
+    def __init__(self, grid_mps, hazard_per_step: float = TRAFFIC_HAZARD_PER_STEP,
+                 floor: float = BELIEF_FLOOR):
+        """Start uniform over grid_mps."""
+        self.grid_mps = np.asarray(grid_mps, dtype=np.float64)
+        if self.grid_mps.ndim != 1 or len(self.grid_mps) == 0:
+            raise ValueError("TrafficSpeedBelief: grid_mps must be a non-empty 1-D sequence")
+        self.floor = float(floor)
+        self.transition = markov_transition(len(self.grid_mps), hazard_per_step)
+        self.reset()
+
+    def reset(self) -> None:
+        """Back to the uniform prior."""
+        self.probabilities = np.full(len(self.grid_mps), 1.0 / len(self.grid_mps))
+
+    def update(self, log_likelihoods) -> np.ndarray:
+        """Fold in one step and return the (V,) posterior.
+
+        Args:
+            log_likelihoods: (H, V) log P(a_obs,i | v) for H humans (H may be 0: prediction
+                only).
+        """
+        ll = np.asarray(log_likelihoods, dtype=np.float64).reshape(-1, len(self.grid_mps))
+        if len(ll) == 0:
+            ll = np.zeros((1, len(self.grid_mps)))
+        self.probabilities = bayes_step(self.probabilities, ll, self.transition, self.floor)
+        return self.probabilities
+
+    @property
+    def expected_mps(self) -> float:
+        """E[v_traffic] under the belief [m/s]."""
+        return float(self.probabilities @ self.grid_mps)

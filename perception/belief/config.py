@@ -1,0 +1,85 @@
+"""Parameters of the robot's social perception (`BeliefConfig`, SI units).
+
+Its own module so that the parts of the belief (own_sensors.py, social.py) and the belief that
+combines them (pedestrian.py) all read it without importing each other.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from marl_social.sim.costs import CostWeights
+
+
+@dataclass(frozen=True)
+class BeliefConfig:
+    """Parameters of the robot's social perception (SI units).
+
+    Attributes:
+        walk_speed_mps: walking speed of the hypothesised pedestrians [m/s].
+        curb_offset_m: how far from the curb a hypothesised pedestrian starts [m].
+        p_detect: P(robot detects a pedestrian | it is in a visible part of the region).
+        p_false_alarm: P(a crossing pedestrian is reported that is not there).
+        accel_noise_mps2: sigma of N(a_obs; u, sigma^2), the noise of the robot's estimate of a
+            human's acceleration [m/s^2].
+        hazard_per_s: per-second probability mass moving between hypotheses [1/s].
+        floor: beliefs never drop below this before normalization.
+        epsilon: the paper's tail threshold (for the planner; see `PedestrianBelief.live`).
+        beta_hat: the robot's model of the humans' rationality.
+        beta_grid_hat: if non-empty, beta_hat is not fixed: each tracked human's rationality is
+            inferred on this grid jointly with the hidden state (a per-human belief b_i(beta),
+            uniform at first; P(a_i | l, v) = sum_beta b_i(beta) P(a_i | l, v, beta), and
+            b_i(beta) ∝ b_i(beta) sum_{l,v} b(l, v) P(a_i | l, v, beta)). An erratic human is
+            then explained by a low beta and moves the pedestrian belief less.
+        theta_hat: the robot's model of the humans' cost weights.
+        prior_present: prior mass spread evenly over the present hypotheses.
+        v_traffic_grid_mps: grid of the traffic-speed belief [m/s].
+        human_range_m: range of the field of view the robot assumes a human has for the
+            objects it reacts to besides the hypothesised pedestrian [m].
+        human_half_fov_rad: half-angle of that assumed field of view [rad].
+        walking_speed_min_mps: a seen pedestrian moving at least this fast along a hypothesis'
+            walking direction is stepping onto the crosswalk [m/s].
+        outlier_prob: weight rho of a uniform outlier component in P(a_obs | x)
+            (`action_log_likelihood`; 0 = eq. 10 exactly).
+        min_track_steps: a human's acceleration is used once its track has been measured this
+            many consecutive steps (a new Kalman track's velocity is still settling).
+        track_accel_noise_mps2: process noise of the robot's default Kalman tracker [m/s^2]
+            (lower: smoother a_obs, more lag; 1.5 keeps the a_obs noise below sigma = 1).
+    """
+
+    walk_speed_mps: float = 1.3
+    curb_offset_m: float = 1.0
+    p_detect: float = 0.95
+    p_false_alarm: float = 0.01
+    accel_noise_mps2: float = 1.0
+    hazard_per_s: float = 0.02
+    floor: float = 1e-6
+    epsilon: float = 0.02
+    beta_hat: float = 0.3
+    beta_grid_hat: tuple = ()
+    theta_hat: CostWeights = field(default_factory=CostWeights)
+    prior_present: float = 0.5
+    v_traffic_grid_mps: tuple = (8.0, 10.0, 11.5, 13.0)
+    human_range_m: float = 60.0
+    human_half_fov_rad: float = math.radians(60.0)
+    walking_speed_min_mps: float = 0.5
+    outlier_prob: float = 0.0
+    min_track_steps: int = 3
+    track_accel_noise_mps2: float = 1.5
+
+    def __post_init__(self):
+        """Reject probabilities outside [0, 1], negative betas and non-positive noise/floor."""
+        for name in ("p_detect", "p_false_alarm", "prior_present"):
+            value = getattr(self, name)
+            if not 0.0 <= value <= 1.0:
+                raise ValueError(f"BeliefConfig.{name} must be in [0, 1], got {value}")
+        grid = np.asarray(self.beta_grid_hat, dtype=np.float64)
+        if grid.ndim != 1 or not np.all(grid >= 0):  # also rejects NaN
+            raise ValueError(f"BeliefConfig.beta_grid_hat must be a sequence of betas >= 0, "
+                             f"got {self.beta_grid_hat!r}")
+        if not (self.accel_noise_mps2 > 0 and self.hazard_per_s >= 0 and self.floor > 0):
+            raise ValueError("BeliefConfig: need accel_noise_mps2 > 0, hazard_per_s >= 0, "
+                             "floor > 0")

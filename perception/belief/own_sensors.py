@@ -1,0 +1,142 @@
+"""The robot's own sensors as evidence about hidden pedestrians (Algorithm 1, step 2).
+
+A pedestrian the robot sees crossing (or stepping onto) a crosswalk is positive information for
+the matching hypotheses (p_detect against p_false_alarm). Otherwise the part of each
+hypothesis' region that the robot's depth rays show empty is negative information:
+
+    P(no detection | l) = (1 - p_false_alarm) (1 - p_detect * visible_fraction_l)
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from marl_social.perception.belief.config import BeliefConfig
+from marl_social.perception.belief.hypotheses import PEDESTRIAN_DIAMETER_M, Hypothesis
+from marl_social.perception.fov import depth_ray_angles
+from marl_social.perception.tracking import TrackSet
+
+from marl_social.sim.observation import EGO_INDEX, DecodedObservation
+
+CORRIDOR_MARGIN_M = 1.0  # a detection within this margin of a hypothesis' corridor can match [m]
+PROBABILITY_MIN = 1e-12  # probabilities are clipped to [this, 1 - this] before the log
+CONE_TOLERANCE_RAD = 1e-9  # a region point on the edge of the sensor cone is inside it [rad]
+
+
+class OwnSensors:
+    """Likelihood of the robot's own detections and free space under each hypothesis.
+
+    Args:
+        hypotheses: the L hypotheses ("none" first).
+        config: BeliefConfig (p_detect, p_false_alarm, walking_speed_min_mps).
+    """
+
+    def __init__(self, hypotheses: list[Hypothesis], config: BeliefConfig):
+        """Cache the present hypotheses' regions (P, K, 2) [m]."""
+        self.hypotheses = hypotheses
+        self.config = config
+        self._present = np.array([h.present for h in hypotheses])
+        self._present_idx = np.flatnonzero(self._present)
+        regions = [h.region() for h in hypotheses if h.present]
+        self._region = np.array(regions) if regions else np.zeros((0, 1, 2))  # (P, K, 2)
+        self._ray_cache: tuple | None = None
+
+    def visible_fraction(self, decoded: DecodedObservation) -> np.ndarray:
+        """(L,) fraction of each hypothesis' region the robot's depth rays show free.
+
+        0 for "none". A point is visible if within range and cone and the depth along its
+        bearing (the shorter of the two neighbouring rays) reaches it, less a pedestrian's
+        radius.
+
+        Args:
+            decoded: the robot's decoded observation (ego block and depth rays).
+        """
+        ego, depth = decoded.ego, np.asarray(decoded.depth_m, dtype=np.float64)
+        out = np.zeros(len(self.hypotheses))
+        if len(self._present_idx) == 0 or len(depth) == 0:
+            return out
+        x, y = float(ego[EGO_INDEX["x"]]), float(ego[EGO_INDEX["y"]])
+        c, s = float(ego[EGO_INDEX["cos_psi"]]), float(ego[EGO_INDEX["sin_psi"]])
+        rng = float(ego[EGO_INDEX["sensor_range"]])
+        half = float(ego[EGO_INDEX["sensor_half_angle"]])
+        angles = self._ray_angles(half, len(depth))
+        rel = self._region - np.array([x, y])
+        dist = np.hypot(rel[..., 0], rel[..., 1])
+        bearing = np.arctan2(rel[..., 1], rel[..., 0]) - math.atan2(s, c)
+        bearing = (bearing + np.pi) % (2.0 * np.pi) - np.pi
+        n_rays = len(angles)
+        if half >= np.pi:
+            i1 = np.searchsorted(angles, bearing) % n_rays
+            i0 = (i1 - 1) % n_rays
+            in_cone = np.ones(bearing.shape, dtype=bool)
+        else:
+            i1 = np.clip(np.searchsorted(angles, bearing), 0, n_rays - 1)
+            i0 = np.clip(i1 - 1, 0, n_rays - 1)
+            in_cone = np.abs(bearing) <= half + CONE_TOLERANCE_RAD
+        reach = np.minimum(depth[i0], depth[i1])
+        seen = in_cone & (dist <= rng) & (reach >= dist - 0.5 * PEDESTRIAN_DIAMETER_M)
+        out[self._present_idx] = seen.mean(axis=1)
+        return out
+
+    def _ray_angles(self, half: float, n_rays: int) -> np.ndarray:
+        """The robot's depth-ray directions (n_rays,) [rad], cached per (half-angle, n_rays)."""
+        key = (half, n_rays)
+        if self._ray_cache is None or self._ray_cache[0] != key:
+            self._ray_cache = (key, depth_ray_angles(np.array([half]), n_rays)[0])
+        return self._ray_cache[1]
+
+    def match_pedestrians(self, xy, velocity) -> np.ndarray:
+        """(L,) bool: present hypotheses consistent with the pedestrians the robot sees.
+
+        A seen pedestrian matches a hypothesis inside its corridor (the crosswalk from its entry
+        to the far end, +-CORRIDOR_MARGIN_M) and either on the road not walking against its
+        direction, or walking in its direction at >= walking_speed_min_mps. A pedestrian
+        standing on the sidewalk matches nothing.
+
+        Args:
+            xy: (n, 2) seen pedestrians' positions [m].
+            velocity: (n, 2) their velocities [m/s].
+        """
+        out = np.zeros(len(self.hypotheses), dtype=bool)
+        xy = np.asarray(xy, dtype=np.float64).reshape(-1, 2)
+        vel = np.asarray(velocity, dtype=np.float64).reshape(-1, 2)
+        if len(xy) == 0:
+            return out
+        v_min = self.config.walking_speed_min_mps
+        for i in self._present_idx:
+            h = self.hypotheses[i]
+            along, across = h.corridor_coords(xy)
+            v_along = vel @ h.walk_dir
+            corridor = ((np.abs(across) <= h.half_width_m + CORRIDOR_MARGIN_M)
+                        & (along >= -CORRIDOR_MARGIN_M)
+                        & (along <= h.walk_length_m - h.curb_offset_m))
+            on_road = (along >= h.curb_offset_m) & (along <= h.walk_length_m - h.curb_offset_m)
+            crossing = (on_road & (v_along > -v_min)) | (v_along >= v_min)
+            out[i] = bool(np.any(corridor & crossing))
+        return out
+
+    def log_likelihood(self, decoded: DecodedObservation, tracks: TrackSet):
+        """Positive and negative information from the robot's own sensors.
+
+        Args:
+            decoded: the robot's decoded observation.
+            tracks: the robot's current tracks.
+
+        Returns:
+            (L,) log-likelihood, (L,) visible fraction, (L,) bool matched detections.
+        """
+        cfg = self.config
+        seen_ped = tracks.is_pedestrian & tracks.seen
+        detected = self.match_pedestrians(tracks.xy[seen_ped], tracks.velocity[seen_ped])
+        visible = self.visible_fraction(decoded)
+        miss = np.clip(1.0 - cfg.p_detect * visible, PROBABILITY_MIN, 1.0)
+        p_fa = np.clip(cfg.p_false_alarm, PROBABILITY_MIN, 1.0 - PROBABILITY_MIN)
+        if detected.any():
+            # the detection is explained by a matching hypothesis, or is a false alarm (then
+            # any other pedestrian's region was missed)
+            lik = np.where(detected, cfg.p_detect, p_fa * np.where(self._present, miss, 1.0))
+        else:
+            lik = (1.0 - p_fa) * np.where(self._present, miss, 1.0)
+        with np.errstate(divide="ignore"):
+            return np.log(lik), visible, detected

@@ -1,0 +1,246 @@
+"""The robot's social perception (Sun et al. 2019, section III-B-2, eq. 9-12, Algorithm 1).
+
+The robot keeps two discrete beliefs, built only from its own observation vector each step and
+the static map (never the world):
+
+* `PedestrianBelief`: hidden physical states x_l, l = 1..L, represented by motion patterns
+  (`Hypothesis`, hypotheses.py): "none" (no pedestrian about to cross) and, for each curb end
+  of each crosswalk, "a pedestrian steps off that curb now and walks across".
+* `TrafficSpeedBelief` (bayes.py): the social information I = v_traffic over a small grid
+  (eq. 12).
+
+Each step (Algorithm 1, in log space; 0.1 s per step):
+
+1. prediction: a Markov transition moves `hazard_per_s * dt` of the mass uniformly between the
+   hypotheses (beliefs never lock; a new pedestrian may appear), and likewise between traffic
+   speeds;
+2. own sensors (own_sensors.py): positive information from a pedestrian the robot sees
+   crossing, negative information from the part of each hypothesis' region its depth rays show
+   empty;
+3. social information (social.py, eq. 9-10, 12): each human driver the robot tracks is a
+   sensor, its observed acceleration weighed under the robot's model of the human for every
+   (hypothesis l, traffic speed v); humans multiply (eq. 12);
+4. normalization, with a floor (beliefs are never NaN or all-zero).
+
+The update is done on the joint b(l, v) ∝ b(l) b(v) P(own | l) prod_i P(a_i | l, v) and stored
+as its two marginals (Algorithm 1's "fuse" step), so that a human braking for a pedestrian is
+not read as slow traffic, nor a slow human as a pedestrian.
+
+beta_hat defaults to 0.3, not the humans' own 5: Q* is in simulator-step cost units with a
+crosswalk weight of 1000, and an error of ~0.1 m/s in the robot's estimate of the human's speed
+moves the human's best first action between -2 and -8 m/s^2 when it is stopping before a
+crosswalk; with beta_hat = 5 the model is then confidently wrong and the belief swings. beta_hat
+absorbs the robot's state-estimation error (measured in tests/perception/belief and the report).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from filterpy.discrete_bayes import normalize
+from marl_social.perception.belief.bayes import (
+    TrafficSpeedBelief,
+    bayes_step,
+    markov_transition,
+    sanitize_log_likelihood,
+)
+from marl_social.perception.belief.config import BeliefConfig
+from marl_social.perception.belief.hypotheses import crosswalk_hypotheses
+from marl_social.perception.belief.own_sensors import OwnSensors
+from marl_social.perception.belief.social import SocialLikelihood
+from marl_social.perception.tracking import Tracker
+
+from marl_social.models.candidates import ScenePrediction
+from marl_social.sim.dynamics import DT_S
+from marl_social.sim.observation import DecodedObservation, ObservationLayout
+from marl_social.sim.road_map import RoadMap, Route
+
+
+class PedestrianBelief:
+    """The robot's belief over hidden crossing pedestrians (Algorithm 1).
+
+    Built from the robot's own observations and the static map only.
+
+    Args:
+        road_map: the static map (crosswalks, routes of the human drivers, speed limit).
+        layout: the shared observation layout.
+        robot_name: the robot's agent name.
+        agent_names: env.possible_agents (public; slot object id k is agent_names[k - 1]); human
+            drivers are the non-pedestrian objects whose name starts with "human" and that have a
+            route in road_map.routes.
+        config: BeliefConfig.
+        use_social: fold in the humans' behaviour (eq. 9-10, and eq. 12 for v_traffic).
+        use_own_sensors: fold in the robot's own detections and negative information.
+        tracker: the robot's Kalman tracker of others (default: Tracker with the default sensor
+            noise levels and config.track_accel_noise_mps2).
+
+    Attributes:
+        hypotheses: the L hypotheses, "none" first.
+        probabilities: (L,) current belief.
+        traffic: TrafficSpeedBelief (eq. 12).
+        own_sensors: OwnSensors, the likelihood of the robot's own detections.
+        social: SocialLikelihood, the robot's model of the humans (eq. 9-11).
+        model: the DriverModel the robot assumes for a human (social.model).
+        perceived: 1.0 if the robot currently sees a pedestrian crossing (or stepping onto) a
+            crosswalk, else 0.0 (the paper's "perceived probability"). A pedestrian standing on
+            the sidewalk is not a crossing pedestrian.
+        last_likelihoods: this step's likelihoods (each scaled to max 1): "own" (L,), "social"
+            (L,), "traffic" (V,), "visible_fraction" (L,), "detected" (L,) bool, "a_obs"
+            {human name: observed acceleration [m/s^2]}.
+    """
+
+    def __init__(self, road_map: RoadMap, layout: ObservationLayout, robot_name: str,
+                 agent_names: list[str], config: BeliefConfig | None = None,
+                 use_social: bool = True, use_own_sensors: bool = True,
+                 tracker: Tracker | None = None):
+        """Build the hypotheses, the traffic-speed belief and the evidence models."""
+        self.config = config = config or BeliefConfig()
+        self.road_map = road_map
+        self.layout = layout
+        self.robot_name = robot_name
+        self.agent_names = list(agent_names)
+        self.use_social = bool(use_social)
+        self.use_own_sensors = bool(use_own_sensors)
+        self.hypotheses = crosswalk_hypotheses(road_map, config.walk_speed_mps,
+                                               config.curb_offset_m)
+        n = len(self.hypotheses)
+        self._present = np.array([h.present for h in self.hypotheses])
+        self.transition = markov_transition(n, config.hazard_per_s * DT_S)
+        self.tracker = tracker or Tracker(accel_noise_mps2=config.track_accel_noise_mps2)
+        self.traffic = TrafficSpeedBelief(config.v_traffic_grid_mps, config.hazard_per_s * DT_S,
+                                          config.floor)
+        self._joint_transition = np.kron(self.transition, self.traffic.transition)
+        self.own_sensors = OwnSensors(self.hypotheses, config)
+        self.social = SocialLikelihood(road_map, self.agent_names, self.hypotheses,
+                                       self.traffic.grid_mps, config)
+        self.model = self.social.model
+        self.reset()
+
+    # -- public API -------------------------------------------------------------------------
+    def reset(self) -> None:
+        """Back to the prior (call at every episode start)."""
+        n = len(self.hypotheses)
+        prior = np.zeros(n)
+        n_present = int(self._present.sum())
+        if n_present:
+            prior[self._present] = self.config.prior_present / n_present
+            prior[~self._present] = 1.0 - self.config.prior_present
+        else:
+            prior[:] = 1.0
+        self.probabilities = normalize(np.maximum(prior, self.config.floor))
+        self.tracker.reset()
+        self.traffic.reset()
+        self.social.reset()
+        self.perceived = 0.0
+        self.last_likelihoods: dict = {}
+
+    @property
+    def p_pedestrian(self) -> float:
+        """Belief that a crossing pedestrian is present: 1 when perceived, else 1 - P(none)."""
+        if self.perceived > 0.5:
+            return 1.0
+        return float(1.0 - self.probabilities[~self._present].sum())
+
+    def live(self, epsilon: float | None = None) -> np.ndarray:
+        """(L,) bool: hypotheses with belief >= epsilon, the ones the planner keeps.
+
+        Args:
+            epsilon: the paper's tail threshold (default config.epsilon).
+        """
+        eps = self.config.epsilon if epsilon is None else float(epsilon)
+        return self.probabilities >= eps
+
+    def update(self, obs) -> np.ndarray:
+        """Fold in one observation of the robot and return the (L,) posterior.
+
+        Algorithm 1 order: prediction, own sensors, social information, normalization. The
+        pedestrian hypotheses x_l and the traffic speed v are updated jointly,
+        b(l, v) ∝ b(l) b(v) P(own | l) prod_i P(a_i | l, v)  (eq. 9 and 12), and stored as
+        their marginals, so that a human braking for a pedestrian is not also read as slow
+        traffic (and the other way round).
+
+        Args:
+            obs: (layout.size,) the robot's observation vector.
+        """
+        decoded = self.layout.decode(obs)
+        n, n_v = len(self.hypotheses), len(self.traffic.grid_mps)
+        tracks = self.tracker.update(decoded)
+        ll_own = np.zeros(n)
+        visible = np.zeros(n)
+        detected = np.zeros(n, dtype=bool)
+        if self.use_own_sensors:
+            ll_own, visible, detected = self.own_sensors.log_likelihood(decoded, tracks)
+        self.perceived = 1.0 if detected.any() else 0.0
+        pred_l = self.transition @ self.probabilities
+        pred_v = self.traffic.transition @ self.traffic.probabilities
+        ll_social = np.zeros((0, n, n_v))
+        a_obs = {}
+        if self.use_social:
+            ll_social, a_obs = self.social.log_likelihoods(decoded, tracks,
+                                                           np.outer(pred_l, pred_v))
+            if detected.any():
+                # the robot sees a crossing pedestrian itself: the humans' behaviour is read
+                # under the most probable detected hypothesis (informative about v_traffic
+                # only), not as evidence about pedestrians it can see
+                seen = np.flatnonzero(detected)
+                best = seen[np.argmax(self.probabilities[seen])]
+                ll_social = np.broadcast_to(ll_social[:, best:best + 1, :], ll_social.shape)
+        sources = np.vstack([np.broadcast_to(ll_own[:, None], (n, n_v))[None], ll_social])
+        prior = np.outer(self.probabilities, self.traffic.probabilities).ravel()
+        joint = bayes_step(prior, sources.reshape(len(sources), -1), self._joint_transition,
+                           self.config.floor).reshape(n, n_v)
+        floor = self.config.floor
+        self.probabilities = normalize(np.maximum(joint.sum(axis=1), floor))
+        self.traffic.probabilities = normalize(np.maximum(joint.sum(axis=0), floor))
+        # per-source summaries for debugging: social evidence about l (about v) marginalized
+        # over v (over l) with the predicted beliefs
+        social = np.exp(sanitize_log_likelihood(ll_social.sum(axis=0).ravel())).reshape(n, n_v)
+        by_l, by_v = social @ pred_v, pred_l @ social
+        self.last_likelihoods = {
+            "own": np.exp(sanitize_log_likelihood(ll_own)), "social": by_l / by_l.max(),
+            "traffic": by_v / by_v.max(), "visible_fraction": visible, "detected": detected,
+            "a_obs": a_obs,
+        }
+        return self.probabilities.copy()
+
+    # -- the parts, by their historical names -----------------------------------------------
+    def visible_fraction(self, decoded: DecodedObservation) -> np.ndarray:
+        """(L,) fraction of each hypothesis' region the robot sees free (OwnSensors).
+
+        Args:
+            decoded: the robot's decoded observation.
+        """
+        return self.own_sensors.visible_fraction(decoded)
+
+    def match_pedestrians(self, xy, velocity) -> np.ndarray:
+        """(L,) bool: hypotheses matching the seen pedestrians (OwnSensors).
+
+        Args:
+            xy: (n, 2) seen pedestrians' positions [m].
+            velocity: (n, 2) their velocities [m/s].
+        """
+        return self.own_sensors.match_pedestrians(xy, velocity)
+
+    def hypothesis_scene(self, others: ScenePrediction | None = None) -> ScenePrediction:
+        """The L scenes the human is modelled against (SocialLikelihood).
+
+        Args:
+            others: one-hypothesis scene of the other objects (None: nothing else).
+        """
+        return self.social.hypothesis_scene(others)
+
+    def human_q_values(self, route: Route, s0: float, v0: float, prev_accel: float,
+                       others: ScenePrediction | None = None) -> np.ndarray:
+        """(L, V, A) Q*_H(x_l, v, u) of a human, one rollout (SocialLikelihood).
+
+        Args:
+            route: the human's route.
+            s0: its arc length along the route [m].
+            v0: its along-route speed [m/s].
+            prev_accel: its previous acceleration [m/s^2].
+            others: one-hypothesis scene of the other objects the human reacts to.
+        """
+        return self.social.human_q_values(route, s0, v0, prev_accel, others)
+
+    def beta_beliefs(self) -> dict:
+        """{human name: (B,) rationality belief} of the humans tracked now (social+beta only)."""
+        return self.social.beta_beliefs()

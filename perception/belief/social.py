@@ -1,0 +1,370 @@
+"""Social information: a human driver's observed action as evidence (eq. 9-12).
+
+Each human driver the robot tracks is a sensor. The robot predicts the human's action
+distribution under every (pedestrian hypothesis l, traffic speed v) with its model of the human
+(theta_hat, beta_hat; eq. 8 and 11) and, one step later, weighs the acceleration it observed:
+
+    P(a_obs | x_l, v) = sum_u softmax(-beta_hat Q*_H(x_l, v, .))[u] N(a_obs; u, sigma^2)
+
+(`action_log_likelihood`); humans multiply (eq. 12). Modelling choices of `SocialLikelihood`:
+
+* The human sees the hypothesised pedestrian and, besides it, the objects the robot tracks, and
+  the robot itself, that lie in an assumed forward field of view of the human
+  (`BeliefConfig.human_range_m`, `human_half_fov_rad`), predicted at constant velocity.
+* The human's desired speed is v_traffic (marginalized with the traffic-speed belief).
+* a_obs is estimated from the robot's own Kalman track (along-route speed difference over one
+  step); candidate accelerations are compared with a_obs after the vehicle's limits (no
+  reversing: an action u at speed v executes as max(u, -v/dt)).
+* Q*_H is computed once per human and step for all L hypotheses with one batched candidate
+  evaluation (`models.candidates.evaluate_candidates`, the function `driver_q_values` wraps)
+  without the speed feature; the speed feature theta_speed (v - v_ref)^2 (per planner step, in
+  simulator-step units) is then added for each v_traffic. That gives exactly
+  `driver_q_values(DriverModel(v_desired_mps=v))` for every (l, v) from a single rollout
+  (tests/perception/belief/test_social.py checks the equality).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field, replace
+
+import numpy as np
+from filterpy.discrete_bayes import normalize
+from filterpy.discrete_bayes import update as bayes_update
+from marl_social.perception.belief.config import BeliefConfig
+from marl_social.perception.belief.hypotheses import PEDESTRIAN_DIAMETER_M, Hypothesis
+from marl_social.perception.tracking import TrackSet
+
+from marl_social.models.boltzmann import boltzmann
+from marl_social.models.candidates import (
+    ScenePrediction,
+    collision_free_totals,
+    evaluate_candidates,
+)
+from marl_social.models.driver import DriverModel
+from marl_social.sim.agent_spec import VehicleParams
+from marl_social.sim.dynamics import DT_S
+from marl_social.sim.observation import EGO_INDEX, DecodedObservation
+from marl_social.sim.road_map import RoadMap, Route
+
+SIGMA_MIN_MPS2 = 1e-3  # the observation noise on a_obs is at least this [m/s^2]
+OUTLIER_PROB_MAX = 1.0 - 1e-12  # rho stays below 1 (some weight on the model)
+OUTLIER_MARGIN_SIGMAS = 3.0  # the outlier density spans the actions' range +- this many sigma
+HUMAN_NAME_PREFIX = "human"  # agents whose name starts with this are modelled human drivers
+_EGO_XY = [EGO_INDEX["x"], EGO_INDEX["y"]]
+_EGO_COS_SIN = [EGO_INDEX["cos_psi"], EGO_INDEX["sin_psi"]]
+
+
+def action_log_likelihood(q_values: np.ndarray, beta: float, a_obs: float,
+                          actions_mps2: np.ndarray, sigma_mps2: float,
+                          outlier_prob: float = 0.0) -> np.ndarray:
+    """Log P(a_obs | x) of one observed acceleration under several hypotheses x (eq. 9-10).
+
+        P(a_obs | x) = (1 - rho) sum_u softmax(-beta Q*(x, .))[u] N(a_obs; u, sigma^2)
+                       + rho U(a_obs)
+
+    rho = outlier_prob (0 gives eq. 10 exactly): a uniform density U over the actions' range
+    widened by 3 sigma on each side, for observations no candidate explains (a tracking glitch,
+    a model mismatch); it bounds what one step can do to the belief.
+
+    Args:
+        q_values: (..., A) Q*_H(x, u) of the A candidate actions (eq. 11) per hypothesis.
+        beta: rationality of the model (inf = argmin).
+        a_obs: observed acceleration [m/s^2]; non-finite values give zeros (uninformative).
+        actions_mps2: (A,) accelerations the candidate actions execute as [m/s^2].
+        sigma_mps2: std of the observation noise on a_obs [m/s^2].
+        outlier_prob: rho in [0, 1).
+
+    Returns:
+        (...) log-likelihoods.
+    """
+    q = np.asarray(q_values, dtype=np.float64)
+    if not math.isfinite(a_obs) or not np.all(np.isfinite(q)):
+        return np.zeros(q.shape[:-1])
+    sigma = max(float(sigma_mps2), SIGMA_MIN_MPS2)
+    if math.isinf(beta):
+        with np.errstate(divide="ignore"):
+            log_p = np.log(boltzmann(q, beta))
+    else:
+        z = -beta * (q - q.min(axis=-1, keepdims=True))
+        log_p = z - np.log(np.exp(z).sum(axis=-1, keepdims=True))
+    actions = np.asarray(actions_mps2, dtype=np.float64)
+    with np.errstate(over="ignore"):  # an absurd a_obs gives -inf everywhere: uninformative
+        log_gauss = (-0.5 * ((a_obs - actions) / sigma) ** 2
+                     - math.log(sigma * math.sqrt(2 * math.pi)))
+    log_model = _logsumexp(log_p + log_gauss, axis=-1)
+    rho = float(np.clip(outlier_prob, 0.0, OUTLIER_PROB_MAX))
+    if rho == 0.0:
+        return log_model
+    width = actions.max() - actions.min() + 2.0 * OUTLIER_MARGIN_SIGMAS * sigma
+    log_outlier = math.log(rho / width)
+    return np.logaddexp(math.log1p(-rho) + log_model, log_outlier)
+
+
+def _logsumexp(x: np.ndarray, axis: int) -> np.ndarray:
+    """Log sum exp along axis, safe for -inf entries (all -inf gives -inf).
+
+    Kept local: scipy.special.logsumexp (>= 1.15, log1p of the non-max terms) differs in the
+    last bits, which would change seeded episodes.
+    """
+    top = np.max(x, axis=axis, keepdims=True)
+    top = np.where(np.isfinite(top), top, 0.0)
+    with np.errstate(divide="ignore"):
+        out = np.log(np.exp(x - top).sum(axis=axis, keepdims=True)) + top
+    return np.squeeze(out, axis=axis)
+
+
+@dataclass
+class _HumanState:
+    """What the robot remembers of one tracked human until the next step.
+
+    Attributes:
+        v_mps: its along-route speed [m/s].
+        q_values: (L, V, A) Q*_H of its candidate actions.
+        actions_mps2: (A,) accelerations they execute as [m/s^2].
+        n_seen: consecutive steps its track has been measured.
+        beta_belief: (B,) belief over its rationality on BeliefConfig.beta_grid_hat (empty
+            when beta is fixed).
+    """
+
+    v_mps: float
+    q_values: np.ndarray
+    actions_mps2: np.ndarray
+    n_seen: int = 1
+    beta_belief: np.ndarray = field(default_factory=lambda: np.zeros(0))
+
+
+class SocialLikelihood:
+    """The robot's model of the human drivers and the likelihood of their observed actions.
+
+    Args:
+        road_map: the static map (crosswalks and the human drivers' routes).
+        agent_names: env.possible_agents (slot object id k is agent_names[k - 1]); human drivers
+            are the agents whose name starts with HUMAN_NAME_PREFIX and that have a route in
+            road_map.routes.
+        hypotheses: the L pedestrian hypotheses.
+        traffic_grid_mps: (V,) traffic speeds of the traffic-speed belief [m/s].
+        config: BeliefConfig (theta_hat, beta_hat, beta_grid_hat, accel_noise_mps2, ...).
+
+    Attributes:
+        model: DriverModel(theta_hat, beta_hat), the robot's model of a human (eq. 8, 11).
+    """
+
+    def __init__(self, road_map: RoadMap, agent_names: list[str], hypotheses: list[Hypothesis],
+                 traffic_grid_mps: np.ndarray, config: BeliefConfig):
+        """Build the human model and the hypotheses' pedestrian predictions."""
+        self.road_map = road_map
+        self.agent_names = list(agent_names)
+        self.hypotheses = hypotheses
+        self.traffic_grid_mps = traffic_grid_mps
+        self.config = config
+        self._present = np.array([h.present for h in hypotheses])
+        self._human_routes = {
+            i + 1: road_map.routes[name] for i, name in enumerate(self.agent_names)
+            if name.startswith(HUMAN_NAME_PREFIX) and name in road_map.routes
+        }
+        # the robot's model of a human (eq. 8, 11); the speed feature is added per v_ref
+        self.model = DriverModel(theta=config.theta_hat, beta=config.beta_hat,
+                                 vehicle=VehicleParams())
+        self._candidates = self.model.candidates
+        self._theta_no_speed = replace(config.theta_hat, speed=0.0).as_array()
+        self._times = self._candidates.plan_times_s
+        self._first = np.asarray(self._candidates.first_actions_mps2, dtype=np.float64)
+        self._hyp_scene = self._hypothesis_objects()
+        self._beta_grid = np.asarray(config.beta_grid_hat, dtype=np.float64)
+        self._beta_prior = np.full(len(self._beta_grid), 1.0 / max(len(self._beta_grid), 1))
+        self._empty_scene: ScenePrediction | None = None
+        self.reset()
+
+    def reset(self) -> None:
+        """Forget every tracked human (call at every episode start)."""
+        self._humans: dict[int, _HumanState] = {}
+
+    # -- the scenes the human is modelled against -----------------------------------------------
+    def _hypothesis_objects(self):
+        """Per-hypothesis pedestrian predictions at the planner times (fixed patterns)."""
+        n, n_t = len(self.hypotheses), len(self._times)
+        xy = np.zeros((n, n_t, 2))
+        heading = np.zeros((n, n_t))
+        for i, h in enumerate(self.hypotheses):
+            if h.present:
+                xy[i] = h.predict_xy(self._times)
+                heading[i] = math.atan2(h.walk_dir[1], h.walk_dir[0])
+        size = np.full(n, PEDESTRIAN_DIAMETER_M)
+        return xy, heading, size, size, np.ones(n, dtype=bool), self._present.copy()
+
+    def others_scene(self, human_xy, human_heading, human_id, decoded: DecodedObservation,
+                     tracks: TrackSet) -> ScenePrediction | None:
+        """What the robot assumes the human reacts to besides the hypothesised pedestrian.
+
+        One hypothesis (L = 1): the vehicles the robot tracks (other than the human) and the
+        robot itself inside the human's assumed field of view, at constant velocity; None if
+        there is nothing. Seen pedestrians are left to the hypotheses (a crossing one is the
+        detected hypothesis).
+
+        Args:
+            human_xy: (2,) the human's tracked position [m].
+            human_heading: its route heading [rad].
+            human_id: its object id (agent index + 1).
+            decoded: the robot's decoded observation (its own pose and speed).
+            tracks: the robot's current tracks.
+        """
+        ego = decoded.ego
+        xy = np.vstack([tracks.xy, ego[None, _EGO_XY]])
+        rel = xy - human_xy
+        dist = np.hypot(rel[:, 0], rel[:, 1])
+        bearing = np.arctan2(rel[:, 1], rel[:, 0]) - human_heading
+        bearing = np.abs((bearing + np.pi) % (2.0 * np.pi) - np.pi)
+        keep = np.append((tracks.ids != human_id) & ~tracks.is_pedestrian, True)
+        keep &= (dist <= self.config.human_range_m) & (bearing <= self.config.human_half_fov_rad)
+        if not keep.any():
+            return None
+        veh = self.model.vehicle
+        ego_velocity = float(ego[EGO_INDEX["v"]]) * ego[None, _EGO_COS_SIN]
+        vel = np.vstack([tracks.velocity, ego_velocity])[keep]
+        length = np.append(tracks.length_m, veh.length_m)[keep]
+        width = np.append(tracks.width_m, veh.width_m)[keep]
+        is_ped = np.append(tracks.is_pedestrian, False)[keep]
+        m = len(vel)
+        pred = xy[keep][:, None, :] + vel[:, None, :] * self._times[None, :, None]
+        ego_heading = math.atan2(ego[EGO_INDEX["sin_psi"]], ego[EGO_INDEX["cos_psi"]])
+        heading = np.append(tracks.heading_rad, ego_heading)[keep]
+        heading = np.broadcast_to(heading[:, None], (m, len(self._times)))
+        return ScenePrediction(pred[None], heading[None], length[None], width[None],
+                               0.5 * np.hypot(length, width)[None], is_ped[None],
+                               np.ones((1, m), dtype=bool))
+
+    def hypothesis_scene(self, others: ScenePrediction | None = None) -> ScenePrediction:
+        """The L scenes the human is modelled against.
+
+        Args:
+            others: one-hypothesis scene of the other objects (None: nothing else); each
+                hypothesis' pedestrian is added to it (masked out for "none").
+        """
+        if others is None:
+            if self._empty_scene is None:
+                n_t = len(self._times)
+                empty = ScenePrediction(np.zeros((1, 0, n_t, 2)), np.zeros((1, 0, n_t)),
+                                        np.zeros((1, 0)), np.zeros((1, 0)), np.zeros((1, 0)),
+                                        np.zeros((1, 0), dtype=bool),
+                                        np.zeros((1, 0), dtype=bool))
+                self._empty_scene = empty.with_extra(*self._hyp_scene)
+            return self._empty_scene
+        return others.with_extra(*self._hyp_scene)
+
+    # -- the human's Q-values and the likelihood of its action ----------------------------------
+    def human_q_values(self, route: Route, s0: float, v0: float, prev_accel: float,
+                       others: ScenePrediction | None = None) -> np.ndarray:
+        """Q*_H(x_l, v, u) for every pedestrian hypothesis l and traffic speed v, one rollout.
+
+        Equal to driver_q_values(DriverModel(theta_hat, beta_hat, v_desired_mps=v), route, s0,
+        v0, prev_accel, scene_l, crosswalks) with scene_l = `others` plus hypothesis l's
+        pedestrian (eq. 11): the candidates are evaluated once for all L scenes without the
+        speed feature, which is then added for each v.
+
+        Args:
+            route: the human's route.
+            s0: its arc length along the route [m].
+            v0: its along-route speed [m/s].
+            prev_accel: its previous acceleration [m/s^2].
+            others: one-hypothesis scene of the other objects the human reacts to (None:
+                nothing but the hypothesised pedestrian).
+
+        Returns:
+            (L, V, A) optimal cost-to-go of each first action.
+        """
+        scene = self.hypothesis_scene(others)
+        ev = evaluate_candidates(self._candidates, self._theta_no_speed, 0.0, self.model.vehicle,
+                                 route, s0, v0, prev_accel, scene, self.road_map.crosswalks,
+                                 geometry=True)
+        base = collision_free_totals(ev)  # (L, A, C), predicted collisions excluded
+        scale = self._candidates.plan_dt_s / DT_S
+        v_ref = self.traffic_grid_mps
+        speed = (self.config.theta_hat.speed * scale
+                 * ((ev.v[None] - v_ref[:, None, None, None]) ** 2).sum(axis=-1))  # (V, A, C)
+        return (base[:, None] + speed[None]).min(axis=-1)
+
+    def _executed(self, v0: float) -> np.ndarray:
+        """(A,) accelerations the candidate first actions execute as at speed v0 [m/s^2]."""
+        veh = self.model.vehicle
+        a = np.clip(self._first, -veh.brake_max_mps2, veh.accel_max_mps2)
+        return np.maximum(a, -max(v0, 0.0) / DT_S)
+
+    def _human_log_likelihood(self, prev: _HumanState, a_est: float, predicted: np.ndarray):
+        """(L, V) log P(a_est | x_l, v) of one human, and its updated rationality belief (B,).
+
+        With a fixed beta_hat this is eq. 10; with a beta grid the likelihood is marginalized
+        over the human's beta belief, which is then updated with the predicted joint
+        `predicted` (L, V) b(l, v).
+        """
+        cfg = self.config
+        if not len(self._beta_grid):
+            return action_log_likelihood(prev.q_values, cfg.beta_hat, a_est, prev.actions_mps2,
+                                         cfg.accel_noise_mps2, cfg.outlier_prob), prev.beta_belief
+        ll = np.stack([action_log_likelihood(prev.q_values, beta, a_est, prev.actions_mps2,
+                                             cfg.accel_noise_mps2, cfg.outlier_prob)
+                       for beta in self._beta_grid])  # (B, L, V)
+        if not np.all(np.isfinite(ll)):
+            return np.zeros(ll.shape[1:]), prev.beta_belief
+        log_b = np.log(prev.beta_belief)[:, None, None]
+        marginal = _logsumexp((ll + log_b).reshape(len(ll), -1), axis=0).reshape(ll.shape[1:])
+        top = ll.max()
+        evidence = (np.exp(ll - top) * predicted[None]).sum(axis=(1, 2))  # (B,) up to a constant
+        beta_belief = bayes_update(evidence, prev.beta_belief)
+        beta_belief = normalize(np.maximum(beta_belief, cfg.floor))
+        return marginal, beta_belief
+
+    def beta_beliefs(self) -> dict:
+        """{human name: (B,) belief over its rationality on config.beta_grid_hat}.
+
+        For the humans tracked now (social+beta only; empty otherwise).
+        """
+        if not len(self._beta_grid):
+            return {}
+        return {self.agent_names[oid - 1]: h.beta_belief.copy() for oid, h in self._humans.items()}
+
+    def log_likelihoods(self, decoded: DecodedObservation, tracks: TrackSet,
+                        predicted: np.ndarray):
+        """Eq. 9-10 and 12 for every tracked human seen this step and the last.
+
+        The action distribution predicted at the previous step is scored with the acceleration
+        observed since; then each human's Q-values are predicted for the next step.
+
+        Args:
+            decoded: the robot's decoded observation.
+            tracks: the robot's current tracks.
+            predicted: (L, V) predicted joint belief b(l, v) (updates the rationality beliefs).
+
+        Returns:
+            (H, L, V) log P(a_obs,i | x_l, v) and {human name: a_obs [m/s^2]}.
+        """
+        cfg = self.config
+        out, a_obs_all = [], {}
+        current = {}
+        for k, oid in enumerate(tracks.ids.tolist()):
+            route = self._human_routes.get(oid)
+            if route is None or tracks.is_pedestrian[k] or not tracks.seen[k]:
+                continue
+            x, y = (float(v) for v in tracks.xy[k])
+            s0, _ = route.project_point(x, y)
+            _, heading = route.point_at(s0)
+            heading = float(heading)
+            vx, vy = (float(v) for v in tracks.velocity[k])
+            v = vx * math.cos(heading) + vy * math.sin(heading)
+            prev = self._humans.get(oid)
+            a_est, n_seen = 0.0, 1
+            beta_belief = self._beta_prior
+            if prev is not None:
+                a_est, n_seen = (v - prev.v_mps) / DT_S, prev.n_seen + 1
+                a_obs_all[self.agent_names[oid - 1]] = a_est
+                beta_belief = prev.beta_belief
+                if n_seen > cfg.min_track_steps:
+                    ll, beta_belief = self._human_log_likelihood(prev, a_est, predicted)
+                    out.append(ll)
+            others = self.others_scene(np.array([x, y]), heading, oid, decoded, tracks)
+            v0 = max(v, 0.0)
+            q = self.human_q_values(route, s0, v0, a_est, others)
+            current[oid] = _HumanState(v, q, self._executed(v0), n_seen, beta_belief)
+        self._humans = current  # a human not seen this step starts afresh when seen again
+        n, n_v = len(self.hypotheses), len(self.traffic_grid_mps)
+        return np.array(out).reshape(-1, n, n_v), a_obs_all
