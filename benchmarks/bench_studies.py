@@ -1,6 +1,7 @@
-"""Study runner throughput: episodes per second of a study of the paper scenario on the local
-backend with 1 and 2 workers and on Ray with 2 CPUs, and the parallel efficiency
-eps(2 workers) / (2 eps(1 worker)).
+"""Study runner throughput: episodes per second of a study of the paper scenario.
+
+Measured on the local backend with 1 and 2 workers and on Ray with 2 CPUs, with the parallel
+efficiency eps(2 workers) / (2 eps(1 worker)).
 
     python benchmarks/bench_studies.py [--runs 40] [--max-cycles 150] [--planner social]
 

@@ -1,6 +1,7 @@
-"""marl-social: a PettingZoo multi-agent driving simulator in which humans are explicit
-planners with their own fields of view (Sun, Zhan, Chan, Tomizuka, "Behavior Planning of
-Autonomous Cars with Social Perception", IEEE IV 2019).
+"""marl-social: a PettingZoo multi-agent driving simulator.
+
+Humans are explicit planners with their own fields of view (Sun, Zhan, Chan, Tomizuka, "Behavior
+Planning of Autonomous Cars with Social Perception", IEEE IV 2019).
 """
 
 from marl_social.envs.autopilot import autopilot

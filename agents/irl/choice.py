@@ -1,17 +1,18 @@
 """Discrete-choice inverse optimal control on the simulator's human drivers' decisions.
 
-The continuous IRL of agents/irl.py (Laplace approximation, the paper's section III-C) models a
-demonstration as a local optimum of a continuous control sequence. The simulator's humans are
-not that: each step they sample one of A first accelerations from
+The continuous IRL of agents/irl/laplace.py (Laplace approximation, the paper's section III-C)
+models a demonstration as a local optimum of a continuous control sequence. The simulator's
+humans are not that: each step they sample one of A first accelerations from
 
     P(u | theta) = softmax_u(-Q*(u; theta)),   Q*(u; theta) = min_{c allowed} theta . Phi[u, c]
 
-(agents/human.py, eq. 8 and 11; theta here is the unnormalized beta * theta_H). Given the
-recorded decisions (marl_social/decisions.py: Phi from the human's own tracks, the allowed
-continuations, the sampled index) this likelihood is exact, so maximum likelihood recovers
-beta * theta_H itself: its direction is the human's trade-off between features, its scale the
-rationality in the same simulator-step cost units the robot's model of a human uses
-(perception/belief.py), so a fit gives the robot theta_hat and beta_hat at once.
+(agents/human.py and models/driver.py, eq. 8 and 11; theta here is the unnormalized
+beta * theta_H). Given the recorded decisions (marl_social/data/decisions.py: Phi from the
+human's own tracks, the allowed continuations, the sampled index) this likelihood is exact, so
+maximum likelihood recovers beta * theta_H itself: its direction is the human's trade-off
+between features, its scale the rationality in the same simulator-step cost units the robot's
+model of a human uses (perception/belief.py), so a fit gives the robot theta_hat and beta_hat
+at once.
 
     log P(u* | theta) = -Q*(u*) - log sum_u exp(-Q*(u))
     d/dtheta          = -Phi[u*, c*(u*)] + sum_u P(u) Phi[u, c*(u)]
@@ -39,9 +40,7 @@ from marl_social.sim.costs import FEATURE_NAMES, N_FEATURES
 
 
 def _q_and_argmin(theta: np.ndarray, data: DecisionSet) -> tuple[np.ndarray, np.ndarray]:
-    """Q* (N, A) (inf where no continuation is allowed) and the minimizing continuation
-    (N, A).
-    """
+    """Q* (N, A) (inf where no continuation is allowed) and the minimizing continuation (N, A)."""
     totals = np.where(data.allowed, data.features @ theta, np.inf)  # (N, A, C)
     best = totals.argmin(axis=-1)
     return np.take_along_axis(totals, best[..., None], axis=-1)[..., 0], best
@@ -64,7 +63,9 @@ def fit_choice_theta(decisions: DecisionSet, fitted=FITTABLE, max_iter: int = 10
     """Maximum likelihood of beta * theta from recorded decisions.
 
     Args:
+        decisions: the recorded decisions, N of them.
         fitted: feature names to fit (tracking is constant along the route: not identifiable).
+        max_iter: iteration limit of L-BFGS-B.
 
     Returns:
         IrlResult with theta = beta * theta_H (NaN where not fitted), its direction and

@@ -1,11 +1,11 @@
 """Second-order forward-mode automatic differentiation for numpy code (truncated Taylor "jets").
 
 A `Jet` carries, elementwise, the value f and its first and second derivatives f', f'' with
-respect to one scalar parameter per element. The cost features of agents/costs.py that depend on
+respect to one scalar parameter per element. The cost features of sim/costs.py that depend on
 the ego's position (covering-circle gaps, crosswalk occupancy) are evaluated on jets by the very
 same functions the planners use; every element of a trajectory depends only on its own arc
-length s_k, so one jet pass gives d phi_k / d s_k and d^2 phi_k / d s_k^2 exactly (agents/irl.py
-chains them with the linear maps from controls to arc lengths).
+length s_k, so one jet pass gives d phi_k / d s_k and d^2 phi_k / d s_k^2 exactly
+(agents/irl/laplace.py chains them with the linear maps from controls to arc lengths).
 
 Supported: + - * / and unary -, sqrt, exp, tanh, abs, minimum, maximum (with numpy arrays or
 scalars on either side), indexing, `.min(axis=...)`, and np.where / np.sum. Anything else raises

@@ -1,10 +1,11 @@
-"""Continuous inverse optimal control with the Laplace approximation (paper section III-C,
-eq. 13-17; Levine & Koltun 2012, "Continuous Inverse Optimal Control with Locally Optimal
-Examples").
+"""Continuous inverse optimal control with the Laplace approximation.
 
-A demonstration (marl_social/demonstrations.py) is a control sequence u_D in R^T along a path.
+Paper section III-C, eq. 13-17; Levine & Koltun 2012, "Continuous Inverse Optimal Control with
+Locally Optimal Examples".
+
+A demonstration (marl_social/data/demonstrations.py) is a control sequence u_D in R^T along a path.
 Its cost is linear in the weights, C(u; theta) = sum_k theta_k C_k(u), C_k(u) = sum_t phi_k(x_t,
-u_t) * dt / DT_S with the features of agents/costs.py (the planners' units: one simulator step
+u_t) * dt / DT_S with the features of sim/costs.py (the planners' units: one simulator step
 of 0.1 s is one unit). The demonstrator is modelled as P(u | theta) ∝ exp(-C(u; theta)); theta
 is unnormalized, so its scale is the rationality beta and its direction the trade-off between
 features. Around the demonstration the Laplace approximation gives
@@ -17,9 +18,9 @@ to u at u_D. They are exact here:
 * speed, acceleration, jerk are quadratic in u (v = v0 + V u, jerk = D u - prev):
   g_k, H_k in closed form;
 * safety and crosswalk depend on u through the arc lengths s = s0 + ds0 + S u (linear, the
-  trapezoidal rule of agents/candidates.rollout_speeds without the v >= 0 limit); their
+  trapezoidal rule of models/candidates.rollout_speeds without the v >= 0 limit); their
   per-step derivatives d phi / d s_t and d^2 phi / d s_t^2 come from running the planners' own
-  feature code on second-order jets (agents/jets.py), so g = S^T phi', H = S^T diag(phi'') S;
+  feature code on second-order jets (agents/irl/jets.py), so g = S^T phi', H = S^T diag(phi'') S;
 * tracking (squared lateral offset) is constant along the path and cannot be identified from
   longitudinal controls: it is not fitted (its weight is reported as NaN).
 
@@ -55,7 +56,7 @@ _POSITION_FEATURES = (False, False, False, False, True, True)  # safety, crosswa
 
 # -- exact derivatives of a demonstration's cost ------------------------------------------------
 def linear_maps(n_steps: int, dt_s: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Controls to states for T = n_steps steps of dt_s:
+    """Controls to states for T = n_steps steps of dt_s.
 
     V (T, T): v_t = v0 + (V u)_t, speed after step t [m/s];
     S (T, T): ds_t = (t + 1) dt v0 + (S u)_t, distance after step t (trapezoidal) [m];
@@ -111,9 +112,11 @@ def feature_derivatives(demo: Demonstration, controls=None) -> FeatureDerivative
 
 
 def _position_feature_jets(demo: Demonstration, s: np.ndarray):
-    """(value, d/ds, d^2/ds^2) per step (T,) of the safety and crosswalk features, evaluated by
-    agents/costs._feature_terms on jets. The path is a polyline: within a segment the position
-    is linear in s and the heading constant (derivatives at vertices are one-sided).
+    """(value, d/ds, d^2/ds^2) per step (T,) of the safety and crosswalk features.
+
+    They are evaluated by sim/costs._feature_terms on jets. The path is a polyline: within a
+    segment the position is linear in s and the heading constant (derivatives at vertices are
+    one-sided).
     """
     route = demo.route
     xy, heading = route.point_at(s)  # (T, 2), (T,)
@@ -150,8 +153,10 @@ def _position_feature_jets(demo: Demonstration, s: np.ndarray):
 
 
 def finite_difference_derivatives(demo: Demonstration, controls=None, step: float = 1e-4):
-    """Central finite differences of C_k (gradient (F, T)) and of the exact gradient
-    (Hessian (F, T, T)): the tested fallback / check of `feature_derivatives`.
+    """Central finite differences: the tested fallback / check of `feature_derivatives`.
+
+    Differences of C_k give the gradient (F, T), differences of the exact gradient the Hessian
+    (F, T, T).
     """
     u = demo.controls_mps2 if controls is None else np.asarray(controls, dtype=np.float64)
     n = len(u)
@@ -169,8 +174,12 @@ def finite_difference_derivatives(demo: Demonstration, controls=None, step: floa
 # -- Laplace likelihood -------------------------------------------------------------------------
 @dataclass(frozen=True)
 class DemoSet:
-    """Derivatives of N demonstrations, stacked: grad (N, F, T), hess (N, F, T, T), totals
-    (N, F). All demonstrations share T.
+    """Derivatives of N demonstrations, stacked; all demonstrations share T.
+
+    Attributes:
+        grad: (N, F, T) dC_k / du of each demonstration.
+        hess: (N, F, T, T) d^2 C_k / du^2 of each demonstration.
+        totals: (N, F) C_k(u) of each demonstration (simulator-step units).
     """
 
     grad: np.ndarray
@@ -214,9 +223,11 @@ class LaplaceTerms:
 
 def regularize(hessians: np.ndarray, delta_rel: float = 1e-6,
                max_steps: int = 40) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Make each (T, T) Hessian positive definite: H + lambda I with the smallest lambda of
-    delta * 10^j, j = 0, 1, ..., whose smallest eigenvalue is >= delta, where delta =
-    delta_rel * max(1, max |diag H|). Returns (H_reg (N, T, T), lambda (N,), eig_min (N,)).
+    """Make each (T, T) Hessian positive definite.
+
+    H + lambda I with the smallest lambda of delta * 10^j, j = 0, 1, ..., whose smallest
+    eigenvalue is >= delta, where delta = delta_rel * max(1, max |diag H|). Returns
+    (H_reg (N, T, T), lambda (N,), eig_min (N,)).
     """
     eig_min = np.linalg.eigvalsh(hessians)[:, 0]
     delta = delta_rel * np.maximum(1.0, np.abs(np.diagonal(hessians, axis1=1, axis2=2)).max(1))
@@ -297,14 +308,16 @@ class IrlResult:
 
 
 def fit_theta(demos, fitted=FITTABLE, theta0=None, max_iter: int = 500) -> IrlResult:
-    """Maximize sum_demos log P(u_D | theta) over theta >= 0 for the `fitted` features (the
-    others are held at 0 and reported as NaN).
+    """Maximize sum_demos log P(u_D | theta) over theta >= 0 for the `fitted` features.
+
+    The other features are held at 0 and reported as NaN.
 
     Args:
         demos: list of Demonstration or a DemoSet.
         fitted: feature names to fit (tracking cannot be identified, see module docstring).
         theta0: (F,) initial weights (default: 1 per fitted feature, scaled so that each
             feature's mean Hessian trace is the same).
+        max_iter: iteration limit of L-BFGS-B.
     """
     t_start = time.perf_counter()
     unknown = sorted(set(fitted) - set(FITTABLE))
@@ -348,8 +361,9 @@ def neg_log_likelihood(theta, demos) -> float:
 
 
 def best_scale(direction, demos, bounds=(1e-3, 1e4)) -> float:
-    """The scale c maximizing sum log P(u_D | c * direction) (a fair rival for a fixed
-    direction: its rationality fitted).
+    """The scale c maximizing sum log P(u_D | c * direction).
+
+    A fair rival for a fixed direction: its rationality fitted.
     """
     from scipy.optimize import minimize_scalar
 
@@ -370,8 +384,10 @@ def cosine_similarity(a, b, features=FITTABLE) -> float:
 # -- synthetic near-rational demonstrations -----------------------------------------------------
 def optimal_controls(demo: Demonstration, theta, iterations: int = 50,
                      tol: float = 1e-9) -> np.ndarray:
-    """argmin_u C(u; theta) for the demonstration's scene (its controls are the start), by
-    damped Newton steps with the exact derivatives and a backtracking line search.
+    """The optimal controls argmin_u C(u; theta) for the demonstration's scene.
+
+    The demonstration's controls are the start; damped Newton steps with the exact derivatives
+    and a backtracking line search.
     """
     theta = np.nan_to_num(np.asarray(theta, dtype=np.float64))
     u = demo.controls_mps2.copy()
@@ -395,8 +411,10 @@ def optimal_controls(demo: Demonstration, theta, iterations: int = 50,
 
 def sample_demonstration(demo: Demonstration, theta, rng: np.random.Generator
                          ) -> Demonstration:
-    """A near-rational demonstration: u ~ N(u*, H(u*)^-1), the Laplace (Gaussian) form of
-    P(u) ∝ exp(-C(u; theta)) around the optimum u* (larger ||theta|| = more rational).
+    """A near-rational demonstration: u ~ N(u*, H(u*)^-1).
+
+    This is the Laplace (Gaussian) form of P(u) ∝ exp(-C(u; theta)) around the optimum u*
+    (larger ||theta|| = more rational).
     """
     from dataclasses import replace
 
@@ -413,10 +431,12 @@ def sample_demonstration(demo: Demonstration, theta, rng: np.random.Generator
 
 def robot_model_from_fit(result_json: dict, reference: CostWeights | None = None
                          ) -> tuple[CostWeights, float]:
-    """The robot's model of the humans from a fit: theta_hat = the learned direction scaled to
-    the norm of `reference` (default CostWeights, over the fitted features; unfitted features
-    keep the reference's weights) and beta_hat = the learned scale / that norm, so that
-    beta_hat * theta_hat equals the learned unnormalized theta on the fitted features.
+    """The robot's model of the humans from a fit: (theta_hat, beta_hat).
+
+    theta_hat = the learned direction scaled to the norm of `reference` (default CostWeights,
+    over the fitted features; unfitted features keep the reference's weights) and beta_hat =
+    the learned scale / that norm, so that beta_hat * theta_hat equals the learned unnormalized
+    theta on the fitted features.
     """
     reference = reference or CostWeights()
     ref = reference.as_array()

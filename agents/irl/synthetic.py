@@ -1,7 +1,9 @@
-"""Near-rational synthetic demonstrations with a known theta: scenes like the paper's road, and
-controls drawn from the Laplace (Gaussian) form of P(u) ∝ exp(-C(u; theta)) around the
-continuous optimum (agents/irl.sample_demonstration). The ground truth for checking inverse
-optimal control (`marl-social record --synthetic`, tests/test_irl.py).
+"""Near-rational synthetic demonstrations with a known theta.
+
+Scenes like the paper's road, and controls drawn from the Laplace (Gaussian) form of
+P(u) ∝ exp(-C(u; theta)) around the continuous optimum (agents/irl/laplace.sample_demonstration).
+The ground truth for checking inverse optimal control (`marl-social record --synthetic`,
+tests/agents/test_irl.py).
 
 Scene kinds (each demonstration T steps of dt on a 3.5 m lane with a 4 m crosswalk at x = 30 m):
 
@@ -57,8 +59,9 @@ def random_scene(rng: np.random.Generator, n_steps: int = 30, dt_s: float = 0.1,
 
 def near_rational_demonstrations(theta, n: int, seed: int = 0, n_steps: int = 30
                                  ) -> list[Demonstration]:
-    """N demonstrations of a demonstrator with unnormalized weights theta (6,) (its scale is
-    its rationality) in random scenes, seeded.
+    """N demonstrations of a demonstrator with unnormalized weights theta in random scenes.
+
+    theta is (6,), its scale the demonstrator's rationality; the scenes are seeded.
     """
     theta = np.asarray(theta, dtype=np.float64)
     if theta.shape != (6,) or not np.all(np.isfinite(theta)) or np.any(theta < 0):

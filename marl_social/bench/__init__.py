@@ -1,3 +1,4 @@
-"""Benchmarks: env and planner throughput, side by side with highway-env measured in the same
-run.
+"""Benchmarks: env and planner throughput.
+
+Side by side with highway-env measured in the same run.
 """

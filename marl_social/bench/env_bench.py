@@ -1,5 +1,7 @@
-"""Benchmarks (never timed unit tests): env steps per second vs number of agents, side by side
-with highway-env's intersection-multi-agent-v1 at the same agent count and dt = 0.1 s.
+"""Benchmarks (never timed unit tests): env steps per second vs number of agents.
+
+Side by side with highway-env's intersection-multi-agent-v1 at the same agent count and
+dt = 0.1 s.
 
 Random actions: accelerations uniform over each car's full range; steering uniform within
 STEER_FRACTION of its limit, so that cars stay roughly on the road (full-range random
@@ -26,6 +28,17 @@ STEER_FRACTION = 0.01
 
 @dataclass(frozen=True)
 class EnvBenchResult:
+    """Throughput of one random-action rollout.
+
+    Attributes:
+        label: name of the configuration.
+        n_agents: number of possible agents.
+        steps: env steps timed.
+        seconds: wall time of the timed steps, resets included [s].
+        mean_live_agents: mean number of live agents per step.
+        ray_queries_per_step: mean number of field-of-view ray queries per step.
+    """
+
     label: str
     n_agents: int
     steps: int
@@ -140,9 +153,10 @@ def run_env_benchmark(agent_counts=(3, 10, 30, 100), n_steps: int = 500, peer: b
 
 
 def bench_planners(n_episodes: int = 3, robot_planner: str = "social", echo=print) -> dict:
-    """Decision times of the built-in planners (robot, human driver, pedestrian) on the paper
-    scenario, and env steps/s end to end with every agent on its built-in planner. Returns the
-    numbers; prints a table.
+    """Decision times of the built-in planners and env steps/s on the paper scenario.
+
+    Decision times of the robot, human driver and pedestrian planners, and env steps/s end to
+    end with every agent on its built-in planner. Returns the numbers; prints a table.
     """
     decide = {"robot_0": [], "human_0": [], "pedestrian_0": []}
     steps, loop_s = 0, 0.0

@@ -193,7 +193,10 @@ def _rollout(n_vehicles: int, n_steps: int, seed: int) -> dict:
 
 
 def highway_env_steps_per_second(n_vehicles: int, n_steps: int = 300, seed: int = 0) -> dict:
-    """Returns {"steps_per_s": float, "n_vehicles_in_scene": int, "n_controlled": int, "config": dict}
+    """Env steps per second of highway-env's ``intersection-multi-agent-v1``.
+
+    Returns {"steps_per_s": float, "n_vehicles_in_scene": int, "n_controlled": int,
+    "config": dict}.
 
     Time ``n_steps`` random-action steps (dt = 0.1 s each) of
     ``intersection-multi-agent-v1`` with ``n_vehicles`` controlled vehicles

@@ -175,7 +175,7 @@ class World:
         return fov, meas
 
     def step_features(self) -> np.ndarray:
-        """(n, N_FEATURES) each agent's cost features this step (agents/costs.py)."""
+        """(n, N_FEATURES) each agent's cost features this step (sim/costs.py)."""
         _, lateral = self.route_progress()
         xy, heading = self.state[:, :2], self.state[:, 2]
         circles, circle_r = place_along(xy, heading, self._circle_along), self._circle_r

@@ -1,6 +1,8 @@
-"""`marl-social record`: demonstrations (marl_social/demonstrations.py) of the simulated human
-drivers, for inverse optimal control (agents/irl.py), or their decisions
-(marl_social/decisions.py, `record_decisions`), for discrete-choice IRL (agents/choice_irl.py).
+"""`marl-social record`: demonstrations or decisions of the simulated human drivers.
+
+Demonstrations (marl_social/data/demonstrations.py) are for inverse optimal control
+(agents/irl/laplace.py), decisions (marl_social/data/decisions.py, `record_decisions`) for
+discrete-choice IRL (agents/irl/choice.py).
 
 Every human driver of every episode is cut into segments of `segment_steps` simulator steps
 (every `stride_steps`). A segment holds the human's executed accelerations along its route, its
@@ -70,8 +72,10 @@ def episode_demonstrations(result, segment_steps: int = 30, stride_steps: int = 
 
 
 def episode_decisions(result, source: str = "") -> DecisionSet | None:
-    """Every human driver's recorded decisions of one `run_episode(...,
-    record_human_decisions=True)` result as a DecisionSet (None if there were none).
+    """Every human driver's recorded decisions of one episode as a DecisionSet.
+
+    The episode is a `run_episode(..., record_human_decisions=True)` result; None if there were
+    no decisions.
     """
     if result.decisions is None:
         raise ValueError("episode_decisions: run the episode with record_human_decisions=True")
@@ -110,8 +114,10 @@ def record_demonstrations(scenario: str = "occluded_crosswalk", seeds=range(20),
                           overrides: dict | None = None, randomize: bool = True,
                           max_cycles: int = 150, segment_steps: int = 30, stride_steps: int = 10,
                           workers: int = 1, progress: bool = False) -> list[Demonstration]:
-    """Run one episode per seed (its built-in planners; `overrides` on top of
-    run.randomized_overrides(seed) when randomize) and cut the humans into demonstrations.
+    """Run one episode per seed and cut the humans into demonstrations.
+
+    Each episode runs its built-in planners, with `overrides` on top of
+    run.randomized_overrides(seed) when randomize.
     """
     overrides = dict(overrides or {})
     jobs = [(scenario, int(s), max_cycles, overrides, randomize, segment_steps, stride_steps)
@@ -123,8 +129,9 @@ def record_decisions(scenario: str = "occluded_crosswalk", seeds=range(20),
                      overrides: dict | None = None, randomize: bool = True,
                      max_cycles: int = 150, workers: int = 1,
                      progress: bool = False) -> DecisionSet | None:
-    """Run one episode per seed (as record_demonstrations) and keep every human driver's
-    decisions (marl_social/decisions.py); None if no human decided.
+    """Run one episode per seed (as record_demonstrations) and keep the humans' decisions.
+
+    Every human driver's decisions (marl_social/data/decisions.py); None if no human decided.
     """
     overrides = dict(overrides or {})
     jobs = [(scenario, int(s), max_cycles, overrides, randomize, None, None) for s in seeds]

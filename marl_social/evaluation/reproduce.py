@@ -41,9 +41,11 @@ def _one(job):
 
 
 def run_episodes(jobs, workers: int = 2, max_cycles: int = 200, progress: bool = False):
-    """Run (planner, variant, seed) or (planner, variant, seed, overrides) jobs of randomized
-    occluded_crosswalk episodes on a process pool (overrides on top of the randomization);
-    returns (planner, variant, seed, metrics or None, error or None) in job order.
+    """Run jobs of randomized occluded_crosswalk episodes on a process pool.
+
+    A job is (planner, variant, seed) or (planner, variant, seed, overrides), the overrides on
+    top of the randomization. Returns (planner, variant, seed, metrics or None, error or None) in
+    job order.
     """
     jobs = [(*job[:3], max_cycles, dict(job[3]) if len(job) > 3 else {}) for job in jobs]
     if workers > 1:

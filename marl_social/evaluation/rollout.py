@@ -9,10 +9,14 @@ from marl_social.sim.trace import Trace
 
 def record_episode(env, policies: dict, seed: int | None = None, render: bool = False,
                    render_every: int = 1) -> Trace:
-    """Roll out `policies` ({agent: policy}) in a SocialDrivingEnv from reset(seed) until every
-    agent is done. Each policy sees only its own observation.
+    """Roll out policies in a SocialDrivingEnv from reset(seed) until every agent is done.
+
+    Each policy sees only its own observation.
 
     Args:
+        env: the SocialDrivingEnv (or a wrapper of it).
+        policies: {agent name: policy}, a policy for every agent of the env.
+        seed: the reset seed; agent i's policy is reset with seed + i (None: unseeded).
         render: also collect env.render() frames (env must have render_mode="rgb_array").
         render_every: keep one frame every this many steps.
     """

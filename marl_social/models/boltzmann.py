@@ -8,8 +8,9 @@ import numpy as np
 
 
 def boltzmann(q_values: np.ndarray, beta: float) -> np.ndarray:
-    """P(u) = softmax(-beta * Q) along the last axis; beta = inf puts all mass on the argmin
-    (ties split evenly), beta = 0 is uniform.
+    """Choice probabilities P(u) = softmax(-beta * Q) along the last axis.
+
+    beta = inf puts all mass on the argmin (ties split evenly), beta = 0 is uniform.
     """
     q = np.asarray(q_values, dtype=np.float64)
     if math.isinf(beta):

@@ -3,8 +3,8 @@
 A candidate is a first acceleration u (held for the first segment) followed by a continuation c
 (held to the end of the horizon). All A x C candidates are rolled out at once (path-velocity
 decomposition: position along the route, the route gives x, y, heading) and their per-step costs
-(agents/costs.py) computed against L scene hypotheses in one batch. The human drivers' Q*
-(agents/human.py) and the robot's contingency MPC (agents/mpc.py) are both built on this.
+(sim/costs.py) computed against L scene hypotheses in one batch. The human drivers' Q*
+(models/driver.py) and the robot's contingency MPC (agents/robot/mpc.py) are both built on this.
 """
 
 from __future__ import annotations
@@ -26,8 +26,12 @@ class ScenePrediction:
     """Predicted others for one or more hypotheses (L of them), M objects, T steps.
 
     Attributes:
-        xy: (L, M, T, 2) positions after each planner step [m]; heading: (L, M, T) [rad].
-        length_m, width_m, radius_m: (L, M) footprint [m]; is_pedestrian: (L, M) bool;
+        xy: (L, M, T, 2) positions after each planner step [m].
+        heading: (L, M, T) headings after each planner step [rad].
+        length_m: (L, M) footprint lengths [m].
+        width_m: (L, M) footprint widths [m].
+        radius_m: (L, M) footprint bounding radii [m].
+        is_pedestrian: (L, M) bool.
         mask: (L, M) bool, object present in that hypothesis.
     """
 
@@ -41,8 +45,13 @@ class ScenePrediction:
 
     @classmethod
     def from_tracks(cls, tracks, times_s: np.ndarray) -> ScenePrediction:
-        """One hypothesis: every track of a TrackSet at constant velocity, footprints at the
-        tracks' headings (TrackSet.heading_rad, perception/tracking.py).
+        """One hypothesis: every track of a TrackSet at constant velocity.
+
+        Footprints are at the tracks' headings (TrackSet.heading_rad, perception/tracking.py).
+
+        Args:
+            tracks: the TrackSet, M tracks.
+            times_s: (T,) prediction times [s].
         """
         xy = tracks.predict_xy(times_s)[None]  # (1, M, T, 2)
         heading = np.broadcast_to(tracks.heading_rad[None, :, None], xy.shape[:-1])
@@ -52,8 +61,17 @@ class ScenePrediction:
                    tracks.is_pedestrian[None], np.ones((1, m), dtype=bool))
 
     def with_extra(self, xy, heading, length_m, width_m, is_pedestrian, mask) -> ScenePrediction:
-        """Append one object per hypothesis: xy (L, T, 2), heading (L, T), sizes (L,) [m],
-        is_pedestrian (L,) bool, mask (L,) bool. The L of self must be 1 (broadcast) or L.
+        """Append one object per hypothesis.
+
+        The L of self must be 1 (broadcast) or L.
+
+        Args:
+            xy: (L, T, 2) positions after each planner step [m].
+            heading: (L, T) headings after each planner step [rad].
+            length_m: (L,) footprint lengths [m].
+            width_m: (L,) footprint widths [m].
+            is_pedestrian: (L,) bool.
+            mask: (L,) bool, object present in that hypothesis.
         """
         n_hyp = len(mask)
         grow = lambda a: np.broadcast_to(a, (n_hyp,) + a.shape[1:])
@@ -114,7 +132,9 @@ def rollout_speeds(v0: float, accel: np.ndarray, dt_s: float = DT_S) -> tuple[np
     v_k = S_k - min(0, min_{j<=k} S_j).
 
     Args:
+        v0: initial speed [m/s].
         accel: (..., T) commanded accelerations [m/s^2].
+        dt_s: step length [s].
 
     Returns:
         v (..., T) speed after each step [m/s], ds (..., T) distance travelled up to each step
@@ -135,7 +155,8 @@ class CandidateEvaluation:
 
     Attributes:
         step_cost: (L, A, C, T) theta . phi per planner step, in simulator-step units.
-        v: (A, C, T) speeds [m/s]; a_eff: (A, C, T) accelerations [m/s^2].
+        v: (A, C, T) speeds [m/s].
+        a_eff: (A, C, T) effective accelerations [m/s^2].
         min_gap_m: (L, A, C) smallest covering-circle gap to any present object [m]
             (inf without objects); only with geometry=True.
         conflict: (L, A, C) largest per-step crosswalk conflict (own occupancy x a pedestrian's)
@@ -159,9 +180,10 @@ class CandidateEvaluation:
 
 
 def collision_free_totals(ev: CandidateEvaluation) -> np.ndarray:
-    """(L, A, C) total costs of the candidates with every plan whose covering circles touch a
-    predicted vehicle (min_vehicle_gap_m == 0; needs geometry=True) set to +inf, so that a
-    driver's Q* never chooses to run into a car: the safety feature alone saturates at 1 per
+    """(L, A, C) total costs of the candidates, +inf for plans that touch a predicted vehicle.
+
+    Every plan whose covering circles touch a predicted vehicle (min_vehicle_gap_m == 0; needs
+    geometry=True) is set to +inf, so that a driver's Q* never chooses to run into a car: the safety feature alone saturates at 1 per
     step, less than the speed cost of stopping behind a stopped car. (Pedestrians are kept
     out of the ego's way by the crosswalk feature.) A first action all of whose continuations
     collide gets Q* = inf. Under a hypothesis where every plan collides, all keep their
@@ -181,7 +203,7 @@ def evaluate_candidates(cands: CandidateSet, theta: np.ndarray, v_ref_mps: float
                         features: bool = False) -> CandidateEvaluation:
     """Roll out every candidate and cost it against every scene hypothesis (see module doc).
 
-    features: also return the per-feature totals (for discrete-choice IRL, agents/choice_irl.py);
+    features: also return the per-feature totals (for discrete-choice IRL, agents/irl/choice.py);
     the costs are computed exactly as without it.
 
     static_boxes: (S, 4) [xmin, ymin, xmax, ymax] of the static polygons [m], for the

@@ -1,5 +1,6 @@
-"""The driver's decision model (paper eq. 11): Q*(x_hat, u) of each first acceleration u,
-shared by the human drivers (who act on it) and the robot (which infers from it).
+"""The driver's decision model (paper eq. 11): Q*(x_hat, u) of each first acceleration u.
+
+It is shared by the human drivers (who act on it) and the robot (which infers from it).
 
 Q*(x_hat, u) = min over continuations c of  sum_k theta^T phi(x_k, u_k); continuations that
 run into an object the driver predicts are excluded (it never plans a collision).
@@ -71,9 +72,13 @@ def driver_q_values(model: DriverModel, route: Route, s0: float, v0: float, prev
     """Q*(x_hat, u) for each first action u and each scene hypothesis (eq. 11).
 
     Args:
-        route: the driver's route; s0 [m], v0 [m/s]: its arc length and speed;
-        prev_accel: its last acceleration [m/s^2] (for the jerk term);
+        model: the driver's decision model (A first actions).
+        route: the driver's route.
+        s0: its arc length along the route [m].
+        v0: its speed [m/s].
+        prev_accel: its last acceleration [m/s^2] (for the jerk term).
         scene: predicted others, L hypotheses, at model.plan_times_s.
+        crosswalks: the crosswalks of the map.
 
     Returns:
         (L, A) optimal cost-to-go of each first action; continuations that run into a
@@ -88,8 +93,10 @@ def driver_q_values(model: DriverModel, route: Route, s0: float, v0: float, prev
 def driver_choice_features(model: DriverModel, route: Route, s0: float, v0: float,
                            prev_accel: float, scene: ScenePrediction,
                            crosswalks: tuple[Crosswalk, ...]) -> tuple[np.ndarray, np.ndarray]:
-    """What a driver's decision depends on, linear in theta (for discrete-choice IRL,
-    agents/choice_irl.py): Q*(u) = min over allowed c of theta . features[u, c].
+    """What a driver's decision depends on, linear in theta.
+
+    For discrete-choice IRL (agents/irl/choice.py): Q*(u) = min over allowed c of
+    theta . features[u, c]. The arguments are those of driver_q_values.
 
     Returns:
         features (A, C, N_FEATURES): per-feature totals of each candidate [simulator-step units];

@@ -1,5 +1,7 @@
-"""The pedestrian's decision model: the cost of walking at each candidate speed along its
-crossing route (0 = wait) over the horizon, from the features every agent shares.
+"""The pedestrian's decision model: the cost of walking at each candidate speed.
+
+The cost of each candidate speed along its crossing route (0 = wait) over the horizon comes from
+the features every agent shares.
 """
 
 from __future__ import annotations
@@ -17,15 +19,18 @@ from marl_social.sim.road_map import Crosswalk, Route
 
 @dataclass(frozen=True)
 class PedestrianModel:
-    """Attributes:
-    theta: cost weights; beta: rationality (inf = argmin).
-    v_walk_mps: walking speed it wants once it crosses [m/s].
-    speeds_mps: (A,) candidate speeds along its route [m/s] (0 = wait).
-    horizon_s: planning horizon [s]; plan_dt_s: its rollout step [s] (costs scaled by
-        plan_dt / DT_S, as for drivers).
-    expected_yield_decel_mps2: a car that can stop before the crosswalk braking at most
-        this hard is expected to yield [m/s^2].
-    radius_m: its own disc radius [m].
+    """What defines a pedestrian's decision (its own, or the robot's estimate of it).
+
+    Attributes:
+        theta: cost weights.
+        beta: rationality (inf = argmin).
+        v_walk_mps: walking speed it wants once it crosses [m/s].
+        speeds_mps: (A,) candidate speeds along its route [m/s] (0 = wait).
+        horizon_s: planning horizon [s].
+        plan_dt_s: its rollout step [s] (costs scaled by plan_dt / DT_S, as for drivers).
+        expected_yield_decel_mps2: a car that can stop before the crosswalk braking at most
+            this hard is expected to yield [m/s^2].
+        radius_m: its own disc radius [m].
     """
 
     theta: CostWeights = field(default_factory=lambda: CostWeights(

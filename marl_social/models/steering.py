@@ -1,5 +1,7 @@
-"""Path tracking shared by the built-in planners (path-velocity decomposition: the planners
-choose the speed along their route, this turns it into an action).
+"""Path tracking shared by the built-in planners.
+
+Path-velocity decomposition: the planners choose the speed along their route, this turns it into
+an action.
 """
 
 from __future__ import annotations
@@ -14,8 +16,21 @@ from marl_social.sim.road_map import Route
 def pure_pursuit(route: Route, x: float, y: float, psi: float, v: float, s: float,
                  wheelbase_m: float, min_lookahead_m: float = 6.0,
                  lookahead_time_s: float = 1.0) -> float:
-    """Pure-pursuit steering angle [rad] towards the route point one look-ahead distance
-    (max(min_lookahead, v * lookahead_time) [m]) ahead of arc length s [m].
+    """Pure-pursuit steering angle [rad] towards a route point one look-ahead distance ahead.
+
+    The look-ahead distance is max(min_lookahead, v * lookahead_time) [m], counted from arc
+    length s.
+
+    Args:
+        route: the vehicle's route.
+        x: position x [m].
+        y: position y [m].
+        psi: heading [rad].
+        v: speed [m/s].
+        s: arc length along the route [m].
+        wheelbase_m: wheelbase [m].
+        min_lookahead_m: smallest look-ahead distance [m].
+        lookahead_time_s: look-ahead time at speed v [s].
     """
     lookahead = max(min_lookahead_m, lookahead_time_s * v)
     (tx, ty), _ = route.point_at(s + lookahead)
@@ -26,8 +41,10 @@ def pure_pursuit(route: Route, x: float, y: float, psi: float, v: float, s: floa
 
 def walk_along(route: Route, x: float, y: float, speed_mps: float,
                lookahead_m: float = 1.0) -> np.ndarray:
-    """A pedestrian's velocity command (2,) float32 [m/s]: speed_mps towards the route point
-    lookahead_m ahead of its projection; zero when standing or at the route's end.
+    """A pedestrian's velocity command (2,) float32 [m/s] along its route.
+
+    The command is speed_mps towards the route point lookahead_m ahead of its projection; zero
+    when standing or at the route's end.
     """
     s, _ = route.project_point(x, y)
     if speed_mps <= 0.0 or s >= route.length_m - 1e-3:

@@ -87,7 +87,7 @@ class AgentSpec:
         sensor: its own field of view.
         vehicle / pedestrian: physical parameters for its kind.
         v_desired_mps: the speed it wants to travel at [m/s] (its v_ref in the speed cost).
-        cost_weights: its own theta (agents/costs.py), used for its reward and by its planner.
+        cost_weights: its own theta (sim/costs.py), used for its reward and by its planner.
         planner: the agent's private planner parameters (crossing intent, rationality, ...);
             its own policy may read them, nobody else's may.
     """

@@ -66,8 +66,16 @@ class CostWeights:
 
 
 def crosswalk_occupancy(xy, bounding_radius_m, crosswalk: Crosswalk) -> np.ndarray:
-    """Smooth 0..1 indicator that a footprint (centre xy (..., 2) [m], bounding radius (...) [m])
-    overlaps the crosswalk rectangle. xy may be an agents/jets.Jet (derivatives along a path).
+    """Smooth 0..1 indicator that a footprint overlaps the crosswalk rectangle.
+
+    Args:
+        xy: (..., 2) footprint centre [m]; may be a marl_social.agents.irl.jets.Jet
+            (derivatives along a path).
+        bounding_radius_m: (...) footprint bounding radius [m].
+        crosswalk: the crosswalk rectangle.
+
+    Returns:
+        (...) occupancy in 0..1.
     """
     xy = xy if getattr(xy, "is_jet", False) else np.asarray(xy, dtype=np.float64)
     rel = xy - crosswalk.center
@@ -84,9 +92,11 @@ def circle_gap(ego_circles, ego_circle_r, other_circles, other_circle_r) -> np.n
     """Gap between two footprints given by their covering circles [m], >= 0.
 
     Args:
-        ego_circles (..., C, 2), ego_circle_r (..., C): the ego's covering circles
+        ego_circles: (..., C, 2) centres of the ego's covering circles [m]
             (footprint.covering_circles).
-        other_circles (..., M, C, 2), other_circle_r (..., M, C): the others'.
+        ego_circle_r: (..., C) radii of the ego's covering circles [m].
+        other_circles: (..., M, C, 2) centres of the others' covering circles [m].
+        other_circle_r: (..., M, C) radii of the others' covering circles [m].
 
     Returns:
         (..., M) smallest circle-to-circle gap per other agent, clipped at 0 [m].
@@ -103,8 +113,9 @@ def _feature_terms(*, lateral_m, speed_mps, v_ref_mps, accel_mps2, prev_accel_mp
                    ego_xy, ego_radius, ego_is_ped, ego_circles, ego_circle_r,
                    other_xy, other_radius, other_is_ped, other_circles, other_circle_r, other_mask,
                    crosswalks, needed=(True,) * N_FEATURES, gap=None) -> list:
-    """The six per-step features in FEATURE_NAMES order (None where not needed). `gap` may
-    pass circle_gap(ego, others) already computed by the caller.
+    """The six per-step features in FEATURE_NAMES order (None where not needed).
+
+    `gap` may pass circle_gap(ego, others) already computed by the caller.
     """
     terms = [None] * N_FEATURES
     if needed[0]:
@@ -148,8 +159,9 @@ def step_features(**kwargs) -> np.ndarray:
 
 
 def step_cost(theta: np.ndarray, **kwargs) -> np.ndarray:
-    """theta^T phi of one step (same arguments as step_features), computing only the features
-    whose weight is non-zero. Returns the broadcast batch shape (...).
+    """Cost theta^T phi of one step (same arguments as step_features).
+
+    Computes only the features whose weight is non-zero. Returns the broadcast batch shape (...).
     """
     theta = np.asarray(theta, dtype=np.float64)
     terms = _feature_terms(needed=tuple(bool(w != 0.0) for w in theta), **kwargs)

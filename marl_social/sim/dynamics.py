@@ -1,6 +1,8 @@
-"""Vectorized agent dynamics: kinematic bicycle for vehicles, velocity-commanded discs for
-pedestrians. Physical limits saturate (documented per function); nothing here raises on
-out-of-range values — input validation lives in the env.
+"""Vectorized agent dynamics for vehicles and pedestrians.
+
+Vehicles follow a kinematic bicycle; pedestrians are velocity-commanded discs. Physical limits
+saturate (documented per function); nothing here raises on out-of-range values — input
+validation lives in the env.
 
 State layout for every agent: [x m, y m, heading rad, speed m/s].
 """
@@ -29,7 +31,12 @@ def saturate_vehicle_action(
 
     Args:
         action: (n, 2) [a m/s^2, delta rad].
-        speed_mps, wheelbase_m, ...: (n,) per-vehicle values.
+        speed_mps: (n,) speed of each vehicle [m/s].
+        wheelbase_m: (n,) wheelbase of each vehicle [m].
+        accel_max_mps2: (n,) largest acceleration of each vehicle [m/s^2].
+        brake_max_mps2: (n,) largest braking deceleration of each vehicle (positive) [m/s^2].
+        steer_max_rad: (n,) largest steering angle of each vehicle [rad].
+        lat_accel_max_mps2: (n,) largest lateral acceleration of each vehicle [m/s^2].
 
     Returns:
         (n, 2) saturated actions.
@@ -45,8 +52,9 @@ def bicycle_step(
     state: np.ndarray, action: np.ndarray, wheelbase_m: np.ndarray, speed_max_mps: np.ndarray,
     dt_s: float = DT_S,
 ) -> np.ndarray:
-    """Kinematic bicycle model (Rajamani 2011, ch. 2) with the reference point at the footprint
-    centre and the rear axle wheelbase/2 behind it.
+    """Kinematic bicycle model (Rajamani 2011, ch. 2), one step for n vehicles.
+
+    The reference point is at the footprint centre and the rear axle wheelbase/2 behind it.
 
     beta = atan(tan(delta) / 2);  x' = v cos(psi + beta);  y' = v sin(psi + beta);
     psi' = v cos(beta) tan(delta) / wheelbase;  v' = a.
@@ -54,8 +62,11 @@ def bicycle_step(
     speeds at the start and end of the step, so a car braking to a stop stops where it should.
 
     Args:
-        state: (n, 4) [x, y, psi, v]; action: (n, 2) saturated [a, delta].
-        wheelbase_m, speed_max_mps: (n,).
+        state: (n, 4) [x m, y m, psi rad, v m/s].
+        action: (n, 2) saturated [a m/s^2, delta rad].
+        wheelbase_m: (n,) wheelbase of each vehicle [m].
+        speed_max_mps: (n,) top speed of each vehicle [m/s].
+        dt_s: step length [s].
 
     Returns:
         (n, 4) next state.

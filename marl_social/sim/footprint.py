@@ -16,7 +16,10 @@ def box_corners(xy, heading, length, width) -> np.ndarray:
     """Corners of oriented rectangles.
 
     Args:
-        xy: (..., 2) centres [m]; heading: (...) [rad]; length, width: (...) [m].
+        xy: (..., 2) centres [m].
+        heading: (...) headings [rad].
+        length: (...) lengths [m].
+        width: (...) widths [m].
 
     Returns:
         (..., 4, 2) corners [m], counter-clockwise from rear-right.
@@ -32,11 +35,19 @@ def box_corners(xy, heading, length, width) -> np.ndarray:
 
 
 def circle_layout(length, width, is_pedestrian) -> tuple[np.ndarray, np.ndarray]:
-    """Per-footprint constants of the covering circles: signed offsets of the circle centres
-    along the heading (..., C) [m] and their radii (..., C) [m] (Ziegler et al. 2014: vehicles
-    get N_COVER_CIRCLES equal circles along their length, pedestrians the same disc repeated).
+    """Per-footprint constants of the covering circles.
 
-    Args: length, width (...) [m] (pedestrians: both = diameter); is_pedestrian (...) bool.
+    Ziegler et al. 2014: vehicles get N_COVER_CIRCLES equal circles along their length,
+    pedestrians the same disc repeated.
+
+    Args:
+        length: (...) footprint lengths [m] (pedestrians: the diameter).
+        width: (...) footprint widths [m] (pedestrians: the diameter).
+        is_pedestrian: (...) bool.
+
+    Returns:
+        Signed offsets of the circle centres along the heading (..., C) [m] and their radii
+        (..., C) [m].
     """
     length = np.asarray(length, dtype=np.float64)
     width = np.asarray(width, dtype=np.float64)
@@ -47,8 +58,15 @@ def circle_layout(length, width, is_pedestrian) -> tuple[np.ndarray, np.ndarray]
 
 
 def place_along(xy, heading, along) -> np.ndarray:
-    """Points at signed distances along (..., C) [m] from xy (..., 2) [m] in the heading
-    direction (...) [rad]: (..., C, 2) [m]. Shapes broadcast.
+    """Points at signed distances from xy in the heading direction.
+
+    Args:
+        xy: (..., 2) origins [m].
+        heading: (...) directions [rad].
+        along: (..., C) signed distances [m].
+
+    Returns:
+        (..., C, 2) points [m]. Shapes broadcast.
     """
     xy = np.asarray(xy, dtype=np.float64)
     along = np.asarray(along, dtype=np.float64)
@@ -60,8 +78,15 @@ def place_along(xy, heading, along) -> np.ndarray:
 
 
 def place_local(xy, heading, local) -> np.ndarray:
-    """Body-frame points local (..., K, 2) [m] (x forward, y left) placed at poses xy (..., 2)
-    [m], heading (...) [rad]: (..., K, 2) world points [m].
+    """Body-frame points placed at poses in the world frame.
+
+    Args:
+        xy: (..., 2) pose positions [m].
+        heading: (...) pose headings [rad].
+        local: (..., K, 2) body-frame points [m] (x forward, y left).
+
+    Returns:
+        (..., K, 2) world points [m].
     """
     c = np.cos(heading)[..., None]
     s = np.sin(heading)[..., None]
@@ -75,8 +100,11 @@ def covering_circles(xy, heading, length, width, is_pedestrian) -> tuple[np.ndar
     """Circles covering each footprint (see circle_layout).
 
     Args:
-        xy: (..., 2) [m]; heading, length, width: (...) [m, rad]; is_pedestrian: (...) bool.
-            For pedestrians length = width = diameter. Shapes broadcast.
+        xy: (..., 2) centres [m]. Shapes broadcast.
+        heading: (...) headings [rad].
+        length: (...) lengths [m]; for pedestrians the diameter.
+        width: (...) widths [m]; for pedestrians the diameter.
+        is_pedestrian: (...) bool.
 
     Returns:
         centres (..., N_COVER_CIRCLES, 2) [m], radii (..., N_COVER_CIRCLES) [m].

@@ -101,7 +101,9 @@ class GeometryMirror:
         """Move every active agent's pymunk body and fcl object to its pose; remove inactive ones.
 
         Args:
-            xy: (n, 2) [m]; heading: (n,) [rad]; active: (n,) bool.
+            xy: (n, 2) agent centres [m].
+            heading: (n,) agent headings [rad].
+            active: (n,) bool, False for agents to remove.
         """
         space_ptr = self.space._space
         half = 0.5 * np.asarray(heading, dtype=np.float64)
@@ -137,10 +139,12 @@ class GeometryMirror:
         This is chipmunk's cpSpaceSegmentQueryFirst, the call behind pymunk's
         `Space.segment_query_first`, made directly through pymunk's cffi binding with a reused
         result buffer: the wrapper's per-call allocations cost more than the query itself
-        (7.2 vs 3.1 us per ray, measured). tests/test_geometry.py checks that both agree.
+        (7.2 vs 3.1 us per ray, measured). tests/sim/test_geometry.py checks that both agree.
 
         Args:
-            start, end: (x, y) tuples [m]; observer: label of the agent whose shape is ignored.
+            start: (x, y) tuple, start of the segment [m].
+            end: (x, y) tuple, end of the segment [m].
+            observer: label of the agent whose shape is ignored.
 
         Returns:
             (label, alpha): label of the shape hit (-1 if none), alpha in [0, 1] along the
@@ -154,10 +158,9 @@ class GeometryMirror:
         return self._cp_label[hit], self._query_info.alpha
 
     def contacts(self, xy=None, bounding_radius=None, active=None) -> list[tuple[int, int]]:
-        """All touching pairs (label_a < label_b): agent-agent and agent-static, from the fcl
-        broad-phase managers.
+        """All touching pairs (label_a < label_b), agent-agent and agent-static.
 
-        If the agents' centres xy (n, 2) [m], bounding radii (n,) [m] and active mask (n,) are
+        The pairs come from the fcl broad-phase managers. If the agents' centres xy (n, 2) [m], bounding radii (n,) [m] and active mask (n,) are
         given, fcl is skipped when no two bounding circles (or circle and static box) overlap:
         then nothing can touch.
         """

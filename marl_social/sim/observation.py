@@ -32,12 +32,16 @@ SLOT_DIM = len(SLOT_FIELDS)
 
 @dataclass(frozen=True)
 class Measurements:
-    """Measured objects, one row per visible (observer, target) pair, sorted by observer then
-    true distance.
+    """Measured objects, one row per visible (observer, target) pair.
+
+    Rows are sorted by observer then true distance.
 
     Attributes:
-        observer, target: (P,) agent indices.
-        xy: (P, 2) measured position [m]; velocity: (P, 2) [m/s]; heading: (P,) [rad].
+        observer: (P,) index of the observing agent.
+        target: (P,) index of the observed agent.
+        xy: (P, 2) measured position [m].
+        velocity: (P, 2) measured velocity [m/s].
+        heading: (P,) measured heading [rad].
         distance_m: (P,) true centre distance, for slot ordering [m].
     """
 
@@ -81,8 +85,9 @@ class ObservationLayout:
         return EGO_DIM + self.n_slots * SLOT_DIM + self.n_rays
 
     def space(self) -> spaces.Box:
-        """Box with finite bounds: coordinates within +-OBS_BOUND (100 km), every other field
-        far inside that.
+        """Box with finite bounds.
+
+        Coordinates lie within +-OBS_BOUND (100 km), every other field far inside that.
         """
         return spaces.Box(-OBS_BOUND, OBS_BOUND, shape=(self.size,), dtype=np.float32)
 
@@ -104,10 +109,16 @@ class ObservationLayout:
         """Observation vectors of all n agents.
 
         Args:
-            xy (n, 2), heading, speed, sensor_range, sensor_half_angle, length, width (n,):
-                true states and per-agent constants; is_pedestrian (n,) bool.
+            xy: (n, 2) true positions [m].
+            heading: (n,) true headings [rad].
+            speed: (n,) true speeds [m/s].
+            sensor_range: (n,) sensor range of each agent [m].
+            sensor_half_angle: (n,) sensor half-angle of each agent [rad].
+            is_pedestrian: (n,) bool.
+            length: (n,) footprint lengths [m].
+            width: (n,) footprint widths [m].
             measurements: visible pairs, sorted by observer then distance.
-            depth_m: (n, n_rays).
+            depth_m: (n, n_rays) depth ray distances [m].
 
         Returns:
             (n, size) float32.

@@ -74,8 +74,10 @@ class Route:
         return self._cum_s[k] + t_k, lateral, self._seg_heading[k]
 
     def project_point(self, x: float, y: float) -> tuple[float, float]:
-        """Arc length [m] and signed lateral offset [m] of one point: the scalar version of
-        `project`, in plain Python for short routes (a planner's per-step query).
+        """Arc length [m] and signed lateral offset [m] of one point.
+
+        The scalar version of `project`, in plain Python for short routes (a planner's per-step
+        query).
         """
         if len(self._seg_len) > 16:
             s, lateral, _ = self.project(np.array([x, y]))
@@ -235,8 +237,13 @@ class RouteSet:
         self.length_m = np.array([r.length_m for r in routes])
 
     def project(self, xy) -> tuple[np.ndarray, np.ndarray]:
-        """Arc length s (n,) [m] and signed lateral offset (n,) [m] (left positive) of each
-        agent's position xy (n, 2) on its own route.
+        """Arc length and signed lateral offset of each agent's position on its own route.
+
+        Args:
+            xy: (n, 2) agent positions [m].
+
+        Returns:
+            Arc length s (n,) [m] and signed lateral offset (n,) [m] (left positive).
         """
         rel = xy[:, None, :] - self.seg_start  # (n, S, 2)
         t = np.clip(np.einsum("nsk,nsk->ns", rel, self.seg_dir), 0.0, self.seg_len)

@@ -1,5 +1,6 @@
-"""Analysis of a study (`marl_social/studies.py`): summary tables with 95 % confidence intervals
-and plots, written next to the study's results.csv.
+"""Analysis of a study: summary tables with 95 % confidence intervals and plots.
+
+They are written next to the study's results.csv (`marl_social/studies/results.py`).
 
 * Rates (metrics that are true/false, e.g. robot_collision): the share of runs, with the Wilson
   score interval of the binomial proportion (no continuity correction, as
@@ -50,9 +51,11 @@ _BOOL_TEXT = {"true": 1.0, "false": 0.0}
 
 
 def wilson_interval(successes, trials, confidence: float = CONFIDENCE):
-    """Wilson score interval of a binomial proportion (Newcombe 1998, without continuity
-    correction), vectorized: arrays of successes k and trials n -> (low, high); nan where
-    n = 0. Equal to scipy.stats.binomtest(k, n).proportion_ci(method="wilson").
+    """Wilson score interval of a binomial proportion, vectorized.
+
+    Newcombe 1998, without continuity correction: arrays of successes k and trials n ->
+    (low, high); nan where n = 0. Equal to
+    scipy.stats.binomtest(k, n).proportion_ci(method="wilson").
     """
     k = np.asarray(successes, dtype=float)
     n = np.asarray(trials, dtype=float)
@@ -69,8 +72,10 @@ def wilson_interval(successes, trials, confidence: float = CONFIDENCE):
 
 
 def t_interval(mean, std, n, confidence: float = CONFIDENCE):
-    """Student-t interval of a mean, vectorized: mean +- t(1/2 + c/2, n - 1) std / sqrt(n)
-    with std the sample standard deviation (ddof 1); nan where n < 2.
+    """Student-t interval of a mean, vectorized.
+
+    mean +- t(1/2 + c/2, n - 1) std / sqrt(n) with std the sample standard deviation (ddof 1);
+    nan where n < 2.
     """
     mean, std = np.asarray(mean, dtype=float), np.asarray(std, dtype=float)
     n = np.asarray(n, dtype=float)
@@ -144,8 +149,9 @@ class StudyTable:
         return table
 
     def order(self, column: str) -> list[str]:
-        """Distinct values of a column: planners and pedestrians in table order, parameter
-        values sorted (bools, numbers, text).
+        """Distinct values of a column.
+
+        Planners and pedestrians in table order, parameter values sorted (bools, numbers, text).
         """
         first = list(dict.fromkeys(self.labels[column]))
         if column in ("planner", "pedestrian"):
@@ -174,8 +180,9 @@ class GroupStats:
 
 
 def group_stats(table: StudyTable, by: list[str], confidence: float = CONFIDENCE) -> GroupStats:
-    """Counts, means and confidence intervals of every metric per group of `by` columns
-    (vectorized with bincount); groups ordered as StudyTable.order.
+    """Counts, means and confidence intervals of every metric per group of `by` columns.
+
+    Vectorized with bincount; groups ordered as StudyTable.order.
     """
     orders = [table.order(c) for c in by]
     if len(table) == 0:
@@ -327,8 +334,10 @@ def _series(values: np.ndarray, ids: list[int | None]) -> np.ndarray:
 
 
 def plot_1d(table: StudyTable, param: str, out_dir: Path) -> list[Path]:
-    """For every metric, a figure of it against `param` with its interval: one line per
-    planner, one panel per pedestrian variant, pooled over the other swept parameters.
+    """For every metric, a figure of it against `param` with its interval.
+
+    One line per planner, one panel per pedestrian variant, pooled over the other swept
+    parameters.
     """
     from matplotlib.figure import Figure
 
@@ -373,8 +382,10 @@ def plot_1d(table: StudyTable, param: str, out_dir: Path) -> list[Path]:
 
 
 def _color_range(values: np.ndarray, rate: bool) -> tuple[float, float]:
-    """Colour scale of a heatmap: [0, 1] for rates, else the values' range (widened if
-    they are all equal, so every panel maps a value to the same colour).
+    """Colour scale of a heatmap: [0, 1] for rates, else the values' range.
+
+    The range is widened if the values are all equal, so every panel maps a value to the same
+    colour.
     """
     if rate:
         return 0.0, 1.0
@@ -385,8 +396,10 @@ def _color_range(values: np.ndarray, rate: bool) -> tuple[float, float]:
 
 
 def plot_heatmaps(table: StudyTable, a: str, b: str, out_dir: Path) -> list[Path]:
-    """Heatmaps of the collision rate and the time to pass over swept parameters a (x) and
-    b (y): one figure per metric and pedestrian variant, one panel per planner.
+    """Heatmaps of the collision rate and the time to pass over swept parameters a and b.
+
+    Parameter a on x, b on y; one figure per metric and pedestrian variant, one panel per
+    planner.
     """
     from matplotlib.figure import Figure
 

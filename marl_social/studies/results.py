@@ -1,5 +1,6 @@
-"""The results table and output folder of a study (`marl_social/studies.py`): reading and
-writing results.csv, its rows, study.json and the lock on the folder.
+"""The results table and output folder of a study.
+
+Reading and writing results.csv, its rows, study.json and the lock on the folder.
 
 Results: `<out>/results.csv` (default out: marl_social_out/studies/<name>/), one row per run,
 appended as soon as the run finishes (flushed and fsynced), columns: key, seed, planner,
@@ -56,8 +57,10 @@ def default_out(name: str) -> Path:
 
 
 def read_results(path: str | os.PathLike, repair: bool = False) -> tuple[list[str], list[dict]]:
-    """Read results.csv: (columns, rows as dicts of strings). A last line without its newline
-    (the writer was killed mid-row) is ignored; with repair=True it is also cut from the file.
+    """Read results.csv: (columns, rows as dicts of strings).
+
+    A last line without its newline (the writer was killed mid-row) is ignored; with
+    repair=True it is also cut from the file.
 
     Raises:
         ValueError: a row with the wrong number of fields or a duplicate key.
@@ -99,8 +102,10 @@ def _write_table(path: Path, columns: list[str], rows: Iterable[dict]) -> None:
 
 @contextmanager
 def _appender(path: Path, columns: list[str], keys: Iterable[str]) -> Iterator:
-    """Yields write(row): appends a row to results.csv, flushed and fsynced, and refuses a key
-    written before. Writes the header into a new (or empty) file.
+    """Yields write(row), which appends a row to results.csv.
+
+    Each row is flushed and fsynced; a key written before is refused. Writes the header into a
+    new (or empty) file.
     """
     new = not path.exists() or path.stat().st_size == 0
     written = set(keys)
@@ -187,8 +192,9 @@ def _prepare_table(path: Path, columns: list[str], retry_failed: bool) -> dict[s
 
 
 def _finalize(path: Path, columns: list[str], runs: list[Run]) -> None:
-    """Rewrite the table in the spec's run order (rows of other runs, e.g. more seeds from an
-    earlier resume, follow sorted by key).
+    """Rewrite the table in the spec's run order.
+
+    Rows of other runs (e.g. more seeds from an earlier resume) follow, sorted by key.
     """
     _, rows = read_results(path)
     order = {r.key: i for i, r in enumerate(runs)}
@@ -198,8 +204,9 @@ def _finalize(path: Path, columns: list[str], runs: list[Run]) -> None:
 
 @contextmanager
 def _exclusive(out_dir: Path) -> Iterator[None]:
-    """Hold an exclusive lock on out_dir (POSIX flock on .study.lock, released even on
-    SIGKILL) so that two processes never run a study into the same folder.
+    """Hold an exclusive lock on out_dir so that two processes never run a study into it.
+
+    The lock is a POSIX flock on .study.lock, released even on SIGKILL.
     """
     try:
         import fcntl
@@ -217,8 +224,10 @@ def _exclusive(out_dir: Path) -> Iterator[None]:
 
 def _prepare_out(spec: StudySpec, out_dir: Path, resume: bool, overwrite: bool,
                  retry_failed: bool) -> dict[str, dict]:
-    """Check out_dir against the spec, clear it (overwrite) or read its finished rows
-    (resume), write study.json; returns the finished rows by key.
+    """Prepare out_dir for a run of the spec; returns the finished rows by key.
+
+    Checks out_dir against the spec, clears it (overwrite) or reads its finished rows (resume),
+    and writes study.json.
     """
     table = out_dir / RESULTS_FILE
     if table.exists() and not (resume or overwrite):

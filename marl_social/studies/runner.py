@@ -1,10 +1,10 @@
-"""Sensitivity studies: sweeps of scenario parameters x robot planners x pedestrian variants x
-seeds, one simulated episode (`run.run_episode`) per run, on a local process pool or on Ray.
+"""Sensitivity studies: sweeps of scenario parameters, run on a process pool or on Ray.
 
-This module runs studies (`run_study`: one job per run, `execute` on a backend) and holds the
+A study sweeps scenario parameters x robot planners x pedestrian variants x seeds, one simulated
+episode (`run.run_episode`) per run, on a local process pool or on Ray. This module runs studies (`run_study`: one job per run, `execute` on a backend) and holds the
 `marl-social study` CLI. The TOML spec format, its parsing and validation are in
-`marl_social/study_spec.py`; the results table (results.csv, study.json, resume) is in
-`marl_social/study_results.py`. Their public names are re-exported here.
+`marl_social/studies/spec.py`; the results table (results.csv, study.json, resume) is in
+`marl_social/studies/results.py`. Their public names are re-exported here.
 
 Backends: "local" runs in process with 1 worker, else on a spawn-context process pool;
 "ray" sends one remote task per run to the cluster at `address`, to the one this process is
@@ -12,7 +12,7 @@ already connected to, to a running local cluster (address "auto"), or else to a 
 with `workers` CPUs (shut down at the end). Ray is optional: `pip install marl-social[ray]`;
 every cluster node needs marl-social installed.
 
-Analysis (`marl_social/study_analysis.py`) runs at the end of a study: plots and summary.md /
+Analysis (`marl_social/studies/analysis.py`) runs at the end of a study: plots and summary.md /
 summary.csv next to results.csv.
 """
 
@@ -69,7 +69,7 @@ from marl_social.studies.spec import (
     with_seeds,
 )
 
-# the public names of this module, marl_social.study_spec and marl_social.study_results
+# the public names of this module, marl_social.studies.spec and marl_social.studies.results
 __all__ = [
     "BACKENDS", "DEFAULT_MAX_CYCLES", "DEFAULT_METRICS", "DEFAULT_OUT_ROOT",
     "DEFAULT_PEDESTRIANS", "DEFAULT_PLANNERS", "DEFAULT_SEEDS", "HEAD_COLUMNS", "LOCK_FILE",
@@ -94,7 +94,7 @@ class StudyOutcome:
     n_skipped: int  # already in the table (resume)
     n_executed: int
     n_errors: int  # errors among the executed runs
-    analysis: Any = None  # study_analysis.AnalysisOutputs, or None
+    analysis: Any = None  # analysis.AnalysisOutputs, or None
 
 
 # ---------------------------------------------------------------------------- running runs
@@ -175,8 +175,9 @@ def _ray_init(ray, address: str | None, workers: int) -> bool:
 
 
 def _ray_results(jobs: list[tuple], workers: int, address: str | None) -> Iterator[tuple]:
-    """Results of jobs as they finish, one Ray task per job (at most 2 per CPU in flight); a
-    task that fails inside Ray (e.g. its worker crashed) yields an error result.
+    """Results of jobs as they finish, one Ray task per job (at most 2 per CPU in flight).
+
+    A task that fails inside Ray (e.g. its worker crashed) yields an error result.
     """
     ray = _import_ray()
     started = _ray_init(ray, address, workers)
@@ -217,10 +218,11 @@ def run_study(spec: StudySpec | str | os.PathLike, out: str | os.PathLike | None
               resume: bool = False, retry_failed: bool = False, overwrite: bool = False,
               seeds: int | None = None, progress: bool = True, analyze: bool = True,
               plots: bool = True) -> StudyOutcome:
-    """Run a study (a StudySpec, a spec file or a built-in name) into `out`
-    (default marl_social_out/studies/<name>/), writing results.csv row by row.
+    """Run a study into `out`, writing results.csv row by row.
 
     Args:
+        spec: a StudySpec, a spec file or a built-in name.
+        out: output folder (default marl_social_out/studies/<name>/).
         workers: parallel episodes (local processes, or the CPUs of a new local Ray).
         backend: "local" or "ray" (see the module docstring).
         address: Ray cluster address (backend "ray").
@@ -229,7 +231,8 @@ def run_study(spec: StudySpec | str | os.PathLike, out: str | os.PathLike | None
         overwrite: delete an existing study's outputs in `out` first.
         seeds: use range(seeds) instead of the spec's seeds.
         progress: show a tqdm progress bar with ETA.
-        analyze, plots: write summary.md / summary.csv (and the plots) at the end.
+        analyze: write summary.md / summary.csv at the end.
+        plots: with analyze, also write the plots.
 
     Raises:
         ValueError: invalid spec or arguments, or `out` holds a different study.

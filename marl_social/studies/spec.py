@@ -1,5 +1,7 @@
-"""Study specs: the TOML model of a sensitivity study, its parsing and its validation against
-the scenario, and the expansion into runs (`expand`). Studies run with `marl_social/studies.py`.
+"""Study specs: the TOML model of a sensitivity study.
+
+Its parsing and its validation against the scenario, and the expansion into runs (`expand`).
+Studies run with `marl_social/studies/runner.py`.
 
 A study is a TOML spec; the built-in ones live in `marl_social/studies/specs/`
 (`marl-social study --list`)::
@@ -69,8 +71,10 @@ _NAME_RE = re.compile(r"^[A-Za-z0-9][A-Za-z0-9_.+-]*$")
 
 
 class Run(NamedTuple):
-    """One episode of a study: its canonical key, the overrides passed to `run_episode`
-    (randomized, fixed and swept parameters, robot_planner, pedestrian) and its seed.
+    """One episode of a study: its canonical key, its overrides and its seed.
+
+    The overrides are passed to `run_episode` (randomized, fixed and swept parameters,
+    robot_planner, pedestrian).
     """
 
     key: str
@@ -229,8 +233,10 @@ def _get(data: dict, key: str, kind, default, source: str, check=None, expected:
 
 
 def parse_spec(data: dict, source: str = "<spec>", default_name: str = "") -> StudySpec:
-    """Check a spec's structure (keys and types) and build a StudySpec; `validate` and
-    `expand` check it against the scenario. Raises ValueError naming `source` and the key.
+    """Check a spec's structure (keys and types) and build a StudySpec.
+
+    `validate` and `expand` check it against the scenario. Raises ValueError naming `source`
+    and the key.
     """
     unknown = sorted(set(data) - set(_SPEC_KEYS))
     if unknown:
@@ -289,8 +295,10 @@ def _resolve_spec_path(name_or_path: str | os.PathLike) -> Path:
 
 
 def load_spec(name_or_path: str | os.PathLike, validate: bool = True) -> StudySpec:
-    """Read a spec from a TOML file or a built-in name and (by default) validate it fully:
-    structure, scenario, parameter names, planners, metrics and every run's parameter values.
+    """Read a spec from a TOML file or a built-in name and (by default) validate it fully.
+
+    Full validation checks structure, scenario, parameter names, planners, metrics and every
+    run's parameter values.
 
     Raises:
         ValueError: naming the file and the key at fault.
@@ -391,7 +399,8 @@ def _same_value_key(value) -> str:
 
 
 def axes(spec: StudySpec) -> list[tuple[str, tuple]]:
-    """The swept axes: (parameter, values) for [grid] then [random] parameters, in file order;
+    """The swept axes: (parameter, values) for [grid] then [random] parameters, in file order.
+
     [random] values are drawn here (deterministically).
 
     Raises:
@@ -412,8 +421,9 @@ def axes(spec: StudySpec) -> list[tuple[str, tuple]]:
 
 
 def format_value(value) -> str:
-    """Canonical text of a parameter or metric value: floats in repr precision (exact round
-    trip), bools true/false, sequences [a b c]; identical in every process.
+    """Canonical text of a parameter or metric value, identical in every process.
+
+    Floats in repr precision (exact round trip), bools true/false, sequences [a b c].
     """
     if isinstance(value, (bool, np.bool_)):
         return "true" if value else "false"
@@ -450,8 +460,9 @@ def _sweep_keys(spec: StudySpec) -> str:
 
 
 def expand(spec: StudySpec) -> list[Run]:
-    """Validate the spec against its scenario and list its runs in table order (planner,
-    pedestrian, grid/random point, seed). Every run's parameters are built once with
+    """Validate the spec against its scenario and list its runs in table order.
+
+    Table order is planner, pedestrian, grid/random point, seed. Every run's parameters are built once with
     `scenarios.base.make_params`, so bad values fail here with the scenario's own message.
 
     Raises:
