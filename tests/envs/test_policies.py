@@ -55,18 +55,13 @@ def test_unknown_planner_names_the_agent_and_the_valid_planners(paper_env):
 
 @pytest.mark.parametrize("agent, planner, message", [
     ("human_0", {"beta": -1.0}, "agent 'human_0': planner parameter beta=-1.0: must be >= 0"),
-    ("human_0", {"beta": "fast"}, "agent 'human_0': planner parameter beta='fast': expected a "
-                                  "number"),
+    ("human_0", {"beta": "fast"}, "agent 'human_0': planner parameter beta='fast': expected a"),
     ("human_0", {"beta": float("nan")}, "agent 'human_0': planner parameter beta=nan: NaN"),
     ("human_0", {"betta": 1.0}, r"agent 'human_0': unknown planner parameter\(s\) \['betta'\]"),
-    ("pedestrian_0", {"crossing": "yes"}, "agent 'pedestrian_0': planner parameter "
-                                          "crossing='yes': expected a bool"),
-    ("pedestrian_0", {"start_delay_s": -2.0}, "agent 'pedestrian_0': planner parameter "
-                                              "start_delay_s=-2.0: must be >= 0"),
-    ("robot_0", {"epsilon": 1.5}, "agent 'robot_0': planner parameter epsilon=1.5: must be in "
-                                  r"\[0, 1\)"),
-    ("robot_0", {"beta_hat": True}, "agent 'robot_0': planner parameter beta_hat=True: expected "
-                                    "a number"),
+    ("pedestrian_0", {"crossing": "yes"}, "'pedestrian_0': .* crossing='yes': expected a bool"),
+    ("pedestrian_0", {"start_delay_s": -2.0}, "'pedestrian_0': .* start_delay_s=-2.0: must be"),
+    ("robot_0", {"epsilon": 1.5}, r"'robot_0': planner parameter epsilon=1.5: must be in \[0, 1"),
+    ("robot_0", {"beta_hat": True}, "'robot_0': planner parameter beta_hat=True: expected a"),
     ("robot_0", {"beta": 1.0}, r"agent 'robot_0': unknown planner parameter\(s\) \['beta'\]"),
 ])
 def test_bad_planner_parameter_names_the_agent_and_the_field(paper_env, agent, planner, message):
@@ -143,7 +138,7 @@ def test_policies_never_receive_the_env(robot_planner):
 def test_autopilot_feeds_the_oracle_its_truth():
     env = marl_social.autopilot(marl_social.parallel_env(robot_planner="oracle"),
                                 controlled=["human_0"])
-    obs, _ = env.reset(seed=1)
+    env.reset(seed=1)
     for _ in range(5):
-        obs, *_ = env.step({a: np.zeros(2, np.float32) for a in env.agents})
+        env.step({a: np.zeros(2, np.float32) for a in env.agents})
     assert env._autopilots["robot_0"].needs_truth
