@@ -19,15 +19,15 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
+from marl_social.agents.params import PedestrianPlannerParams, parse_planner_params
 
 from marl_social.models.steering import pure_pursuit, walk_along
 from marl_social.sim.agent_spec import AgentSpec
 from marl_social.sim.dynamics import DT_S
-from marl_social.sim.observation import SLOT_FIELDS, ObservationLayout
+from marl_social.sim.observation import SLOT_INDEX, ObservationLayout
 from marl_social.sim.road_map import RoadMap
 
 PREDICTION_HORIZON_S = 3.0
-_F = {name: i for i, name in enumerate(SLOT_FIELDS)}
 
 
 @dataclass(frozen=True)
@@ -52,8 +52,14 @@ class IdmParams:
 
 
 def idm_acceleration(v_mps, v0_mps, gap_m, closing_mps, p: IdmParams) -> np.ndarray:
-    """IDM acceleration [m/s^2] for speed v, desired speed v0, gap to the leader (inf = none)
-    and closing speed v - v_leader. All arguments broadcast.
+    """IDM acceleration [m/s^2]; all array arguments broadcast.
+
+    Args:
+        v_mps: speed v [m/s].
+        v0_mps: desired speed v0 [m/s].
+        gap_m: bumper gap to the leader [m] (inf = no leader).
+        closing_mps: closing speed v - v_leader [m/s].
+        p: the IDM parameters.
     """
     s_star = p.min_gap_m + np.maximum(
         0.0, v_mps * p.headway_s
@@ -65,7 +71,16 @@ def idm_acceleration(v_mps, v0_mps, gap_m, closing_mps, p: IdmParams) -> np.ndar
 
 
 class CruiseVehiclePolicy:
-    """Pure pursuit + IDM over the vehicle's own observations (see module docstring)."""
+    """Pure pursuit + IDM over the vehicle's own observations (see module docstring).
+
+    Args:
+        spec: the vehicle's AgentSpec (reads no planner parameter).
+        layout: the shared observation layout.
+        road_map: the static map.
+        idm: the IDM parameters (default IdmParams()).
+    """
+
+    needs_truth = False
 
     def __init__(self, spec: AgentSpec, layout: ObservationLayout, road_map: RoadMap,
                  idm: IdmParams | None = None):
@@ -80,7 +95,8 @@ class CruiseVehiclePolicy:
     def reset(self, seed: int | None = None) -> None:
         """Stateless; present for the policy protocol."""
 
-    def __call__(self, obs) -> np.ndarray:
+    def __call__(self, obs: np.ndarray) -> np.ndarray:
+        """The (2,) [acceleration m/s^2, steering rad] for the own observation (obs_dim,)."""
         decoded = self.layout.decode(obs)
         x, y, cos_psi, sin_psi, v = decoded.ego[:5]
         psi = math.atan2(sin_psi, cos_psi)
@@ -94,12 +110,12 @@ class CruiseVehiclePolicy:
         """Bumper gap [m] to the nearest seen object in the corridor ahead, and closing speed."""
         if len(objects) == 0:
             return math.inf, 0.0
-        xy = objects[:, [_F["x"], _F["y"]]]
-        vel = objects[:, [_F["vx"], _F["vy"]]]
+        xy = objects[:, [SLOT_INDEX["x"], SLOT_INDEX["y"]]]
+        vel = objects[:, [SLOT_INDEX["vx"], SLOT_INDEX["vy"]]]
         # constant-velocity prediction over the horizon: (k, H, 2)
         future = xy[:, None, :] + vel[:, None, :] * self._horizon[None, :, None]
         s_obj, lat_obj, heading = self.route.project(future)
-        half_w = 0.5 * self.spec.vehicle.width_m + 0.5 * objects[:, _F["width"]][:, None]
+        half_w = 0.5 * self.spec.vehicle.width_m + 0.5 * objects[:, SLOT_INDEX["width"]][:, None]
         in_corridor = (np.abs(lat_obj) < half_w + self.idm.corridor_margin_m) & (s_obj > s_ego)
         hit = in_corridor.any(axis=1)
         if not hit.any():
@@ -109,28 +125,41 @@ class CruiseVehiclePolicy:
         s_entry = s_obj[rows, first[rows]]
         along_speed = (vel[rows, 0] * np.cos(heading[rows, 0]) + vel[rows, 1]
                        * np.sin(heading[rows, 0]))
-        half_len = 0.5 * self.spec.vehicle.length_m + 0.5 * objects[rows, _F["length"]]
+        half_len = 0.5 * self.spec.vehicle.length_m + 0.5 * objects[rows, SLOT_INDEX["length"]]
         gaps = s_entry - s_ego - half_len
         k = int(np.argmin(gaps))
         return float(gaps[k]), v - max(float(along_speed[k]), 0.0)
 
 
 class CruisePedestrianPolicy:
-    """Waits, then walks its route at its desired speed (if its intent is to cross)."""
+    """Waits, then walks its route at its desired speed (if its intent is to cross).
 
-    def __init__(self, spec: AgentSpec, layout: ObservationLayout, road_map: RoadMap):
+    Args:
+        spec: the pedestrian's AgentSpec.
+        layout: the shared observation layout.
+        road_map: the static map.
+        params: "crossing" and "start_delay_s" (default: parsed from spec.planner).
+    """
+
+    needs_truth = False
+
+    def __init__(self, spec: AgentSpec, layout: ObservationLayout, road_map: RoadMap,
+                 params: PedestrianPlannerParams | None = None):
+        params = params or parse_planner_params(PedestrianPlannerParams, spec)
         self.name = spec.name
         self.layout = layout
         self.route = road_map.routes[spec.name]
         self.speed = spec.v_desired_mps
-        self.crossing = bool(spec.planner.get("crossing", True))
-        self.start_delay_s = float(spec.planner.get("start_delay_s", 0.0))
+        self.crossing = params.crossing
+        self.start_delay_s = params.start_delay_s
         self._time_s = 0.0
 
     def reset(self, seed: int | None = None) -> None:
+        """Back to the episode start (time 0 s); `seed` is unused (deterministic)."""
         self._time_s = 0.0
 
-    def __call__(self, obs) -> np.ndarray:
+    def __call__(self, obs: np.ndarray) -> np.ndarray:
+        """The (2,) walking action for the own observation (obs_dim,)."""
         ego = self.layout.decode(obs).ego
         t = self._time_s
         self._time_s += DT_S

@@ -24,77 +24,73 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from marl_social.perception.tracking import Tracker
+from marl_social.agents.base import BoltzmannPolicy
+from marl_social.agents.params import DriverParams, parse_planner_params
 
-from marl_social.models.boltzmann import boltzmann
 from marl_social.models.candidates import ScenePrediction
 from marl_social.models.driver import DriverModel, driver_choice_features, driver_q_values
 from marl_social.models.steering import pure_pursuit
 from marl_social.sim.agent_spec import AgentSpec
-from marl_social.sim.observation import ObservationLayout
+from marl_social.sim.observation import Measurements, ObservationLayout
 from marl_social.sim.road_map import RoadMap
 
 
-class BoltzmannDriver:
+class BoltzmannDriver(BoltzmannPolicy):
     """A human driver policy: tracks what it sees, plans (eq. 11), samples (eq. 8).
 
-    Built from its own AgentSpec (planner parameters: "beta", "theta" override the defaults),
-    the shared observation layout and the static map — nothing else.
+    Built from its own AgentSpec (its cost weights; planner parameter "beta", see
+    agents/params.DriverParams), the shared observation layout and the static map — nothing
+    else.
+
+    Args:
+        spec: the driver's AgentSpec.
+        layout: the shared observation layout.
+        road_map: the static map.
+        params: its planner parameters (default: parsed from spec.planner).
     """
 
-    def __init__(self, spec: AgentSpec, layout: ObservationLayout, road_map: RoadMap):
-        self.name = spec.name
-        self.layout = layout
-        self.route = road_map.routes[spec.name]
-        self.crosswalks = road_map.crosswalks
-        self.model = DriverModel(
-            theta=spec.cost_weights, beta=float(spec.planner.get("beta", 5.0)),
+    def __init__(self, spec: AgentSpec, layout: ObservationLayout, road_map: RoadMap,
+                 params: DriverParams | None = None):
+        params = params or parse_planner_params(DriverParams, spec)
+        model = DriverModel(
+            theta=spec.cost_weights, beta=params.beta,
             v_desired_mps=min(spec.v_desired_mps, road_map.speed_limit_mps),
             vehicle=spec.vehicle,
         )
-        self.tracker = Tracker(spec.sensor.pos_noise_m, spec.sensor.vel_noise_mps)
-        self._times = self.model.plan_times_s
+        super().__init__(spec, layout, road_map, model)
         self.record_decisions = False
         self.reset()
 
-    def reset(self, seed: int | None = None) -> None:
-        self.rng = np.random.default_rng(seed)
-        self.tracker.reset()
+    def reset_state(self) -> None:
+        """Forget the previous acceleration and the recorded decisions."""
         self.prev_accel = 0.0
-        self.last_probabilities = None
-        self.last_q = None
         self.decisions = []  # with record_decisions: (features, allowed, chosen index) per step
         self._pending_features = None
 
-    def action_distribution(self, obs) -> np.ndarray:
-        """(A,) probabilities of the first actions for this observation (updates the tracks)."""
-        decoded = self.layout.decode(obs)
+    def q_values(self, decoded: Measurements, scene: ScenePrediction) -> np.ndarray:
+        """(A,) Q* of each first acceleration (eq. 11) along the driver's route."""
         x, y = float(decoded.ego[0]), float(decoded.ego[1])
         v = float(decoded.ego[4])
-        tracks = self.tracker.update(decoded)
         s0, _ = self.route.project_point(x, y)
         self._last_pose = (x, y, math.atan2(float(decoded.ego[3]), float(decoded.ego[2])), v, s0)
-        scene = ScenePrediction.from_tracks(tracks, self._times)
         q = driver_q_values(self.model, self.route, s0, v, self.prev_accel, scene,
                             self.crosswalks)[0]
-        self.last_q = q
-        self.last_probabilities = boltzmann(q, self.model.beta)
         if self.record_decisions:  # computed apart: the decision itself is unchanged
             self._pending_features = driver_choice_features(
                 self.model, self.route, s0, v, self.prev_accel, scene, self.crosswalks)
-        return self.last_probabilities
+        return q
 
     def choose(self, probabilities: np.ndarray) -> int:
-        """Sample an action index from the distribution with the policy's seeded generator
-        (inverse-CDF sampling: one uniform draw).
+        """Sample an action index from (A,) `probabilities` with the seeded generator.
+
+        Inverse-CDF sampling: one uniform draw per call.
         """
         cdf = np.cumsum(probabilities)
         k = int(np.searchsorted(cdf, self.rng.random() * cdf[-1], side="right"))
         return min(k, len(probabilities) - 1)
 
-    def __call__(self, obs) -> np.ndarray:
-        p = self.action_distribution(obs)
-        chosen = self.choose(p)
+    def act(self, chosen: int, obs: np.ndarray) -> np.ndarray:
+        """The (2,) [acceleration m/s^2, steering rad] of first action `chosen`."""
         if self._pending_features is not None:
             self.decisions.append((*self._pending_features, chosen))
             self._pending_features = None

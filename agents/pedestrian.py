@@ -1,8 +1,9 @@
-"""Pedestrians as noisily-optimal planners: walk along their crossing route at one of a few
-speeds (0 = wait), Boltzmann over their own cost, seeing vehicles only through their own field
-of view.
+"""Pedestrians as noisily-optimal planners walking their crossing route.
 
-Cost (agents/costs.py, the same features as everyone): speed deviation from the pedestrian's
+A pedestrian walks along its crossing route at one of a few speeds (0 = wait), Boltzmann over
+its own cost, seeing vehicles only through its own field of view.
+
+Cost (sim/costs.py, the same features as everyone): speed deviation from the pedestrian's
 wish (its walking speed once it intends to cross, 0 before), acceleration, safety and the
 crosswalk conflict with vehicles predicted at constant velocity from its own tracks. A pedestrian
 has the right of way: it expects a vehicle to yield if that vehicle can still stop before the
@@ -14,22 +15,30 @@ cheaper than walking into its path.
 from __future__ import annotations
 
 import numpy as np
-from marl_social.perception.tracking import Tracker, TrackSet
+from marl_social.agents.base import BoltzmannPolicy
+from marl_social.agents.params import PedestrianPlannerParams, parse_planner_params
+from marl_social.perception.tracking import TrackSet
 
-from marl_social.models.boltzmann import boltzmann
 from marl_social.models.candidates import ScenePrediction
 from marl_social.models.pedestrian import PedestrianModel, pedestrian_q_values
 from marl_social.models.steering import walk_along
 from marl_social.sim.agent_spec import AgentSpec
 from marl_social.sim.dynamics import DT_S
-from marl_social.sim.observation import ObservationLayout
+from marl_social.sim.observation import Measurements, ObservationLayout
 from marl_social.sim.road_map import Crosswalk, RoadMap
 
 
 def vehicles_expected_to_yield(tracks: TrackSet, crosswalk: Crosswalk, decel_mps2: float
                                ) -> np.ndarray:
-    """(k,) bool: vehicle tracks heading towards the crosswalk that can still stop before it
-    braking at decel_mps2 (v^2 / (2 decel) < distance to the crosswalk's near edge).
+    """(k,) bool: vehicle tracks heading towards the crosswalk that can still stop before it.
+
+    A vehicle can stop if, braking at `decel_mps2`, v^2 / (2 decel) < the distance from its
+    front to the crosswalk's near edge.
+
+    Args:
+        tracks: the pedestrian's k tracks.
+        crosswalk: the crosswalk it is about to use.
+        decel_mps2: the comfortable deceleration it expects a yielding driver to use [m/s^2].
     """
     if len(tracks) == 0:
         return np.zeros(0, dtype=bool)
@@ -43,57 +52,64 @@ def vehicles_expected_to_yield(tracks: TrackSet, crosswalk: Crosswalk, decel_mps
     return ~tracks.is_pedestrian & approaching & (stopping < gap)
 
 
-class BoltzmannPedestrian:
-    """A pedestrian policy (see module docstring). Planner parameters from its AgentSpec:
-    "crossing" (intends to cross), "start_delay_s" (when that intent begins), "beta".
+class BoltzmannPedestrian(BoltzmannPolicy):
+    """A pedestrian policy (see module docstring).
+
+    Args:
+        spec: the pedestrian's AgentSpec.
+        layout: the shared observation layout.
+        road_map: the static map.
+        params: its planner parameters ("crossing", "start_delay_s", "beta"; default: parsed
+            from spec.planner, agents/params.PedestrianPlannerParams).
     """
 
-    def __init__(self, spec: AgentSpec, layout: ObservationLayout, road_map: RoadMap):
-        self.name = spec.name
-        self.layout = layout
-        self.route = road_map.routes[spec.name]
-        self.crosswalks = road_map.crosswalks
-        self.crossing = bool(spec.planner.get("crossing", True))
-        self.start_delay_s = float(spec.planner.get("start_delay_s", 0.0))
-        self.model = PedestrianModel(theta=spec.cost_weights,
-                                     beta=float(spec.planner.get("beta", 5.0)),
-                                     v_walk_mps=max(spec.v_desired_mps, 0.1),
-                                     radius_m=spec.pedestrian.radius_m)
-        self.tracker = Tracker(spec.sensor.pos_noise_m, spec.sensor.vel_noise_mps)
-        self._times = self.model.plan_times_s
+    def __init__(self, spec: AgentSpec, layout: ObservationLayout, road_map: RoadMap,
+                 params: PedestrianPlannerParams | None = None):
+        params = params or parse_planner_params(PedestrianPlannerParams, spec)
+        self.crossing = params.crossing
+        self.start_delay_s = params.start_delay_s
+        model = PedestrianModel(theta=spec.cost_weights, beta=params.beta,
+                                v_walk_mps=max(spec.v_desired_mps, 0.1),
+                                radius_m=spec.pedestrian.radius_m)
+        super().__init__(spec, layout, road_map, model)
         self.reset()
 
-    def reset(self, seed: int | None = None) -> None:
-        self.rng = np.random.default_rng(seed)
-        self.tracker.reset()
+    def reset_state(self) -> None:
+        """Back to the episode start: time 0 s, standing."""
         self.time_s = 0.0
         self.prev_speed = 0.0
-        self.last_probabilities = None
 
-    def action_distribution(self, obs) -> np.ndarray:
-        """(A,) probabilities over model.speeds_mps for this observation (updates the tracks)."""
-        decoded = self.layout.decode(obs)
-        tracks = self.tracker.update(decoded)
-        wants_to_cross = self.crossing and self.time_s >= self.start_delay_s
-        v_ref = self.model.v_walk_mps if wants_to_cross else 0.0
-        s0, _, _ = self.route.project(decoded.ego[:2].astype(np.float64))
-        scene = ScenePrediction.from_tracks(tracks, self._times)
+    def predict(self, tracks: TrackSet) -> ScenePrediction:
+        """Constant-velocity scene without the vehicles it expects to yield to it."""
+        scene = super().predict(tracks)
         if self.crosswalks:
             yielding = vehicles_expected_to_yield(tracks, self.crosswalks[0],
                                                   self.model.expected_yield_decel_mps2)
             scene = ScenePrediction(scene.xy, scene.heading, scene.length_m, scene.width_m,
                                     scene.radius_m, scene.is_pedestrian,
                                     scene.mask & ~yielding[None])
-        q = pedestrian_q_values(self.model, self.route, float(s0), v_ref, self.prev_speed, scene,
-                                self.crosswalks)[0]
-        self.last_q = q
-        self.last_probabilities = boltzmann(q, self.model.beta)
-        return self.last_probabilities
+        return scene
 
-    def __call__(self, obs) -> np.ndarray:
-        p = self.action_distribution(obs)
+    def q_values(self, decoded: Measurements, scene: ScenePrediction) -> np.ndarray:
+        """(A,) Q of each walking speed in model.speeds_mps along its route."""
+        wants_to_cross = self.crossing and self.time_s >= self.start_delay_s
+        v_ref = self.model.v_walk_mps if wants_to_cross else 0.0
+        s0, _, _ = self.route.project(decoded.ego[:2].astype(np.float64))
+        return pedestrian_q_values(self.model, self.route, float(s0), v_ref, self.prev_speed,
+                                   scene, self.crosswalks)[0]
+
+    def choose(self, probabilities: np.ndarray) -> int:
+        """Sample a speed index from (A,) `probabilities` with the seeded generator.
+
+        `Generator.choice` (its own stream consumption, kept apart from the driver's
+        inverse-CDF draw so that seeded episodes stay identical).
+        """
+        return int(self.rng.choice(len(probabilities), p=probabilities))
+
+    def act(self, chosen: int, obs: np.ndarray) -> np.ndarray:
+        """The (2,) walking action at speed model.speeds_mps[chosen] along its route."""
         self.time_s += DT_S
-        speed = self.model.speeds_mps[int(self.rng.choice(len(p), p=p))]  # seeded sample
+        speed = self.model.speeds_mps[chosen]
         self.prev_speed = speed
         x, y = (float(c) for c in self.layout.decode(obs).ego[:2])
         return walk_along(self.route, x, y, speed)

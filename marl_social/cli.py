@@ -10,6 +10,8 @@ from pathlib import Path
 
 import numpy as np
 
+from marl_social.agents.registry import ROBOT_PLANNERS
+
 DEFAULT_OUT = "marl_social_out"
 
 
@@ -223,9 +225,7 @@ def main(argv=None) -> int:
     demo = sub.add_parser("demo", help="run the paper scenario; write an animation and a figure")
     demo.add_argument("--out", default=DEFAULT_OUT, help=f"output folder (default {DEFAULT_OUT})")
     demo.add_argument("--pedestrian", default="crossing", choices=["crossing", "waiting", "none"])
-    demo.add_argument("--planner", default="social",
-                      choices=["social", "social+beta", "aggressive", "conservative", "oracle",
-                               "cruise"])
+    demo.add_argument("--planner", default="social", choices=list(ROBOT_PLANNERS))
     demo.add_argument("--seed", type=int, default=0)
     demo.add_argument("--max-cycles", type=int, default=200)
     demo.add_argument("--no-animation", action="store_true", help="figure only (faster)")
@@ -253,7 +253,7 @@ def main(argv=None) -> int:
     rec.add_argument("--episodes", type=int, default=20)
     rec.add_argument("--seed0", type=int, default=0, help="first seed")
     rec.add_argument("--pedestrian", default="crossing", choices=["crossing", "waiting", "none"])
-    rec.add_argument("--robot-planner", default="cruise")
+    rec.add_argument("--robot-planner", default="cruise", choices=list(ROBOT_PLANNERS))
     rec.add_argument("--human-beta", type=float, default=None)
     rec.add_argument("--max-cycles", type=int, default=150)
     rec.add_argument("--segment-steps", type=int, default=30)

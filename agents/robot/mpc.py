@@ -1,5 +1,6 @@
-"""Probabilistic contingency MPC (paper section IV-A; structure of Zhan et al. 2016,
-"non-conservatively defensive" planning).
+"""Probabilistic contingency MPC (paper section IV-A).
+
+The structure is that of Zhan et al. 2016, "non-conservatively defensive" planning.
 
 The robot chooses its acceleration along its route. Every candidate plan is a shared first
 segment (first action u, held `first_segment_s`: what is executed, re-planned every step) followed
@@ -35,12 +36,14 @@ from marl_social.sim.road_map import Crosswalk, Route
 
 @dataclass(frozen=True)
 class MpcConfig:
-    """Attributes:
-    theta: the robot's cost weights theta_R.
-    candidates: first actions / continuations / segment / horizon.
-    epsilon: tail threshold on beliefs.
-    min_gap_m: safety margin to every object (covering circles) [m].
-    max_conflict: largest allowed crosswalk conflict (own x pedestrian occupancy) [0..1].
+    """The MPC's configuration.
+
+    Attributes:
+        theta: the robot's cost weights theta_R.
+        candidates: first actions / continuations / segment / horizon.
+        epsilon: tail threshold on beliefs.
+        min_gap_m: safety margin to every object (covering circles) [m].
+        max_conflict: largest allowed crosswalk conflict (own x pedestrian occupancy) [0..1].
     """
 
     theta: CostWeights = field(default_factory=CostWeights)
@@ -55,8 +58,14 @@ class MpcConfig:
 
 @dataclass(frozen=True)
 class MpcResult:
-    """Attributes: accel_mps2 (chosen first action); expected_cost (A,) J(u) (inf where
-    infeasible); live (L,) hypotheses used; weights (L,) renormalized beliefs; feasible (bool).
+    """The result of one MPC solve.
+
+    Attributes:
+        accel_mps2: the chosen first action [m/s^2].
+        expected_cost: (A,) J(u) (inf where infeasible).
+        live: (L,) bool, the hypotheses used.
+        weights: (L,) the renormalized beliefs.
+        feasible: whether some first action is feasible (else: hardest braking).
     """
 
     accel_mps2: float
@@ -73,10 +82,17 @@ def plan(config: MpcConfig, vehicle: VehicleParams, route: Route, s0: float, v0:
     """One MPC solve.
 
     Args:
-        route, s0 [m], v0 [m/s], prev_accel [m/s^2]: the robot on its route.
-        v_ref_mps: reference speed (v_traffic) [m/s]; speed_limit_mps: hard limit [m/s].
+        config: the MPC configuration.
+        vehicle: the robot's physical parameters.
+        route: the robot's route.
+        s0: the robot's arc length along its route [m].
+        v0: its speed [m/s].
+        prev_accel: its previous acceleration [m/s^2].
+        v_ref_mps: reference speed (v_traffic) [m/s].
+        speed_limit_mps: hard speed limit [m/s].
         scene: L hypotheses of the others (at config.candidates.plan_times_s).
         beliefs: (L,) probability of each hypothesis.
+        crosswalks: the map's crosswalks.
         static_boxes: (S, 4) bounding boxes [xmin, ymin, xmax, ymax] of the static polygons [m].
     """
     beliefs = np.asarray(beliefs, dtype=np.float64)

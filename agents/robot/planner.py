@@ -1,4 +1,4 @@
-"""The robot's planners: the same contingency MPC (agents/mpc.py), different beliefs.
+"""The robot's planners: the same contingency MPC (agents/robot/mpc.py), different beliefs.
 
 * ``social`` (the paper): beliefs over hidden pedestrians from the robot's own sensors
   (negative information) and from the humans' behaviour (eq. 9-10), perception/belief.py.
@@ -9,23 +9,27 @@
 * ``conservative``: every hidden-pedestrian hypothesis its own sensors have not ruled out is
   assumed true (no social inference).
 * ``oracle``: perfect perception, an upper bound: it is the one planner given the true current
-  state of every agent (through ``observe_truth``, called by `run_episode`), with no hidden
-  hypotheses. It knows where everybody is, not what they will decide.
+  state of every agent (``needs_truth``; through ``observe_truth``, called by `run_episode`
+  and the autopilot), with no hidden hypotheses. It knows where everybody is, not what they
+  will decide.
 
-All but the oracle act on the robot's own observation and the static map only.
+All but the oracle act on the robot's own observation and the static map only. Each planner is
+one `RobotVariant` (data, in `ROBOT_VARIANTS`); agents/registry.py registers them by name.
 
 The robot's model of the humans and its tail threshold come from its own spec's planner
 parameters (the robot's private knowledge; scenario knobs robot_theta_hat, robot_beta_hat,
-robot_epsilon): "theta_hat" (cost weights, e.g. learned by agents/irl.py), "beta_hat",
-"epsilon".
+robot_epsilon): "theta_hat" (cost weights, e.g. learned by agents/irl/), "beta_hat",
+"epsilon" (agents/params.RobotModelParams).
 """
 
 from __future__ import annotations
 
+import enum
 import math
-from dataclasses import replace
+from dataclasses import dataclass, replace
 
 import numpy as np
+from marl_social.agents.params import RobotModelParams, parse_planner_params
 from marl_social.agents.robot.mpc import MpcConfig, MpcResult, plan
 from marl_social.perception.belief import BeliefConfig, PedestrianBelief
 from marl_social.perception.tracking import TrackSet
@@ -33,37 +37,84 @@ from marl_social.perception.tracking import TrackSet
 from marl_social.models.candidates import ScenePrediction
 from marl_social.models.steering import pure_pursuit
 from marl_social.sim.agent_spec import AgentSpec
-from marl_social.sim.costs import CostWeights
 from marl_social.sim.observation import ObservationLayout
 from marl_social.sim.road_map import RoadMap
 
-ROBOT_PLANNERS = ("social", "social+beta", "aggressive", "conservative", "oracle")
 BETA_GRID_HAT = (0.03, 0.1, 0.3, 1.0, 3.0)  # social+beta: rationality grid (log-spaced)
 
 
-def robot_configs(spec: AgentSpec, mode: str) -> tuple[MpcConfig, BeliefConfig]:
-    """The MPC and belief configuration of a robot from its spec (see module docstring)."""
-    params = spec.planner
-    unknown = sorted(set(params) - {"theta_hat", "beta_hat", "epsilon"})
-    if unknown:
-        raise ValueError(f"robot {spec.name}: unknown planner parameter(s) {unknown}; known: "
-                         "theta_hat, beta_hat, epsilon")
+class HypothesisWeighting(enum.Enum):
+    """How the MPC weighs the hidden-pedestrian hypotheses (`RobotPlanner.hypothesis_weights`)."""
+
+    BELIEF = "belief"  # the belief's probabilities
+    PRESENT_LIVE = "present_live"  # every present hypothesis not ruled out, equally
+    NONE_ONLY = "none_only"  # only the "no hidden pedestrian" hypothesis
+
+
+@dataclass(frozen=True)
+class RobotVariant:
+    """What distinguishes one robot planner from another (the MPC is the same).
+
+    Attributes:
+        use_social: the belief also updates from the humans' behaviour (eq. 9-10).
+        use_own_sensors: the belief rules hypotheses out with the robot's own sensors.
+        infer_beta: the belief also infers each human's rationality on BETA_GRID_HAT.
+        weighting: how the MPC weighs the hypotheses.
+        needs_truth: the planner is given the true current state (observe_truth).
+    """
+
+    use_social: bool
+    use_own_sensors: bool
+    weighting: HypothesisWeighting
+    infer_beta: bool = False
+    needs_truth: bool = False
+
+
+ROBOT_VARIANTS: dict[str, RobotVariant] = {
+    "social": RobotVariant(use_social=True, use_own_sensors=True,
+                           weighting=HypothesisWeighting.BELIEF),
+    "social+beta": RobotVariant(use_social=True, use_own_sensors=True,
+                                weighting=HypothesisWeighting.BELIEF, infer_beta=True),
+    "aggressive": RobotVariant(use_social=False, use_own_sensors=False,
+                               weighting=HypothesisWeighting.NONE_ONLY),
+    "conservative": RobotVariant(use_social=False, use_own_sensors=True,
+                                 weighting=HypothesisWeighting.PRESENT_LIVE),
+    "oracle": RobotVariant(use_social=False, use_own_sensors=False,
+                           weighting=HypothesisWeighting.NONE_ONLY, needs_truth=True),
+}
+
+
+def _variant(planner: str | RobotVariant) -> RobotVariant:
+    if isinstance(planner, RobotVariant):
+        return planner
+    if planner not in ROBOT_VARIANTS:
+        raise ValueError(f"robot planner {planner!r}: must be one of {tuple(ROBOT_VARIANTS)}")
+    return ROBOT_VARIANTS[planner]
+
+
+def robot_configs(spec: AgentSpec, planner: str | RobotVariant = "social",
+                  params: RobotModelParams | None = None) -> tuple[MpcConfig, BeliefConfig]:
+    """The MPC and belief configuration of a robot from its spec (see module docstring).
+
+    Args:
+        spec: the robot's AgentSpec (its cost weights theta_R and planner parameters).
+        planner: a name of ROBOT_VARIANTS or a RobotVariant.
+        params: the robot's model of the humans (default: parsed from spec.planner).
+
+    Raises:
+        ValueError: an unknown planner, or a planner parameter unknown or out of range.
+    """
+    variant = _variant(planner)
+    params = params or parse_planner_params(RobotModelParams, spec)
     belief = BeliefConfig()
-    updates = {}
-    if "theta_hat" in params:
-        updates["theta_hat"] = CostWeights.from_any(params["theta_hat"])
-    if "beta_hat" in params:
-        beta_hat = float(params["beta_hat"])
-        if not beta_hat >= 0:
-            raise ValueError(f"robot {spec.name}: beta_hat must be >= 0, got {beta_hat}")
-        updates["beta_hat"] = beta_hat
-    epsilon = float(params.get("epsilon", belief.epsilon))
-    if not 0.0 <= epsilon < 1.0:
-        raise ValueError(f"robot {spec.name}: epsilon must be in [0, 1), got {epsilon}")
-    updates["epsilon"] = epsilon
-    if mode == "social+beta":
+    updates = {"epsilon": belief.epsilon if params.epsilon is None else params.epsilon}
+    if params.theta_hat is not None:
+        updates["theta_hat"] = params.theta_hat
+    if params.beta_hat is not None:
+        updates["beta_hat"] = params.beta_hat
+    if variant.infer_beta:
         updates["beta_grid_hat"] = BETA_GRID_HAT
-    return (MpcConfig(theta=spec.cost_weights, epsilon=epsilon),
+    return (MpcConfig(theta=spec.cost_weights, epsilon=updates["epsilon"]),
             replace(belief, **updates))
 
 
@@ -71,30 +122,35 @@ class RobotPlanner:
     """Contingency-MPC robot (see module docstring).
 
     Args:
-        spec: the robot's AgentSpec; layout: observation layout; road_map: static map;
-        agent_names: the env's possible_agents (public: maps object ids to names / routes);
-        mode: one of ROBOT_PLANNERS.
+        spec: the robot's AgentSpec.
+        layout: the shared observation layout.
+        road_map: the static map.
+        agent_names: the env's possible_agents (public: maps object ids to names / routes).
+        planner: a name of ROBOT_VARIANTS ("social", ..., "oracle") or a RobotVariant.
+        mpc_config: overrides the MPC configuration from the spec.
+        belief_config: overrides the belief configuration from the spec.
+        params: the robot's model of the humans (default: parsed from spec.planner).
     """
 
     def __init__(self, spec: AgentSpec, layout: ObservationLayout, road_map: RoadMap,
-                 agent_names: list[str], mode: str = "social",
-                 mpc_config: MpcConfig | None = None, belief_config: BeliefConfig | None = None):
-        if mode not in ROBOT_PLANNERS:
-            raise ValueError(f"robot planner {mode!r}: must be one of {ROBOT_PLANNERS}")
+                 agent_names: list[str], planner: str | RobotVariant = "social",
+                 mpc_config: MpcConfig | None = None, belief_config: BeliefConfig | None = None,
+                 params: RobotModelParams | None = None):
+        self.variant = _variant(planner)
+        self.needs_truth = self.variant.needs_truth
         self.name = spec.name
-        self.mode = mode
         self.spec = spec
         self.layout = layout
         self.road_map = road_map
         self.route = road_map.routes[spec.name]
-        default_mpc, default_belief = robot_configs(spec, mode)
+        default_mpc, default_belief = robot_configs(spec, self.variant, params)
         self.mpc = mpc_config or default_mpc
         self.v_ref = min(spec.v_desired_mps, road_map.speed_limit_mps)
         # the belief keeps the robot's Kalman tracks of what it sees; the MPC reads the same ones
         self.belief = PedestrianBelief(
             road_map, layout, spec.name, list(agent_names), belief_config or default_belief,
-            use_social=mode in ("social", "social+beta"),
-            use_own_sensors=mode in ("social", "social+beta", "conservative"),
+            use_social=self.variant.use_social,
+            use_own_sensors=self.variant.use_own_sensors,
         )
         self._times = self.mpc.candidates.plan_times_s
         self._truth: TrackSet | None = None
@@ -103,43 +159,56 @@ class RobotPlanner:
         self.reset()
 
     def reset(self, seed: int | None = None) -> None:
+        """Start a new episode: a fresh belief; `seed` is unused (the MPC is deterministic)."""
         self.belief.reset()
         self.prev_accel = 0.0
         self.last_result: MpcResult | None = None
         self.weights = None
 
     def observe_truth(self, tracks: TrackSet) -> None:
-        """Oracle only: the true current state of every other agent, as a TrackSet."""
-        if self.mode != "oracle":
-            raise RuntimeError(f"only the oracle planner may read the true state (mode={self.mode})")
+        """Give the planner the true current state of every other agent (oracle only).
+
+        Args:
+            tracks: the true state of every other active agent (envs/policies.truth_tracks).
+
+        Raises:
+            RuntimeError: the planner does not have `needs_truth`.
+        """
+        if not self.needs_truth:
+            raise RuntimeError(f"robot {self.name}: only a planner with needs_truth (the oracle) "
+                               "may read the true state")
         self._truth = tracks
 
     def hypothesis_weights(self) -> np.ndarray:
-        """(L,) the weights the MPC plans with: the belief for `social`, every live present
-        hypothesis for `conservative`, only "none" for `aggressive` and `oracle`.
+        """(L,) the weights the MPC plans with, by the variant's HypothesisWeighting.
+
+        The belief for `social`, every live present hypothesis for `conservative`, only "none"
+        for `aggressive` and `oracle`.
         """
         hyps = self.belief.hypotheses
         none = np.array([not h.present for h in hyps])
-        if self.mode in ("aggressive", "oracle"):
+        weighting = self.variant.weighting
+        if weighting is HypothesisWeighting.NONE_ONLY:
             return none.astype(np.float64)
         b = self.belief.probabilities
-        if self.mode in ("social", "social+beta"):
+        if weighting is HypothesisWeighting.BELIEF:
             return b
         present_live = ~none & (b >= self.mpc.epsilon)
         if not present_live.any():
             return none.astype(np.float64)
         return present_live / present_live.sum()
 
-    def __call__(self, obs) -> np.ndarray:
+    def __call__(self, obs: np.ndarray) -> np.ndarray:
+        """The (2,) [acceleration m/s^2, steering rad] for the robot's observation (obs_dim,)."""
         decoded = self.layout.decode(obs)
         x, y, c, s_, v = (float(a) for a in decoded.ego[:5])
         psi = math.atan2(s_, c)
-        if self.mode == "oracle":
+        if self.needs_truth:
             if self._truth is None:
                 raise RuntimeError("oracle planner: observe_truth() must be called every step")
             tracks = self._truth
         else:
-            self.belief.update(obs)  # own tracks (+ negative / social information by mode)
+            self.belief.update(obs)  # own tracks (+ negative / social information by variant)
             tracks = self.belief.tracker.tracks()
         weights = self.hypothesis_weights()
         self.weights = weights

@@ -1,5 +1,6 @@
-"""The autopilot wrapper for RL users: a ParallelEnv exposing only the agents the user acts
-for, every other agent driven by its built-in policy.
+"""The autopilot wrapper for RL users: a ParallelEnv of only the agents the user acts for.
+
+Every other agent is driven by its built-in policy.
 
     env1 = marl_social.autopilot(env, controlled=["robot_0"])
 """
@@ -13,8 +14,9 @@ from marl_social.envs.policies import policies, truth_tracks
 
 
 class AutopilotEnv(ParallelEnv):
-    """A ParallelEnv exposing only `controlled` agents; every other agent is driven by its
-    built-in policy from its own observation.
+    """A ParallelEnv exposing only `controlled` agents.
+
+    Every other agent is driven by its built-in policy from its own observation.
 
     Args:
         env: a SocialDrivingEnv.
@@ -65,7 +67,7 @@ class AutopilotEnv(ParallelEnv):
         for a in self.env.agents:
             if a not in self.controlled:
                 policy = self._autopilots[a]
-                if getattr(policy, "mode", None) == "oracle":
+                if policy.needs_truth:
                     policy.observe_truth(truth_tracks(self.env, a))
                 full[a] = policy(self._last_obs[a])
         if not self.agents:

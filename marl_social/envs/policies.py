@@ -2,37 +2,49 @@
 
     policies = marl_social.policies(env)       # {agent: policy}; policy(obs) -> action
 
-Every policy is built from its agent's spec (its own parameters), the shared observation
-layout and the static map; it never receives the env or the world.
+Every policy comes from the planner registry (agents/registry.py) and is built from its agent's
+spec (its own parameters), the shared observation layout and the static map; it never receives
+the env or the world. Only a policy with `needs_truth` (the oracle) is also handed
+`truth_tracks(env, agent)` before each step, by its caller.
 """
 
 from __future__ import annotations
 
 import numpy as np
 
-from marl_social.agents.cruise import CruiseVehiclePolicy
-from marl_social.agents.human import BoltzmannDriver
-from marl_social.agents.pedestrian import BoltzmannPedestrian
-from marl_social.agents.robot.planner import RobotPlanner
+from marl_social.agents.base import Policy
+from marl_social.agents.registry import DEFAULT_PLANNER, build_planner
 from marl_social.perception.tracking import TrackSet
+from marl_social.sim.agent_spec import AgentSpec
+from marl_social.sim.observation import ObservationLayout
+from marl_social.sim.road_map import RoadMap
 
 
-def make_policy(spec, layout, road_map, agent_names, robot_planner: str = "social"):
-    """The built-in planner of one agent: humans and pedestrians are Boltzmann planners; the
-    robot runs `robot_planner` (agents/robot.py, or the cruise baseline).
+def make_policy(spec: AgentSpec, layout: ObservationLayout, road_map: RoadMap,
+                agent_names: list[str], robot_planner: str = "social") -> Policy:
+    """The built-in planner of one agent, from the planner registry.
+
+    Humans and pedestrians run their role's DEFAULT_PLANNER (Boltzmann planners); the robot
+    runs `robot_planner` (one of agents.registry.ROBOT_PLANNERS).
+
+    Args:
+        spec: the agent's own AgentSpec.
+        layout: the shared observation layout.
+        road_map: the static map.
+        agent_names: the env's possible_agents.
+        robot_planner: the robot's planner name.
+
+    Raises:
+        ValueError: an unknown planner or a bad planner parameter, naming the agent.
     """
-    if spec.role == "pedestrian":
-        return BoltzmannPedestrian(spec, layout, road_map)
-    if spec.role == "human":
-        return BoltzmannDriver(spec, layout, road_map)
-    if robot_planner == "cruise":
-        return CruiseVehiclePolicy(spec, layout, road_map)
-    return RobotPlanner(spec, layout, road_map, agent_names, mode=robot_planner)
+    name = robot_planner if spec.role == "robot" else DEFAULT_PLANNER[spec.role]
+    return build_planner(name, spec, layout, road_map, agent_names)
 
 
-def policies(env) -> dict:
-    """{agent: policy} for every possible agent of a SocialDrivingEnv (or a wrapper of one);
-    the robot's planner is the scenario's `robot_planner` parameter.
+def policies(env) -> dict[str, Policy]:
+    """{agent: policy} for every possible agent of a SocialDrivingEnv (or a wrapper of one).
+
+    The robot's planner is the scenario's `robot_planner` parameter.
     """
     base = getattr(env, "unwrapped", env)
     mode = base.scenario.params.robot_planner
@@ -41,8 +53,14 @@ def policies(env) -> dict:
 
 
 def truth_tracks(env, observer: str) -> TrackSet:
-    """The true current state of every other active agent as a TrackSet (the oracle's
-    privileged input; no other planner receives it).
+    """The true current state of every other active agent as a TrackSet.
+
+    The privileged input of a planner with `needs_truth` (the oracle); no other planner
+    receives it.
+
+    Args:
+        env: a SocialDrivingEnv (or a wrapper of one).
+        observer: the agent whose others are listed.
     """
     base = getattr(env, "unwrapped", env)
     world = base.world

@@ -1,5 +1,7 @@
-"""`run_episode`: one seeded episode with every agent on its built-in planner, its metrics and
-its per-step trace (states, actions, visibility, the robot's beliefs).
+"""`run_episode`: one seeded episode with every agent on its built-in planner.
+
+It returns the episode's metrics and its per-step trace (states, actions, visibility, the
+robot's beliefs).
 """
 
 from __future__ import annotations
@@ -19,12 +21,17 @@ from marl_social.sim.trace import Trace
 
 @dataclass
 class EpisodeResult:
-    """Attributes: metrics (dict of floats / bools, marl_social/metrics.py); trace (Trace, with
-    extras "p_pedestrian", "perceived" and "p_<hypothesis>" for a belief-based robot);
-    road_map (the episode's static map); specs ({agent: AgentSpec}, every agent's own
-    parameters, incl. its true cost weights and rationality); decisions ({human: [(features,
-    allowed, chosen), ...]}, agents/human.BoltzmannDriver.decisions) with
-    record_human_decisions.
+    """One episode's outcome.
+
+    Attributes:
+        metrics: dict of floats / bools (marl_social/metrics/).
+        trace: the Trace, with extras "p_pedestrian", "perceived" and "p_<hypothesis>" for a
+            belief-based robot.
+        road_map: the episode's static map.
+        specs: {agent: AgentSpec}, every agent's own parameters, incl. its true cost weights
+            and rationality.
+        decisions: {human: [(features, allowed, chosen), ...]}
+            (agents/human.BoltzmannDriver.decisions) with record_human_decisions.
     """
 
     metrics: dict
@@ -35,7 +42,7 @@ class EpisodeResult:
 
 
 class _RecordingRobot:
-    """Wraps the robot's policy: feeds the oracle its truth, records the belief each step."""
+    """Wraps the robot's policy: feeds a `needs_truth` planner its truth, records the belief."""
 
     def __init__(self, env, name, policy, trace_extras: dict):
         self.env, self.name, self.policy, self.extras = env, name, policy, trace_extras
@@ -45,11 +52,11 @@ class _RecordingRobot:
         self.extras.clear()
 
     def __call__(self, obs):
-        if getattr(self.policy, "mode", None) == "oracle":
+        if self.policy.needs_truth:
             self.policy.observe_truth(truth_tracks(self.env, self.name))
         action = self.policy(obs)
         belief = getattr(self.policy, "belief", None)
-        if belief is not None and getattr(self.policy, "mode", "") != "oracle":
+        if belief is not None and not self.policy.needs_truth:
             self.extras.setdefault("p_pedestrian", []).append(float(belief.p_pedestrian))
             self.extras.setdefault("perceived", []).append(float(belief.perceived))
             for h, p in zip(belief.hypotheses, belief.probabilities):
@@ -60,12 +67,15 @@ class _RecordingRobot:
 def run_episode(scenario: str = "occluded_crosswalk", seed: int = 0, render: bool = False,
                 max_cycles: int = 200, record_human_decisions: bool = False,
                 **overrides) -> EpisodeResult:
-    """Run one episode with `marl_social.policies` (the robot's planner from the
-    `robot_planner` override) and return its metrics and trace.
+    """Run one episode with `marl_social.policies` and return its metrics and trace.
+
+    The robot's planner comes from the `robot_planner` override.
 
     Args:
+        scenario: a registered scenario name.
         seed: seeds the env (sensor noise) and every policy (Boltzmann sampling).
         render: also keep rgb frames in trace.frames.
+        max_cycles: the episode's step limit.
         record_human_decisions: also keep every human driver's decisions (what its choice
             depends on, for agents/choice_irl.py; the episode itself is unchanged).
         overrides: scenario parameters (e.g. pedestrian="none", robot_planner="aggressive").
@@ -99,8 +109,10 @@ def run_episode(scenario: str = "occluded_crosswalk", seed: int = 0, render: boo
 
 
 def randomized_overrides(seed: int) -> dict:
-    """The randomization of the paper's scenario used by `reproduce` and the claims tests:
-    pedestrian timing and speed, the human's lead and speed, and its rationality.
+    """The randomization of the paper's scenario used by `reproduce` and the claims tests.
+
+    Pedestrian timing and speed, the human's lead and speed, and its rationality, drawn from
+    a generator seeded with 10_000 + `seed`.
     """
     rng = np.random.default_rng(10_000 + seed)
     return {

@@ -13,11 +13,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from marl_social.agents.registry import ROBOT_PLANNERS
 from marl_social.sim.agent_spec import AgentSpec
 from marl_social.sim.road_map import RoadMap
-
-ROBOT_PLANNER_CHOICES = ("social", "social+beta", "aggressive", "conservative", "oracle",
-                         "cruise")
 
 
 @dataclass(frozen=True)
@@ -42,8 +40,8 @@ class ScenarioParams:
     robot_planner: str = "social"
 
     def __post_init__(self):
-        self._check(self.robot_planner in ROBOT_PLANNER_CHOICES, "robot_planner",
-                    f"must be one of {ROBOT_PLANNER_CHOICES}")
+        self._check(self.robot_planner in ROBOT_PLANNERS, "robot_planner",
+                    f"must be one of {ROBOT_PLANNERS}")
         self._check(self.n_slots >= 1, "n_slots", "must be >= 1")
         self._check(self.n_rays >= 1, "n_rays", "must be >= 1")
         self._check(self.collision_penalty >= 0, "collision_penalty", "must be >= 0")

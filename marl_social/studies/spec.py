@@ -343,18 +343,18 @@ def _scenario_fields(spec: StudySpec) -> tuple[type, dict]:
 
 
 def _check_names(spec: StudySpec, params_cls: type, fields: dict) -> None:
+    from marl_social.agents.registry import ROBOT_PLANNERS
     from marl_social.evaluation.run import randomized_overrides
-    from marl_social.scenarios.base import ROBOT_PLANNER_CHOICES
 
     for name in spec.param_names:
         if name not in fields:
             raise _spec_error(spec.source, spec.section_of(name),
                               f"unknown parameter for scenario {spec.scenario!r} "
                               f"({params_cls.__name__}); valid: {sorted(fields)}")
-    bad = [p for p in spec.planners if p not in ROBOT_PLANNER_CHOICES]
+    bad = [p for p in spec.planners if p not in ROBOT_PLANNERS]
     if bad:
         raise _spec_error(spec.source, "planners", f"unknown planner(s) {bad}; valid: "
-                          f"{list(ROBOT_PLANNER_CHOICES)}")
+                          f"{list(ROBOT_PLANNERS)}")
     if spec.pedestrians is not None and "pedestrian" not in fields:
         raise _spec_error(spec.source, "pedestrians", f"scenario {spec.scenario!r} has no "
                           "pedestrian variants; remove the key")

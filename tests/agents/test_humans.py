@@ -139,6 +139,29 @@ def test_middle_beta_frequencies_match_softmax(driver_and_obs):
     assert stats.chisquare(observed, wrong).pvalue < 1e-6
 
 
+def test_drivers_and_pedestrians_share_the_boltzmann_pipeline_with_their_own_samplers(
+        driver_and_obs):
+    """Both are BoltzmannPolicy (decode -> track -> predict -> Q -> sample); each keeps its own
+    seeded sampler: the driver one inverse-CDF uniform draw, the pedestrian Generator.choice."""
+    from marl_social.agents.base import BoltzmannPolicy
+
+    driver, _ = driver_and_obs
+    env = marl_social.parallel_env(pedestrian="crossing")
+    ped = BoltzmannPedestrian(env.agent_specs["pedestrian_0"], env.obs_layout, env.road_map)
+    assert isinstance(driver, BoltzmannPolicy) and isinstance(ped, BoltzmannPolicy)
+    assert not driver.needs_truth and not ped.needs_truth
+    p = np.array([0.1, 0.2, 0.3, 0.4])
+    driver.reset(7)
+    ped.reset(7)
+    reference = np.random.default_rng(7)
+    for _ in range(50):
+        u = reference.random()
+        assert driver.choose(p) == int(np.searchsorted(np.cumsum(p), u * p.sum(), side="right"))
+    reference = np.random.default_rng(7)
+    assert [ped.choose(p) for _ in range(50)] == [int(reference.choice(4, p=p))
+                                                  for _ in range(50)]
+
+
 def _pedestrian_first_speed(**overrides) -> float:
     # the pedestrian stands at the curb's edge: any step forward is onto the road
     env = marl_social.parallel_env(pedestrian="crossing", pedestrian_start_delay_s=0.0,
