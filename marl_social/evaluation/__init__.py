@@ -1,3 +1,5 @@
-"""Evaluation: roll out episodes with every agent on its built-in planner, their metrics and
-traces, and the paper's figures and table (reproduce); recording demonstrations from episodes.
+"""Evaluation: episodes with every agent on its built-in planner.
+
+Seeded episodes with their metrics and traces (run, rollout), the paper's figures and table
+(reproduce), and demonstrations and decisions recorded from simulated episodes (record).
 """
