@@ -39,7 +39,8 @@ def _annotate_belief(frames, p_pedestrian, perceived):
 
 def _demo(args) -> int:
     from marl_social.evaluation.run import run_episode
-    from marl_social.viz.render import plot_episode, write_animation
+    from marl_social.viz.animation import write_animation
+    from marl_social.viz.figures import plot_episode
 
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)

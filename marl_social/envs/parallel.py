@@ -30,13 +30,24 @@ from pettingzoo.utils.conversions import parallel_to_aec
 from marl_social.envs.world import World
 from marl_social.scenarios import make_scenario
 from marl_social.sim.observation import ObservationLayout
+from marl_social.viz.style import RenderConfig
 
 RENDER_MODES = ["human", "rgb_array"]
-RENDER_VIEW_WIDTH_M = 90.0  # frames follow the robot over this much road [m]
 
 
 class SocialDrivingEnv(ParallelEnv, EzPickle):
-    """Parallel multi-agent driving env; see the module docstring."""
+    """Parallel multi-agent driving env; see the module docstring.
+
+    Args:
+        scenario: name of a registered scenario.
+        render_mode: None, "human" (a window, where a display exists) or "rgb_array" (`render()`
+            returns (H, W, 3) uint8 frames).
+        max_cycles: steps before every agent is truncated.
+        render_fov: draw every agent's field of view in the frames.
+        render_config: how frames are drawn (size, view that follows the robot, ...); None for
+            the default `RenderConfig()`.
+        **overrides: scenario parameters (see the scenario's params dataclass).
+    """
 
     metadata: ClassVar[dict] = {
         "name": "marl_social_v0",
@@ -46,17 +57,24 @@ class SocialDrivingEnv(ParallelEnv, EzPickle):
     }
 
     def __init__(self, scenario: str = "occluded_crosswalk", render_mode: str | None = None,
-                 max_cycles: int = 200, render_fov: bool = True, **overrides):
+                 max_cycles: int = 200, render_fov: bool = True,
+                 render_config: RenderConfig | None = None, **overrides):
+        """Build the scenario's template episode to fix the agents and their spaces."""
         EzPickle.__init__(self, scenario=scenario, render_mode=render_mode,
-                          max_cycles=max_cycles, render_fov=render_fov, **overrides)
+                          max_cycles=max_cycles, render_fov=render_fov,
+                          render_config=render_config, **overrides)
         if render_mode is not None and render_mode not in RENDER_MODES:
             raise ValueError(f"render_mode {render_mode!r}: must be None or one of {RENDER_MODES}")
+        if render_config is not None and not isinstance(render_config, RenderConfig):
+            raise TypeError(f"render_config must be a marl_social.viz.style.RenderConfig or None, "
+                            f"got {type(render_config).__name__}")
         if isinstance(max_cycles, bool) or not float(max_cycles).is_integer() or max_cycles < 1:
             raise ValueError(f"max_cycles must be a positive integer, got {max_cycles!r}")
         self.scenario_name = scenario
         self.scenario = make_scenario(scenario, **overrides)
         self.render_mode = render_mode
         self.render_fov = bool(render_fov)
+        self.render_config = render_config if render_config is not None else RenderConfig()
         self.max_cycles = int(max_cycles)
         template = self.scenario.build(np.random.default_rng(0))
         self.road_map = template.road_map
@@ -76,13 +94,21 @@ class SocialDrivingEnv(ParallelEnv, EzPickle):
 
     # -- spaces ------------------------------------------------------------------------------
     def observation_space(self, agent: str) -> spaces.Box:
+        """The float32 observation Box of an agent (one layout for all agents)."""
         return self.observation_spaces[agent]
 
     def action_space(self, agent: str) -> spaces.Box:
+        """The action Box of an agent: [a m/s^2, delta rad] or pedestrian [vx, vy] m/s."""
         return self.action_spaces[agent]
 
     # -- episode -----------------------------------------------------------------------------
     def reset(self, seed: int | None = None, options: dict | None = None):
+        """Start an episode; returns (observations, infos) keyed by agent name.
+
+        Args:
+            seed: seeds the env's generator (layout and sensor noise); None keeps the stream.
+            options: unused (PettingZoo signature).
+        """
         if seed is not None or self._np_random is None:
             self._np_random, self._np_random_seed = seeding.np_random(seed)
         layout = self.scenario.build(self._np_random)
@@ -101,6 +127,11 @@ class SocialDrivingEnv(ParallelEnv, EzPickle):
         return observations, infos
 
     def step(self, actions: dict):
+        """Advance one step; returns (observations, rewards, terminations, truncations, infos).
+
+        Args:
+            actions: {agent: (2,) action} for every live agent (see the module docstring).
+        """
         if self.world is None:
             raise RuntimeError("step() called before reset()")
         raw = self._validate_actions(actions)
@@ -190,6 +221,7 @@ class SocialDrivingEnv(ParallelEnv, EzPickle):
 
     # -- rendering ---------------------------------------------------------------------------
     def render(self):
+        """Draw the current step: an (H, W, 3) uint8 frame in "rgb_array" mode, else None."""
         if self.render_mode is None:
             import gymnasium
 
@@ -197,29 +229,35 @@ class SocialDrivingEnv(ParallelEnv, EzPickle):
             return None
         if self.world is None:
             raise RuntimeError("render() called before reset()")
-        from marl_social.viz.render import Renderer
+        from marl_social.viz.frames import Renderer
 
         if self._renderer is None:  # one per episode: the map may change between episodes
+            cfg = self.render_config
             road_map = self.world.road_map
             x0, x1, y0, y1 = road_map.extent
-            follow = "robot_0" if "robot_0" in self.possible_agents else None
+            follow = cfg.follow_agent if cfg.follow_agent in self.possible_agents else None
+            fan_agents = None  # every agent's field of view ...
+            if len(self.possible_agents) > cfg.max_agents_with_fans:  # ... or only the followed
+                fan_agents = [follow] if follow is not None else []
             self._renderer = Renderer(
                 road_map, show=self.render_mode == "human",
-                view=(x0, min(x1, x0 + RENDER_VIEW_WIDTH_M), y0, y1) if follow else None,
-                follow=follow,
-                fan_agents=None if len(self.possible_agents) <= 10 else [follow],
+                width_px=cfg.width_px, height_px=cfg.height_px, dpi=cfg.dpi,
+                view=(x0, min(x1, x0 + cfg.view_width_m), y0, y1) if follow is not None else None,
+                follow=follow, fan_agents=fan_agents,
             )
         frame = self._renderer.draw(self.world, self.last_fov if self.render_fov else None)
         return frame if self.render_mode == "rgb_array" else None
 
     def close(self):
+        """Free the renderer (and its window). Idempotent."""
         if self._renderer is not None:
             self._renderer.close()
             self._renderer = None
 
     def state(self) -> np.ndarray:
-        """Global true state (n, 4) [x, y, heading, speed], for centralized critics; planners
-        never receive it.
+        """Global true state (n, 4) [x m, y m, heading rad, speed m/s] as float32.
+
+        For centralized critics; planners never receive it.
         """
         return self.world.state.astype(np.float32).copy()
 

@@ -105,7 +105,7 @@ def format_table(rows: list[dict]) -> str:
 
 def write_figures(out: Path, seed: int = 0) -> list[Path]:
     from marl_social.evaluation.run import run_episode
-    from marl_social.viz.render import plot_episode
+    from marl_social.viz.figures import plot_episode
 
     paths = []
     for stem, planner, variant in FIGURES:

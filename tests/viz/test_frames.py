@@ -1,37 +1,27 @@
-"""Rendering: frames show the right things in the right places, GIFs and episode figures."""
+"""Live frames: they show the right things in the right places; the env renders them."""
 
 from __future__ import annotations
 
+import pickle
 import subprocess
 import sys
 
 import numpy as np
 import pytest
 from marl_social.perception.fov import FovResult
-from PIL import Image
 
 import marl_social
 from marl_social.envs.world import World
 from marl_social.scenarios import make_scenario
-from marl_social.viz.render import Renderer, plot_episode, write_animation
+from marl_social.viz.frames import Renderer
+from marl_social.viz.style import RenderConfig
+from tests.viz.pixels import green_pixels, red_pixels
 
 W, H = 1000, 360
 
 
 def _world(**overrides) -> World:
     return World(make_scenario("occluded_crosswalk", **overrides).build(np.random.default_rng(0)))
-
-
-def _red(frame: np.ndarray) -> np.ndarray:
-    """(H, W) bool: the robot's saturated red."""
-    r, g, b = (frame[..., c].astype(int) for c in range(3))
-    return (r > 190) & (g < 90) & (b < 90)
-
-
-def _green(frame: np.ndarray) -> np.ndarray:
-    """(H, W) bool: the pedestrian's saturated green."""
-    r, g, b = (frame[..., c].astype(int) for c in range(3))
-    return (g > 120) & (r < 80) & (b < 80)
 
 
 def _window(mask: np.ndarray, col: float, row: float, half: int) -> np.ndarray:
@@ -57,7 +47,7 @@ def test_frame_is_rgb_uint8_and_shows_the_robot_where_it_is(world):
     assert frame.shape == (H, W, 3)
     assert frame.dtype == np.uint8
     assert frame.std() > 10.0  # not a blank image
-    red = _red(frame)
+    red = red_pixels(frame)
     col, row = renderer.world_to_pixel(world.state[0, :2])
     assert 0 <= col < W and 0 <= row < H
     # a 4.5 x 1.8 m car at ~0.18 m/px covers ~250 px; all the saturated red is the robot
@@ -70,10 +60,10 @@ def test_frame_is_rgb_uint8_and_shows_the_robot_where_it_is(world):
 
 def test_robot_box_moves_with_the_robot(world):
     renderer = Renderer(world.road_map)
-    before = _red(renderer.draw(world))
+    before = red_pixels(renderer.draw(world))
     m_per_px = (renderer.view_limits()[1] - renderer.view_limits()[0]) / W
     world.state[0, 0] += 10.0
-    after = _red(renderer.draw(world))
+    after = red_pixels(renderer.draw(world))
     shift = np.nonzero(after)[1].mean() - np.nonzero(before)[1].mean()
     assert shift == pytest.approx(10.0 / m_per_px, abs=1.5)
     assert abs(np.nonzero(after)[0].mean() - np.nonzero(before)[0].mean()) < 0.5
@@ -84,18 +74,18 @@ def test_pedestrian_is_a_visible_green_disc(world):
     frame = renderer.draw(world)
     ped = world.names.index("pedestrian_0")
     col, row = renderer.world_to_pixel(world.state[ped, :2])
-    assert _window(_green(frame), col, row, 6).sum() >= 30  # at least a 5 px radius disc
+    assert _window(green_pixels(frame), col, row, 6).sum() >= 30  # at least a 5 px radius disc
 
 
 def test_inactive_agents_are_not_drawn(world):
     renderer = Renderer(world.road_map)
     ped = world.names.index("pedestrian_0")
-    assert _red(renderer.draw(world)).sum() > 100
+    assert red_pixels(renderer.draw(world)).sum() > 100
     col, row = renderer.world_to_pixel(world.state[ped, :2])
     world.deactivate(np.array([True, False, False]))
     frame = renderer.draw(world)
-    assert _red(frame).sum() == 0
-    assert _window(_green(frame), col, row, 6).sum() >= 30  # the others still are
+    assert red_pixels(frame).sum() == 0
+    assert _window(green_pixels(frame), col, row, 6).sum() >= 30  # the others still are
 
 
 def test_fov_fan_covers_the_visibility_polygon_only(world):
@@ -126,9 +116,10 @@ def test_robot_marks_the_agents_it_sees(world):
     seen = renderer.draw(world, fov)
     col, row = renderer.world_to_pixel(world.state[human, :2])
     # the dashed red outline appears around the human car (and nowhere else changes colour)
-    assert _window(_red(seen), col, row, 25).sum() > _window(_red(unseen), col, row, 25).sum() + 20
-    assert _red(seen).sum() - _red(unseen).sum() == (
-        _window(_red(seen), col, row, 25).sum() - _window(_red(unseen), col, row, 25).sum())
+    near_seen = _window(red_pixels(seen), col, row, 25).sum()
+    near_unseen = _window(red_pixels(unseen), col, row, 25).sum()
+    assert near_seen > near_unseen + 20
+    assert red_pixels(seen).sum() - red_pixels(unseen).sum() == near_seen - near_unseen
 
 
 def test_real_fov_changes_the_image(world):
@@ -141,8 +132,8 @@ def test_real_fov_changes_the_image(world):
 
 
 def test_zoomed_view_makes_the_robot_bigger(world):
-    wide = _red(Renderer(world.road_map).draw(world)).sum()
-    zoom = _red(Renderer(world.road_map, view=(-10.0, 30.0, -8.0, 8.0)).draw(world)).sum()
+    wide = red_pixels(Renderer(world.road_map).draw(world)).sum()
+    zoom = red_pixels(Renderer(world.road_map, view=(-10.0, 30.0, -8.0, 8.0)).draw(world)).sum()
     assert zoom > 10 * wide
 
 
@@ -153,7 +144,7 @@ def test_follow_keeps_the_agent_centred_and_stitches_the_map(world):
         frame = follow.draw(world)
         col, _ = follow.world_to_pixel(world.state[0, :2])
         assert abs(col - W / 2) <= 0.5  # centred to the nearest pixel
-        assert abs(np.nonzero(_red(frame))[1].mean() - col) < 3.0  # and drawn there
+        assert abs(np.nonzero(red_pixels(frame))[1].mean() - col) < 3.0  # and drawn there
         # the same limits drawn by a fixed-view renderer give the same picture
         fixed = Renderer(world.road_map, view=follow.view_limits(world)).draw(world)
         diff = np.abs(frame.astype(int) - fixed.astype(int))
@@ -176,7 +167,7 @@ def test_frame_size_and_errors(world):
 def test_show_mode_on_a_headless_machine_behaves_like_rgb_array(world):
     renderer = Renderer(world.road_map, show=True)
     frame = renderer.draw(world)
-    assert frame.shape == (H, W, 3) and _red(frame).sum() > 100
+    assert frame.shape == (H, W, 3) and red_pixels(frame).sum() > 100
     renderer.close()
 
 
@@ -206,7 +197,7 @@ def test_env_render_rgb_array_returns_frames_that_follow_the_episode():
     assert later.shape == (H, W, 3)
     # frames follow the robot: it stays centred while the view slides with it
     for frame in (first, later):
-        assert np.nonzero(_red(frame))[1].mean() == pytest.approx(W / 2, abs=6)
+        assert np.nonzero(red_pixels(frame))[1].mean() == pytest.approx(W / 2, abs=6)
     x_min, x_max = env._renderer.view_limits(env.world)[:2]
     m_per_px = (x_max - x_min) / W
     moved = env.world.state[0, 0] - x0
@@ -232,66 +223,28 @@ def test_env_render_with_fov_and_human_mode():
     env.close()
 
 
-# -- animations and figures -------------------------------------------------------------------
-def test_write_animation_writes_a_gif_with_every_frame(tmp_path):
-    frames = []
-    for k in range(5):
-        frame = np.full((40, 60, 3), 200, np.uint8)
-        frame[10:20, 5 + 10 * k:15 + 10 * k] = (220, 30, 30)  # a red box moving right
-        frames.append(frame)
-    path = write_animation(frames, tmp_path / "nested" / "dir" / "anim.gif", fps=5)
-    assert path.exists()
-    with Image.open(path) as gif:
-        assert gif.format == "GIF"
-        assert gif.n_frames == 5
-        assert gif.size == (60, 40)
-        assert gif.info["duration"] == 200
-        gif.seek(4)
-        last = np.asarray(gif.convert("RGB"))
-    assert _red(last)[15, 50] and not _red(last)[15, 10]
-    with pytest.raises(ValueError):
-        write_animation([], tmp_path / "empty.gif")
-    with pytest.raises(ValueError):
-        write_animation([frames[0], frames[0][:20]], tmp_path / "ragged.gif")
-
-
-def _episode(steps: int = 25):
-    env = marl_social.parallel_env()
+def test_env_render_config_sets_the_frame_size_and_view():
+    config = RenderConfig(view_width_m=40.0, width_px=400, height_px=200)
+    env = marl_social.parallel_env(render_mode="rgb_array", render_config=config)
     env.reset(seed=0)
-    times, states, active, visible = [], [], [], []
-    for _ in range(steps):
-        w = env.world
-        times.append(w.time_s)
-        states.append(w.state.copy())
-        active.append(w.active.copy())
-        visible.append(env.last_fov.visible.copy())
-        env.step({a: np.zeros(2) for a in env.agents})
-    roles = [env.agent_specs[a].role for a in env.possible_agents]
-    return (env.road_map, env.possible_agents, roles, np.array(times), np.array(states),
-            np.array(active), np.array(visible))
+    frame = env.render()
+    assert frame.shape == (200, 400, 3)
+    x_min, x_max, y_min, y_max = env._renderer.view_limits(env.world)
+    # 40 m of road grown to the 2:1 frame over the map's 25 m height: 50 m x 25 m
+    assert x_max - x_min == pytest.approx(2.0 * (y_max - y_min))
+    assert x_max - x_min < RenderConfig().view_width_m
+    assert 0.5 * (x_min + x_max) == pytest.approx(env.world.state[0, 0], abs=0.2)
+    env.close()
 
 
-def test_plot_episode_writes_a_readable_png(tmp_path):
-    road_map, names, roles, times, states, active, visible = _episode()
-    belief = np.linspace(0.0, 1.0, len(times))
-    path = plot_episode(road_map, names, roles, times, states, active, visible,
-                        tmp_path / "figs" / "episode.png", title="test episode",
-                        beliefs={"robot belief": belief})
-    assert path.exists()
-    with Image.open(path) as img:
-        assert img.format == "PNG"
-        assert img.size[0] >= 1000 and img.size[1] >= 700
-        pixels = np.asarray(img.convert("RGB"))
-    assert pixels.std() > 10.0
-    assert _red(pixels).sum() > 200  # robot boxes and its curves
-    assert _green(pixels).sum() > 20  # pedestrian dots
-
-
-def test_plot_episode_rejects_inconsistent_shapes(tmp_path):
-    road_map, names, roles, times, states, active, visible = _episode(5)
-    with pytest.raises(ValueError, match="states"):
-        plot_episode(road_map, names, roles, times, states[:-1], active, visible,
-                     tmp_path / "x.png")
-    with pytest.raises(ValueError, match="belief"):
-        plot_episode(road_map, names, roles, times, states, active, visible, tmp_path / "x.png",
-                     beliefs={"belief": np.zeros(3)})
+def test_env_render_config_survives_pickling_and_is_checked():
+    config = RenderConfig(width_px=320, height_px=180, follow_agent=None)
+    env = marl_social.parallel_env(render_mode="rgb_array", render_config=config)
+    clone = pickle.loads(pickle.dumps(env))
+    assert clone.render_config == config
+    clone.reset(seed=0)
+    assert clone.render().shape == (180, 320, 3)
+    clone.close()
+    assert marl_social.parallel_env().render_config == RenderConfig()
+    with pytest.raises(TypeError, match="render_config"):
+        marl_social.parallel_env(render_config={"width_px": 320})
