@@ -248,7 +248,7 @@ def main(argv=None) -> int:
     bench.set_defaults(func=_bench)
 
     rec = sub.add_parser("record", help="record human demonstrations for inverse optimal "
-                         "control (npz, marl_social/demonstrations.py)")
+                         "control (npz, marl_social/data/demonstrations.py)")
     rec.add_argument("-o", "--out", default=f"{DEFAULT_OUT}/demos.npz")
     rec.add_argument("--scenario", default="occluded_crosswalk")
     rec.add_argument("--episodes", type=int, default=20)
@@ -262,12 +262,12 @@ def main(argv=None) -> int:
     rec.add_argument("--workers", type=int, default=1)
     rec.add_argument("--decisions", action="store_true",
                      help="record every human decision (what its discrete choice depends on, "
-                          "marl_social/decisions.py) for the exact discrete-choice fit")
+                          "marl_social/data/decisions.py) for the exact discrete-choice fit")
     rec.add_argument("--synthetic", action="store_true",
                      help="near-rational continuous demonstrations with a known theta instead "
-                          "(marl_social/synthetic_demos.py)")
+                          "(agents/irl/synthetic.py)")
     rec.add_argument("--theta", type=float, nargs=6, default=[0.0, 1.0, 0.1, 0.1, 1.0, 1000.0],
-                     help="--synthetic: the demonstrator's weights (agents/costs.FEATURE_NAMES)")
+                     help="--synthetic: the demonstrator's weights (marl_social.sim.costs.FEATURE_NAMES)")
     rec.add_argument("--beta", type=float, default=10.0, help="--synthetic: its rationality")
     rec.add_argument("--segments", type=int, default=100, help="--synthetic: how many")
     rec.set_defaults(func=_record)

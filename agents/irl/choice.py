@@ -11,7 +11,7 @@ beta * theta_H). Given the recorded decisions (marl_social/data/decisions.py: Ph
 human's own tracks, the allowed continuations, the sampled index) this likelihood is exact, so
 maximum likelihood recovers beta * theta_H itself: its direction is the human's trade-off
 between features, its scale the rationality in the same simulator-step cost units the robot's
-model of a human uses (perception/belief.py), so a fit gives the robot theta_hat and beta_hat
+model of a human uses (perception/belief/social.py), so a fit gives the robot theta_hat and beta_hat
 at once.
 
     log P(u* | theta) = -Q*(u*) - log sum_u exp(-Q*(u))

@@ -1,7 +1,7 @@
 """The robot's planners: the same contingency MPC (agents/robot/mpc.py), different beliefs.
 
 * ``social`` (the paper): beliefs over hidden pedestrians from the robot's own sensors
-  (negative information) and from the humans' behaviour (eq. 9-10), perception/belief.py.
+  (negative information) and from the humans' behaviour (eq. 9-10), perception/belief/.
 * ``social+beta`` (beyond the paper): ``social`` that also infers each human's rationality
   beta on a grid (BeliefConfig.beta_grid_hat; confidence-aware prediction, Fridovich-Keil et
   al. 2019), so an erratic human's behaviour moves the belief less.

@@ -3,13 +3,13 @@
     env = marl_social.parallel_env(scenario="occluded_crosswalk", max_cycles=200, **overrides)
 
 * Agents: `robot_0`, `human_0...` (human drivers), `pedestrian_0...`.
-* Observation: one float32 Box layout for all agents (marl_social/observation.py).
+* Observation: one float32 Box layout for all agents (marl_social/sim/observation.py).
 * Actions: vehicles Box [a m/s^2, delta rad] within [-brake_max, accel_max] x [-steer_max,
   steer_max]; pedestrians Box [vx, vy] m/s within [-v_max, v_max]^2. Values outside the physical
-  limits saturate (marl_social/dynamics.py); NaN/inf, a wrong shape or an unknown agent raise a
+  limits saturate (marl_social/sim/dynamics.py); NaN/inf, a wrong shape or an unknown agent raise a
   ValueError naming the agent.
-* Rewards: -(theta . phi) of the agent's own step cost (agents/costs.py) minus the scenario's
-  collision penalty when it collides.
+* Rewards: -(theta . phi) of the agent's own step cost (marl_social/sim/costs.py) minus the
+  scenario's collision penalty when it collides (marl_social/envs/rewards.py).
 * Terminations: collision (every agent if the scenario's terminate_on_collision, else those
   involved) or reaching the end of its route; truncation after max_cycles steps.
 * infos[agent]: "visible" (names the agent truly sees), "collision" (bool), "collided_with"
@@ -27,6 +27,7 @@ from pettingzoo import ParallelEnv
 from pettingzoo.utils import wrappers
 from pettingzoo.utils.conversions import parallel_to_aec
 
+from marl_social.envs.rewards import step_rewards
 from marl_social.envs.world import World
 from marl_social.scenarios import make_scenario
 from marl_social.sim.observation import ObservationLayout
@@ -141,9 +142,8 @@ class SocialDrivingEnv(ParallelEnv, EzPickle):
         events = world.step(raw)
         self._cycles += 1
 
-        cost = np.einsum("nf,nf->n", world.theta, world.step_features())
-        penalty = self.scenario.params.collision_penalty
-        reward = -cost - penalty * events.collided
+        reward = step_rewards(world.theta, world.step_features(), events.collided,
+                              self.scenario.params.collision_penalty)
         collided_with = {a: [] for a in self.agents}
         for a, b in events.contacts:
             for me, other in ((a, b), (b, a)):

@@ -77,7 +77,7 @@ def run_episode(scenario: str = "occluded_crosswalk", seed: int = 0, render: boo
         render: also keep rgb frames in trace.frames.
         max_cycles: the episode's step limit.
         record_human_decisions: also keep every human driver's decisions (what its choice
-            depends on, for agents/choice_irl.py; the episode itself is unchanged).
+            depends on, for agents/irl/choice.py; the episode itself is unchanged).
         overrides: scenario parameters (e.g. pedestrian="none", robot_planner="aggressive").
     """
     env = parallel_env(scenario=scenario, max_cycles=max_cycles,

@@ -1,4 +1,4 @@
-"""Discrete-choice IRL on the simulator's own human drivers (agents/choice_irl.py): the recorded
+"""Discrete-choice IRL on the simulator's own human drivers (agents/irl/choice.py): the recorded
 decisions reproduce the humans' Q* exactly, and the fit recovers their beta * theta."""
 
 from __future__ import annotations

@@ -1,4 +1,4 @@
-"""Inverse optimal control (agents/irl.py): exact derivatives, regularization, recovery of a known
+"""Inverse optimal control (agents/irl/laplace.py): exact derivatives, regularization, recovery of a known
 theta from near-rational demonstrations, the recorder and the CLI."""
 
 from __future__ import annotations

@@ -3,7 +3,7 @@
 rationality). Episodes are computed once, on two processes.
 
 Closed loop with a learned model: the social planner also runs with theta_hat learned by
-inverse optimal control (agents/irl.py) from 100 near-rational demonstrations of drivers with
+inverse optimal control (agents/irl/laplace.py) from 100 near-rational demonstrations of drivers with
 the simulated humans' true weights, and must keep the same claims."""
 
 from __future__ import annotations

@@ -1,4 +1,4 @@
-"""Sensitivity studies (marl_social/studies.py, marl_social/study_analysis.py): spec validation,
+"""Sensitivity studies (marl_social/studies/): spec validation,
 identical tables from every backend, kill-and-resume, failed runs, the analysis' numbers."""
 
 from __future__ import annotations
