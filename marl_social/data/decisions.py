@@ -1,5 +1,6 @@
-"""Recorded decisions of the simulator's human drivers, for discrete-choice IRL
-(agents/choice_irl.py).
+"""Recorded decisions of the simulator's human drivers, for discrete-choice IRL.
+
+The IRL is agents/irl/choice.py.
 
 A simulated human driver (agents/human.py) decides every simulator step by sampling one of A
 first accelerations from softmax(-beta * Q*), with Q*(u) = min over the allowed continuations c
