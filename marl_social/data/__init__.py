@@ -1,3 +1,1 @@
-"""Learning data: demonstration and decision files (formats, validation) and the INTERACTION
-dataset loader.
-"""
+"""Learning data: demonstration and decision files (formats, validation), INTERACTION loader."""

@@ -1,5 +1,6 @@
-"""Recorded decisions of the simulator's human drivers, for discrete-choice IRL
-(agents/choice_irl.py).
+"""Recorded decisions of the simulator's human drivers, for discrete-choice IRL.
+
+The IRL is agents/irl/choice.py.
 
 A simulated human driver (agents/human.py) decides every simulator step by sampling one of A
 first accelerations from softmax(-beta * Q*), with Q*(u) = min over the allowed continuations c
@@ -14,7 +15,7 @@ File format (`save_decisions` / `load_decisions`): one NumPy ``.npz`` archive (n
 key                 shape / dtype   meaning
 ==================  ==============  ==========================================================
 format              () str          "marl-social-decisions/1"
-features            (N, A, C, F) f8 per-feature totals of each candidate (agents/costs
+features            (N, A, C, F) f8 per-feature totals of each candidate (sim/costs
                                     FEATURE_NAMES order) [simulator-step cost units]
 allowed             (N, A, C) bool  the continuations the driver could choose
 chosen              (N,) int64      index of the first action it sampled

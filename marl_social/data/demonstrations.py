@@ -1,9 +1,10 @@
-"""Demonstrations for inverse optimal control (agents/irl.py): one documented format for driving
-segments recorded in the simulator (`marl-social record`) or loaded from real-world tracks
-(marl_social/interaction.py).
+"""Demonstrations for inverse optimal control (agents/irl/laplace.py): one documented format.
+
+Driving segments recorded in the simulator (`marl-social record`) or loaded from real-world
+tracks (marl_social/data/interaction/).
 
 A `Demonstration` is one vehicle's longitudinal control sequence over T steps of dt along a
-reference path, with everything its cost (agents/costs.py) depends on:
+reference path, with everything its cost (marl_social/sim/costs.py) depends on:
 
     u_D = controls_mps2 (T,);  v_{k+1} = v_k + u_k dt (v_0 = v0_mps);
     s_k = s0_m + trapezoidal distance;  pose_k = path.point_at(s_k)
@@ -36,7 +37,7 @@ crosswalk_center            (K, 2)          the map's crosswalks (shared by all 
 crosswalk_heading_rad       (K,)            walking direction [rad]
 crosswalk_length_m, _width  (K,)            extent along / across the walking direction [m]
 theta_true                  (N, 6) f8       the demonstrator's true cost weights
-                                            (agents/costs.FEATURE_NAMES), NaN if unknown
+                                            (sim/costs.FEATURE_NAMES), NaN if unknown
 beta_true                   (N,) f8         its true rationality, NaN if unknown
 agent, source               (N,) str        who demonstrated, where it comes from
 t0_s                        (N,) f8         segment start time in its episode / recording [s]

@@ -1,5 +1,7 @@
-"""Scenario base: a frozen parameter dataclass with validated overrides, and a builder that turns
-parameters (and the episode's generator) into a layout: the static map and the agents.
+"""Scenario base: a frozen parameter dataclass with validated overrides, and a layout builder.
+
+The builder turns parameters (and the episode's generator) into a layout: the static map and
+the agents.
 
 A new scenario is small: subclass `ScenarioParams` with its own fields and checks, subclass
 `Scenario` with `name`, `params_cls` and `build`, and register it in `marl_social.scenarios`.

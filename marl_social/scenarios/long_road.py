@@ -13,20 +13,34 @@ from dataclasses import dataclass
 import numpy as np
 
 from marl_social.scenarios.base import Scenario, ScenarioLayout, ScenarioParams
+from marl_social.scenarios.roads import (
+    LANE_WIDTH_M,
+    lane_centres_y,
+    road_extent,
+    straight_lane,
+    straight_route,
+)
 from marl_social.sim.agent_spec import AgentSpec, SensorParams
 from marl_social.sim.road_map import Lane, RoadMap, Route
 
-LANE_WIDTH_M = 3.5
+ROAD_START_X_M = -50.0  # the road and every route start here, behind the last car [m]
+ROAD_BEYOND_CARS_M = 400.0  # the road runs this far past the front car's start [m]
+SPEED_LIMIT_MARGIN_MPS = 2.0  # speed limit = speed_mps + this [m/s]
+EXTENT_MARGIN_M = 5.0  # drawn area beyond the outer lane edges [m]
+MIN_SPACING_M = 6.0  # closer cars in a lane would overlap [m]
+MAX_SPEED_MPS = 20.0  # largest allowed speed_mps [m/s]
 
 
 @dataclass(frozen=True)
 class LongRoadParams(ScenarioParams):
-    """Attributes:
-    n_vehicles: number of cars (robot included).
-    n_lanes: lanes in the +x direction.
-    spacing_m: distance between consecutive cars in a lane [m].
-    speed_mps: initial and desired speed [m/s].
-    sensor_range_m, half_fov_deg: every car's field of view [m, deg].
+    """Long-road parameters (SI units).
+
+    Attributes:
+        n_vehicles: number of cars (robot included).
+        n_lanes: lanes in the +x direction.
+        spacing_m: distance between consecutive cars in a lane [m].
+        speed_mps: initial and desired speed [m/s].
+        sensor_range_m, half_fov_deg: every car's field of view [m, deg].
     """
 
     n_vehicles: int = 30
@@ -41,37 +55,65 @@ class LongRoadParams(ScenarioParams):
         super().__post_init__()
         self._check(self.n_vehicles >= 1, "n_vehicles", "must be >= 1")
         self._check(1 <= self.n_lanes <= 8, "n_lanes", "must be in [1, 8]")
-        self._check(self.spacing_m >= 6.0, "spacing_m", "must be >= 6 m (cars would overlap)")
-        self._check(0.0 <= self.speed_mps <= 20.0, "speed_mps", "must be in [0, 20] m/s")
+        self._check(self.spacing_m >= MIN_SPACING_M, "spacing_m",
+                    f"must be >= {MIN_SPACING_M:g} m (cars would overlap)")
+        self._check(0.0 <= self.speed_mps <= MAX_SPEED_MPS, "speed_mps",
+                    f"must be in [0, {MAX_SPEED_MPS:g}] m/s")
         self._check(self.sensor_range_m > 0, "sensor_range_m", "must be > 0 m")
         self._check(0 < self.half_fov_deg <= 180, "half_fov_deg", "must be in (0, 180] deg")
 
 
 class LongRoad(Scenario):
+    """n_vehicles cars on n_lanes straight lanes; car 0 is the robot, the others humans."""
+
     name = "long_road"
     params_cls = LongRoadParams
     variants = ({"n_vehicles": 6, "terminate_on_collision": False},)
 
     def build(self, rng: np.random.Generator) -> ScenarioLayout:
+        """The road and the cars (the layout does not depend on rng)."""
+        p: LongRoadParams = self.params
+        road_end_x = self._road_end_x()
+        lanes, lane_y = self._road(road_end_x)
+        agents, routes = self._vehicles(lane_y, road_end_x)
+        half_width = 0.5 * p.n_lanes * LANE_WIDTH_M
+        road_map = RoadMap(lanes=lanes, crosswalks=(), static_polygons=(), routes=routes,
+                           speed_limit_mps=p.speed_mps + SPEED_LIMIT_MARGIN_MPS,
+                           extent=road_extent(ROAD_START_X_M, road_end_x, half_width,
+                                              EXTENT_MARGIN_M))
+        return ScenarioLayout(road_map, tuple(agents), p)
+
+    def _road_end_x(self) -> float:
+        """The x where the road ends [m]: ROAD_BEYOND_CARS_M past the last slot of a lane."""
         p: LongRoadParams = self.params
         per_lane = math.ceil(p.n_vehicles / p.n_lanes)
-        length = per_lane * p.spacing_m + 400.0
-        lane_y = (np.arange(p.n_lanes) - (p.n_lanes - 1) / 2) * LANE_WIDTH_M
-        lanes = tuple(Lane(np.array([[-50.0, y], [length, y]]), LANE_WIDTH_M) for y in lane_y)
+        return per_lane * p.spacing_m + ROAD_BEYOND_CARS_M
+
+    def _road(self, road_end_x: float) -> tuple[tuple[Lane, ...], np.ndarray]:
+        """The n_lanes straight lanes and (n_lanes,) their centreline y [m]."""
+        lane_y = lane_centres_y(self.params.n_lanes)
+        lanes = tuple(straight_lane(ROAD_START_X_M, road_end_x, y) for y in lane_y)
+        return lanes, lane_y
+
+    def _vehicles(self, lane_y: np.ndarray,
+                  road_end_x: float) -> tuple[list[AgentSpec], dict[str, Route]]:
+        """The cars, lane by lane in turn, staggered by spacing_m / n_lanes; car 0 the robot.
+
+        Args:
+            lane_y: (n_lanes,) centreline y of the lanes [m].
+            road_end_x: x where the road and the routes end [m].
+        """
+        p: LongRoadParams = self.params
         sensor = SensorParams(p.sensor_range_m, math.radians(p.half_fov_deg))
         agents, routes = [], {}
         for i in range(p.n_vehicles):
             lane, slot = i % p.n_lanes, i // p.n_lanes
             x = slot * p.spacing_m + (lane * p.spacing_m / p.n_lanes)
             name = "robot_0" if i == 0 else f"human_{i - 1}"
-            routes[name] = Route([[-50.0, lane_y[lane]], [length, lane_y[lane]]], name)
+            routes[name] = straight_route(name, ROAD_START_X_M, road_end_x, lane_y[lane])
             agents.append(AgentSpec(
                 name, "vehicle", "robot" if i == 0 else "human",
                 np.array([x, lane_y[lane], 0.0, p.speed_mps]), sensor=sensor,
                 v_desired_mps=p.speed_mps,
             ))
-        half = 0.5 * p.n_lanes * LANE_WIDTH_M
-        road_map = RoadMap(lanes=lanes, crosswalks=(), static_polygons=(), routes=routes,
-                           speed_limit_mps=p.speed_mps + 2.0,
-                           extent=(-50.0, length, -half - 5.0, half + 5.0))
-        return ScenarioLayout(road_map, tuple(agents), p)
+        return agents, routes

@@ -7,7 +7,7 @@ human car hides the pedestrian from the robot, whose sensor range is also limite
 the pedestrian. With the default numbers and every agent on the cruise baseline
 (agents/cruise.py: the human brakes for the pedestrian it sees, the robot drives on until it
 sees it), the robot first sees the pedestrian about 1.5 s before it reaches the crosswalk and
-has to brake at its limit (tests/test_scenarios.py measures it). Houses line both sidewalks.
+has to brake at its limit (tests/scenarios/test_scenarios.py measures it). Houses line both sidewalks.
 
 Variants: pedestrian = "crossing" (starts to cross after pedestrian_start_delay_s),
 "waiting" (stays on the curb) or "none" (no pedestrian agent).
@@ -22,20 +22,37 @@ from pathlib import Path
 import numpy as np
 
 from marl_social.scenarios.base import Scenario, ScenarioLayout, ScenarioParams
+from marl_social.scenarios.roads import (
+    LANE_WIDTH_M,
+    road_extent,
+    straight_lane,
+    straight_route,
+)
 from marl_social.sim.agent_spec import AgentSpec, PedestrianParams, SensorParams, VehicleParams
 from marl_social.sim.costs import CostWeights
 from marl_social.sim.road_map import Crosswalk, Lane, RoadMap, Route
 
-LANE_WIDTH_M = 3.5
+N_LANES = 2  # lanes in the +x direction: right (human) and left (robot)
+HALF_ROAD_WIDTH_M = 0.5 * N_LANES * LANE_WIDTH_M  # curb to road centre [m]
+LEFT_LANE_Y_M, RIGHT_LANE_Y_M = 0.5 * LANE_WIDTH_M, -0.5 * LANE_WIDTH_M  # lane centrelines [m]
 SIDEWALK_WIDTH_M = 3.0
 HOUSE_SETBACK_M = 2.0  # front gardens between sidewalk and houses [m]
 HOUSE_LENGTH_M, HOUSE_DEPTH_M, HOUSE_GAP_M = 12.0, 8.0, 5.0
 ROAD_START_X_M = -30.0
+ROBOT_START_X_M = 0.0  # the robot starts here; crosswalk_x_m is measured from it [m]
+EXTENT_MARGIN_M = 4.0  # drawn area beyond the houses' far walls [m]
+BLIND_HALF_LENGTH_M = 6.0  # a blind human cannot see x within this of the crosswalk centre [m]
+PEDESTRIAN_OVERSHOOT_M = 1.0  # the pedestrian's route ends this far past the far curb [m]
+CROSSING_HEADING_RAD = math.pi / 2  # pedestrians cross the road towards +y [rad]
 PEDESTRIAN_VARIANTS = ("crossing", "waiting", "none")
 # theta_R: the robot values comfort more than the default driver model (smooth, early braking)
 THETA_ROBOT = CostWeights(accel=0.5, jerk=0.5)
+# the pedestrian: keeps to its path and speed, and strongly prefers to stay on the crosswalk
+THETA_PEDESTRIAN = CostWeights(tracking=1.0, speed=1.0, accel=0.01, jerk=0.0, safety=5.0,
+                               crosswalk=1000.0)
 MAX_HUMANS = 4
 HUMAN_SPACING_M = 20.0  # gap between successive human cars' start positions [m]
+MAX_VEHICLE_SPEED_MPS = 20.0  # largest allowed initial / desired car speed [m/s]
 
 
 @dataclass(frozen=True)
@@ -133,7 +150,8 @@ class OccludedCrosswalkParams(ScenarioParams):
                     "must be at least 20 m past the crosswalk")
         for name in ("robot_speed_mps", "human_speed_mps", "robot_desired_speed_mps",
                      "human_desired_speed_mps"):
-            self._check(0.0 <= getattr(self, name) <= 20.0, name, "must be in [0, 20] m/s")
+            self._check(0.0 <= getattr(self, name) <= MAX_VEHICLE_SPEED_MPS, name,
+                        f"must be in [0, {MAX_VEHICLE_SPEED_MPS:g}] m/s")
         self._check(0.1 <= self.pedestrian_speed_mps <= 2.0, "pedestrian_speed_mps",
                     "must be in [0.1, 2] m/s")
         self._check(self.pedestrian_start_delay_s >= 0.0, "pedestrian_start_delay_s",
@@ -170,80 +188,104 @@ class OccludedCrosswalk(Scenario):
     params_cls = OccludedCrosswalkParams
     variants = ({"pedestrian": "crossing"}, {"pedestrian": "waiting"}, {"pedestrian": "none"})
 
-    def _blind_region(self) -> np.ndarray:
-        """The right sidewalk and right lane around the crosswalk (x within +-6 m)."""
-        x = self.params.crosswalk_x_m
-        y_far = -(LANE_WIDTH_M + SIDEWALK_WIDTH_M + HOUSE_SETBACK_M)
-        return np.array([[x - 6.0, y_far], [x + 6.0, y_far], [x + 6.0, 0.0], [x - 6.0, 0.0]])
-
     def build(self, rng: np.random.Generator) -> ScenarioLayout:
+        """Road, robot, human cars and pedestrian (the layout does not depend on rng)."""
         p: OccludedCrosswalkParams = self.params
-        half_road = LANE_WIDTH_M
-        left_y, right_y = 0.5 * LANE_WIDTH_M, -0.5 * LANE_WIDTH_M
-        x0, x1 = ROAD_START_X_M, p.road_end_x_m
-        lanes = (
-            Lane(np.array([[x0, right_y], [x1, right_y]]), LANE_WIDTH_M),
-            Lane(np.array([[x0, left_y], [x1, left_y]]), LANE_WIDTH_M),
+        lanes, crosswalk, houses = self._road()
+        robot, robot_route = self._robot()
+        agents, routes = [robot], {robot.name: robot_route}
+        for spec, route in self._humans() + self._pedestrians():
+            agents.append(spec)
+            routes[spec.name] = route
+        road_map = RoadMap(
+            lanes=lanes, crosswalks=(crosswalk,), static_polygons=houses, routes=routes,
+            speed_limit_mps=p.speed_limit_mps,
+            extent=road_extent(ROAD_START_X_M, p.road_end_x_m, self._houses_y(),
+                               EXTENT_MARGIN_M),
         )
-        crosswalk = Crosswalk(np.array([p.crosswalk_x_m, 0.0]), math.pi / 2,
-                              2.0 * half_road, p.crosswalk_width_m)
-        y_houses = half_road + SIDEWALK_WIDTH_M + HOUSE_SETBACK_M
-        houses = tuple(_houses(x0, x1, y_houses, +1) + _houses(x0, x1, y_houses, -1))
+        return ScenarioLayout(road_map, tuple(agents), p)
 
-        ped_y = -(half_road + p.pedestrian_curb_offset_m)
-        routes = {"robot_0": Route([[x0, left_y], [x1, left_y]], "robot_0")}
+    @staticmethod
+    def _houses_y() -> float:
+        """|y| of the houses' fronts: road, sidewalk and front garden [m]."""
+        return HALF_ROAD_WIDTH_M + SIDEWALK_WIDTH_M + HOUSE_SETBACK_M
+
+    def _road(self) -> tuple[tuple[Lane, ...], Crosswalk, tuple[np.ndarray, ...]]:
+        """The two lanes (right, left), the crosswalk across both, and the houses (V, 2) [m]."""
+        p: OccludedCrosswalkParams = self.params
+        x0, x1 = ROAD_START_X_M, p.road_end_x_m
+        lanes = (straight_lane(x0, x1, RIGHT_LANE_Y_M), straight_lane(x0, x1, LEFT_LANE_Y_M))
+        crosswalk = Crosswalk(np.array([p.crosswalk_x_m, 0.0]), CROSSING_HEADING_RAD,
+                              2.0 * HALF_ROAD_WIDTH_M, p.crosswalk_width_m)
+        y_houses = self._houses_y()
+        houses = tuple(_houses(x0, x1, y_houses, +1) + _houses(x0, x1, y_houses, -1))
+        return lanes, crosswalk, houses
+
+    def _robot(self) -> tuple[AgentSpec, Route]:
+        """The robot in the left lane at x = ROBOT_START_X_M, with its model of the humans."""
+        p: OccludedCrosswalkParams = self.params
         robot_model = {"beta_hat": p.robot_beta_hat, "epsilon": p.robot_epsilon}
         if p.robot_theta_hat:
             robot_model["theta_hat"] = p.robot_theta_hat
-        vehicle = VehicleParams()
-        theta_vehicle = CostWeights()
-        agents = [
-            AgentSpec(
-                "robot_0", "vehicle", "robot", np.array([0.0, left_y, 0.0, p.robot_speed_mps]),
-                sensor=SensorParams(p.robot_sensor_range_m, math.radians(p.robot_half_fov_deg),
-                                    pos_noise_m=p.robot_pos_noise_m),
-                vehicle=vehicle, v_desired_mps=p.robot_desired_speed_mps,
-                cost_weights=THETA_ROBOT, planner=robot_model,
-            ),
-        ]
+        spec = AgentSpec(
+            "robot_0", "vehicle", "robot",
+            np.array([ROBOT_START_X_M, LEFT_LANE_Y_M, 0.0, p.robot_speed_mps]),
+            sensor=SensorParams(p.robot_sensor_range_m, math.radians(p.robot_half_fov_deg),
+                                pos_noise_m=p.robot_pos_noise_m),
+            vehicle=VehicleParams(), v_desired_mps=p.robot_desired_speed_mps,
+            cost_weights=THETA_ROBOT, planner=robot_model,
+        )
+        return spec, straight_route("robot_0", ROAD_START_X_M, p.road_end_x_m, LEFT_LANE_Y_M)
+
+    def _humans(self) -> list[tuple[AgentSpec, Route]]:
+        """n_humans cars in the right lane: human_0 human_lead_m ahead, then every HUMAN_SPACING_M."""
+        p: OccludedCrosswalkParams = self.params
+        theta = CostWeights.from_any(p.human_theta) if p.human_theta else CostWeights()
+        humans = []
         for k in range(p.n_humans):
             name = f"human_{k}"
-            routes[name] = Route([[x0, right_y], [x1, right_y]], name)
-            agents.append(AgentSpec(
+            x = p.human_lead_m - HUMAN_SPACING_M * k
+            spec = AgentSpec(
                 name, "vehicle", "human",
-                np.array([p.human_lead_m - HUMAN_SPACING_M * k, right_y, 0.0, p.human_speed_mps]),
+                np.array([x, RIGHT_LANE_Y_M, 0.0, p.human_speed_mps]),
                 sensor=SensorParams(p.human_sensor_range_m, math.radians(p.human_half_fov_deg),
                                     pos_noise_m=p.human_pos_noise_m,
                                     blind_regions=(self._blind_region(),) if p.human_blind
                                     else ()),
-                vehicle=vehicle, v_desired_mps=p.human_desired_speed_mps,
-                cost_weights=(CostWeights.from_any(p.human_theta) if p.human_theta
-                              else theta_vehicle),
-                planner={"beta": p.human_beta},
-            ))
-        if p.pedestrian != "none":
-            far_y = half_road + 1.0
-            routes["pedestrian_0"] = Route(
-                [[p.crosswalk_x_m, ped_y], [p.crosswalk_x_m, far_y]], "pedestrian_0"
+                vehicle=VehicleParams(), v_desired_mps=p.human_desired_speed_mps,
+                cost_weights=theta, planner={"beta": p.human_beta},
             )
-            agents.append(AgentSpec(
-                "pedestrian_0", "pedestrian", "pedestrian",
-                np.array([p.crosswalk_x_m, ped_y, math.pi / 2, 0.0]),
-                sensor=SensorParams(p.pedestrian_sensor_range_m,
-                                    math.radians(p.pedestrian_half_fov_deg)),
-                pedestrian=PedestrianParams(),
-                v_desired_mps=p.pedestrian_speed_mps if p.pedestrian == "crossing" else 0.0,
-                cost_weights=CostWeights(tracking=1.0, speed=1.0, accel=0.01, jerk=0.0,
-                                         safety=5.0, crosswalk=1000.0),
-                planner={
-                    "crossing": p.pedestrian == "crossing",
-                    "start_delay_s": p.pedestrian_start_delay_s,
-                    "beta": p.pedestrian_beta,
-                },
-            ))
-        road_map = RoadMap(
-            lanes=lanes, crosswalks=(crosswalk,), static_polygons=houses, routes=routes,
-            speed_limit_mps=p.speed_limit_mps,
-            extent=(x0, x1, -(y_houses + 4.0), y_houses + 4.0),
+            humans.append((spec, straight_route(name, ROAD_START_X_M, p.road_end_x_m,
+                                                RIGHT_LANE_Y_M)))
+        return humans
+
+    def _pedestrians(self) -> list[tuple[AgentSpec, Route]]:
+        """The pedestrian on the right sidewalk at the crosswalk (none for pedestrian="none")."""
+        p: OccludedCrosswalkParams = self.params
+        if p.pedestrian == "none":
+            return []
+        curb_y = -(HALF_ROAD_WIDTH_M + p.pedestrian_curb_offset_m)
+        far_y = HALF_ROAD_WIDTH_M + PEDESTRIAN_OVERSHOOT_M
+        crossing = p.pedestrian == "crossing"
+        route = Route([[p.crosswalk_x_m, curb_y], [p.crosswalk_x_m, far_y]], "pedestrian_0")
+        spec = AgentSpec(
+            "pedestrian_0", "pedestrian", "pedestrian",
+            np.array([p.crosswalk_x_m, curb_y, CROSSING_HEADING_RAD, 0.0]),
+            sensor=SensorParams(p.pedestrian_sensor_range_m,
+                                math.radians(p.pedestrian_half_fov_deg)),
+            pedestrian=PedestrianParams(),
+            v_desired_mps=p.pedestrian_speed_mps if crossing else 0.0,
+            cost_weights=THETA_PEDESTRIAN,
+            planner={
+                "crossing": crossing,
+                "start_delay_s": p.pedestrian_start_delay_s,
+                "beta": p.pedestrian_beta,
+            },
         )
-        return ScenarioLayout(road_map, tuple(agents), p)
+        return [(spec, route)]
+
+    def _blind_region(self) -> np.ndarray:
+        """(4, 2) the right sidewalk and right lane within BLIND_HALF_LENGTH_M of the crosswalk."""
+        x, dx = self.params.crosswalk_x_m, BLIND_HALF_LENGTH_M
+        y_far = -self._houses_y()  # the far edge of the right sidewalk's front gardens
+        return np.array([[x - dx, y_far], [x + dx, y_far], [x + dx, 0.0], [x - dx, 0.0]])

@@ -326,10 +326,20 @@ def with_seeds(spec: StudySpec, n_seeds: int) -> StudySpec:
 
 @cache
 def available_metrics(scenario: str) -> tuple[str, ...]:
-    """The metric names `run_episode` returns for a scenario (from a one-step episode)."""
-    from marl_social.evaluation import run
+    """The metric names `run_episode` returns for a scenario (the same for every scenario).
 
-    return tuple(run.run_episode(scenario, seed=0, max_cycles=1).metrics)
+    Args:
+        scenario: a registered scenario name (ValueError otherwise).
+
+    Returns:
+        The registry's metric names (`marl_social.metrics.metric_names`), in result order.
+    """
+    from marl_social.metrics import metric_names
+    from marl_social.scenarios import SCENARIOS
+
+    if scenario not in SCENARIOS:
+        raise ValueError(f"unknown scenario {scenario!r}; available: {sorted(SCENARIOS)}")
+    return metric_names()
 
 
 def _scenario_fields(spec: StudySpec) -> tuple[type, dict]:

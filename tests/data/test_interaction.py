@@ -1,4 +1,4 @@
-"""INTERACTION-schema track files -> demonstrations (marl_social/interaction.py).
+"""INTERACTION-schema track files -> demonstrations (marl_social/data/interaction/).
 
 The files are generated here: a car on a known curved path with a known acceleration profile
 and 5 cm Gaussian position noise, other cars and pedestrians around it."""
