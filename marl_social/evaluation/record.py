@@ -19,6 +19,7 @@ import multiprocessing as mp
 
 import numpy as np
 
+from marl_social.agents.registry import DEFAULT_PLANNER, planner_params
 from marl_social.data.decisions import DecisionSet
 from marl_social.data.demonstrations import Demonstration
 from marl_social.models.driver import DriverModel
@@ -65,10 +66,15 @@ def episode_demonstrations(result, segment_steps: int = 30, stride_steps: int = 
                 others_width_m=[size(s, "width_m") for s in other_specs],
                 others_is_pedestrian=is_ped, crosswalks=road_map.crosswalks,
                 theta_true=spec.cost_weights.as_array(),
-                beta_true=float(spec.planner.get("beta", np.nan)), agent=name, source=source,
+                beta_true=_driver_beta(spec), agent=name, source=source,
                 t0_s=float(trace.times_s[t0]),
             ))
     return out
+
+
+def _driver_beta(spec) -> float:
+    """The true rationality a human driver's built-in planner uses (its typed parameters)."""
+    return float(planner_params(DEFAULT_PLANNER["human"], spec).beta)
 
 
 def episode_decisions(result, source: str = "") -> DecisionSet | None:
@@ -90,7 +96,7 @@ def episode_decisions(result, source: str = "") -> DecisionSet | None:
             features=np.stack([r[0] for r in rows]), allowed=np.stack([r[1] for r in rows]),
             chosen=np.array([r[2] for r in rows]), first_actions_mps2=first,
             theta_true=np.tile(spec.cost_weights.as_array(), (n, 1)),
-            beta_true=np.full(n, float(spec.planner.get("beta", np.nan))),
+            beta_true=np.full(n, _driver_beta(spec)),
             agent=np.full(n, name), source=np.full(n, source),
             t_s=np.asarray(result.trace.times_s[:n], dtype=np.float64)))
     return DecisionSet.concatenate(parts) if parts else None

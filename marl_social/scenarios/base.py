@@ -30,9 +30,10 @@ class ScenarioParams:
         terminate_on_collision: if True any collision ends the episode for every agent; if
             False only the agents involved are terminated.
         collision_penalty: reward subtracted from each agent involved in a collision.
-        robot_planner: the robot's built-in planner in `marl_social.policies`: "social" (the
-            paper), "social+beta" (also infers each human's rationality), "aggressive", "conservative", "oracle" (agents/robot.py) or "cruise" (the
-            rule-based baseline, agents/cruise.py).
+        robot_planner: the robot's built-in planner, a name of
+            `marl_social.agents.registry.ROBOT_PLANNERS`: "social" (the paper), "social+beta"
+            (also infers each human's rationality), "aggressive", "conservative", "oracle"
+            (agents/robot/planner.py) or "cruise" (the rule-based baseline, agents/cruise.py).
     """
 
     n_slots: int = 8

@@ -77,7 +77,7 @@ class OccludedCrosswalkParams(ScenarioParams):
         human_beta, pedestrian_beta: rationality of the human driver / pedestrian planners
             (higher = more rational, inf = always the best action, 0 = uniformly random).
         human_theta: the human driver's cost weights (a mapping of feature names, or 6 numbers
-            in agents/costs.FEATURE_NAMES order); empty = the default CostWeights.
+            in marl_social.sim.costs.FEATURE_NAMES order); empty = the default CostWeights.
         human_blind: the human cannot see the pedestrian's side of the crosswalk (its view of
             the right sidewalk around the crosswalk is blocked), so it cannot act as a sensor.
         n_humans: number of human drivers (0-4). human_0 leads by human_lead_m in the right
