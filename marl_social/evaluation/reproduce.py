@@ -17,7 +17,7 @@ from pathlib import Path
 
 import numpy as np
 
-ROBOT_PLANNERS = ("social", "aggressive", "conservative", "oracle")  # the paper's four
+PAPER_PLANNERS = ("social", "aggressive", "conservative", "oracle")  # the paper's four
 VARIANTS = ("crossing", "waiting", "none")
 FIGURES = (
     ("fig3_aggressive_crossing", "aggressive", "crossing"),
@@ -54,7 +54,7 @@ def run_episodes(jobs, workers: int = 2, max_cycles: int = 200, progress: bool =
     return list(_progress(map(_one, jobs), len(jobs), progress))
 
 
-def run_table(n_seeds: int, workers: int = 2, planners=ROBOT_PLANNERS, variants=VARIANTS,
+def run_table(n_seeds: int, workers: int = 2, planners=PAPER_PLANNERS, variants=VARIANTS,
               progress=True) -> list[dict]:
     """One row per (planner, variant): rates and means over n_seeds randomized episodes."""
     jobs = [(p, v, s) for p in planners for v in variants for s in range(n_seeds)]

@@ -99,10 +99,10 @@ def test_car_stopped_in_the_next_lane_does_not_block_the_robot():
     robot's lane and force it to brake."""
     from marl_social.perception.tracking import Tracker
 
-    from marl_social.sim.observation import EGO_DIM, SLOT_FIELDS, ObservationLayout
+    from marl_social.sim.observation import EGO_DIM, SLOT_FIELDS, SLOT_INDEX, ObservationLayout
 
     layout = ObservationLayout(n_slots=2, n_rays=4)
-    f = {name: i for i, name in enumerate(SLOT_FIELDS)}
+    f = SLOT_INDEX
     tracker = Tracker(pos_noise_m=0.05, vel_noise_mps=0.1)
     rng = np.random.default_rng(3)
     for _ in range(20):  # stopped at x = 95 in the right lane (y = -1.75), heading along +x

@@ -6,10 +6,10 @@ import numpy as np
 import pytest
 from marl_social.perception.tracking import Tracker
 
-from marl_social.sim.observation import EGO_DIM, SLOT_FIELDS, ObservationLayout
+from marl_social.sim.observation import EGO_DIM, SLOT_FIELDS, SLOT_INDEX, ObservationLayout
 
 LAYOUT = ObservationLayout(n_slots=4, n_rays=4)
-F = {name: i for i, name in enumerate(SLOT_FIELDS)}
+F = SLOT_INDEX
 
 
 def _obs(objects):
