@@ -25,7 +25,7 @@ from gymnasium import spaces
 from gymnasium.utils import EzPickle, seeding
 from pettingzoo import ParallelEnv
 from pettingzoo.utils import wrappers
-from pettingzoo.utils.conversions import parallel_to_aec
+from pettingzoo.utils.conversions import parallel_to_aec_wrapper
 
 from marl_social.envs.rewards import step_rewards
 from marl_social.envs.world import World
@@ -34,6 +34,7 @@ from marl_social.sim.observation import ObservationLayout
 from marl_social.viz.style import RenderConfig
 
 RENDER_MODES = ["human", "rgb_array"]
+FLOAT_MAX = float(np.finfo(np.float64).max)  # a Python float: compares exactly with any int
 
 
 class SocialDrivingEnv(ParallelEnv, EzPickle):
@@ -174,28 +175,53 @@ class SocialDrivingEnv(ParallelEnv, EzPickle):
         return observations, rewards, terminations, truncations, infos
 
     def _validate_actions(self, actions: dict) -> np.ndarray:
+        """(n, 2) raw actions from {agent: action}, every live agent's checked (ValueError)."""
         if not isinstance(actions, dict):
             raise TypeError(f"actions must be a dict {{agent: action}}, got {type(actions).__name__}")
         raw = np.zeros((self.world.n, 2))
         for agent, action in actions.items():
-            if agent not in self._index:
-                raise ValueError(f"action for unknown agent {agent!r}; agents: {self.possible_agents}")
-            if agent not in self.agents:
-                raise ValueError(f"action for agent {agent!r}, which is no longer in the episode "
-                                 f"(live agents: {self.agents})")
-            try:
-                arr = np.asarray(action, dtype=np.float64)
-            except (TypeError, ValueError):
-                raise ValueError(f"agent {agent!r}: action {action!r} is not numeric") from None
-            if arr.shape != (2,):
-                raise ValueError(f"agent {agent!r}: action must have shape (2,), got {arr.shape}")
-            if not np.all(np.isfinite(arr)):
-                raise ValueError(f"agent {agent!r}: action {arr.tolist()} has NaN or inf")
-            raw[self._index[agent]] = arr
+            raw[self._index[agent]] = self.check_action(agent, action)  # checked before indexing
         missing = [a for a in self.agents if a not in actions]
         if missing:
             raise ValueError(f"no action for live agent(s) {missing}")
         return raw
+
+    def check_action(self, agent: str, action) -> np.ndarray:
+        """One live agent's action as a finite (2,) float64 array, else a ValueError naming it.
+
+        Accepted: a sequence or array of 2 real numbers (integer or floating dtype). Rejected:
+        bool, string, complex, datetime or object dtypes, numbers beyond float range, NaN/inf,
+        another shape, an unknown agent or one no longer in the episode.
+
+        Args:
+            agent: the agent's name.
+            action: its (2,) action (see the module docstring for units).
+        """
+        if agent not in self._index:
+            raise ValueError(f"action for unknown agent {agent!r}; agents: {self.possible_agents}")
+        if agent not in self.agents:
+            raise ValueError(f"action for agent {agent!r}, which is no longer in the episode "
+                             f"(live agents: {self.agents})")
+        if isinstance(action, (list, tuple)) and any(
+                isinstance(v, (bool, np.bool_, str, bytes, complex)) for v in action):
+            raise ValueError(f"agent {agent!r}: action {_short(action)} is not numeric (holds "
+                             f"{sorted({type(v).__name__ for v in action})}, not real numbers)")
+        try:
+            arr = np.asarray(action)
+        except (TypeError, ValueError, OverflowError):
+            raise ValueError(f"agent {agent!r}: action {_short(action)} is not numeric") from None
+        if arr.dtype.kind not in "iuf":
+            too_big = arr.dtype == object and any(
+                isinstance(v, int) and abs(v) > FLOAT_MAX for v in arr.ravel())
+            reason = ("holds an integer beyond float range" if too_big
+                      else f"is not numeric (dtype {arr.dtype}, not a real integer or float)")
+            raise ValueError(f"agent {agent!r}: action {_short(action)} {reason}")
+        if arr.shape != (2,):
+            raise ValueError(f"agent {agent!r}: action must have shape (2,), got {arr.shape}")
+        arr = arr.astype(np.float64)
+        if not np.all(np.isfinite(arr)):
+            raise ValueError(f"agent {agent!r}: action {arr.tolist()} has NaN or inf")
+        return arr
 
     def _observe(self, collided_with: dict, arrived: np.ndarray):
         world = self.world
@@ -281,9 +307,39 @@ def parallel_env(scenario: str = "occluded_crosswalk", render_mode: str | None =
                             **overrides)
 
 
+def _short(value, limit: int = 80) -> str:
+    """repr(value) cut to `limit` characters (a huge integer's repr is huge)."""
+    text = repr(value)
+    return text if len(text) <= limit else text[:limit] + "..."
+
+
+class CheckedAECWrapper(parallel_to_aec_wrapper):
+    """PettingZoo's parallel-to-AEC conversion that checks each action when it is given.
+
+    A rejected action raises a ValueError naming the agent and is not stored, so the next
+    step() retries the same agent (the stock wrapper stores it and fails at the cycle's last
+    agent on every later step). A non-None action for a done agent is a ValueError too (the
+    stock wrapper asserts).
+
+    Args:
+        parallel_env: a SocialDrivingEnv.
+    """
+
+    def step(self, action):
+        """Store (after checking) the selected agent's action; the cycle's last one steps."""
+        agent = self.agent_selection
+        if self.terminations[agent] or self.truncations[agent]:
+            if action is not None:
+                raise ValueError(f"agent {agent!r} is done (terminated or truncated): its step "
+                                 f"action must be None, got {_short(action)}")
+        else:
+            self.env.check_action(agent, action)
+        super().step(action)
+
+
 def raw_env(**kwargs):
-    """AEC version without wrappers."""
-    return parallel_to_aec(parallel_env(**kwargs))
+    """AEC version without wrappers (actions checked as they are given)."""
+    return wrappers.OrderEnforcingWrapper(CheckedAECWrapper(parallel_env(**kwargs)))
 
 
 def env(**kwargs):

@@ -85,8 +85,28 @@ def bicycle_step(
     return np.stack([x_next, y_next, psi_next, v_next], axis=1)
 
 
+HUGE_COMMAND_MPS = 1e150  # above this a component's square could overflow [m/s]
+
+
 def saturate_pedestrian_action(action: np.ndarray, speed_max_mps: np.ndarray) -> np.ndarray:
-    """Scale each velocity command (n, 2) [m/s] so that its norm is <= speed_max (n,) [m/s]."""
+    """Scale each velocity command so that its norm is <= speed_max.
+
+    A command with a component above HUGE_COMMAND_MPS is first divided by its largest absolute
+    component, so its norm cannot overflow: 1e155 in x saturates to speed_max along x, not to 0.
+
+    Args:
+        action: (n, 2) finite velocity commands [vx, vy] [m/s].
+        speed_max_mps: (n,) top speed of each pedestrian [m/s].
+
+    Returns:
+        (n, 2) saturated commands [m/s].
+    """
+    max_abs = np.max(np.abs(action), axis=1)
+    huge = max_abs > HUGE_COMMAND_MPS
+    if huge.any():  # direction first, then the norm of a vector of components <= 1
+        action = action.copy()
+        action[huge] = action[huge] / max_abs[huge, None]
+        action[huge] *= (speed_max_mps[huge] / np.linalg.norm(action[huge], axis=1))[:, None]
     norm = np.linalg.norm(action, axis=1)
     scale = np.where(norm > speed_max_mps, speed_max_mps / np.maximum(norm, 1e-12), 1.0)
     return action * scale[:, None]
