@@ -42,6 +42,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
+from marl_social.agents.irl.fit_file import check_fit, load_fit  # noqa: F401 (load_fit public here)
 from marl_social.agents.irl.jets import Jet
 from scipy.optimize import minimize
 
@@ -437,7 +438,13 @@ def robot_model_from_fit(result_json: dict, reference: CostWeights | None = None
     over the fitted features; unfitted features keep the reference's weights) and beta_hat =
     the learned scale / that norm, so that beta_hat * theta_hat equals the learned unnormalized
     theta on the fitted features.
+
+    Args:
+        result_json: a fit result (`LaplaceFit.to_json()` or `load_fit`); a ValueError names
+            the first bad field.
+        reference: the weights whose norm theta_hat gets; None for the default CostWeights.
     """
+    check_fit(result_json, "IRL result")
     reference = reference or CostWeights()
     ref = reference.as_array()
     fitted = result_json["fitted"]
@@ -447,17 +454,3 @@ def robot_model_from_fit(result_json: dict, reference: CostWeights | None = None
     theta = ref.copy()
     theta[idx] = np.maximum(direction, 0.0) * ref_norm
     return CostWeights(*theta.tolist()), float(result_json["scale"]) / ref_norm
-
-
-def load_fit(path) -> dict:
-    """Read a theta.json written by `marl-social irl fit` (clear errors otherwise)."""
-    path = Path(path)
-    try:
-        data = json.loads(path.read_text())
-    except FileNotFoundError:
-        raise FileNotFoundError(f"learned model file {path} does not exist") from None
-    except json.JSONDecodeError as err:
-        raise ValueError(f"{path}: not a JSON file ({err})") from None
-    if data.get("format") != "marl-social-irl/1":
-        raise ValueError(f"{path}: not a marl-social IRL result (format marl-social-irl/1)")
-    return data

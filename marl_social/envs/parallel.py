@@ -30,10 +30,12 @@ from pettingzoo.utils.conversions import parallel_to_aec_wrapper
 from marl_social.envs.rewards import step_rewards
 from marl_social.envs.world import World
 from marl_social.scenarios import make_scenario
+from marl_social.scenarios.base import as_integer
 from marl_social.sim.observation import ObservationLayout
 from marl_social.viz.style import RenderConfig
 
 RENDER_MODES = ["human", "rgb_array"]
+MAX_CYCLES = 10**9  # longest episode [steps]
 FLOAT_MAX = float(np.finfo(np.float64).max)  # a Python float: compares exactly with any int
 
 
@@ -70,8 +72,9 @@ class SocialDrivingEnv(ParallelEnv, EzPickle):
         if render_config is not None and not isinstance(render_config, RenderConfig):
             raise TypeError(f"render_config must be a marl_social.viz.style.RenderConfig or None, "
                             f"got {type(render_config).__name__}")
-        if isinstance(max_cycles, bool) or not float(max_cycles).is_integer() or max_cycles < 1:
-            raise ValueError(f"max_cycles must be a positive integer, got {max_cycles!r}")
+        max_cycles = as_integer(max_cycles, "max_cycles")
+        if not 1 <= max_cycles <= MAX_CYCLES:
+            raise ValueError(f"max_cycles must be an integer in [1, {MAX_CYCLES}], got {max_cycles}")
         self.scenario_name = scenario
         self.scenario = make_scenario(scenario, **overrides)
         self.render_mode = render_mode

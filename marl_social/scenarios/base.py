@@ -10,6 +10,7 @@ A new scenario is small: subclass `ScenarioParams` with its own fields and check
 from __future__ import annotations
 
 import dataclasses
+import math
 from abc import ABC, abstractmethod
 from dataclasses import dataclass
 
@@ -18,6 +19,11 @@ import numpy as np
 from marl_social.agents.registry import ROBOT_PLANNERS
 from marl_social.sim.agent_spec import AgentSpec
 from marl_social.sim.road_map import RoadMap
+
+MAX_SLOTS = 64  # largest observation slot count K
+MAX_RAYS = 1024  # largest depth ray count per observation
+MAX_COLLISION_PENALTY = 1e9  # largest collision penalty (finite: inf * False is NaN)
+FLOAT_MAX = float(np.finfo(np.float64).max)  # a Python float: compares exactly with any int
 
 
 @dataclass(frozen=True)
@@ -43,47 +49,130 @@ class ScenarioParams:
     robot_planner: str = "social"
 
     def __post_init__(self):
+        self._check_types()
         self._check(self.robot_planner in ROBOT_PLANNERS, "robot_planner",
                     f"must be one of {ROBOT_PLANNERS}")
-        self._check(self.n_slots >= 1, "n_slots", "must be >= 1")
-        self._check(self.n_rays >= 1, "n_rays", "must be >= 1")
-        self._check(self.collision_penalty >= 0, "collision_penalty", "must be >= 0")
+        self._check_range("n_slots", 1, MAX_SLOTS)
+        self._check_range("n_rays", 1, MAX_RAYS)
+        self._check_range("collision_penalty", 0.0, MAX_COLLISION_PENALTY)
 
     def _check(self, ok: bool, field_name: str, message: str) -> None:
         if not ok:
-            raise ValueError(f"{type(self).__name__}.{field_name}={getattr(self, field_name)!r}: "
-                             f"{message}")
+            raise ValueError(f"{type(self).__name__}.{field_name}="
+                             f"{short_repr(getattr(self, field_name))}: {message}")
+
+    def _check_range(self, field_name: str, low: float, high: float, unit: str = "",
+                     low_open: bool = False, allow_inf: bool = False) -> None:
+        """Check low <= value <= high (low < value if low_open), finite unless allow_inf."""
+        value = getattr(self, field_name)
+        suffix = f" {unit}" if unit else ""
+        if not allow_inf:
+            self._check(math.isfinite(value), field_name, "must be finite")
+        ok = (value > low if low_open else value >= low) and (value <= high or (
+            allow_inf and value == math.inf))
+        bracket = "(" if low_open else "["
+        upper = f"{high:g}" + (" or inf" if allow_inf else "")
+        self._check(ok, field_name, f"must be in {bracket}{low:g}, {upper}]{suffix}")
+
+    def _check_types(self) -> None:
+        """Every bool, int and float field holds a value of its type (float fields: no NaN)."""
+        for f in dataclasses.fields(self):
+            value = getattr(self, f.name)
+            default = f.default
+            if isinstance(default, bool):
+                ok = isinstance(value, (bool, np.bool_))
+                kind = "a bool"
+            elif isinstance(default, int):
+                ok = isinstance(value, (int, np.integer)) and not isinstance(value, (bool,
+                                                                                     np.bool_))
+                kind = "an integer"
+            elif isinstance(default, float):
+                ok = isinstance(value, (int, float, np.integer, np.floating)) and not isinstance(
+                    value, (bool, np.bool_))
+                kind = "a real number"
+                if ok and isinstance(value, (int, np.integer)):
+                    self._check(abs(int(value)) <= FLOAT_MAX, f.name, "is beyond float range")
+                if ok:
+                    self._check(not math.isnan(value), f.name, "NaN is not a valid value")
+            else:
+                continue
+            if not ok:
+                raise TypeError(f"{type(self).__name__}.{f.name}={short_repr(value)}: expected "
+                                f"{kind}, got {type(value).__name__}")
+
+
+def short_repr(value, limit: int = 60) -> str:
+    """repr(value) cut to `limit` characters (the repr of 10**400 is 401 characters)."""
+    text = repr(value)
+    return text if len(text) <= limit else text[:limit] + "..."
+
+
+def as_integer(value, name: str) -> int:
+    """An integral value (int, integral float or numeric string) as int, else an error.
+
+    A bool is a TypeError; anything else not integral a ValueError; both name the field.
+
+    Args:
+        value: the value to convert.
+        name: the field's name for the message (e.g. "OccludedCrosswalkParams.n_humans").
+    """
+    if isinstance(value, (bool, np.bool_)):
+        raise TypeError(f"{name}: expected an integer, got {value!r}")
+    if isinstance(value, (int, np.integer)):
+        return int(value)
+    try:
+        number = float(value)
+    except (TypeError, ValueError, OverflowError):
+        raise ValueError(f"{name}: expected an integer, got {short_repr(value)}") from None
+    if not number.is_integer():
+        raise ValueError(f"{name}: expected an integer, got {short_repr(value)}")
+    return int(number)
+
+
+def as_real(value, name: str) -> float:
+    """A real number (or numeric string) as float: NaN and beyond float range are ValueErrors.
+
+    Args:
+        value: the value to convert.
+        name: the field's name for the message.
+    """
+    if isinstance(value, (bool, np.bool_)):
+        raise TypeError(f"{name}: expected a number, got {value!r}")
+    try:
+        number = float(value)
+    except OverflowError:
+        raise ValueError(f"{name}: {short_repr(value)} is beyond float range") from None
+    except (TypeError, ValueError):
+        raise ValueError(f"{name}: expected a number, got {short_repr(value)}") from None
+    if math.isnan(number):
+        raise ValueError(f"{name}: NaN is not a valid value")
+    return number
 
 
 def make_params(params_cls: type[ScenarioParams], overrides: dict) -> ScenarioParams:
-    """Build params from overrides, rejecting unknown keys and values of the wrong type."""
+    """Build params from overrides, rejecting unknown keys and values of the wrong type.
+
+    Args:
+        params_cls: the scenario's parameter dataclass.
+        overrides: {field name: value}; numbers may be numeric strings ("10", "2.5").
+    """
     fields = {f.name: f for f in dataclasses.fields(params_cls)}
-    unknown = sorted(set(overrides) - set(fields))
+    unknown = sorted(set(overrides) - set(fields), key=str)
     if unknown:
         raise ValueError(f"unknown scenario parameter(s) {unknown} for {params_cls.__name__}; "
                          f"valid: {sorted(fields)}")
     clean = {}
     for key, value in overrides.items():
         default = getattr(params_cls, key, None)
+        name = f"{params_cls.__name__}.{key}"
         if isinstance(default, bool):
             if not isinstance(value, (bool, np.bool_)):
-                raise TypeError(f"{params_cls.__name__}.{key}: expected a bool, got {value!r}")
+                raise TypeError(f"{name}: expected a bool, got {short_repr(value)}")
             value = bool(value)
         elif isinstance(default, int):
-            if isinstance(value, bool) or not float(value).is_integer():
-                raise ValueError(f"{params_cls.__name__}.{key}: expected an integer, got {value!r}")
-            value = int(value)
+            value = as_integer(value, name)
         elif isinstance(default, float):
-            if isinstance(value, bool):
-                raise TypeError(f"{params_cls.__name__}.{key}: expected a number, got {value!r}")
-            try:
-                value = float(value)
-            except (TypeError, ValueError):
-                raise ValueError(
-                    f"{params_cls.__name__}.{key}: expected a number, got {value!r}"
-                ) from None
-            if np.isnan(value):
-                raise ValueError(f"{params_cls.__name__}.{key}: NaN is not a valid value")
+            value = as_real(value, name)
         clean[key] = value
     return params_cls(**clean)
 

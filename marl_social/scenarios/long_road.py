@@ -29,6 +29,9 @@ SPEED_LIMIT_MARGIN_MPS = 2.0  # speed limit = speed_mps + this [m/s]
 EXTENT_MARGIN_M = 5.0  # drawn area beyond the outer lane edges [m]
 MIN_SPACING_M = 6.0  # closer cars in a lane would overlap [m]
 MAX_SPEED_MPS = 20.0  # largest allowed speed_mps [m/s]
+MAX_VEHICLES = 1000  # most cars on the road
+MAX_SPACING_M = 1000.0  # largest gap between cars in a lane [m]
+MAX_SENSOR_RANGE_M = 1000.0  # longest sensor range [m]
 
 
 @dataclass(frozen=True)
@@ -53,14 +56,14 @@ class LongRoadParams(ScenarioParams):
 
     def __post_init__(self):
         super().__post_init__()
-        self._check(self.n_vehicles >= 1, "n_vehicles", "must be >= 1")
+        self._check_range("n_vehicles", 1, MAX_VEHICLES)
         self._check(1 <= self.n_lanes <= 8, "n_lanes", "must be in [1, 8]")
         self._check(self.spacing_m >= MIN_SPACING_M, "spacing_m",
                     f"must be >= {MIN_SPACING_M:g} m (cars would overlap)")
-        self._check(0.0 <= self.speed_mps <= MAX_SPEED_MPS, "speed_mps",
-                    f"must be in [0, {MAX_SPEED_MPS:g}] m/s")
-        self._check(self.sensor_range_m > 0, "sensor_range_m", "must be > 0 m")
-        self._check(0 < self.half_fov_deg <= 180, "half_fov_deg", "must be in (0, 180] deg")
+        self._check_range("spacing_m", MIN_SPACING_M, MAX_SPACING_M, "m")
+        self._check_range("speed_mps", 0.0, MAX_SPEED_MPS, "m/s")
+        self._check_range("sensor_range_m", 0.0, MAX_SENSOR_RANGE_M, "m", low_open=True)
+        self._check_range("half_fov_deg", 0.0, 180.0, "deg", low_open=True)
 
 
 class LongRoad(Scenario):

@@ -53,6 +53,12 @@ THETA_PEDESTRIAN = CostWeights(tracking=1.0, speed=1.0, accel=0.01, jerk=0.0, sa
 MAX_HUMANS = 4
 HUMAN_SPACING_M = 20.0  # gap between successive human cars' start positions [m]
 MAX_VEHICLE_SPEED_MPS = 20.0  # largest allowed initial / desired car speed [m/s]
+MAX_ROAD_END_X_M = 2000.0  # longest road (about 230 houses) [m]
+MAX_CROSSWALK_WIDTH_M = 20.0  # widest crosswalk (along the road) [m]
+MAX_START_DELAY_S = 3600.0  # latest time a crossing pedestrian steps off the curb [s]
+MAX_SENSOR_RANGE_M = 1000.0  # longest sensor range [m]
+MAX_POS_NOISE_M = 10.0  # largest measurement noise std [m]
+MAX_SPEED_LIMIT_MPS = 50.0  # highest legal speed limit [m/s]
 
 
 @dataclass(frozen=True)
@@ -126,8 +132,14 @@ class OccludedCrosswalkParams(ScenarioParams):
         if isinstance(self.robot_theta_hat, (str, Path)):  # a `marl-social irl fit` result
             from marl_social.agents.irl.laplace import load_fit, robot_model_from_fit
 
-            theta_hat, _ = robot_model_from_fit(load_fit(self.robot_theta_hat))
-            object.__setattr__(self, "robot_theta_hat", tuple(theta_hat.as_array().tolist()))
+            theta_hat = ()  # an empty path means the default weights, like ()
+            if str(self.robot_theta_hat).strip():
+                try:
+                    model, _ = robot_model_from_fit(load_fit(self.robot_theta_hat))
+                except (OSError, ValueError) as err:
+                    raise ValueError(f"OccludedCrosswalkParams.robot_theta_hat: {err}") from None
+                theta_hat = tuple(model.as_array().tolist())
+            object.__setattr__(self, "robot_theta_hat", theta_hat)
         for name in ("human_theta", "robot_theta_hat"):
             value = getattr(self, name)
             if value in ((), None):
@@ -145,28 +157,27 @@ class OccludedCrosswalkParams(ScenarioParams):
             self._check(getattr(self, name) >= 0.0, name, "must be >= 0 (inf allowed)")
         self._check(self.pedestrian in PEDESTRIAN_VARIANTS, "pedestrian",
                     f"must be one of {PEDESTRIAN_VARIANTS}")
-        self._check(self.crosswalk_x_m > 10.0, "crosswalk_x_m", "must be > 10 m")
+        self._check_range("crosswalk_x_m", 10.0, MAX_ROAD_END_X_M - 20.0, "m", low_open=True)
+        self._check_range("crosswalk_width_m", 0.0, MAX_CROSSWALK_WIDTH_M, "m", low_open=True)
+        self._check_range("road_end_x_m", 30.0, MAX_ROAD_END_X_M, "m", low_open=True)
         self._check(self.road_end_x_m > self.crosswalk_x_m + 20.0, "road_end_x_m",
                     "must be at least 20 m past the crosswalk")
         for name in ("robot_speed_mps", "human_speed_mps", "robot_desired_speed_mps",
                      "human_desired_speed_mps"):
-            self._check(0.0 <= getattr(self, name) <= MAX_VEHICLE_SPEED_MPS, name,
-                        f"must be in [0, {MAX_VEHICLE_SPEED_MPS:g}] m/s")
-        self._check(0.1 <= self.pedestrian_speed_mps <= 2.0, "pedestrian_speed_mps",
-                    "must be in [0.1, 2] m/s")
-        self._check(self.pedestrian_start_delay_s >= 0.0, "pedestrian_start_delay_s",
-                    "must be >= 0 s")
+            self._check_range(name, 0.0, MAX_VEHICLE_SPEED_MPS, "m/s")
+        self._check_range("pedestrian_speed_mps", 0.1, 2.0, "m/s")
+        self._check_range("pedestrian_start_delay_s", 0.0, MAX_START_DELAY_S, "s")
         self._check(self.human_lead_m >= 5.0, "human_lead_m",
                     "must be >= 5 m (the cars would overlap)")
-        self._check(0.0 <= self.pedestrian_curb_offset_m <= SIDEWALK_WIDTH_M - 0.3,
-                    "pedestrian_curb_offset_m", f"must be in [0, {SIDEWALK_WIDTH_M - 0.3}] m")
+        self._check_range("human_lead_m", 5.0, MAX_ROAD_END_X_M, "m")
+        self._check_range("pedestrian_curb_offset_m", 0.0, SIDEWALK_WIDTH_M - 0.3, "m")
         for name in ("robot_sensor_range_m", "human_sensor_range_m", "pedestrian_sensor_range_m"):
-            self._check(getattr(self, name) > 0.0, name, "must be > 0 m")
+            self._check_range(name, 0.0, MAX_SENSOR_RANGE_M, "m", low_open=True)
         for name in ("robot_half_fov_deg", "human_half_fov_deg", "pedestrian_half_fov_deg"):
-            self._check(0.0 < getattr(self, name) <= 180.0, name, "must be in (0, 180] deg")
+            self._check_range(name, 0.0, 180.0, "deg", low_open=True)
         for name in ("robot_pos_noise_m", "human_pos_noise_m"):
-            self._check(getattr(self, name) >= 0.0, name, "must be >= 0 m")
-        self._check(self.speed_limit_mps > 0.0, "speed_limit_mps", "must be > 0")
+            self._check_range(name, 0.0, MAX_POS_NOISE_M, "m")
+        self._check_range("speed_limit_mps", 0.0, MAX_SPEED_LIMIT_MPS, "m/s", low_open=True)
 
 
 def _houses(x_start: float, x_end: float, y_near: float, side: int) -> list[np.ndarray]:
