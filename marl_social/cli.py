@@ -103,6 +103,7 @@ def _reproduce(args) -> int:
 def _record(args) -> int:
     from marl_social.data.demonstrations import save_demonstrations
 
+    _check_output_file(args.out, "-o/--out")
     if args.decisions:
         return _record_decisions(args)
     if args.synthetic:
@@ -157,6 +158,8 @@ def _load_fit_data(paths):
     for path in paths:
         if not Path(path).exists():
             raise FileNotFoundError(f"irl fit: {path} does not exist")
+        if Path(path).is_dir():
+            raise ValueError(f"irl fit: {path} is a directory, not a data file")
     kinds = [is_decision_file(p) for p in paths]
     if all(kinds):
         return DecisionSet.concatenate([load_decisions(p) for p in paths])
@@ -174,9 +177,16 @@ def _load_fit_data(paths):
     return demos
 
 
+def _check_output_file(path, option: str) -> None:
+    """Fail before any work if the output file `path` (given as `option`) is a directory."""
+    if Path(path).is_dir():
+        raise ValueError(f"{option} {path}: is a directory; give a file name")
+
+
 def _irl_fit(args) -> int:
     from marl_social.agents.irl.laplace import FITTABLE, cosine_similarity, fit_theta
 
+    _check_output_file(args.out, "-o/--out")
     data = _load_fit_data(args.demos)
     fitted = tuple(args.features or FITTABLE)
     if isinstance(data, list):
@@ -293,7 +303,7 @@ def main(argv=None) -> int:
     args = parser.parse_args(argv)
     try:
         return args.func(args)
-    except (ValueError, FileNotFoundError) as err:
+    except (ValueError, OSError) as err:  # bad input or file: one line, no traceback
         print(f"marl-social {args.command}: error: {err}", file=sys.stderr)
         return 2
 

@@ -34,8 +34,11 @@ from pathlib import Path
 
 import numpy as np
 
+from marl_social.data.archive import is_archive_of, read_npz, short_reason
 from marl_social.sim.costs import N_FEATURES
 
+ARCHIVE_FIELDS = ("features", "allowed", "chosen", "first_actions_mps2", "theta_true",
+                  "beta_true", "agent", "source", "t_s")
 FORMAT = "marl-social-decisions/1"
 
 
@@ -123,31 +126,17 @@ def save_decisions(path, decisions: DecisionSet) -> Path:
 
 
 def is_decision_file(path) -> bool:
-    """True for an .npz written by save_decisions (False for other files)."""
-    try:
-        with np.load(path, allow_pickle=False) as data:
-            return "format" in data and str(data["format"]) == FORMAT
-    except (OSError, ValueError):
-        return False
+    """True for an .npz written by save_decisions (False for other files, damaged or empty)."""
+    return is_archive_of(path, FORMAT)
 
 
 def load_decisions(path) -> DecisionSet:
     """Read an archive written by save_decisions (clear errors naming the file otherwise)."""
     path = Path(path)
-    if not path.exists():
-        raise FileNotFoundError(f"decision file {path} does not exist")
+    data = read_npz(path, "decision", FORMAT, ARCHIVE_FIELDS)
     try:
-        with np.load(path, allow_pickle=False) as data:
-            if "format" not in data or str(data["format"]) != FORMAT:
-                raise ValueError(f"{path}: not a decision file (format {FORMAT})")
-            fields = {k: data[k] for k in ("features", "allowed", "chosen",
-                                           "first_actions_mps2", "theta_true", "beta_true",
-                                           "agent", "source", "t_s")}
-    except KeyError as err:
-        raise ValueError(f"{path}: missing field {err}") from None
-    except (OSError, EOFError) as err:
-        raise ValueError(f"{path}: not a readable .npz archive ({err})") from None
-    try:
-        return DecisionSet(**fields)
+        return DecisionSet(**{k: data[k] for k in ARCHIVE_FIELDS})
     except ValueError as err:
         raise ValueError(f"{path}: {err}") from None
+    except (TypeError, IndexError, OverflowError) as err:
+        raise ValueError(f"{path}: inconsistent decision archive ({short_reason(err)})") from None

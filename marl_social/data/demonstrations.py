@@ -51,10 +51,17 @@ from pathlib import Path
 
 import numpy as np
 
+from marl_social.data.archive import read_npz, short_reason
 from marl_social.sim.costs import N_FEATURES
 from marl_social.sim.road_map import Crosswalk, Route
 
 FORMAT = "marl-social-demonstrations/1"
+ARCHIVE_FIELDS = ("dt_s", "controls_mps2", "s0_m", "v0_mps", "prev_accel_mps2", "v_ref_mps",
+                  "length_m", "width_m", "beta_true", "t0_s", "path_xy", "path_offsets",
+                  "others_xy", "others_heading", "others_length_m", "others_width_m",
+                  "others_is_pedestrian", "others_mask", "crosswalk_center",
+                  "crosswalk_heading_rad", "crosswalk_length_m", "crosswalk_width_m",
+                  "theta_true", "agent", "source")
 
 
 @dataclass(frozen=True)
@@ -200,20 +207,23 @@ def save_demonstrations(path, demos: list[Demonstration]) -> Path:
 def load_demonstrations(path) -> list[Demonstration]:
     """Read a file written by `save_demonstrations` (clear errors for other files)."""
     path = Path(path)
-    if not path.exists():
-        raise FileNotFoundError(f"demonstrations file {path} does not exist")
+    d = read_npz(path, "demonstrations", FORMAT, ARCHIVE_FIELDS)
     try:
-        data = np.load(path, allow_pickle=False)
-    except (OSError, ValueError) as err:
-        raise ValueError(f"{path}: not a demonstrations .npz file ({err})") from None
-    with data:
-        if "format" not in data or str(data["format"]) != FORMAT:
-            raise ValueError(f"{path}: not a {FORMAT} file")
-        d = {key: data[key] for key in data.files}
+        return _demonstrations(d)
+    except (ValueError, TypeError, IndexError, KeyError, OverflowError) as err:
+        raise ValueError(f"{path}: inconsistent demonstrations archive "
+                         f"({short_reason(err)})") from None
+
+
+def _demonstrations(d: dict[str, np.ndarray]) -> list[Demonstration]:
+    """The Demonstrations of an archive's arrays (errors on inconsistent ones)."""
     cws = tuple(Crosswalk(c, float(h), float(ln), float(w)) for c, h, ln, w in zip(
         d["crosswalk_center"], d["crosswalk_heading_rad"], d["crosswalk_length_m"],
         d["crosswalk_width_m"]))
     off = d["path_offsets"]
+    if len(off) != len(d["controls_mps2"]) + 1 or np.any(np.diff(off) < 0) or (
+            len(off) and (off[0] < 0 or off[-1] > len(d["path_xy"]))):
+        raise ValueError("field 'path_offsets' does not match 'path_xy' and 'controls_mps2'")
     demos = []
     for i in range(len(d["controls_mps2"])):
         mask = d["others_mask"][i]

@@ -25,7 +25,6 @@ Outputs:
 from __future__ import annotations
 
 import itertools
-import json
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -38,6 +37,7 @@ from marl_social.studies.results import (
     RESULTS_FILE,
     SUMMARY_CSV,
     SUMMARY_MD,
+    read_meta,
     read_results,
 )
 from marl_social.studies.spec import SPEC_PACKAGE_DIR, format_value
@@ -455,18 +455,28 @@ class AnalysisOutputs:
 def load_table(out_dir: str | Path) -> StudyTable:
     """A study's results.csv (and study.json) as a StudyTable."""
     out_dir = Path(out_dir)
-    meta_path = out_dir / META_FILE
-    if not meta_path.exists():
-        raise FileNotFoundError(f"{meta_path} not found: no study in {out_dir} (run it first)")
-    meta = json.loads(meta_path.read_text(encoding="utf-8"))
-    _, rows = read_results(out_dir / RESULTS_FILE)
-    return StudyTable.from_rows(rows, meta)
+    meta = read_meta(out_dir / META_FILE)
+    results = out_dir / RESULTS_FILE
+    if not results.is_file():
+        raise FileNotFoundError(f"{results} not found: the study has no results (run it first)")
+    header, rows = read_results(results)
+    missing = [c for c in ("planner", "pedestrian", "error", *meta["params"], *meta["metrics"])
+               if c not in header]
+    if missing:
+        raise ValueError(f"{results}: missing column(s) {missing} named by {META_FILE}")
+    try:
+        return StudyTable.from_rows(rows, meta)
+    except ValueError as err:  # a metric cell that is not a number
+        raise ValueError(f"{results}: {err}") from None
 
 
 def analyze(out_dir: str | Path, plots: bool = True) -> AnalysisOutputs:
     """Write summary.md, summary.csv and (if plots) the figures of the study in out_dir."""
     out_dir = Path(out_dir)
     table = load_table(out_dir)
+    if len(table) == 0:
+        raise ValueError(f"{out_dir / RESULTS_FILE}: no result rows (only a header): nothing "
+                         "to analyze; run the study first")
     gs = group_stats(table, ["planner", "pedestrian", *table.swept])
     figures: list[Path] = []
     if plots and len(table):

@@ -38,6 +38,7 @@ from marl_social.studies.spec import Run, StudySpec, axes, format_value
 DEFAULT_OUT_ROOT = Path("marl_social_out") / "studies"
 RESULTS_FILE = "results.csv"
 META_FILE = "study.json"
+META_REQUIRED = ("name", "scenario", "source", "max_cycles", "randomize", "params", "metrics", "columns")
 PLOTS_DIR = "plots"
 SUMMARY_MD = "summary.md"
 SUMMARY_CSV = "summary.csv"
@@ -73,8 +74,16 @@ def read_results(path: str | os.PathLike, repair: bool = False) -> tuple[list[st
             f.truncate(cut)
             f.flush()
             os.fsync(f.fileno())
-    reader = csv.reader(io.StringIO(data[:cut].decode("utf-8"), newline=""))
+    try:
+        text = data[:cut].decode("utf-8")
+    except UnicodeDecodeError:
+        raise ValueError(f"{path}: not a UTF-8 text (CSV) file") from None
+    reader = csv.reader(io.StringIO(text, newline=""))
     header = next(reader, [])
+    if not header:
+        raise ValueError(f"{path}: empty file, no header line (columns key, ...)")
+    if "key" not in header:
+        raise ValueError(f"{path}: missing column 'key' (header: {header[:12]})")
     rows, keys = [], set()
     for line, fields in enumerate(reader, start=2):
         if len(fields) != len(header):
@@ -155,12 +164,39 @@ def study_metadata(spec: StudySpec) -> dict:
     }
 
 
+def read_meta(path: Path) -> dict:
+    """study.json as a dict; a one-line ValueError naming the file and field otherwise."""
+    try:
+        meta = json.loads(path.read_text(encoding="utf-8"))
+    except FileNotFoundError:
+        raise FileNotFoundError(f"{path} not found: no study in {path.parent} "
+                                "(run it first)") from None
+    except UnicodeDecodeError:
+        raise ValueError(f"{path}: not a UTF-8 text (JSON) file") from None
+    except (json.JSONDecodeError, RecursionError) as err:
+        raise ValueError(f"{path}: not a JSON file ({str(err)[:80]})") from None
+    except OSError as err:
+        raise ValueError(f"{path}: cannot read ({err.strerror or err})") from None
+    if not isinstance(meta, dict):
+        raise ValueError(f"{path}: expected a JSON object (the resolved study spec), got a "  # noqa: TRY004
+                         f"JSON {type(meta).__name__}")
+    missing = [k for k in META_REQUIRED if k not in meta]
+    if missing:
+        raise ValueError(f"{path}: missing field(s) {missing}")
+    for key in ("params", "metrics", "columns"):
+        value = meta.get(key)
+        if not isinstance(value, list) or not all(isinstance(v, str) for v in value):
+            raise ValueError(f"{path}: field {key!r} must be a list of names, got "
+                             f"{str(value)[:80]}")
+    return meta
+
+
 def _check_meta(out_dir: Path, meta: dict) -> None:
     """Refuse to resume into a folder holding a different study."""
     path = out_dir / META_FILE
     if not path.exists():
         return
-    old = json.loads(path.read_text(encoding="utf-8"))
+    old = read_meta(path)
     for key in ("scenario", "max_cycles", "randomize", "columns"):
         if old.get(key) != meta[key]:
             raise ValueError(f"{path}: this folder holds a study with {key}={old.get(key)!r}, "

@@ -63,6 +63,11 @@ DEFAULT_METRICS = (
 DEFAULT_MAX_CYCLES = 150
 DEFAULT_SEEDS = 10
 SPEC_PACKAGE_DIR = "specs"  # inside marl_social.studies
+MAX_SEEDS = 100_000  # most seeds in a study
+MAX_SEED = 2**63 - 1  # largest seed value
+MAX_AXIS_VALUES = 10_000  # most values a [random] parameter draws (its n)
+MAX_INT_RANGE = 2**62  # widest [low, high] range of an integer [random] parameter
+MAX_RUNS = 1_000_000  # most runs (episodes) in a study
 # spec keys that are not scenario parameters, and scenario fields a spec may not sweep directly
 _SPEC_KEYS = ("name", "description", "scenario", "seeds", "planners", "pedestrians",
               "max_cycles", "randomize", "sample_seed", "metrics", "fixed", "grid", "random")
@@ -161,15 +166,19 @@ def _str_list(data: dict, key: str, source: str) -> tuple[str, ...] | None:
 
 def _parse_seeds(value, source: str) -> tuple[int, ...]:
     if _is_int(value):
-        if value < 1:
-            raise _spec_error(source, "seeds", f"the number of seeds must be >= 1, got {value}")
+        if not 1 <= value <= MAX_SEEDS:
+            raise _spec_error(source, "seeds", f"the number of seeds must be >= 1 and <= "
+                              f"{MAX_SEEDS}, got {value}")
         return tuple(range(value))
-    if (isinstance(value, list) and value and all(_is_int(s) and s >= 0 for s in value)):
+    if isinstance(value, list) and len(value) > MAX_SEEDS:
+        raise _spec_error(source, "seeds", f"at most {MAX_SEEDS} seeds, got {len(value)}")
+    if (isinstance(value, list) and value
+            and all(_is_int(s) and 0 <= s <= MAX_SEED for s in value)):
         if len(set(value)) != len(value):
             raise _spec_error(source, "seeds", f"duplicate seeds in {value}")
         return tuple(value)
     raise _spec_error(source, "seeds", "expected a number of seeds N (range(N)) or a non-empty "
-                      f"list of distinct integers >= 0, got {value!r}")
+                      f"list of distinct integers in [0, {MAX_SEED}], got {str(value)[:80]}")
 
 
 def _parse_table(data: dict, key: str, source: str) -> dict:
@@ -179,12 +188,23 @@ def _parse_table(data: dict, key: str, source: str) -> dict:
     return dict(value)
 
 
+def _check_values(values, source: str, where: str) -> None:
+    """Every value a bool, number, string or list of them (not a TOML date or time)."""
+    for value in values:
+        items = value if isinstance(value, list) else [value]
+        bad = [v for v in items if not isinstance(v, (bool, int, float, str))]
+        if bad:
+            raise _spec_error(source, where, f"values must be numbers, true/false, strings or "
+                              f"lists of them, got {bad[0]!r} ({type(bad[0]).__name__})")
+
+
 def _parse_grid(data: dict, source: str) -> dict:
     grid = _parse_table(data, "grid", source)
     for name, values in grid.items():
         if not isinstance(values, list) or not values:
             raise _spec_error(source, f"[grid] {name}", f"expected a non-empty list of values, "
                               f"got {values!r}")
+        _check_values(values, source, f"[grid] {name}")
         grid[name] = tuple(values)
     return grid
 
@@ -197,8 +217,9 @@ def _parse_random(data: dict, source: str) -> dict:
             raise _spec_error(source, where, "expected {low, high, n} or {choices, n}, "
                               f"got {rule!r}")
         n = rule.get("n")
-        if not _is_int(n) or n < 1:
-            raise _spec_error(source, where, f"n must be an integer >= 1, got {n!r}")
+        if not _is_int(n) or not 1 <= n <= MAX_AXIS_VALUES:
+            raise _spec_error(source, where, f"n must be an integer in [1, {MAX_AXIS_VALUES}], "
+                              f"got {n!r}")
         if "choices" in rule:
             unknown = sorted(set(rule) - {"choices", "n"})
             choices = rule["choices"]
@@ -207,6 +228,7 @@ def _parse_random(data: dict, source: str) -> dict:
             if not isinstance(choices, list) or len(choices) < n:
                 raise _spec_error(source, where, f"choices must be a list of at least n={n} "
                                   f"values, got {choices!r}")
+            _check_values(choices, source, where)
             continue
         unknown = sorted(set(rule) - {"low", "high", "n", "log"})
         if unknown:
@@ -246,6 +268,8 @@ def parse_spec(data: dict, source: str = "<spec>", default_name: str = "") -> St
                 "a name of letters, digits and _ . + - (it names the output folder)")
     fixed, grid, rand = (_parse_table(data, "fixed", source), _parse_grid(data, source),
                          _parse_random(data, source))
+    for name, value in fixed.items():
+        _check_values([value], source, f"[fixed] {name}")
     section_of: dict[str, str] = {}
     for section, table in (("fixed", fixed), ("grid", grid), ("random", rand)):
         for param in table:
@@ -395,7 +419,11 @@ def _draw(spec: StudySpec, name: str, field_default) -> tuple:
         if hi_i - lo_i + 1 < n:
             raise _spec_error(spec.source, f"[random] {name}", f"an integer parameter: "
                               f"[{low}, {high}] holds fewer than n={n} integers")
-        return tuple(int(v) for v in rng.choice(np.arange(lo_i, hi_i + 1), n, replace=False))
+        if hi_i - lo_i + 1 > MAX_INT_RANGE:
+            raise _spec_error(spec.source, f"[random] {name}", f"an integer parameter: "
+                              f"[{low}, {high}] spans more than {MAX_INT_RANGE:.3g} integers")
+        # the same draw as rng.choice(np.arange(lo_i, hi_i + 1), ...) without the array
+        return tuple(lo_i + int(v) for v in rng.choice(hi_i - lo_i + 1, n, replace=False))
     if rule.get("log", False):
         return tuple(float(v) for v in np.exp(rng.uniform(np.log(low), np.log(high), n)))
     return tuple(float(v) for v in rng.uniform(low, high, n))
@@ -486,6 +514,11 @@ def expand(spec: StudySpec) -> list[Run]:
     swept = axes(spec)
     pedestrians = (None,) if "pedestrian" not in fields else (spec.pedestrians
                                                               or DEFAULT_PEDESTRIANS)
+    n_runs = len(spec.planners) * len(pedestrians) * len(spec.seeds) * math.prod(
+        len(v) for _, v in swept)
+    if n_runs > MAX_RUNS:
+        raise ValueError(f"{spec.source}: {n_runs} runs (planners x pedestrians x "
+                         f"{_sweep_keys(spec)} x seeds): at most {MAX_RUNS}")
     randomized = {s: randomized_overrides(s) if spec.randomize else {} for s in spec.seeds}
     runs, seen = [], set()
     for planner, pedestrian in itertools.product(spec.planners, pedestrians):

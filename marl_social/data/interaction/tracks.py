@@ -23,6 +23,11 @@ VEHICLE_COLUMNS = CSV_COLUMNS[8:]  # required (non-empty) for rows that are not 
 PEDESTRIAN_TYPES = frozenset({"pedestrian/bicycle", "pedestrian", "bicycle"})
 PEDESTRIAN_DIAMETER_M = 0.6  # footprint of pedestrians and cyclists (length = width) [m]
 _MIN_HEADING_SPEED_MPS = 0.2  # below this a pedestrian keeps its last direction of motion [m/s]
+# largest magnitude per numeric column: beyond these a value is a corrupt row (and 1e300 m
+# coordinates would overflow the path resampling)
+COLUMN_LIMITS = {"frame_id": 1e15, "timestamp_ms": 1e15, "x": 1e8, "y": 1e8, "vx": 1e3,
+                 "vy": 1e3, "psi_rad": 1e3, "length": 1e3, "width": 1e3}
+MAX_SPEED_MPS = 1000.0  # consecutive samples of a track farther apart than this are corrupt
 _RECORDING_NAME = re.compile(r"^(?:vehicle|pedestrian)_tracks_(\d+)\.csv$")
 
 
@@ -102,7 +107,13 @@ def _parse_numeric(values: np.ndarray, lines: np.ndarray, column: str, path: Pat
         i = int(np.argmax(bad))
         kind = "an integer" if integral else "a finite number"
         raise ValueError(f"{path.name} line {lines[i]} (track {track_ids[i]}): column "
-                         f"{column!r} must be {kind}, got {str(values[i])!r}")
+                         f"{column!r} must be {kind}, got {str(values[i])[:40]!r}")
+    limit = COLUMN_LIMITS.get(column, np.inf)
+    huge = np.abs(out) > limit
+    if np.any(huge):
+        i = int(np.argmax(huge))
+        raise ValueError(f"{path.name} line {lines[i]} (track {track_ids[i]}): column "
+                         f"{column!r} must be within +-{limit:g}, got {str(values[i])[:40]!r}")
     return out
 
 
@@ -110,6 +121,16 @@ def _read_file(path: Path) -> dict[str, Track]:
     """One CSV file -> tracks (see read_interaction_csv)."""
     if not path.is_file():
         raise FileNotFoundError(f"INTERACTION track file {path} does not exist")
+    try:
+        return _parse_file(path)
+    except UnicodeDecodeError:
+        raise ValueError(f"{path.name}: not a UTF-8 text (CSV) file") from None
+    except csv.Error as err:
+        raise ValueError(f"{path.name}: not a readable CSV file ({err})") from None
+
+
+def _parse_file(path: Path) -> dict[str, Track]:
+    """One existing CSV file -> tracks (see read_interaction_csv)."""
     with open(path, newline="", encoding="utf-8-sig") as fh:
         reader = csv.reader(fh)
         header = next(reader, None)
@@ -175,6 +196,15 @@ def _read_file(path: Path) -> dict[str, Track]:
                          f"column 'timestamp_ms' not increasing with frame_id "
                          f"({stamp[order][j]} at frame {frame[order][j]}, then "
                          f"{stamp[order][j + 1]} at frame {frame[order][j + 1]})")
+
+    step_m = np.hypot(np.diff(num["x"][order]), np.diff(num["y"][order]))
+    fast = same & (step_m > MAX_SPEED_MPS * np.diff(stamp[order]) / 1000.0)
+    if np.any(fast):
+        j = int(np.argmax(fast))
+        raise ValueError(f"{path.name} line {lines[order][j + 1]} (track {ids[order][j]}): "
+                         f"columns 'x', 'y' jump {step_m[j]:.4g} m in "
+                         f"{stamp[order][j + 1] - stamp[order][j]} ms (faster than "
+                         f"{MAX_SPEED_MPS:g} m/s)")
 
     bounds = np.searchsorted(inv[order], np.arange(len(uniq) + 1))
     tracks = {}

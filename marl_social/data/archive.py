@@ -1,0 +1,72 @@
+"""Reading the project's .npz archives: every failure a one-line ValueError naming the file.
+
+An empty, truncated or corrupted archive (EOFError, zipfile.BadZipFile, zlib.error, ...), a
+directory, an archive of another kind or one missing a field all become
+`ValueError("<path>: ...")`; a missing file stays a FileNotFoundError.
+"""
+
+from __future__ import annotations
+
+import zipfile
+import zlib
+from pathlib import Path
+
+import numpy as np
+
+# what np.load raises on a damaged or foreign file
+READ_ERRORS = (OSError, ValueError, EOFError, KeyError, zipfile.BadZipFile, zlib.error,
+               UnicodeDecodeError, MemoryError, OverflowError)
+MAX_REASON_CHARS = 120  # some errors quote whole binary headers
+
+
+def short_reason(err: BaseException) -> str:
+    """The error's type and message, cut to MAX_REASON_CHARS characters."""
+    text = f"{type(err).__name__}: {err}"
+    return text if len(text) <= MAX_REASON_CHARS else text[:MAX_REASON_CHARS] + "..."
+
+
+def read_npz(path, kind: str, file_format: str, fields: tuple[str, ...]) -> dict[str, np.ndarray]:
+    """Every array of an .npz archive of `file_format`, after checking `fields` are there.
+
+    Args:
+        path: the archive.
+        kind: what it should be, for messages ("demonstrations", "decision").
+        file_format: the value its "format" array must hold.
+        fields: the arrays it must have (besides "format").
+
+    Returns:
+        {name: array} of every array in the archive (loaded, the file closed).
+    """
+    path = Path(path)
+    if not path.exists():
+        raise FileNotFoundError(f"{kind} file {path} does not exist")
+    if path.is_dir():
+        raise ValueError(f"{path}: is a directory, not a {kind} .npz file")
+    try:
+        data = np.load(path, allow_pickle=False)
+        if isinstance(data, np.lib.npyio.NpzFile):
+            with data:
+                arrays = {name: data[name] for name in data.files}
+    except READ_ERRORS as err:
+        raise ValueError(f"{path}: not a {kind} .npz file (unreadable: "
+                         f"{short_reason(err)})") from None
+    if not isinstance(data, np.lib.npyio.NpzFile):
+        raise ValueError(f"{path}: a single .npy array, not a {kind} .npz archive")  # noqa: TRY004
+    if "format" not in arrays or str(arrays["format"]) != file_format:
+        raise ValueError(f"{path}: not a {kind} file (format {file_format})")
+    missing = [f for f in fields if f not in arrays]
+    if missing:
+        raise ValueError(f"{path}: missing field(s) {missing}")
+    return arrays
+
+
+def is_archive_of(path, file_format: str) -> bool:
+    """True for a readable .npz archive whose "format" array holds `file_format`."""
+    try:
+        data = np.load(path, allow_pickle=False)
+        if not isinstance(data, np.lib.npyio.NpzFile):
+            return False
+        with data:
+            return "format" in data.files and str(data["format"]) == file_format
+    except READ_ERRORS:
+        return False
