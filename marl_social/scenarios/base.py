@@ -66,7 +66,7 @@ class ScenarioParams:
         """Check low <= value <= high (low < value if low_open), finite unless allow_inf."""
         value = getattr(self, field_name)
         suffix = f" {unit}" if unit else ""
-        if not allow_inf:
+        if not allow_inf and not isinstance(value, (int, np.integer)):  # big ints are finite
             self._check(math.isfinite(value), field_name, "must be finite")
         ok = (value > low if low_open else value >= low) and (value <= high or (
             allow_inf and value == math.inf))

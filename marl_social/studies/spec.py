@@ -332,6 +332,10 @@ def load_spec(name_or_path: str | os.PathLike, validate: bool = True) -> StudySp
         data = tomllib.loads(path.read_text(encoding="utf-8"))
     except tomllib.TOMLDecodeError as err:
         raise ValueError(f"{path}: malformed TOML: {err}") from None
+    except UnicodeDecodeError:
+        raise ValueError(f"{path}: not a UTF-8 text (TOML) file") from None
+    except IsADirectoryError:
+        raise ValueError(f"{path}: is a directory, not a TOML spec file") from None
     spec = parse_spec(data, source=str(path), default_name=path.stem)
     if validate:
         expand(spec)

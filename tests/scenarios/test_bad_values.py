@@ -135,3 +135,8 @@ def test_empty_theta_path_means_defaults(tmp_path):
     assert env.scenario.params.robot_theta_hat == ()
     good = _write(tmp_path / "theta.json", GOOD_FIT)
     assert len(marl_social.parallel_env(robot_theta_hat=good).scenario.params.robot_theta_hat) == 6
+
+
+def test_huge_python_int_for_an_integer_field():
+    with pytest.raises(ValueError, match="LongRoadParams.n_vehicles"):
+        marl_social.parallel_env("long_road", n_vehicles=10**400)
