@@ -117,7 +117,7 @@ class SocialDrivingEnv(ParallelEnv, EzPickle):
         if seed is not None or self._np_random is None:
             self._np_random, self._np_random_seed = seeding.np_random(seed)
         layout = self.scenario.build(self._np_random)
-        self.world = World(layout)
+        self.world = World(layout, reuse=self.world)  # static geometry built once
         if self._renderer is not None:
             self._renderer.close()
             self._renderer = None

@@ -1,7 +1,9 @@
 """The true world: struct-of-arrays state, dynamics, geometry mirrors, contacts and costs.
 
-The world never calls a planner. It is built from a ScenarioLayout at every reset (its fcl
-mirror cannot be pickled, so an env pickles its constructor arguments, not its world).
+The world never calls a planner. It is built from a ScenarioLayout at every reset, taking over
+the previous world's geometry mirror when the footprints and static polygons are the same (the
+fcl solids and pymunk shapes are built once per env, so memory stays flat over resets). The fcl
+mirror cannot be pickled, so an env pickles its constructor arguments, not its world.
 """
 
 from __future__ import annotations
@@ -56,7 +58,15 @@ class World:
         time_s: simulated time [s].
     """
 
-    def __init__(self, layout: ScenarioLayout):
+    def __init__(self, layout: ScenarioLayout, reuse: World | None = None):
+        """Build the world of a layout.
+
+        Args:
+            layout: the episode's map and agents.
+            reuse: the previous episode's world, whose geometry mirror is taken over when it
+                holds the same agent footprints and static polygons (the world is then
+                unusable); None builds a new mirror.
+        """
         self.layout = layout
         self.road_map = layout.road_map
         specs = layout.agents
@@ -98,8 +108,13 @@ class World:
         self.active = np.ones(self.n, dtype=bool)
         self.time_s = 0.0
         self._progress = None
-        self.mirror = GeometryMirror(self.is_pedestrian, self.length_m, self.width_m,
-                                     self.road_map.static_polygons)
+        geometry = (self.is_pedestrian, self.length_m, self.width_m,
+                    self.road_map.static_polygons)
+        if reuse is not None and reuse.mirror.matches(*geometry):  # same solids: no rebuild
+            self.mirror = reuse.mirror
+            self.mirror.restore()
+        else:
+            self.mirror = GeometryMirror(*geometry)
         blind = [(i, poly) for i, s in enumerate(specs) for poly in s.sensor.blind_regions]
         self.fov = FieldOfView(self.mirror, self.road_map.static_polygons, layout.params.n_rays,
                                blind)

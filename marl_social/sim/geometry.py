@@ -89,8 +89,40 @@ class GeometryMirror:
         self.static_manager.setup()
         self._registered = np.ones(self.n_agents, dtype=bool)
         polys = [np.asarray(p) for p in static_polygons]
+        self._signature = (np.asarray(kinds_is_pedestrian, dtype=bool).copy(),
+                           np.asarray(lengths_m, dtype=np.float64).copy(),
+                           np.asarray(widths_m, dtype=np.float64).copy(),
+                           [p.copy() for p in polys])
         self._static_min = np.array([p.min(axis=0) for p in polys]).reshape(-1, 2)
         self._static_max = np.array([p.max(axis=0) for p in polys]).reshape(-1, 2)
+
+    def matches(self, kinds_is_pedestrian, lengths_m, widths_m, static_polygons) -> bool:
+        """True if this mirror was built from exactly these agents and static polygons.
+
+        Then `restore()` makes it as good as a new one: the world reuses it across resets
+        instead of rebuilding the fcl solids and pymunk shapes (whose native memory is not all
+        given back).
+
+        Args:
+            kinds_is_pedestrian: (n,) bool.
+            lengths_m: (n,) footprint lengths [m].
+            widths_m: (n,) footprint widths [m].
+            static_polygons: convex polygons (V, 2) [m].
+        """
+        kinds, lengths, widths, polys = self._signature
+        statics = [np.asarray(p) for p in static_polygons]
+        return (np.array_equal(kinds, np.asarray(kinds_is_pedestrian, dtype=bool))
+                and np.array_equal(lengths, np.asarray(lengths_m, dtype=np.float64))
+                and np.array_equal(widths, np.asarray(widths_m, dtype=np.float64))
+                and len(polys) == len(statics)
+                and all(np.array_equal(a, b) for a, b in zip(polys, statics)))
+
+    def restore(self) -> None:
+        """Every agent back in the fcl broad phase (the next `sync` re-adds the pymunk bodies)."""
+        for i in np.flatnonzero(~self._registered).tolist():
+            self.manager.registerObject(self._fcl_objects[i])
+        self._registered[:] = True
+        self.manager.update()
 
     def _add_fcl(self, geom, label: int) -> None:
         self._geoms.append(geom)
