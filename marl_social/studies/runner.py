@@ -82,6 +82,7 @@ __all__ = [
 
 BACKENDS = ("local", "ray")
 _MAX_ERROR_CHARS = 500
+PARENT_POLL_S = 0.25  # how often a pool worker checks that the study process still runs [s]
 
 
 @dataclass
@@ -143,13 +144,35 @@ def _local_results(jobs: list[tuple], workers: int) -> Iterator[tuple]:
     import multiprocessing as mp
     from concurrent.futures import ProcessPoolExecutor, as_completed
 
-    pool = ProcessPoolExecutor(min(workers, len(jobs)), mp_context=mp.get_context("spawn"))
+    pool = ProcessPoolExecutor(min(workers, len(jobs)), mp_context=mp.get_context("spawn"),
+                               initializer=die_with_parent, initargs=(os.getpid(),))
     try:
         futures = [pool.submit(run_job, job) for job in jobs]
         for future in as_completed(futures):
             yield future.result()
     finally:  # an interrupted study cancels what has not started
         pool.shutdown(wait=True, cancel_futures=True)
+
+
+def die_with_parent(parent_pid: int, poll_s: float = PARENT_POLL_S) -> None:
+    """Pool worker initializer: exit as soon as the study process is gone.
+
+    A killed study (SIGKILL: no cleanup runs) would otherwise leave its workers blocked on the
+    job queue forever, and with them multiprocessing's resource tracker. A daemon thread polls
+    the parent pid every `poll_s` seconds and ends the worker when it changes.
+
+    Args:
+        parent_pid: pid of the process that started the pool.
+        poll_s: polling period [s].
+    """
+    import threading
+
+    def watch() -> None:
+        while os.getppid() == parent_pid:
+            time.sleep(poll_s)
+        os._exit(1)  # the parent is gone: nobody reads our results
+
+    threading.Thread(target=watch, name="die-with-parent", daemon=True).start()
 
 
 def _import_ray():
