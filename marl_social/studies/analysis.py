@@ -40,7 +40,8 @@ from marl_social.studies.results import (
     read_meta,
     read_results,
 )
-from marl_social.studies.spec import SPEC_PACKAGE_DIR, format_value
+from marl_social.studies.runs import format_value
+from marl_social.studies.spec import SPEC_PACKAGE_DIR
 
 CONFIDENCE = 0.95
 HEATMAP_METRICS = ("robot_collision", "time_to_pass_s")

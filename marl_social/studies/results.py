@@ -33,7 +33,8 @@ from collections.abc import Iterable, Iterator
 from contextlib import contextmanager
 from pathlib import Path
 
-from marl_social.studies.spec import Run, StudySpec, axes, format_value
+from marl_social.studies.runs import axes, format_value
+from marl_social.studies.spec import Run, StudySpec
 
 DEFAULT_OUT_ROOT = Path("marl_social_out") / "studies"
 RESULTS_FILE = "results.csv"

@@ -1,9 +1,10 @@
 """Sensitivity studies: sweeps of scenario parameters, run on a process pool or on Ray.
 
 A study sweeps scenario parameters x robot planners x pedestrian variants x seeds, one simulated
-episode (`run.run_episode`) per run, on a local process pool or on Ray. This module runs studies (`run_study`: one job per run, `execute` on a backend) and holds the
-`marl-social study` CLI. The TOML spec format, its parsing and validation are in
-`marl_social/studies/spec.py`; the results table (results.csv, study.json, resume) is in
+episode (`run.run_episode`) per run, on a local process pool or on Ray. This module runs
+studies (`run_study`: one job per run, `execute` on a backend) and holds the `marl-social study`
+CLI. The TOML spec format and its parsing are in `marl_social/studies/spec.py`, loading,
+validation and expansion into runs in `marl_social/studies/runs.py`; the results table (results.csv, study.json, resume) is in
 `marl_social/studies/results.py`. Their public names are re-exported here.
 
 Backends: "local" runs in process with 1 worker, else on a spawn-context process pool;
@@ -48,6 +49,16 @@ from marl_social.studies.results import (
     result_columns,
     study_metadata,
 )
+from marl_social.studies.runs import (
+    available_metrics,
+    axes,
+    builtin_specs,
+    expand,
+    format_value,
+    load_spec,
+    run_key,
+    with_seeds,
+)
 from marl_social.studies.spec import (
     DEFAULT_MAX_CYCLES,
     DEFAULT_METRICS,
@@ -58,18 +69,10 @@ from marl_social.studies.spec import (
     Run,
     StudySpec,
     _is_int,
-    available_metrics,
-    axes,
-    builtin_specs,
-    expand,
-    format_value,
-    load_spec,
     parse_spec,
-    run_key,
-    with_seeds,
 )
 
-# the public names of this module, marl_social.studies.spec and marl_social.studies.results
+# the public names of this module, marl_social.studies.spec, .runs and .results
 __all__ = [
     "BACKENDS", "DEFAULT_MAX_CYCLES", "DEFAULT_METRICS", "DEFAULT_OUT_ROOT",
     "DEFAULT_PEDESTRIANS", "DEFAULT_PLANNERS", "DEFAULT_SEEDS", "HEAD_COLUMNS", "LOCK_FILE",

@@ -16,7 +16,7 @@ from marl_social.data.decisions import is_decision_file, load_decisions
 from marl_social.data.demonstrations import load_demonstrations, save_demonstrations
 from marl_social.data.interaction import read_interaction_csv
 from marl_social.studies.results import read_meta, read_results
-from marl_social.studies.spec import load_spec
+from marl_social.studies.runs import load_spec
 from tests.fuzzing import fuzz
 
 CSV_HEADER = b"track_id,frame_id,timestamp_ms,agent_type,x,y,vx,vy,psi_rad,length,width\n"

@@ -14,7 +14,7 @@ from marl_social.metrics import (
     metric_names,
     register_metric,
 )
-from marl_social.studies.spec import available_metrics
+from marl_social.studies.runs import available_metrics
 
 
 @pytest.fixture(scope="module")
