@@ -59,7 +59,8 @@ def _corners(xy: np.ndarray, heading: np.ndarray, length_m: np.ndarray,
 
 def objects_on_path(route: Route, scene: ScenePrediction, s0: float, robot_length_m: float,
                     robot_width_m: float, lateral_margin_m: float,
-                    pedestrian_margin_m: float | None = None) -> list[list[PathObject]]:
+                    pedestrian_margin_m: float | None = None,
+                    pedestrian_clearance_m: float | None = None) -> list[list[PathObject]]:
     """Per hypothesis, the predicted objects that occupy the robot's corridor.
 
     Args:
@@ -69,7 +70,10 @@ def objects_on_path(route: Route, scene: ScenePrediction, s0: float, robot_lengt
         robot_length_m: the robot's length [m].
         robot_width_m: the robot's width [m].
         lateral_margin_m: clearance added to each side of the robot's width [m].
-        pedestrian_margin_m: the same for pedestrians (default lateral_margin_m) [m].
+        pedestrian_margin_m: a pedestrian heading for the corridor (its distance to the route
+            shrinking) is in the way already within this clearance (None: lateral_margin_m) [m].
+        pedestrian_clearance_m: the clearance to any pedestrian, also one walking away
+            (None: lateral_margin_m) [m].
 
     Returns:
         L lists of PathObject.
@@ -82,10 +86,19 @@ def objects_on_path(route: Route, scene: ScenePrediction, s0: float, robot_lengt
     corners = _corners(scene.xy, scene.heading, length, width)  # (L, M, N, 4, 2)
     s, lateral, _ = route.project(corners)
     s_rear, s_front = s.min(axis=-1), s.max(axis=-1)  # (L, M, N)
-    ped_margin = lateral_margin_m if pedestrian_margin_m is None else pedestrian_margin_m
-    half = 0.5 * robot_width_m + np.where(scene.is_pedestrian, ped_margin,
+    clearance = lateral_margin_m if pedestrian_clearance_m is None else pedestrian_clearance_m
+    half = 0.5 * robot_width_m + np.where(scene.is_pedestrian, clearance,
                                           lateral_margin_m)[..., None]  # (L, M, 1)
     overlap = (lateral.min(axis=-1) <= half) & (lateral.max(axis=-1) >= -half)
+    if pedestrian_margin_m is not None:
+        # a pedestrian heading for the corridor is in the way from further out (it has the
+        # right of way on the carriageway); one standing or walking away is not
+        wide = 0.5 * robot_width_m + pedestrian_margin_m
+        centre = np.abs(lateral.mean(axis=-1))  # (L, M, N)
+        closing = np.diff(centre, axis=-1, prepend=centre[..., :1] + 1.0) < -1e-3
+        closing[..., 0] = closing[..., 1] if centre.shape[-1] > 1 else closing[..., 0]
+        near = (lateral.min(axis=-1) <= wide) & (lateral.max(axis=-1) >= -wide)
+        overlap |= near & closing & scene.is_pedestrian[..., None]
     # an object whose projection is clamped at the route's ends is not on the path
     inside = (s_front > 0.0) & (s_rear < route.length_m)
     occupied = overlap & inside & scene.mask[..., None]

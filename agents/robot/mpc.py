@@ -73,13 +73,18 @@ class MpcConfig:
         min_gap_m: longitudinal gap kept to an object on the path [m].
         pedestrian_gap_m: longitudinal gap kept to a pedestrian [m].
         lateral_margin_m: clearance on each side of the robot for the corridor [m].
-        pedestrian_margin_m: the same for pedestrians: they have the right of way anywhere on
-            the carriageway ahead (4.2 m: the robot's lane and the next one), not on the curb [m].
+        pedestrian_margin_m: a pedestrian walking towards the robot's path is in its way
+            within this clearance: it has the right of way on the carriageway (4.2 m: from the
+            next lane's far edge); one standing on the curb or walking away is not [m].
+        pedestrian_clearance_m: clearance on each side of the robot to any pedestrian, also
+            one walking away: the robot goes again once it has left the crosswalk [m].
         time_headway_s: time headway to an object ahead [s].
         headway_ramp_s: the headway grows from 0 to time_headway_s over this time [s].
         terminal_headway_s: headway on the last plan step (room to stop beyond it) [s].
         pass_margin_s: the robot is past an object this long before it arrives [s].
         curvature_window_m: a route vertex this close to a step's guessed position bounds it [m].
+        position_tolerance_m: a stay-behind bound may give way by up to this much, but no more
+            than braking at half the limit needs (tracking noise on a bound it waits at) [m].
     """
 
     plan_dt_s: float = 0.25
@@ -87,19 +92,21 @@ class MpcConfig:
     trunk_s: float = 0.5
     epsilon: float = 0.02
     w_speed: float = 1.0
-    w_accel: float = 4.0
-    w_jerk: float = 0.5
+    w_accel: float = 10.0
+    w_jerk: float = 2.0
     jerk_max_mps3: float = 15.0
     lat_accel_max_mps2: float = 3.0
     min_gap_m: float = 1.0
     pedestrian_gap_m: float = 2.0
     lateral_margin_m: float = 0.5
     pedestrian_margin_m: float = 4.2
+    pedestrian_clearance_m: float = 1.5
     time_headway_s: float = 1.0
     headway_ramp_s: float = 3.0
     terminal_headway_s: float = 1.5
     pass_margin_s: float = 2.5
     curvature_window_m: float = 5.0
+    position_tolerance_m: float = 0.5
 
     def __post_init__(self):
         if not self.horizon_s > self.trunk_s >= self.plan_dt_s > 0.0:
@@ -169,6 +176,7 @@ class ContingencyMpc:
         self._qps: dict[int, ContingencyQp] = {}
         self._mode_qp: ContingencyQp | None = None
         self._curvature: tuple[int, tuple[np.ndarray, np.ndarray]] | None = None
+        self._headway = config.headway_s()
 
     def _qp(self, n_branches: int, for_modes: bool = False) -> ContingencyQp:
         c = self.config
@@ -225,7 +233,8 @@ class ContingencyMpc:
         wall = static_limit(route, static_boxes, s0, veh.length_m, veh.width_m,
                             c.lateral_margin_m) - c.min_gap_m - 0.5 * veh.length_m - s0
         per_hyp = objects_on_path(route, scene, s0, veh.length_m, veh.width_m,
-                                  c.lateral_margin_m, c.pedestrian_margin_m)
+                                  c.lateral_margin_m, c.pedestrian_margin_m,
+                                  c.pedestrian_clearance_m)
         live_idx = np.flatnonzero(live)
         margin = round(c.pass_margin_s / c.plan_dt_s)
         # the curvature bound needs the positions, which the plan decides: guess them (constant
@@ -288,7 +297,19 @@ class ContingencyMpc:
         wall, margin, s0 = bounds[4:]
         s_low, s_up = mode_bounds(objects, modes, c.n_steps, s0, veh.length_m, c.min_gap_m,
                                   margin, c.pedestrian_gap_m)
-        return s_low, np.minimum(s_up, wall)
+        s_up = np.minimum(s_up, wall)
+        # noise on a tracked object's position moves a bound the robot stopped at by a few cm:
+        # up to position_tolerance_m, a bound is never tighter than firm braking now gets (nor
+        # than staying where it is, at rest), so noise alone does not make it infeasible
+        v0 = bounds[0]
+        # braking at half the limit in the plan's steps (constant per step, v >= 0): a plan
+        # with room around it (at the limit the feasible set is a point, slow for OSQP)
+        v_brake = np.maximum(v0 - 0.5 * veh.brake_max_mps2 * c.plan_times_s, 0.0)
+        v_start = np.concatenate([[v0], v_brake[:-1]])
+        s_brake = np.cumsum(0.5 * (v_start + v_brake) * c.plan_dt_s)
+        reach = s_brake + self._headway * v_brake + 0.1  # 10 cm of room: not a single point
+        s_up = np.maximum(s_up, np.minimum(reach, s_up + c.position_tolerance_m))
+        return s_low, np.maximum(s_up, 0.0)
 
     def _solve(self, qp: ContingencyQp, weights: np.ndarray, s_low: np.ndarray,
                s_up: np.ndarray, bounds: tuple, jerk_max: float | None = None) -> QpSolution:

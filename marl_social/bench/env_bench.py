@@ -156,7 +156,9 @@ def bench_planners(n_episodes: int = 3, robot_planner: str = "social", echo=prin
     """Decision times of the built-in planners and env steps/s on the paper scenario.
 
     Decision times of the robot, human driver and pedestrian planners, and env steps/s end to
-    end with every agent on its built-in planner. Returns the numbers; prints a table.
+    end with every agent on its built-in planner; with highway-env installed, the robot's
+    decision also as a multiple of one highway-env ``intersection-multi-agent-v1`` step with 3
+    agents measured in the same run. Returns the numbers; prints a table.
     """
     decide = {"robot_0": [], "human_0": [], "pedestrian_0": []}
     steps, loop_s = 0, 0.0
@@ -190,4 +192,18 @@ def bench_planners(n_episodes: int = 3, robot_planner: str = "social", echo=prin
          f"p99 {out['pedestrian_0_decision_ms_p99']:.3f} ms")
     echo(f"paper scenario, every agent on its built-in planner: "
          f"{out['steps_per_s_all_planners']:.1f} env steps/s ({steps} steps)")
+    from marl_social.bench import highway as bench_highway
+
+    if bench_highway.highway_env_available():
+        peer = bench_highway.highway_env_steps_per_second(3, n_steps=300)
+        step_ms = 1e3 / peer["steps_per_s"]
+        out["highway_env_step_ms"] = step_ms
+        out["robot_decision_per_highway_step_median"] = out["robot_0_decision_ms_median"] / step_ms
+        out["robot_decision_per_highway_step_p99"] = out["robot_0_decision_ms_p99"] / step_ms
+        echo(f"highway-env intersection-multi-agent-v1, 3 agents: {step_ms:.3f} ms per step "
+             f"(same run); robot decision = {out['robot_decision_per_highway_step_median']:.2f} "
+             f"(median), {out['robot_decision_per_highway_step_p99']:.2f} (p99) highway-env "
+             "steps")
+    else:
+        echo("highway-env not installed (pip install 'marl-social[bench]'): no peer ratio")
     return out
