@@ -21,12 +21,14 @@ the jerk bound (a constraint that appeared suddenly), the jerk bound gives way f
 (MpcResult.jerk_relaxed); only if no plan is feasible even then does the robot brake as hard as
 it can, flagged in MpcResult.feasible.
 
-Weights (SI, per second of plan), tuned on the paper's scenario: w_v = 1 / (m/s)^2 (1 m/s too
-slow for a second costs 1), w_a = 4 / (m/s^2)^2 (braking at 2 m/s^2 costs 16 per second, so a
-stop spreads its deceleration over the distance available: about v^2 / 2d, not the limit),
-w_j = 0.5 / (m/s^3)^2 (smooth onsets). The hard jerk bound 15 m/s^3 is the brake actuator's;
-the time headway 1 s is ramped in over 3 s (a gap already short stays feasible) and grows to
-1.5 s on the last step (room to stop beyond the horizon).
+Weights (SI, per second of plan), tuned on the paper's scenario over its wide randomization:
+w_v = 1 / (m/s)^2 (1 m/s too slow for a second costs 1), w_a = 10 / (m/s^2)^2 (braking at
+2 m/s^2 costs 40 per second: a stop spreads its deceleration over the distance available,
+about v^2 / 2d, not the limit), w_j = 2 / (m/s^3)^2 (onsets over about a second). The hard
+jerk bound 15 m/s^3 is the brake actuator's; the time headway 1 s is ramped in over 3 s (a gap
+already short stays feasible) and grows to 1.5 s on the last step (room to stop beyond the
+horizon). Pedestrians have the right of way: one walking towards the robot's path is in its
+way from the next lane on, and the robot passes in front of one only if it cannot stop.
 """
 
 from __future__ import annotations

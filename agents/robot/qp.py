@@ -247,6 +247,10 @@ class ContingencyQp:
         self._solver.update(Px=self._p_values(weights),
                             q=self._q_vector(weights, v_ref_mps, prev_accel), l=lower, u=upper)
         res = self._solver.solve(raise_error=False)
+        for _ in range(3):  # a cold start may need more iterations: go on from where it stopped
+            if res.info.status_val != osqp.SolverStatus.OSQP_MAX_ITER_REACHED:
+                break
+            res = self._solver.solve(raise_error=False)
         if res.info.status_val not in [int(s) for s in _OK] or res.x is None:
             return self._failed()
         x = res.x

@@ -161,6 +161,7 @@ def bench_planners(n_episodes: int = 3, robot_planner: str = "social", echo=prin
     agents measured in the same run. Returns the numbers; prints a table.
     """
     decide = {"robot_0": [], "human_0": [], "pedestrian_0": []}
+    mpc_s: list[float] = []  # the robot's MPC solve alone, within its decision
     steps, loop_s = 0, 0.0
     for ep in range(n_episodes):
         env = parallel_env(scenario="occluded_crosswalk", pedestrian="crossing",
@@ -177,6 +178,8 @@ def bench_planners(n_episodes: int = 3, robot_planner: str = "social", echo=prin
                 actions[a] = pols[a](obs[a])
                 if a in decide:
                     decide[a].append(time.perf_counter() - t0)
+                if a == "robot_0" and hasattr(pols[a], "last_solve_s"):
+                    mpc_s.append(pols[a].last_solve_s)
             obs, *_ = env.step(actions)
             loop_s += time.perf_counter() - t_loop
             steps += 1
@@ -184,8 +187,14 @@ def bench_planners(n_episodes: int = 3, robot_planner: str = "social", echo=prin
     out.update({f"{a}_decision_ms_p99": 1e3 * float(np.percentile(v, 99))
                 for a, v in decide.items()})
     out["steps_per_s_all_planners"] = steps / loop_s
+    if mpc_s:
+        out["robot_0_mpc_ms_median"] = 1e3 * float(np.median(mpc_s))
+        out["robot_0_mpc_ms_p99"] = 1e3 * float(np.percentile(mpc_s, 99))
     echo(f"robot ({robot_planner}) decision  median {out['robot_0_decision_ms_median']:.3f} ms   "
          f"p99 {out['robot_0_decision_ms_p99']:.3f} ms")
+    if mpc_s:
+        echo(f"  of which the MPC (QP)  median {out['robot_0_mpc_ms_median']:.3f} ms   "
+             f"p99 {out['robot_0_mpc_ms_p99']:.3f} ms")
     echo(f"human driver decision   median {out['human_0_decision_ms_median']:.3f} ms   "
          f"p99 {out['human_0_decision_ms_p99']:.3f} ms")
     echo(f"pedestrian decision     median {out['pedestrian_0_decision_ms_median']:.3f} ms   "
