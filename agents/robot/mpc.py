@@ -1,59 +1,139 @@
-"""Probabilistic contingency MPC (paper section IV-A).
+"""Probabilistic contingency MPC (paper section IV-A) as a quadratic program.
 
-The structure is that of Zhan et al. 2016, "non-conservatively defensive" planning.
+The structure is that of Zhan et al. 2016 ("non-conservatively defensive" planning) and of
+Alsterda & Gerdes, "Contingency MPC for automated vehicles" (ACC 2019): along its route
+(path-velocity decomposition) the robot plans one acceleration profile per live hypothesis l
+(b_l >= epsilon, renormalized) over a horizon that holds a comfortable stop; the first
+`trunk_s` is shared by every branch (non-anticipativity: it is what is executed before the next
+observation). The expected cost
 
-The robot chooses its acceleration along its route. Every candidate plan is a shared first
-segment (first action u, held `first_segment_s`: what is executed, re-planned every step) followed
-by one branch per live hypothesis l (continuation c_l). The expected cost over the beliefs
-(eq. 14) is
+    J = sum_l b_l dt sum_k [w_v (v - v_ref)^2 + w_a a^2 + w_j jerk^2]
 
-    J(u) = sum_l b_l [ C_first(u; x_l) + min_{c feasible under l} C_branch(u, c; x_l) ]
+is minimized subject to every branch's constraints (agents/robot/qp.py): speed in [0, v_max]
+with v_max from the speed limit and the route's curvature (v^2 kappa <= a_lat), the vehicle's
+acceleration and jerk bounds, and per predicted object of that branch's scene that occupies the
+robot's corridor (agents/robot/corridor.py) either "stay behind it" (with a time headway: car
+following) or "be past it before it arrives" (with a time margin). Each branch picks the
+cheapest feasible combination of these modes (one small QP per combination, only when more than
+one is plausible), then the joint QP is solved once. Every live hypothesis must be safe
+(defensive); each one's cost counts with its belief (not overly conservative). If no plan meets
+the jerk bound (a constraint that appeared suddenly), the jerk bound gives way first
+(MpcResult.jerk_relaxed); only if no plan is feasible even then does the robot brake as hard as
+it can, flagged in MpcResult.feasible.
 
-where hypotheses with b_l < epsilon are dropped (the paper's tail threshold) and the remaining
-b_l renormalized. A (u, c) is feasible under l if, over the horizon, its covering circles keep
-`min_gap_m` from every object of hypothesis l and from the static polygons' bounding boxes, it
-never shares a crosswalk with a pedestrian of hypothesis l (conflict below `max_conflict`) and it
-respects the speed limit; u must have a
-feasible branch under *every* live hypothesis (defensive), while the cost of each branch counts
-only with its belief (not overly conservative). If no u is feasible, the robot brakes as hard as
-it can (the safest action available). Acceleration and curvature limits are those of the
-vehicle (actions saturate in the dynamics); lateral motion is path tracking (pure pursuit), so
-curvature / lateral-acceleration limits are enforced by the steering saturation (G-G), not by
-the MPC.
+Weights (SI, per second of plan), tuned on the paper's scenario over its wide randomization:
+w_v = 1 / (m/s)^2 (1 m/s too slow for a second costs 1), w_a = 10 / (m/s^2)^2 (braking at
+2 m/s^2 costs 40 per second: a stop spreads its deceleration over the distance available,
+about v^2 / 2d, not the limit), w_j = 2 / (m/s^3)^2 (onsets over about a second). The hard
+jerk bound 15 m/s^3 is the brake actuator's; the time headway 1 s is ramped in over 3 s (a gap
+already short stays feasible) and grows to 1.5 s on the last step (room to stop beyond the
+horizon). Pedestrians have the right of way: one walking towards the robot's path is in its
+way from the next lane on, and the robot passes in front of one only if it cannot stop.
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+import itertools
+from dataclasses import dataclass
 
 import numpy as np
+from marl_social.agents.robot.corridor import (
+    BEHIND,
+    PAST,
+    PathObject,
+    curvature_speed_bound,
+    mode_bounds,
+    objects_on_path,
+    past_reachable,
+    route_curvature,
+    static_limit,
+)
+from marl_social.agents.robot.qp import ContingencyQp, QpSolution, QpWeights
 
-from marl_social.models.candidates import CandidateSet, ScenePrediction, evaluate_candidates
+from marl_social.models.candidates import ScenePrediction
 from marl_social.sim.agent_spec import VehicleParams
-from marl_social.sim.costs import CostWeights
-from marl_social.sim.road_map import Crosswalk, Route
+from marl_social.sim.dynamics import DT_S
+from marl_social.sim.road_map import Route
+
+MAX_MODE_OBJECTS = 3  # per branch, objects beyond this many with two plausible modes stay behind
 
 
 @dataclass(frozen=True)
 class MpcConfig:
-    """The MPC's configuration.
+    """The MPC's configuration (module docstring for the weights).
 
     Attributes:
-        theta: the robot's cost weights theta_R.
-        candidates: first actions / continuations / segment / horizon.
+        plan_dt_s: plan step [s].
+        horizon_s: planning horizon [s] (holds a comfortable stop from the speed limit).
+        trunk_s: the shared first segment [s].
         epsilon: tail threshold on beliefs.
-        min_gap_m: safety margin to every object (covering circles) [m].
-        max_conflict: largest allowed crosswalk conflict (own x pedestrian occupancy) [0..1].
+        w_speed: weight on (v - v_ref)^2 [1 / (m/s)^2 / s].
+        w_accel: weight on a^2 [1 / (m/s^2)^2 / s].
+        w_jerk: weight on jerk^2 [1 / (m/s^3)^2 / s].
+        jerk_max_mps3: hard jerk bound [m/s^3].
+        lat_accel_max_mps2: lateral acceleration allowed on curves [m/s^2].
+        min_gap_m: longitudinal gap kept to an object on the path [m].
+        pedestrian_gap_m: longitudinal gap kept to a pedestrian [m].
+        lateral_margin_m: clearance on each side of the robot for the corridor [m].
+        pedestrian_margin_m: a pedestrian walking towards the robot's path is in its way
+            within this clearance: it has the right of way on the carriageway (4.2 m: from the
+            next lane's far edge); one standing on the curb or walking away is not [m].
+        pedestrian_clearance_m: clearance on each side of the robot to any pedestrian, also
+            one walking away: the robot goes again once it has left the crosswalk [m].
+        time_headway_s: time headway to an object ahead [s].
+        headway_ramp_s: the headway grows from 0 to time_headway_s over this time [s].
+        terminal_headway_s: headway on the last plan step (room to stop beyond it) [s].
+        pass_margin_s: the robot is past an object this long before it arrives [s].
+        curvature_window_m: a route vertex this close to a step's guessed position bounds it [m].
+        position_tolerance_m: a stay-behind bound may give way by up to this much, but no more
+            than braking at half the limit needs (tracking noise on a bound it waits at) [m].
     """
 
-    theta: CostWeights = field(default_factory=CostWeights)
-    candidates: CandidateSet = field(default_factory=lambda: CandidateSet(
-        first_actions_mps2=(-8.0, -6.0, -4.0, -3.0, -2.0, -1.0, -0.5, 0.0, 0.5, 1.0, 2.0),
-        continuations_mps2=(-8.0, -4.0, -2.0, 0.0, 1.0),
-        first_segment_s=0.5, horizon_s=4.0, plan_dt_s=0.25))
+    plan_dt_s: float = 0.25
+    horizon_s: float = 6.0
+    trunk_s: float = 0.5
     epsilon: float = 0.02
-    min_gap_m: float = 0.5
-    max_conflict: float = 0.05
+    w_speed: float = 1.0
+    w_accel: float = 10.0
+    w_jerk: float = 2.0
+    jerk_max_mps3: float = 15.0
+    lat_accel_max_mps2: float = 3.0
+    min_gap_m: float = 1.0
+    pedestrian_gap_m: float = 2.0
+    lateral_margin_m: float = 0.5
+    pedestrian_margin_m: float = 4.2
+    pedestrian_clearance_m: float = 1.5
+    time_headway_s: float = 1.0
+    headway_ramp_s: float = 3.0
+    terminal_headway_s: float = 1.5
+    pass_margin_s: float = 2.5
+    curvature_window_m: float = 5.0
+    position_tolerance_m: float = 0.5
+
+    def __post_init__(self):
+        if not self.horizon_s > self.trunk_s >= self.plan_dt_s > 0.0:
+            raise ValueError("MpcConfig: need horizon_s > trunk_s >= plan_dt_s > 0")
+
+    @property
+    def n_steps(self) -> int:
+        """N plan steps."""
+        return round(self.horizon_s / self.plan_dt_s)
+
+    @property
+    def n_trunk(self) -> int:
+        """Shared first steps."""
+        return round(self.trunk_s / self.plan_dt_s)
+
+    @property
+    def plan_times_s(self) -> np.ndarray:
+        """(N,) times of the ends of the plan steps [s] (where scenes are predicted)."""
+        return (np.arange(self.n_steps) + 1) * self.plan_dt_s
+
+    def headway_s(self) -> np.ndarray:
+        """(N,) the time headway of each step's stay-behind row [s]."""
+        h = self.time_headway_s * np.minimum(1.0, self.plan_times_s / self.headway_ramp_s)
+        h[-1] = max(h[-1], self.terminal_headway_s)
+        return h
 
 
 @dataclass(frozen=True)
@@ -61,25 +141,227 @@ class MpcResult:
     """The result of one MPC solve.
 
     Attributes:
-        accel_mps2: the chosen first action [m/s^2].
-        expected_cost: (A,) J(u) (inf where infeasible).
-        live: (L,) bool, the hypotheses used.
-        weights: (L,) the renormalized beliefs.
-        feasible: whether some first action is feasible (else: hardest braking).
+        accel_mps2: the acceleration to apply now [m/s^2].
+        feasible: a plan met every live branch's constraints (else: hardest braking).
+        live: (L,) bool, the hypotheses planned for.
+        weights: (L,) the renormalized beliefs (0 where not live).
+        modes: per hypothesis, the chosen mode per object on its path (empty if not live).
+        accel_plan: (B, N) accelerations of the B live branches [m/s^2] (NaN if infeasible).
+        speed_plan: (B, N) their speeds at the end of each step [m/s].
+        progress_plan: (B, N) their progress from the current position [m].
+        cost: the expected cost J (inf if infeasible).
+        jerk_relaxed: no plan met the jerk bound; the plan (if feasible) ignores it.
     """
 
     accel_mps2: float
-    expected_cost: np.ndarray
+    feasible: bool
     live: np.ndarray
     weights: np.ndarray
-    feasible: bool
+    modes: tuple
+    accel_plan: np.ndarray
+    speed_plan: np.ndarray
+    progress_plan: np.ndarray
+    cost: float
+    jerk_relaxed: bool = False
+
+
+class ContingencyMpc:
+    """The robot's MPC: holds one warm-started QP per number of branches.
+
+    Args:
+        config: the MPC configuration.
+        vehicle: the robot's physical parameters (acceleration limits, footprint).
+    """
+
+    def __init__(self, config: MpcConfig, vehicle: VehicleParams):
+        self.config, self.vehicle = config, vehicle
+        self._qps: dict[int, ContingencyQp] = {}
+        self._mode_qp: ContingencyQp | None = None
+        self._curvature: tuple[int, tuple[np.ndarray, np.ndarray]] | None = None
+        self._headway = config.headway_s()
+
+    def _qp(self, n_branches: int, for_modes: bool = False) -> ContingencyQp:
+        c = self.config
+        make = lambda: ContingencyQp(
+            n_branches, c.n_steps, c.n_trunk, c.plan_dt_s, DT_S,
+            QpWeights(c.w_speed, c.w_accel, c.w_jerk), c.headway_s())
+        if for_modes:
+            if self._mode_qp is None:
+                self._mode_qp = make()
+            return self._mode_qp
+        if n_branches not in self._qps:
+            self._qps[n_branches] = make()
+        return self._qps[n_branches]
+
+    def _speed_bound(self, route: Route, s_lo: np.ndarray, s_hi: np.ndarray,
+                     v_cap: float) -> tuple[np.ndarray, bool]:
+        """(N,) speed bounds [m/s] for positions in [s_lo, s_hi] (N,) [m]; whether any curve."""
+        c = self.config
+        if self._curvature is None or self._curvature[0] != id(route):
+            self._curvature = (id(route), route_curvature(route))
+        vertex_s, kappa = self._curvature[1]
+        bound = curvature_speed_bound(vertex_s, kappa, s_lo, s_hi, c.curvature_window_m,
+                                      c.lat_accel_max_mps2)
+        return np.minimum(bound, v_cap), bool(np.isfinite(bound).any())
+
+    def plan(self, route: Route, s0: float, v0: float, prev_accel: float, v_ref_mps: float,
+             speed_limit_mps: float, scene: ScenePrediction, beliefs: np.ndarray,
+             static_boxes: np.ndarray | None = None) -> MpcResult:
+        """One MPC solve.
+
+        Args:
+            route: the robot's route.
+            s0: the robot's arc length along its route (footprint centre) [m].
+            v0: its speed [m/s].
+            prev_accel: its previous acceleration command [m/s^2].
+            v_ref_mps: reference speed [m/s].
+            speed_limit_mps: hard speed limit [m/s].
+            scene: L hypotheses of the others at config.plan_times_s.
+            beliefs: (L,) probability of each hypothesis.
+            static_boxes: (S, 4) bounding boxes [xmin, ymin, xmax, ymax] of static polygons [m].
+        """
+        c, veh = self.config, self.vehicle
+        beliefs = np.asarray(beliefs, dtype=np.float64)
+        live = beliefs >= c.epsilon
+        if not live.any():
+            live = beliefs == beliefs.max()
+        weights = np.where(live, beliefs, 0.0)
+        weights = weights / weights.sum()
+        n = c.n_steps
+        v_cap = min(speed_limit_mps, veh.speed_max_mps)
+        v_ref = min(v_ref_mps, v_cap)
+        # a braking command larger than the speed left is realized only in part (v >= 0)
+        prev_accel = max(prev_accel, -v0 / DT_S)
+        wall = static_limit(route, static_boxes, s0, veh.length_m, veh.width_m,
+                            c.lateral_margin_m) - c.min_gap_m - 0.5 * veh.length_m - s0
+        per_hyp = objects_on_path(route, scene, s0, veh.length_m, veh.width_m,
+                                  c.lateral_margin_m, c.pedestrian_margin_m,
+                                  c.pedestrian_clearance_m)
+        live_idx = np.flatnonzero(live)
+        margin = round(c.pass_margin_s / c.plan_dt_s)
+        # the curvature bound needs the positions, which the plan decides: guess them (constant
+        # speed), solve, and widen the guess to the solution's positions until it holds them
+        guess_lo = guess_hi = s0 + v0 * c.plan_times_s
+        for _ in range(4):
+            v_max, curved = self._speed_bound(route, guess_lo, guess_hi, v_cap)
+            bounds = (v0, prev_accel, v_ref, v_max, wall, margin, s0)
+            chosen, solution, relaxed = self._solve_all(per_hyp, live_idx, weights, bounds,
+                                                        v_cap)
+            if not (curved and solution.solved):
+                break
+            lo = s0 + solution.progress_m.min(axis=0)
+            hi = s0 + solution.progress_m.max(axis=0)
+            if np.all(lo >= guess_lo - 0.5) and np.all(hi <= guess_hi + 0.5):
+                break
+            guess_lo, guess_hi = np.minimum(guess_lo, lo), np.maximum(guess_hi, hi)
+        modes = [()] * len(beliefs)
+        for l, m in zip(live_idx, chosen):
+            modes[l] = m
+        if not solution.solved:
+            nan = np.full((len(live_idx), n), np.nan)
+            return MpcResult(-veh.brake_max_mps2, False, live, weights, tuple(modes), nan,
+                             nan.copy(), nan.copy(), np.inf, relaxed)
+        return MpcResult(float(solution.accel_mps2[0, 0]), True, live, weights, tuple(modes),
+                         solution.accel_mps2, solution.speed_mps, solution.progress_m,
+                         solution.cost, relaxed)
+
+    def _solve_all(self, per_hyp, live_idx, weights, bounds, v_cap):
+        """Modes per branch, then the joint QP, relaxing in order until a plan is feasible.
+
+        1. Vehicles: the cheapest feasible mode; pedestrians: behind (they have the right of
+           way). 2. Every object behind. 3. The same with the jerk bound relaxed (an emergency
+        stop). 4. Pedestrians may be passed in front too, if the robot cannot stay behind, with
+        the jerk bound, then without it.
+        Returns (modes per live branch, the solution, whether the jerk bound was relaxed).
+        """
+        jerk_free = self.vehicle.brake_max_mps2 / DT_S
+        chosen = [self._choose_modes(per_hyp[l], bounds, v_cap, False) for l in live_idx]
+        solution = self._solve_joint(per_hyp, live_idx, weights, chosen, bounds)
+        if not solution.solved and any(PAST in m for m in chosen):
+            chosen = [tuple(BEHIND for _ in m) for m in chosen]
+            solution = self._solve_joint(per_hyp, live_idx, weights, chosen, bounds)
+        if solution.solved:
+            return chosen, solution, False
+        solution = self._solve_joint(per_hyp, live_idx, weights, chosen, bounds, jerk_free)
+        if solution.solved:
+            return chosen, solution, True
+        crossing = [self._choose_modes(per_hyp[l], bounds, v_cap, True) for l in live_idx]
+        if crossing != chosen:
+            for jerk_max, relaxed in ((None, False), (jerk_free, True)):
+                solution = self._solve_joint(per_hyp, live_idx, weights, crossing, bounds,
+                                             jerk_max)
+                if solution.solved:
+                    return crossing, solution, relaxed
+        return chosen, solution, True
+
+    def _branch_bounds(self, objects: list[PathObject], modes: tuple, bounds: tuple):
+        c, veh = self.config, self.vehicle
+        wall, margin, s0 = bounds[4:]
+        s_low, s_up = mode_bounds(objects, modes, c.n_steps, s0, veh.length_m, c.min_gap_m,
+                                  margin, c.pedestrian_gap_m)
+        s_up = np.minimum(s_up, wall)
+        # noise on a tracked object's position moves a bound the robot stopped at by a few cm:
+        # up to position_tolerance_m, a bound is never tighter than firm braking now gets (nor
+        # than staying where it is, at rest), so noise alone does not make it infeasible
+        v0 = bounds[0]
+        # braking at half the limit in the plan's steps (constant per step, v >= 0): a plan
+        # with room around it (at the limit the feasible set is a point, slow for OSQP)
+        v_brake = np.maximum(v0 - 0.5 * veh.brake_max_mps2 * c.plan_times_s, 0.0)
+        v_start = np.concatenate([[v0], v_brake[:-1]])
+        s_brake = np.cumsum(0.5 * (v_start + v_brake) * c.plan_dt_s)
+        reach = s_brake + self._headway * v_brake + 0.1  # 10 cm of room: not a single point
+        s_up = np.maximum(s_up, np.minimum(reach, s_up + c.position_tolerance_m))
+        return s_low, np.maximum(s_up, 0.0)
+
+    def _solve(self, qp: ContingencyQp, weights: np.ndarray, s_low: np.ndarray,
+               s_up: np.ndarray, bounds: tuple, jerk_max: float | None = None) -> QpSolution:
+        veh = self.vehicle
+        v0, prev, v_ref, v_max = bounds[:4]
+        v_max_b = np.broadcast_to(v_max, s_low.shape)
+        return qp.solve(weights, v0, prev, v_ref, v_max_b, s_low, s_up,
+                        -veh.brake_max_mps2, veh.accel_max_mps2,
+                        jerk_max or self.config.jerk_max_mps3)
+
+    def _choose_modes(self, objects: list[PathObject], bounds: tuple, v_cap: float,
+                      pass_pedestrians: bool) -> tuple:
+        """The cheapest feasible mode per object of one branch (solved alone, one QP each).
+
+        Pedestrians are passed in front only with `pass_pedestrians`.
+        """
+        c, veh = self.config, self.vehicle
+        v0, margin, s0 = bounds[0], bounds[5], bounds[6]
+        options = []
+        for obj in objects:
+            two = (len([o for o in options if len(o) == 2]) < MAX_MODE_OBJECTS
+                   and (pass_pedestrians or not obj.is_pedestrian)
+                   and past_reachable(obj, v0, v_cap, veh.accel_max_mps2, c.plan_dt_s, s0,
+                                      veh.length_m, c.min_gap_m, margin))
+            options.append((BEHIND, PAST) if two else (BEHIND,))
+        combos = list(itertools.product(*options))
+        if len(combos) == 1:
+            return combos[0]
+        qp = self._qp(1, for_modes=True)
+        best, best_cost = combos[0], np.inf
+        for combo in combos:
+            s_low, s_up = self._branch_bounds(objects, combo, bounds)
+            sol = self._solve(qp, np.ones(1), s_low[None], s_up[None], bounds)
+            if sol.solved and sol.cost < best_cost:
+                best, best_cost = combo, sol.cost
+        return best
+
+    def _solve_joint(self, per_hyp, live_idx, weights, chosen, bounds,
+                     jerk_max: float | None = None) -> QpSolution:
+        rel = [self._branch_bounds(per_hyp[l], m, bounds) for l, m in zip(live_idx, chosen)]
+        s_low = np.stack([r[0] for r in rel])
+        s_up = np.stack([r[1] for r in rel])
+        return self._solve(self._qp(len(live_idx)), weights[live_idx], s_low, s_up, bounds,
+                           jerk_max)
 
 
 def plan(config: MpcConfig, vehicle: VehicleParams, route: Route, s0: float, v0: float,
          prev_accel: float, v_ref_mps: float, speed_limit_mps: float, scene: ScenePrediction,
-         beliefs: np.ndarray, crosswalks: tuple[Crosswalk, ...],
-         static_boxes: np.ndarray | None = None) -> MpcResult:
-    """One MPC solve.
+         beliefs: np.ndarray, static_boxes: np.ndarray | None = None) -> MpcResult:
+    """One MPC solve with a fresh ContingencyMpc (ContingencyMpc.plan for the arguments).
 
     Args:
         config: the MPC configuration.
@@ -87,38 +369,12 @@ def plan(config: MpcConfig, vehicle: VehicleParams, route: Route, s0: float, v0:
         route: the robot's route.
         s0: the robot's arc length along its route [m].
         v0: its speed [m/s].
-        prev_accel: its previous acceleration [m/s^2].
-        v_ref_mps: reference speed (v_traffic) [m/s].
+        prev_accel: its previous acceleration command [m/s^2].
+        v_ref_mps: reference speed [m/s].
         speed_limit_mps: hard speed limit [m/s].
-        scene: L hypotheses of the others (at config.candidates.plan_times_s).
+        scene: L hypotheses of the others at config.plan_times_s.
         beliefs: (L,) probability of each hypothesis.
-        crosswalks: the map's crosswalks.
-        static_boxes: (S, 4) bounding boxes [xmin, ymin, xmax, ymax] of the static polygons [m].
+        static_boxes: (S, 4) bounding boxes of the static polygons [m].
     """
-    beliefs = np.asarray(beliefs, dtype=np.float64)
-    live = beliefs >= config.epsilon
-    if not live.any():
-        live = beliefs == beliefs.max()
-    weights = np.where(live, beliefs, 0.0)
-    weights = weights / weights.sum()
-    cands = config.candidates
-    ev = evaluate_candidates(cands, config.theta.as_array(), v_ref_mps, vehicle, route, s0, v0,
-                             prev_accel, scene, crosswalks, geometry=True,
-                             static_boxes=static_boxes)
-    n_first = cands.n_first
-    first_cost = ev.step_cost[..., :n_first].sum(axis=-1)[..., 0]  # (L, A): shared segment
-    branch_cost = ev.step_cost[..., n_first:].sum(axis=-1)  # (L, A, C)
-    feasible = ((ev.min_gap_m >= config.min_gap_m) & (ev.conflict <= config.max_conflict)
-                & (ev.v.max(axis=-1) <= speed_limit_mps + 1e-6)[None]
-                & (ev.static_gap_m >= config.min_gap_m)[None])  # (L, A, C)
-    # the shared first segment is the same for every continuation: it must be feasible itself,
-    # which the per-(u, c) check covers because every branch contains it
-    best_branch = np.where(feasible, branch_cost, np.inf).min(axis=-1)  # (L, A)
-    per_hyp = first_cost + best_branch  # (L, A), inf if u has no feasible branch under l
-    blocked = (np.isinf(per_hyp) & live[:, None]).any(axis=0)  # some live l has no safe branch
-    finite = np.where(live[:, None] & ~np.isinf(per_hyp), per_hyp, 0.0)
-    expected = np.where(blocked, np.inf, (weights[:, None] * finite).sum(axis=0))
-    if np.all(np.isinf(expected)):
-        return MpcResult(float(min(cands.first_actions_mps2)), expected, live, weights, False)
-    k = int(np.argmin(expected))
-    return MpcResult(float(cands.first_actions_mps2[k]), expected, live, weights, True)
+    return ContingencyMpc(config, vehicle).plan(route, s0, v0, prev_accel, v_ref_mps,
+                                                speed_limit_mps, scene, beliefs, static_boxes)

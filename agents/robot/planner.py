@@ -26,11 +26,12 @@ from __future__ import annotations
 
 import enum
 import math
+import time
 from dataclasses import dataclass, replace
 
 import numpy as np
 from marl_social.agents.params import RobotModelParams, parse_planner_params
-from marl_social.agents.robot.mpc import MpcConfig, MpcResult, plan
+from marl_social.agents.robot.mpc import ContingencyMpc, MpcConfig, MpcResult
 from marl_social.perception.belief import BeliefConfig, PedestrianBelief
 from marl_social.perception.tracking import TrackSet
 
@@ -114,7 +115,7 @@ def robot_configs(spec: AgentSpec, planner: str | RobotVariant = "social",
         updates["beta_hat"] = params.beta_hat
     if variant.infer_beta:
         updates["beta_grid_hat"] = BETA_GRID_HAT
-    return (MpcConfig(theta=spec.cost_weights, epsilon=updates["epsilon"]),
+    return (MpcConfig(epsilon=updates["epsilon"]),
             replace(belief, **updates))
 
 
@@ -145,14 +146,15 @@ class RobotPlanner:
         self.route = road_map.routes[spec.name]
         default_mpc, default_belief = robot_configs(spec, self.variant, params)
         self.mpc = mpc_config or default_mpc
-        self.v_ref = min(spec.v_desired_mps, road_map.speed_limit_mps)
+        self.v_desired = min(spec.v_desired_mps, road_map.speed_limit_mps)
+        self.solver = ContingencyMpc(self.mpc, spec.vehicle)
         # the belief keeps the robot's Kalman tracks of what it sees; the MPC reads the same ones
         self.belief = PedestrianBelief(
             road_map, layout, spec.name, list(agent_names), belief_config or default_belief,
             use_social=self.variant.use_social,
             use_own_sensors=self.variant.use_own_sensors,
         )
-        self._times = self.mpc.candidates.plan_times_s
+        self._times = self.mpc.plan_times_s
         self._truth: TrackSet | None = None
         self._static_boxes = np.array(
             [[*p.min(axis=0), *p.max(axis=0)] for p in road_map.static_polygons]).reshape(-1, 4)
@@ -163,6 +165,7 @@ class RobotPlanner:
         self.belief.reset()
         self.prev_accel = 0.0
         self.last_result: MpcResult | None = None
+        self.last_solve_s = 0.0
         self.weights = None
 
     def observe_truth(self, tracks: TrackSet) -> None:
@@ -198,6 +201,18 @@ class RobotPlanner:
             return none.astype(np.float64)
         return present_live / present_live.sum()
 
+    def v_ref(self) -> float:
+        """The speed the MPC tracks [m/s].
+
+        A planner that reads the humans (use_social) tracks the traffic speed it believes in
+        (eq. 12, the belief's mean, `belief.traffic.expected_mps`), capped at the speed limit;
+        the others track the robot's own desired speed.
+        """
+        traffic = getattr(self.belief, "traffic", None)
+        if self.variant.use_social and traffic is not None:
+            return min(float(traffic.expected_mps), self.road_map.speed_limit_mps)
+        return self.v_desired
+
     def __call__(self, obs: np.ndarray) -> np.ndarray:
         """The (2,) [acceleration m/s^2, steering rad] for the robot's observation (obs_dim,)."""
         decoded = self.layout.decode(obs)
@@ -214,9 +229,11 @@ class RobotPlanner:
         self.weights = weights
         scene = self._scene(tracks)
         s0, _ = self.route.project_point(x, y)
-        result = plan(self.mpc, self.spec.vehicle, self.route, s0, v, self.prev_accel, self.v_ref,
-                      self.road_map.speed_limit_mps, scene, weights, self.road_map.crosswalks,
-                      self._static_boxes)
+        t0 = time.perf_counter()
+        result = self.solver.plan(self.route, s0, v, self.prev_accel, self.v_ref(),
+                                  self.road_map.speed_limit_mps, scene, weights,
+                                  self._static_boxes)
+        self.last_solve_s = time.perf_counter() - t0  # the MPC alone (bench planners) [s]
         self.last_result = result
         self.prev_accel = result.accel_mps2
         steer = pure_pursuit(self.route, x, y, psi, v, s0, self.spec.vehicle.wheelbase_m)

@@ -156,9 +156,12 @@ def bench_planners(n_episodes: int = 3, robot_planner: str = "social", echo=prin
     """Decision times of the built-in planners and env steps/s on the paper scenario.
 
     Decision times of the robot, human driver and pedestrian planners, and env steps/s end to
-    end with every agent on its built-in planner. Returns the numbers; prints a table.
+    end with every agent on its built-in planner; with highway-env installed, the robot's
+    decision also as a multiple of one highway-env ``intersection-multi-agent-v1`` step with 3
+    agents measured in the same run. Returns the numbers; prints a table.
     """
     decide = {"robot_0": [], "human_0": [], "pedestrian_0": []}
+    mpc_s: list[float] = []  # the robot's MPC solve alone, within its decision
     steps, loop_s = 0, 0.0
     for ep in range(n_episodes):
         env = parallel_env(scenario="occluded_crosswalk", pedestrian="crossing",
@@ -175,6 +178,8 @@ def bench_planners(n_episodes: int = 3, robot_planner: str = "social", echo=prin
                 actions[a] = pols[a](obs[a])
                 if a in decide:
                     decide[a].append(time.perf_counter() - t0)
+                if a == "robot_0" and hasattr(pols[a], "last_solve_s"):
+                    mpc_s.append(pols[a].last_solve_s)
             obs, *_ = env.step(actions)
             loop_s += time.perf_counter() - t_loop
             steps += 1
@@ -182,12 +187,32 @@ def bench_planners(n_episodes: int = 3, robot_planner: str = "social", echo=prin
     out.update({f"{a}_decision_ms_p99": 1e3 * float(np.percentile(v, 99))
                 for a, v in decide.items()})
     out["steps_per_s_all_planners"] = steps / loop_s
+    if mpc_s:
+        out["robot_0_mpc_ms_median"] = 1e3 * float(np.median(mpc_s))
+        out["robot_0_mpc_ms_p99"] = 1e3 * float(np.percentile(mpc_s, 99))
     echo(f"robot ({robot_planner}) decision  median {out['robot_0_decision_ms_median']:.3f} ms   "
          f"p99 {out['robot_0_decision_ms_p99']:.3f} ms")
+    if mpc_s:
+        echo(f"  of which the MPC (QP)  median {out['robot_0_mpc_ms_median']:.3f} ms   "
+             f"p99 {out['robot_0_mpc_ms_p99']:.3f} ms")
     echo(f"human driver decision   median {out['human_0_decision_ms_median']:.3f} ms   "
          f"p99 {out['human_0_decision_ms_p99']:.3f} ms")
     echo(f"pedestrian decision     median {out['pedestrian_0_decision_ms_median']:.3f} ms   "
          f"p99 {out['pedestrian_0_decision_ms_p99']:.3f} ms")
     echo(f"paper scenario, every agent on its built-in planner: "
          f"{out['steps_per_s_all_planners']:.1f} env steps/s ({steps} steps)")
+    from marl_social.bench import highway as bench_highway
+
+    if bench_highway.highway_env_available():
+        peer = bench_highway.highway_env_steps_per_second(3, n_steps=300)
+        step_ms = 1e3 / peer["steps_per_s"]
+        out["highway_env_step_ms"] = step_ms
+        out["robot_decision_per_highway_step_median"] = out["robot_0_decision_ms_median"] / step_ms
+        out["robot_decision_per_highway_step_p99"] = out["robot_0_decision_ms_p99"] / step_ms
+        echo(f"highway-env intersection-multi-agent-v1, 3 agents: {step_ms:.3f} ms per step "
+             f"(same run); robot decision = {out['robot_decision_per_highway_step_median']:.2f} "
+             f"(median), {out['robot_decision_per_highway_step_p99']:.2f} (p99) highway-env "
+             "steps")
+    else:
+        echo("highway-env not installed (pip install 'marl-social[bench]'): no peer ratio")
     return out

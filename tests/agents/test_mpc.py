@@ -1,27 +1,30 @@
-"""The contingency MPC: defensive for every live hypothesis, weighted by belief, epsilon tail."""
+"""The contingency MPC as a QP: constraints, non-anticipativity, belief weighting, fallback."""
 
 from __future__ import annotations
 
 import numpy as np
 import pytest
-from marl_social.agents.robot.mpc import MpcConfig, plan
+from marl_social.agents.robot.corridor import mode_bounds, objects_on_path
+from marl_social.agents.robot.mpc import ContingencyMpc, MpcConfig, plan
 
 from marl_social.models.candidates import ScenePrediction
 from marl_social.sim.agent_spec import VehicleParams
-from marl_social.sim.road_map import Crosswalk, Route
+from marl_social.sim.dynamics import bicycle_step
+from marl_social.sim.road_map import Route
 
-ROUTE = Route([[-50.0, 1.75], [200.0, 1.75]])
-CROSSWALK = Crosswalk(np.array([40.0, 0.0]), np.pi / 2, 7.0, 4.0)
+ROUTE = Route([[-50.0, 1.75], [200.0, 1.75]])  # s = x + 50
 CONFIG = MpcConfig()
-TIMES = CONFIG.candidates.plan_times_s
+TIMES = CONFIG.plan_times_s
+VEHICLE = VehicleParams()
+CROSSWALK_X = 40.0
 
 
-def _scene(pedestrian_walks: list[bool]) -> ScenePrediction:
-    """One hypothesis per entry: a pedestrian starting on the right curb of the crosswalk and
-    walking across at 1.3 m/s (True) or absent (False)."""
+def _scene(pedestrian_walks: list[bool], start_y: float = -4.5,
+           speed_mps: float = 1.3) -> ScenePrediction:
+    """One hypothesis per entry: a pedestrian walking across the road at x = 40 (True) or none."""
     n = len(pedestrian_walks)
-    start = np.array([40.0, -4.5])
-    xy = np.broadcast_to(start + np.outer(TIMES * 1.3, [0.0, 1.0]), (n, 1, len(TIMES), 2))
+    start = np.array([CROSSWALK_X, start_y])
+    xy = np.broadcast_to(start + np.outer(TIMES * speed_mps, [0.0, 1.0]), (n, 1, len(TIMES), 2))
     return ScenePrediction(
         xy=xy.copy(), heading=np.full((n, 1, len(TIMES)), np.pi / 2),
         length_m=np.full((n, 1), 0.6), width_m=np.full((n, 1), 0.6),
@@ -30,48 +33,126 @@ def _scene(pedestrian_walks: list[bool]) -> ScenePrediction:
     )
 
 
-def _plan(beliefs, walks, s0=30.0, v0=11.5):
-    return plan(CONFIG, VehicleParams(), ROUTE, s0, v0, 0.0, 11.5, 13.9, _scene(walks),
-                np.array(beliefs), (CROSSWALK,))
+def _empty(n_hyp: int = 1) -> ScenePrediction:
+    z = np.zeros((n_hyp, 0))
+    return ScenePrediction(np.zeros((n_hyp, 0, len(TIMES), 2)), np.zeros((n_hyp, 0, len(TIMES))),
+                           z, z, z, z.astype(bool), z.astype(bool))
+
+
+def _plan(beliefs, walks, s0=30.0, v0=11.5, **kw):
+    return plan(CONFIG, VEHICLE, ROUTE, s0, v0, 0.0, 11.5, 13.9, _scene(walks, **kw),
+                np.array(beliefs))
+
+
+def _rollout(v0: float, accel: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Speeds and progress (N,) of an acceleration plan through the simulator's vehicle model."""
+    state = np.array([[0.0, 0.0, 0.0, v0]])
+    v, s = [], []
+    for a in accel:
+        state = bicycle_step(state, np.array([[a, 0.0]]), np.array([VEHICLE.wheelbase_m]),
+                             np.array([VEHICLE.speed_max_mps]), CONFIG.plan_dt_s)
+        v.append(state[0, 3])
+        s.append(state[0, 0])
+    return np.array(v), np.array(s)
 
 
 def test_no_hazard_keeps_speed():
     res = _plan([1.0], [False])
-    assert res.feasible and res.accel_mps2 == 0.0
+    assert res.feasible
+    assert res.accel_mps2 == pytest.approx(0.0, abs=1e-3)
+
+
+def test_solution_meets_every_branch_constraint_through_the_vehicle_model():
+    """Three branches (none, a pedestrian crossing now, one crossing later): each branch's
+    plan, rolled out through bicycle_step, keeps its speed, acceleration, jerk and corridor
+    bounds."""
+    s0, v0 = 60.0, 11.5  # 30 m before the crosswalk
+    scene = _scene([False, True, True])
+    scene.xy[2] = scene.xy[1] - np.array([0.0, 2.0])  # the third one starts 2 m further out
+    res = plan(CONFIG, VEHICLE, ROUTE, s0, v0, 0.0, 11.5, 13.9, scene, np.array([0.5, 0.3, 0.2]))
+    assert res.feasible and res.live.all()
+    objects = objects_on_path(ROUTE, scene, s0, VEHICLE.length_m, VEHICLE.width_m,
+                              CONFIG.lateral_margin_m)
+    h = CONFIG.headway_s()
+    tol = 1e-3
+    for b in range(3):
+        accel = res.accel_plan[b]
+        v, s = _rollout(v0, accel)
+        assert np.allclose(v, res.speed_plan[b], atol=1e-3)
+        assert np.allclose(s, res.progress_plan[b], atol=1e-3)
+        assert np.all(v >= -tol) and np.all(v <= 13.9 + tol)
+        assert np.all(accel >= -VEHICLE.brake_max_mps2 - tol)
+        assert np.all(accel <= VEHICLE.accel_max_mps2 + tol)
+        assert abs(accel[0]) <= CONFIG.jerk_max_mps3 * 0.1 + tol
+        assert np.all(np.abs(np.diff(accel)) <= CONFIG.jerk_max_mps3 * CONFIG.plan_dt_s + tol)
+        s_low, s_up = mode_bounds(objects[b], res.modes[b], CONFIG.n_steps, s0,
+                                  VEHICLE.length_m, CONFIG.min_gap_m,
+                                  round(CONFIG.pass_margin_s / CONFIG.plan_dt_s))
+        assert np.all(s >= s_low - tol)
+        assert np.all(s + h * v <= s_up + tol)
+    assert res.modes[1] == ("behind",)
+
+
+def test_shared_first_segment_is_identical_across_branches():
+    res = _plan([0.6, 0.4], [False, True], s0=60.0)
+    trunk = res.accel_plan[:, :CONFIG.n_trunk]
+    assert np.array_equal(trunk[0], trunk[1])
+    # and the branches differ after it: the contingency plan brakes, the other does not
+    assert res.accel_plan[1, -8:].mean() < res.accel_plan[0, -8:].mean() - 0.1
+
+
+def test_one_hypothesis_at_certainty_is_a_plain_mpc():
+    """b = 1 on one hypothesis: the same plan as that hypothesis alone, and as two copies of
+    it at b = 0.5 each (every branch is then the same plain MPC)."""
+    alone = _plan([1.0], [True], s0=60.0)
+    with_tail = _plan([0.0, 1.0], [False, True], s0=60.0)
+    copies = _plan([0.5, 0.5], [True, True], s0=60.0)
+    assert not with_tail.live[0]
+    np.testing.assert_allclose(with_tail.accel_plan[0], alone.accel_plan[0], atol=1e-3)
+    np.testing.assert_allclose(copies.accel_plan[0], alone.accel_plan[0], atol=1e-3)
+    np.testing.assert_allclose(copies.accel_plan[1], alone.accel_plan[0], atol=1e-3)
+
+
+@pytest.mark.parametrize("v0, distance_m", [(11.5, 35.0), (10.0, 25.0), (8.0, 20.0)])
+def test_stop_line_gives_a_gentle_deceleration_close_to_v2_over_2d(v0, distance_m):
+    """A wall across the lane `distance_m` ahead of the robot's front (plus the gap): the plan
+    brakes with a peak close to v^2 / 2d, far from the limit."""
+    s0 = 100.0
+    x_front = s0 - 50.0 + 0.5 * VEHICLE.length_m
+    wall_x = x_front + distance_m + CONFIG.min_gap_m
+    boxes = np.array([[wall_x, 0.0, wall_x + 2.0, 3.5]])
+    res = plan(CONFIG, VEHICLE, ROUTE, s0, v0, 0.0, 11.5, 13.9, _empty(), np.array([1.0]),
+               boxes)
+    assert res.feasible
+    peak = -res.accel_plan.min()
+    ideal = v0 ** 2 / (2.0 * distance_m)
+    assert 0.8 * ideal <= peak <= 1.6 * ideal
+    assert peak < 0.5 * VEHICLE.brake_max_mps2
+    assert res.progress_plan[0, -1] <= distance_m + 1e-3
 
 
 def test_certain_crossing_pedestrian_makes_it_brake():
-    # the route starts at x = -50: s0 = 60 is 30 m before the crosswalk (x = 40), s0 = 72 is 18 m
     far = _plan([1.0], [True], s0=60.0)
     near = _plan([1.0], [True], s0=72.0)
-    assert far.accel_mps2 <= 0.0
-    assert near.accel_mps2 <= -2.0
+    assert far.accel_mps2 < 0.0
+    assert near.accel_mps2 < far.accel_mps2
 
 
 def test_unlikely_hypothesis_still_constrains_but_costs_little():
-    """b = 0.1 >= epsilon: the robot keeps a stopping branch (defensive) but brakes less than
+    """b = 0.1 >= epsilon: the robot keeps a stopping branch (defensive) but brakes less now than
     when the pedestrian is certain (not overly conservative)."""
-    certain = _plan([0.0, 1.0], [False, True], s0=72.0)
-    unlikely = _plan([0.9, 0.1], [False, True], s0=72.0)
+    certain = _plan([0.0, 1.0], [False, True], s0=66.0)
+    unlikely = _plan([0.9, 0.1], [False, True], s0=66.0)
     assert unlikely.feasible and certain.feasible
-    assert certain.accel_mps2 <= unlikely.accel_mps2
-    # the chosen first action has a feasible branch under the unlikely hypothesis too
-    k = CONFIG.candidates.first_actions_mps2.index(unlikely.accel_mps2)
-    assert np.isfinite(unlikely.expected_cost[k])
+    assert certain.accel_mps2 < unlikely.accel_mps2 < 0.0
+    assert unlikely.speed_plan[1, -1] == pytest.approx(0.0, abs=0.05)
 
 
 def test_epsilon_tail_threshold_ignores_rare_hypotheses():
     tail = _plan([0.99, 0.01], [False, True], s0=72.0)
     none = _plan([1.0], [False], s0=72.0)
     assert not tail.live[1]
-    assert tail.accel_mps2 == none.accel_mps2 == 0.0
-
-
-def test_no_feasible_plan_brakes_as_hard_as_possible():
-    # 6 m before the crosswalk at 11.5 m/s: no branch can stop in time
-    res = _plan([1.0], [True], s0=84.0)
-    assert not res.feasible
-    assert res.accel_mps2 == min(CONFIG.candidates.first_actions_mps2)
+    assert tail.accel_mps2 == pytest.approx(none.accel_mps2, abs=1e-6)
 
 
 def test_beliefs_are_renormalized_over_live_hypotheses():
@@ -80,16 +161,85 @@ def test_beliefs_are_renormalized_over_live_hypotheses():
     assert res.weights == pytest.approx([0.5, 0.3, 0.2])
 
 
+def _crossing_car(arrival_s: float) -> ScenePrediction:
+    """A car crossing the robot's path at x = 40 from the right, at 8 m/s, reaching the
+    robot's lane centre after `arrival_s`."""
+    y = 1.75 + 8.0 * (TIMES - arrival_s)
+    xy = np.stack([np.full_like(TIMES, CROSSWALK_X), y], axis=-1)[None, None]
+    return ScenePrediction(xy, np.full((1, 1, len(TIMES)), np.pi / 2), np.array([[4.5]]),
+                           np.array([[1.8]]), np.array([[2.4]]), np.array([[False]]),
+                           np.array([[True]]))
+
+
+def test_passes_before_a_crossing_car_that_arrives_late():
+    """A car crossing the robot's path 5.5 s from now, the robot 2 s from the crossing: it
+    passes before the car arrives, with the time margin, instead of stopping; a car arriving
+    in 1.5 s makes it stay behind."""
+    late = plan(CONFIG, VEHICLE, ROUTE, 70.0, 11.5, 0.0, 11.5, 13.9, _crossing_car(5.5),
+                np.array([1.0]))
+    soon = plan(CONFIG, VEHICLE, ROUTE, 70.0, 11.5, 0.0, 11.5, 13.9, _crossing_car(1.5),
+                np.array([1.0]))
+    assert late.feasible and late.modes[0] == ("past",)
+    assert late.accel_mps2 >= -0.1
+    assert soon.feasible and soon.modes[0] == ("behind",) and soon.accel_mps2 < 0.0
+
+
+def test_yields_to_a_pedestrian_it_could_pass_in_front_of():
+    """The same timing with a pedestrian (5.3 s from the robot's lane): it has the right of
+    way, the robot stays behind; it passes in front of a pedestrian only if it cannot stop."""
+    yields = _plan([1.0], [True], s0=70.0, start_y=-6.5)
+    assert yields.feasible and yields.modes[0] == ("behind",) and yields.accel_mps2 < 0.0
+    # 9 m before the crosswalk at 11.5 m/s, a slow pedestrian 2.4 m from the road: no stop in
+    # time even with the jerk bound relaxed, but the robot is past long before it arrives
+    cannot_stop = _plan([1.0], [True], s0=81.0, start_y=-6.0, speed_mps=0.5)
+    assert cannot_stop.feasible and cannot_stop.modes[0] == ("past",)
+
+
+def test_no_feasible_plan_brakes_as_hard_as_possible():
+    # 6 m before the crosswalk at 11.5 m/s with the pedestrian already in the lane
+    res = _plan([1.0], [True], s0=84.0, start_y=1.0, speed_mps=0.0)
+    assert not res.feasible
+    assert res.accel_mps2 == -VEHICLE.brake_max_mps2
+
+
 def test_static_polygon_ahead_is_a_constraint():
-    """A parked truck across the lane 28 m ahead of the robot's front: without it the robot
-    keeps speed; with it the robot plans to stop short of it."""
     boxes = np.array([[110.0, 0.0, 118.0, 3.5]])  # robot at s0 = 130: x = 80
-    free = plan(CONFIG, VehicleParams(), ROUTE, 130.0, 11.5, 0.0, 11.5, 13.9, _scene([False]),
-                np.array([1.0]), ())
-    blocked = plan(CONFIG, VehicleParams(), ROUTE, 130.0, 11.5, 0.0, 11.5, 13.9,
-                   _scene([False]), np.array([1.0]), (), static_boxes=boxes)
-    assert free.accel_mps2 == 0.0
+    free = plan(CONFIG, VEHICLE, ROUTE, 130.0, 11.5, 0.0, 11.5, 13.9, _empty(), np.array([1.0]))
+    blocked = plan(CONFIG, VEHICLE, ROUTE, 130.0, 11.5, 0.0, 11.5, 13.9, _empty(),
+                   np.array([1.0]), boxes)
+    beside = plan(CONFIG, VEHICLE, ROUTE, 130.0, 11.5, 0.0, 11.5, 13.9, _empty(),
+                  np.array([1.0]), np.array([[110.0, 4.5, 118.0, 8.0]]))
+    assert free.accel_mps2 == pytest.approx(0.0, abs=1e-3)
+    assert beside.accel_mps2 == pytest.approx(0.0, abs=1e-3)
     assert blocked.feasible and blocked.accel_mps2 < 0.0
+
+
+def test_follows_a_slower_car_ahead_with_a_gap():
+    """A car 25 m ahead in the lane at 8 m/s: the robot slows to follow it, never closer than
+    the gap and the time headway."""
+    t = TIMES
+    xy = np.stack([100.0 + 8.0 * t, np.full_like(t, 1.75)], axis=-1)[None, None]
+    scene = ScenePrediction(xy, np.zeros((1, 1, len(t))), np.array([[4.5]]), np.array([[1.8]]),
+                            np.array([[2.4]]), np.array([[False]]), np.array([[True]]))
+    res = plan(CONFIG, VEHICLE, ROUTE, 125.0, 11.5, 0.0, 11.5, 13.9, scene, np.array([1.0]))
+    assert res.feasible and res.accel_mps2 < 0.0
+    gap = (150.0 + 8.0 * t - 2.25) - (125.0 + res.progress_plan[0] + 2.25)
+    assert np.all(gap >= CONFIG.min_gap_m + CONFIG.headway_s() * res.speed_plan[0] - 1e-3)
+    assert res.speed_plan[0, -1] == pytest.approx(8.0, abs=1.0)
+
+
+def test_curvature_bounds_the_speed():
+    """A 90-degree bend of radius ~10 m ahead: v^2 kappa <= a_lat near it."""
+    arc = [[60.0 + 10.0 * np.sin(a), 11.75 - 10.0 * np.cos(a)]
+           for a in np.linspace(0.0, np.pi / 2, 12)]
+    route = Route([[0.0, 1.75], *arc, [70.0, 60.0]])
+    res = plan(CONFIG, VEHICLE, route, 30.0, 11.5, 0.0, 11.5, 13.9, _empty(), np.array([1.0]))
+    assert res.feasible and res.accel_mps2 < 0.0
+    bound = np.sqrt(CONFIG.lat_accel_max_mps2 * 10.0)
+    s_bend = 60.0 + 2.0  # the bend starts at s = 60 (x = 60)
+    in_bend = 30.0 + res.progress_plan[0] >= s_bend
+    assert in_bend.any()
+    assert np.all(res.speed_plan[0][in_bend] <= bound * 1.15)
 
 
 def test_car_stopped_in_the_next_lane_does_not_block_the_robot():
@@ -115,13 +265,25 @@ def test_car_stopped_in_the_next_lane_does_not_block_the_robot():
         slot[f["length"]], slot[f["width"]] = 4.5, 1.8
         tracks = tracker.update(layout.decode(vec))
     assert tracks.heading_rad[0] == pytest.approx(0.0)
-    scene = ScenePrediction.from_tracks(tracks, TIMES)
-    assert np.allclose(scene.heading, 0.0)
-    res = plan(CONFIG, VehicleParams(), ROUTE, 130.0, 11.5, 0.0, 11.5, 13.9, scene,
-               np.array([1.0]), ())
-    assert res.feasible and res.accel_mps2 == 0.0
-    across = ScenePrediction(scene.xy, np.full_like(scene.heading, np.pi / 2), scene.length_m,
-                             scene.width_m, scene.radius_m, scene.is_pedestrian, scene.mask)
-    blocked = plan(CONFIG, VehicleParams(), ROUTE, 130.0, 11.5, 0.0, 11.5, 13.9, across,
-                   np.array([1.0]), ())
+    scene = ScenePrediction.from_tracks(tracks, TIMES[:8])  # 2 s: the drift stays small
+    full = ScenePrediction.from_tracks(tracks, TIMES)
+    still = ScenePrediction(full.xy.copy(), full.heading, full.length_m, full.width_m,
+                            full.radius_m, full.is_pedestrian, full.mask)
+    still.xy[..., 1] = scene.xy[..., 0:1, 1]  # no lateral drift beyond the first step
+    assert np.allclose(still.heading, 0.0)
+    res = plan(CONFIG, VEHICLE, ROUTE, 130.0, 11.5, 0.0, 11.5, 13.9, still, np.array([1.0]))
+    assert res.feasible and res.accel_mps2 == pytest.approx(0.0, abs=1e-3)
+    across = ScenePrediction(still.xy, np.full_like(still.heading, np.pi / 2), still.length_m,
+                             still.width_m, still.radius_m, still.is_pedestrian, still.mask)
+    blocked = plan(CONFIG, VEHICLE, ROUTE, 130.0, 11.5, 0.0, 11.5, 13.9, across,
+                   np.array([1.0]))
     assert blocked.accel_mps2 < 0.0
+
+
+def test_qp_is_built_once_per_number_of_branches_and_reused():
+    mpc = ContingencyMpc(CONFIG, VEHICLE)
+    for s0 in (30.0, 31.0, 32.0):
+        mpc.plan(ROUTE, s0, 11.5, 0.0, 11.5, 13.9, _scene([False, True]), np.array([0.7, 0.3]))
+    first = mpc._qps[2]
+    mpc.plan(ROUTE, 33.0, 11.5, 0.0, 11.5, 13.9, _scene([False, True]), np.array([0.7, 0.3]))
+    assert mpc._qps[2] is first and set(mpc._qps) == {2}

@@ -1,0 +1,244 @@
+"""What the robot's path corridor imposes on its progress: predicted objects, static boxes, curves.
+
+Everything is projected onto the robot's route (path-velocity decomposition). An object occupies
+the corridor at a plan step when the lateral extent of its footprint (its four corners projected
+on the route) overlaps [-(w/2 + margin), w/2 + margin] around the route, w the robot's width.
+Nothing here knows what the object is (pedestrian, car) or why it is there (a crosswalk, a lane):
+a crossing pedestrian, a car ahead in the lane and a car crossing an intersection are all an
+interval of plan steps during which the object covers [s_rear, s_front] of the robot's path.
+While it does, the robot either stays behind it (front <= s_rear - gap: this is also car
+following) or is past it (rear >= s_front + gap, from `pass_margin_steps` before it arrives).
+Objects beside or behind the robot now are ignored.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from marl_social.models.candidates import ScenePrediction
+from marl_social.sim.road_map import Route
+
+BEHIND, PAST = "behind", "past"
+
+
+@dataclass(frozen=True)
+class PathObject:
+    """One predicted object of one hypothesis that occupies the robot's corridor.
+
+    Attributes:
+        occupied: (N,) bool, in the corridor at the end of plan step k.
+        s_rear_m: (N,) smallest arc length of its footprint along the route [m].
+        s_front_m: (N,) largest arc length of its footprint along the route [m].
+        k_first: first occupied step.
+        k_last: last occupied step.
+        is_pedestrian: a pedestrian (it has the right of way: the robot passes in front of it
+            only if it cannot stay behind).
+    """
+
+    occupied: np.ndarray
+    s_rear_m: np.ndarray
+    s_front_m: np.ndarray
+    k_first: int
+    k_last: int
+    is_pedestrian: bool = False
+
+
+def _corners(xy: np.ndarray, heading: np.ndarray, length_m: np.ndarray,
+             width_m: np.ndarray) -> np.ndarray:
+    """(..., 4, 2) footprint corners of rectangles at xy (..., 2) and heading (...) [m]."""
+    c, s = np.cos(heading)[..., None], np.sin(heading)[..., None]
+    half_l, half_w = 0.5 * length_m[..., None], 0.5 * width_m[..., None]
+    sign_l = np.array([1.0, 1.0, -1.0, -1.0])
+    sign_w = np.array([1.0, -1.0, -1.0, 1.0])
+    dx = sign_l * half_l * c - sign_w * half_w * s
+    dy = sign_l * half_l * s + sign_w * half_w * c
+    return xy[..., None, :] + np.stack([dx, dy], axis=-1)
+
+
+def objects_on_path(route: Route, scene: ScenePrediction, s0: float, robot_length_m: float,
+                    robot_width_m: float, lateral_margin_m: float,
+                    pedestrian_margin_m: float | None = None,
+                    pedestrian_clearance_m: float | None = None) -> list[list[PathObject]]:
+    """Per hypothesis, the predicted objects that occupy the robot's corridor.
+
+    Args:
+        route: the robot's route.
+        scene: L hypotheses, M objects, N plan steps.
+        s0: the robot's arc length (its footprint centre) [m].
+        robot_length_m: the robot's length [m].
+        robot_width_m: the robot's width [m].
+        lateral_margin_m: clearance added to each side of the robot's width [m].
+        pedestrian_margin_m: a pedestrian heading for the corridor (its distance to the route
+            shrinking) is in the way already within this clearance (None: lateral_margin_m) [m].
+        pedestrian_clearance_m: the clearance to any pedestrian, also one walking away
+            (None: lateral_margin_m) [m].
+
+    Returns:
+        L lists of PathObject.
+    """
+    n_hyp, n_obj = scene.mask.shape
+    if n_obj == 0:
+        return [[] for _ in range(n_hyp)]
+    length = np.broadcast_to(scene.length_m[..., None], scene.heading.shape)
+    width = np.broadcast_to(scene.width_m[..., None], scene.heading.shape)
+    corners = _corners(scene.xy, scene.heading, length, width)  # (L, M, N, 4, 2)
+    s, lateral, _ = route.project(corners)
+    s_rear, s_front = s.min(axis=-1), s.max(axis=-1)  # (L, M, N)
+    clearance = lateral_margin_m if pedestrian_clearance_m is None else pedestrian_clearance_m
+    half = 0.5 * robot_width_m + np.where(scene.is_pedestrian, clearance,
+                                          lateral_margin_m)[..., None]  # (L, M, 1)
+    overlap = (lateral.min(axis=-1) <= half) & (lateral.max(axis=-1) >= -half)
+    if pedestrian_margin_m is not None:
+        # a pedestrian heading for the corridor is in the way from further out (it has the
+        # right of way on the carriageway); one standing or walking away is not
+        wide = 0.5 * robot_width_m + pedestrian_margin_m
+        centre = np.abs(lateral.mean(axis=-1))  # (L, M, N)
+        closing = np.diff(centre, axis=-1, prepend=centre[..., :1] + 1.0) < -1e-3
+        closing[..., 0] = closing[..., 1] if centre.shape[-1] > 1 else closing[..., 0]
+        near = (lateral.min(axis=-1) <= wide) & (lateral.max(axis=-1) >= -wide)
+        overlap |= near & closing & scene.is_pedestrian[..., None]
+    # an object whose projection is clamped at the route's ends is not on the path
+    inside = (s_front > 0.0) & (s_rear < route.length_m)
+    occupied = overlap & inside & scene.mask[..., None]
+    # beside or behind the robot now (its rear short of the robot's front): not the robot's to
+    # yield to; a car alongside that drifts into the corridor in its prediction is one
+    behind_robot = s_rear[..., 0] < s0 + 0.5 * robot_length_m  # (L, M)
+    out: list[list[PathObject]] = []
+    for l in range(n_hyp):
+        objs = []
+        for m in range(n_obj):
+            occ = occupied[l, m]
+            if behind_robot[l, m] or not occ.any():
+                continue
+            ks = np.flatnonzero(occ)
+            objs.append(PathObject(occ, s_rear[l, m], s_front[l, m], int(ks[0]), int(ks[-1]),
+                                   bool(scene.is_pedestrian[l, m])))
+        out.append(objs)
+    return out
+
+
+def static_limit(route: Route, boxes: np.ndarray | None, s0: float, robot_length_m: float,
+                 robot_width_m: float, lateral_margin_m: float) -> float:
+    """Arc length of the nearest static box ahead that reaches into the corridor (inf: none) [m].
+
+    Args:
+        route: the robot's route.
+        boxes: (S, 4) [xmin, ymin, xmax, ymax] of the static polygons [m], or None.
+        s0: the robot's arc length [m].
+        robot_length_m: the robot's length [m].
+        robot_width_m: the robot's width [m].
+        lateral_margin_m: clearance added to each side of the robot's width [m].
+    """
+    if boxes is None or len(boxes) == 0:
+        return np.inf
+    x0, y0, x1, y1 = (boxes[:, i] for i in range(4))
+    xm, ym = 0.5 * (x0 + x1), 0.5 * (y0 + y1)
+    pts = np.stack([np.stack([x0, y0], -1), np.stack([x1, y0], -1), np.stack([x1, y1], -1),
+                    np.stack([x0, y1], -1), np.stack([xm, y0], -1), np.stack([xm, y1], -1),
+                    np.stack([x0, ym], -1), np.stack([x1, ym], -1)], axis=1)  # (S, 8, 2)
+    s, lateral, _ = route.project(pts)
+    half = 0.5 * robot_width_m + lateral_margin_m
+    on_path = ((lateral.min(axis=-1) <= half) & (lateral.max(axis=-1) >= -half)
+               & (s.max(axis=-1) >= s0 - 0.5 * robot_length_m)
+               & (s.min(axis=-1) < route.length_m) & (s.max(axis=-1) > 0.0))
+    return float(s.min(axis=-1)[on_path].min()) if on_path.any() else np.inf
+
+
+def route_curvature(route: Route) -> tuple[np.ndarray, np.ndarray]:
+    """Curvature at the route's inner vertices: (V,) arc lengths [m] and (V,) |kappa| [1/m]."""
+    seg = np.diff(route.points, axis=0)
+    seg_len = np.linalg.norm(seg, axis=1)
+    heading = np.unwrap(np.arctan2(seg[:, 1], seg[:, 0]))
+    if len(seg) < 2:
+        return np.zeros(0), np.zeros(0)
+    turn = np.abs(np.diff(heading))
+    kappa = turn / (0.5 * (seg_len[1:] + seg_len[:-1]))
+    return np.cumsum(seg_len)[:-1], kappa
+
+
+def curvature_speed_bound(vertex_s: np.ndarray, vertex_kappa: np.ndarray, s_lo: np.ndarray,
+                          s_hi: np.ndarray, window_m: float,
+                          lat_accel_max_mps2: float) -> np.ndarray:
+    """(N,) v <= sqrt(a_lat / kappa) over the positions a step may have [m/s] (inf: straight).
+
+    Args:
+        vertex_s: (V,) arc lengths of the route's vertices [m].
+        vertex_kappa: (V,) their curvatures [1/m].
+        s_lo: (N,) smallest arc length each plan step may reach [m].
+        s_hi: (N,) largest arc length each plan step may reach [m].
+        window_m: vertices this far outside [s_lo, s_hi] count too (the footprint's extent) [m].
+        lat_accel_max_mps2: the lateral acceleration allowed [m/s^2].
+    """
+    if len(vertex_kappa) == 0:
+        return np.full(len(s_lo), np.inf)
+    near = ((vertex_s[None] >= s_lo[:, None] - window_m)
+            & (vertex_s[None] <= s_hi[:, None] + window_m))
+    kappa = np.where(near, vertex_kappa[None], 0.0).max(axis=1)
+    with np.errstate(divide="ignore"):
+        return np.sqrt(lat_accel_max_mps2 / kappa)
+
+
+def mode_bounds(objects: list[PathObject], modes: tuple[str, ...], n_steps: int, s0: float,
+                robot_length_m: float, gap_m: float, pass_margin_steps: int,
+                pedestrian_gap_m: float | None = None) -> tuple[np.ndarray, np.ndarray]:
+    """Bounds on the robot's progress (relative to s0) for one branch and one choice of modes.
+
+    Args:
+        objects: the branch's PathObjects.
+        modes: one of BEHIND / PAST per object.
+        n_steps: N plan steps.
+        s0: the robot's arc length [m].
+        robot_length_m: the robot's length [m].
+        gap_m: the longitudinal gap kept to an object [m].
+        pass_margin_steps: the robot is past an object this many steps before it arrives.
+        pedestrian_gap_m: the gap kept to a pedestrian (default gap_m) [m].
+
+    Returns:
+        s_low (N,) and s_up (N,) [m]: s_low <= s <= ... and s + h v <= s_up.
+    """
+    s_low, s_up = np.full(n_steps, -np.inf), np.full(n_steps, np.inf)
+    half = 0.5 * robot_length_m
+    for obj, mode in zip(objects, modes):
+        k0, k1 = obj.k_first, obj.k_last
+        gap = gap_m if pedestrian_gap_m is None or not obj.is_pedestrian else pedestrian_gap_m
+        if mode == BEHIND:
+            limit = np.full(n_steps, np.inf)
+            limit[k0:k1 + 1] = obj.s_rear_m[k0:k1 + 1] - gap - half - s0
+            s_up = np.minimum(s_up, limit)
+        else:
+            need = np.full(n_steps, -np.inf)
+            need[k0:k1 + 1] = obj.s_front_m[k0:k1 + 1] + gap + half - s0
+            start = max(0, k0 - pass_margin_steps)
+            need[start:k0] = need[k0]
+            s_low = np.maximum(s_low, np.maximum.accumulate(need))
+    return s_low, s_up
+
+
+def past_reachable(obj: PathObject, v0: float, v_cap_mps: float, accel_max_mps2: float,
+                   dt_s: float, s0: float, robot_length_m: float, gap_m: float,
+                   pass_margin_steps: int) -> bool:
+    """Whether full acceleration (capped at v_cap) gets the robot past `obj` in time.
+
+    Args:
+        obj: the object.
+        v0: the robot's speed [m/s].
+        v_cap_mps: its speed cap [m/s].
+        accel_max_mps2: its largest acceleration [m/s^2].
+        dt_s: plan step [s].
+        s0: its arc length [m].
+        robot_length_m: its length [m].
+        gap_m: the longitudinal gap kept [m].
+        pass_margin_steps: as in mode_bounds.
+    """
+    k = obj.k_first - pass_margin_steps
+    if k < 0:
+        return False
+    t = (k + 1) * dt_s
+    t_cap = max(0.0, (v_cap_mps - v0) / accel_max_mps2)
+    if t <= t_cap:
+        reach = v0 * t + 0.5 * accel_max_mps2 * t * t
+    else:
+        reach = v0 * t_cap + 0.5 * accel_max_mps2 * t_cap ** 2 + max(v0, v_cap_mps) * (t - t_cap)
+    return reach >= obj.s_front_m[obj.k_first] + gap_m + 0.5 * robot_length_m - s0

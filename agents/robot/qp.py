@@ -1,0 +1,267 @@
+"""The contingency MPC's quadratic program, built once per number of branches and updated.
+
+Path-velocity decomposition: the robot's progress along its route, relative to where it is now.
+Per branch l (one live hypothesis) and plan step k = 0..N-1 (length dt_s), the variables are the
+acceleration a[l, k] held during step k [m/s^2], the speed v[l, k] and the progress s[l, k] at
+the end of step k [m/s, m]. The first `n_trunk` accelerations are one shared variable per step
+(non-anticipativity: the trunk is what is executed before the next observation); so are,
+through the dynamics, the trunk's speeds and positions.
+
+Rows (l <= A x <= u), per branch:
+
+* dynamics (equalities): v[k] = v[k-1] + a[k] dt, s[k] = s[k-1] + v[k-1] dt + a[k] dt^2 / 2,
+  with v[-1] = v0, s[-1] = 0 (exact for piecewise-constant acceleration);
+* speed: 0 <= v[k] <= v_max[k] (speed limit and the curvature bound);
+* pass before: s[k] >= s_low[k] (past an object, from corridor.py);
+* stay behind: s[k] + h[k] v[k] <= s_up[k] (behind an object with a time headway h[k], ramped
+  from 0 so that a gap already short now stays feasible; on the last step the terminal headway
+  makes room for a stop beyond the horizon);
+* jerk: |a[k] - a[k-1]| <= j_max dt (the first step against the previous command, over one
+  simulator step); acceleration: -brake_max <= a <= accel_max.
+
+Cost (0.5 x'Px + q'x) = sum_l b_l dt sum_k [w_v (v - v_ref)^2 + w_a a^2 + w_j ((a_k - a_{k-1})
+/ dt_k)^2], dt_k = dt except for the first change (from the previous command, made within one
+simulator step: first_dt_s). The sparsity of P and A depends only on (L, N, n_trunk); a new step updates P's values
+(the beliefs), q and the bounds, and OSQP warm-starts from the previous solution.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+import osqp
+import scipy.sparse as sp
+
+_OK = (osqp.SolverStatus.OSQP_SOLVED, osqp.SolverStatus.OSQP_SOLVED_INACCURATE)
+_INF = 1e20  # OSQP's infinity
+
+
+@dataclass(frozen=True)
+class QpWeights:
+    """The cost weights of one branch (SI units, per second of plan).
+
+    Attributes:
+        speed: w_v on (v - v_ref)^2 [1 / (m/s)^2 / s].
+        accel: w_a on a^2 [1 / (m/s^2)^2 / s].
+        jerk: w_j on jerk^2 [1 / (m/s^3)^2 / s].
+    """
+
+    speed: float
+    accel: float
+    jerk: float
+
+
+@dataclass(frozen=True)
+class QpSolution:
+    """One solve of the QP.
+
+    Attributes:
+        solved: OSQP reached a solution within its tolerances that meets the bounds.
+        cost: the objective 0.5 x'Px + q'x (constant terms left out).
+        accel_mps2: (L, N) accelerations per branch [m/s^2].
+        speed_mps: (L, N) speeds at the end of each step [m/s].
+        progress_m: (L, N) progress along the route at the end of each step [m].
+    """
+
+    solved: bool
+    cost: float
+    accel_mps2: np.ndarray
+    speed_mps: np.ndarray
+    progress_m: np.ndarray
+
+
+class ContingencyQp:
+    """The QP of L branches over N steps with a shared trunk of n_trunk steps (module docstring).
+
+    Args:
+        n_branches: L >= 1.
+        n_steps: N plan steps.
+        n_trunk: shared first steps, 1 <= n_trunk < N.
+        dt_s: plan step [s].
+        first_dt_s: the time over which the first acceleration may change (a simulator step) [s].
+        weights: the cost weights.
+        headway_s: (N,) time headway h[k] of the stay-behind rows [s].
+        tolerance: OSQP's absolute and relative tolerance.
+    """
+
+    def __init__(self, n_branches: int, n_steps: int, n_trunk: int, dt_s: float,
+                 first_dt_s: float, weights: QpWeights, headway_s: np.ndarray,
+                 tolerance: float = 1e-5):
+        if not (n_branches >= 1 and 1 <= n_trunk < n_steps):
+            raise ValueError("ContingencyQp: need L >= 1 and 1 <= n_trunk < n_steps")
+        self.n_branches, self.n_steps, self.n_trunk = n_branches, n_steps, n_trunk
+        self.dt_s, self.first_dt_s, self.weights = dt_s, first_dt_s, weights
+        n_b = n_steps - n_trunk
+        self._a_off = n_trunk
+        self._v_off = n_trunk + n_branches * n_b
+        self._s_off = self._v_off + n_branches * n_steps
+        self.n_vars = self._s_off + n_branches * n_steps
+        self._a_idx = np.array([[k if k < n_trunk else n_trunk + l * n_b + k - n_trunk
+                                 for k in range(n_steps)] for l in range(n_branches)])
+        self._v_idx = self._v_off + np.arange(n_branches * n_steps).reshape(n_branches, n_steps)
+        self._s_idx = self._s_off + np.arange(n_branches * n_steps).reshape(n_branches, n_steps)
+        self._build_cost_pattern()
+        self._build_constraints(np.asarray(headway_s, dtype=np.float64))
+        self._solver = osqp.OSQP()
+        self._solver.setup(self._p_matrix(np.full(n_branches, 1.0 / n_branches)),
+                           np.zeros(self.n_vars), self._a_matrix,
+                           self._lower_template.copy(), self._upper_template.copy(),
+                           verbose=False, eps_abs=tolerance, eps_rel=tolerance,
+                           max_iter=4000, polishing=True, warm_starting=True,
+                           check_termination=10)
+
+    # -- cost ---------------------------------------------------------------------------------
+
+    def _build_cost_pattern(self) -> None:
+        """Triples (row, col, coefficient, branch) of P; duplicates are summed in Px."""
+        w, dt = self.weights, self.dt_s
+        first = dt / self.first_dt_s ** 2  # the first change happens within one simulator step
+        rows, cols, coef, branch = [], [], [], []
+
+        def add(i, j, c, l):
+            rows.append(min(i, j))
+            cols.append(max(i, j))
+            coef.append(c)
+            branch.append(l)
+
+        for l in range(self.n_branches):
+            for k in range(self.n_steps):
+                add(self._v_idx[l, k], self._v_idx[l, k], 2.0 * w.speed * dt, l)
+                add(self._s_idx[l, k], self._s_idx[l, k], 0.0, l)  # keeps P's pattern full-rank
+                a = self._a_idx[l, k]
+                add(a, a, 2.0 * w.accel * dt + 2.0 * w.jerk * (first if k == 0 else 1.0 / dt), l)
+                if k >= 1:
+                    prev = self._a_idx[l, k - 1]
+                    add(prev, prev, 2.0 * w.jerk / dt, l)
+                    add(prev, a, -2.0 * w.jerk / dt, l)
+        rows, cols = np.array(rows), np.array(cols)
+        key = cols * self.n_vars + rows  # CSC order: by column, then row
+        unique, self._p_slot = np.unique(key, return_inverse=True)
+        self._p_rows, self._p_cols = unique % self.n_vars, unique // self.n_vars
+        self._p_coef, self._p_branch = np.array(coef), np.array(branch)
+
+    def _p_values(self, weights: np.ndarray) -> np.ndarray:
+        return np.bincount(self._p_slot, weights=self._p_coef * weights[self._p_branch],
+                           minlength=len(self._p_rows))
+
+    def _p_matrix(self, weights: np.ndarray) -> sp.csc_matrix:
+        indptr = np.concatenate([[0], np.cumsum(np.bincount(self._p_cols,
+                                                            minlength=self.n_vars))])
+        return sp.csc_matrix((self._p_values(weights), self._p_rows, indptr),
+                             shape=(self.n_vars, self.n_vars))
+
+    def _q_vector(self, weights: np.ndarray, v_ref_mps: float, prev_accel: float) -> np.ndarray:
+        w, dt = self.weights, self.dt_s
+        q = np.zeros(self.n_vars)
+        q[self._v_idx] = -2.0 * w.speed * dt * v_ref_mps * weights[:, None]
+        first = dt / self.first_dt_s ** 2
+        q[self._a_idx[0, 0]] = -2.0 * w.jerk * first * prev_accel  # the weights sum to one
+        return q
+
+    # -- constraints --------------------------------------------------------------------------
+
+    def _build_constraints(self, headway_s: np.ndarray) -> None:
+        L, N, dt = self.n_branches, self.n_steps, self.dt_s
+        rows, cols, vals = [], [], []
+        n_rows = 0
+
+        def row(entries) -> int:
+            nonlocal n_rows
+            for j, x in entries:
+                rows.append(n_rows)
+                cols.append(j)
+                vals.append(x)
+            n_rows += 1
+            return n_rows - 1
+
+        dyn_v, dyn_s = np.zeros((L, N), int), np.zeros((L, N), int)
+        speed, low, up = np.zeros((L, N), int), np.zeros((L, N), int), np.zeros((L, N), int)
+        for l in range(L):
+            a, v, s = self._a_idx[l], self._v_idx[l], self._s_idx[l]
+            for k in range(N):
+                prev_v = [(v[k - 1], -1.0)] if k else []
+                dyn_v[l, k] = row([(v[k], 1.0), (a[k], -dt)] + prev_v)
+                prev_s = [(s[k - 1], -1.0), (v[k - 1], -dt)] if k else []
+                dyn_s[l, k] = row([(s[k], 1.0), (a[k], -0.5 * dt * dt)] + prev_s)
+                speed[l, k] = row([(v[k], 1.0)])
+                low[l, k] = row([(s[k], 1.0)])
+                up[l, k] = row([(s[k], 1.0), (v[k], headway_s[k])])
+        jerk_rows = [row([(self._a_idx[0, 0], 1.0)])]
+        for k in range(1, self.n_trunk):
+            jerk_rows.append(row([(k, 1.0), (k - 1, -1.0)]))
+        for l in range(L):
+            for k in range(self.n_trunk, N):
+                jerk_rows.append(row([(self._a_idx[l, k], 1.0), (self._a_idx[l, k - 1], -1.0)]))
+        accel_rows = [row([(j, 1.0)]) for j in range(self._v_off)]
+        self._a_matrix = sp.csc_matrix((vals, (rows, cols)), shape=(n_rows, self.n_vars))
+        self._rows = {"dyn_v": dyn_v, "dyn_s": dyn_s, "speed": speed, "low": low, "up": up,
+                      "jerk": np.array(jerk_rows), "accel": np.array(accel_rows)}
+        lower, upper = np.full(n_rows, -_INF), np.full(n_rows, _INF)
+        lower[dyn_v] = upper[dyn_v] = 0.0
+        lower[dyn_s] = upper[dyn_s] = 0.0
+        self._lower_template, self._upper_template = lower, upper
+
+    def _bounds(self, v0: float, prev_accel: float, v_max: np.ndarray, s_low: np.ndarray,
+                s_up: np.ndarray, accel_min: float, accel_max: float,
+                jerk_max: float) -> tuple[np.ndarray, np.ndarray]:
+        r, dt = self._rows, self.dt_s
+        lower, upper = self._lower_template.copy(), self._upper_template.copy()
+        lower[r["dyn_v"][:, 0]] = upper[r["dyn_v"][:, 0]] = v0
+        lower[r["dyn_s"][:, 0]] = upper[r["dyn_s"][:, 0]] = v0 * dt
+        lower[r["speed"]], upper[r["speed"]] = 0.0, v_max
+        lower[r["low"]] = np.maximum(s_low, -_INF)
+        upper[r["up"]] = np.minimum(s_up, _INF)
+        jerk = r["jerk"]
+        lower[jerk], upper[jerk] = -jerk_max * dt, jerk_max * dt
+        first = jerk[0]
+        lower[first] = prev_accel - jerk_max * self.first_dt_s
+        upper[first] = prev_accel + jerk_max * self.first_dt_s
+        lower[r["accel"]], upper[r["accel"]] = accel_min, accel_max
+        return lower, upper
+
+    # -- solve --------------------------------------------------------------------------------
+
+    def solve(self, weights: np.ndarray, v0: float, prev_accel: float, v_ref_mps: float,
+              v_max: np.ndarray, s_low: np.ndarray, s_up: np.ndarray, accel_min: float,
+              accel_max: float, jerk_max: float) -> QpSolution:
+        """Solve for the current state and bounds.
+
+        Args:
+            weights: (L,) branch probabilities, summing to one.
+            v0: current speed [m/s].
+            prev_accel: the previous acceleration command [m/s^2].
+            v_ref_mps: reference speed [m/s].
+            v_max: (L, N) speed bounds [m/s].
+            s_low: (L, N) lower bounds on progress (-inf: none) [m].
+            s_up: (L, N) upper bounds on progress + headway x speed (inf: none) [m].
+            accel_min: most negative acceleration [m/s^2].
+            accel_max: largest acceleration [m/s^2].
+            jerk_max: largest |jerk| [m/s^3].
+        """
+        weights = np.asarray(weights, dtype=np.float64)
+        lower, upper = self._bounds(v0, prev_accel, v_max, s_low, s_up, accel_min, accel_max,
+                                    jerk_max)
+        if np.any(lower > upper + 1e-9):
+            return self._failed()
+        self._solver.update(Px=self._p_values(weights),
+                            q=self._q_vector(weights, v_ref_mps, prev_accel), l=lower, u=upper)
+        res = self._solver.solve(raise_error=False)
+        for _ in range(3):  # a cold start may need more iterations: go on from where it stopped
+            if res.info.status_val != osqp.SolverStatus.OSQP_MAX_ITER_REACHED:
+                break
+            res = self._solver.solve(raise_error=False)
+        if res.info.status_val not in [int(s) for s in _OK] or res.x is None:
+            return self._failed()
+        x = res.x
+        ax = self._a_matrix @ x
+        violation = max(float(np.max(lower - ax)), float(np.max(ax - upper)))
+        if not np.all(np.isfinite(x)) or violation > 1e-3:
+            return self._failed()
+        return QpSolution(True, float(res.info.obj_val), x[self._a_idx], x[self._v_idx],
+                          x[self._s_idx])
+
+    def _failed(self) -> QpSolution:
+        shape = (self.n_branches, self.n_steps)
+        nan = np.full(shape, np.nan)
+        return QpSolution(False, np.inf, nan, nan.copy(), nan.copy())
