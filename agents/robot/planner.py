@@ -96,6 +96,10 @@ def robot_configs(spec: AgentSpec, planner: str | RobotVariant = "social",
                   params: RobotModelParams | None = None) -> tuple[MpcConfig, BeliefConfig]:
     """The MPC and belief configuration of a robot from its spec (see module docstring).
 
+    The belief's tracker gets the robot's own sensor noise (spec.sensor.pos_noise_m,
+    vel_noise_mps); everything else the robot assumes about the humans is the robot's own
+    (BeliefConfig's documented defaults unless spec.planner sets theta_hat / beta_hat).
+
     Args:
         spec: the robot's AgentSpec (its cost weights theta_R and planner parameters).
         planner: a name of ROBOT_VARIANTS or a RobotVariant.
@@ -107,7 +111,10 @@ def robot_configs(spec: AgentSpec, planner: str | RobotVariant = "social",
     variant = _variant(planner)
     params = params or parse_planner_params(RobotModelParams, spec)
     belief = BeliefConfig()
-    updates = {"epsilon": belief.epsilon if params.epsilon is None else params.epsilon}
+    updates = {"epsilon": belief.epsilon if params.epsilon is None else params.epsilon,
+               # the tracker filters with the robot's own sensor noise
+               "track_pos_noise_m": spec.sensor.pos_noise_m,
+               "track_vel_noise_mps": spec.sensor.vel_noise_mps}
     if params.theta_hat is not None:
         updates["theta_hat"] = params.theta_hat
     if params.beta_hat is not None:

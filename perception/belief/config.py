@@ -48,6 +48,9 @@ class BeliefConfig:
             many consecutive steps (a new Kalman track's velocity is still settling).
         track_accel_noise_mps2: process noise of the robot's default Kalman tracker [m/s^2]
             (lower: smoother a_obs, more lag; 1.5 keeps the a_obs noise below sigma = 1).
+        track_pos_noise_m: position measurement noise std the robot's tracker assumes: the
+            robot's own sensor's (agents.robot.planner.robot_configs passes spec.sensor's) [m].
+        track_vel_noise_mps: velocity measurement noise std, likewise [m/s].
     """
 
     walk_speed_mps: float = 1.3
@@ -69,6 +72,8 @@ class BeliefConfig:
     outlier_prob: float = 0.0
     min_track_steps: int = 3
     track_accel_noise_mps2: float = 1.5
+    track_pos_noise_m: float = 0.05
+    track_vel_noise_mps: float = 0.1
 
     def __post_init__(self):
         """Reject probabilities outside [0, 1], negative betas and non-positive noise/floor."""

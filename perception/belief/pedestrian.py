@@ -61,17 +61,19 @@ class PedestrianBelief:
     Built from the robot's own observations and the static map only.
 
     Args:
-        road_map: the static map (crosswalks, routes of the human drivers, speed limit).
+        road_map: the static map (crosswalks, lanes, speed limit; other agents' routes are
+            never read).
         layout: the shared observation layout.
         robot_name: the robot's agent name.
-        agent_names: env.possible_agents (public; slot object id k is agent_names[k - 1]); human
-            drivers are the non-pedestrian objects whose name starts with "human" and that have a
-            route in road_map.routes.
+        agent_names: names of object ids in the debugging outputs only (object id k is
+            agent_names[k - 1] when given, else "object_<k>"); human drivers are the tracked
+            vehicles in one of the map's lanes, whatever their names.
         config: BeliefConfig.
         use_social: fold in the humans' behaviour (eq. 9-10, and eq. 12 for v_traffic).
         use_own_sensors: fold in the robot's own detections and negative information.
-        tracker: the robot's Kalman tracker of others (default: Tracker with the default sensor
-            noise levels and config.track_accel_noise_mps2).
+        tracker: the robot's Kalman tracker of others (default: Tracker with the robot's own
+            sensor noise config.track_pos_noise_m, config.track_vel_noise_mps and process noise
+            config.track_accel_noise_mps2).
 
     Attributes:
         hypotheses: the L hypotheses, "none" first.
@@ -105,7 +107,9 @@ class PedestrianBelief:
         n = len(self.hypotheses)
         self._present = np.array([h.present for h in self.hypotheses])
         self.transition = markov_transition(n, config.hazard_per_s * DT_S)
-        self.tracker = tracker or Tracker(accel_noise_mps2=config.track_accel_noise_mps2)
+        self.tracker = tracker or Tracker(pos_noise_m=config.track_pos_noise_m,
+                                          vel_noise_mps=config.track_vel_noise_mps,
+                                          accel_noise_mps2=config.track_accel_noise_mps2)
         self.traffic = TrafficSpeedBelief(config.v_traffic_grid_mps, config.hazard_per_s * DT_S,
                                           config.floor)
         self._joint_transition = np.kron(self.transition, self.traffic.transition)

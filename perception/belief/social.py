@@ -33,6 +33,7 @@ from filterpy.discrete_bayes import normalize
 from filterpy.discrete_bayes import update as bayes_update
 from marl_social.perception.belief.config import BeliefConfig
 from marl_social.perception.belief.hypotheses import PEDESTRIAN_DIAMETER_M, Hypothesis
+from marl_social.perception.belief.paths import LanePaths
 from marl_social.perception.tracking import TrackSet
 
 from marl_social.models.boltzmann import boltzmann
@@ -50,7 +51,6 @@ from marl_social.sim.road_map import RoadMap, Route
 SIGMA_MIN_MPS2 = 1e-3  # the observation noise on a_obs is at least this [m/s^2]
 OUTLIER_PROB_MAX = 1.0 - 1e-12  # rho stays below 1 (some weight on the model)
 OUTLIER_MARGIN_SIGMAS = 3.0  # the outlier density spans the actions' range +- this many sigma
-HUMAN_NAME_PREFIX = "human"  # agents whose name starts with this are modelled human drivers
 _EGO_XY = [EGO_INDEX["x"], EGO_INDEX["y"]]
 _EGO_COS_SIN = [EGO_INDEX["cos_psi"], EGO_INDEX["sin_psi"]]
 
@@ -137,11 +137,14 @@ class _HumanState:
 class SocialLikelihood:
     """The robot's model of the human drivers and the likelihood of their observed actions.
 
+    Every tracked vehicle driving in one of the map's lanes is a human driver, modelled along
+    that lane (paths.LanePaths: inferred from its track, never from a name or another agent's
+    route).
+
     Args:
-        road_map: the static map (crosswalks and the human drivers' routes).
-        agent_names: env.possible_agents (slot object id k is agent_names[k - 1]); human drivers
-            are the agents whose name starts with HUMAN_NAME_PREFIX and that have a route in
-            road_map.routes.
+        road_map: the static map (crosswalks and lanes).
+        agent_names: names of object ids for the debugging outputs (object id k is
+            agent_names[k - 1] if given; else "object_<k>"); never used to find humans.
         hypotheses: the L pedestrian hypotheses.
         traffic_grid_mps: (V,) traffic speeds of the traffic-speed belief [m/s].
         config: BeliefConfig (theta_hat, beta_hat, beta_grid_hat, accel_noise_mps2, ...).
@@ -159,10 +162,7 @@ class SocialLikelihood:
         self.traffic_grid_mps = traffic_grid_mps
         self.config = config
         self._present = np.array([h.present for h in hypotheses])
-        self._human_routes = {
-            i + 1: road_map.routes[name] for i, name in enumerate(self.agent_names)
-            if name.startswith(HUMAN_NAME_PREFIX) and name in road_map.routes
-        }
+        self.lane_paths = LanePaths(road_map)
         # the robot's model of a human (eq. 8, 11); the speed feature is added per v_ref
         self.model = DriverModel(theta=config.theta_hat, beta=config.beta_hat,
                                  vehicle=VehicleParams())
@@ -321,7 +321,13 @@ class SocialLikelihood:
         """
         if not len(self._beta_grid):
             return {}
-        return {self.agent_names[oid - 1]: h.beta_belief.copy() for oid, h in self._humans.items()}
+        return {self.object_name(oid): h.beta_belief.copy() for oid, h in self._humans.items()}
+
+    def object_name(self, object_id: int) -> str:
+        """Name of an object id in the debugging outputs: its agent name if known."""
+        if 1 <= object_id <= len(self.agent_names):
+            return self.agent_names[object_id - 1]
+        return f"object_{object_id}"
 
     def log_likelihoods(self, decoded: DecodedObservation, tracks: TrackSet,
                         predicted: np.ndarray):
@@ -342,8 +348,10 @@ class SocialLikelihood:
         out, a_obs_all = [], {}
         current = {}
         for k, oid in enumerate(tracks.ids.tolist()):
-            route = self._human_routes.get(oid)
-            if route is None or tracks.is_pedestrian[k] or not tracks.seen[k]:
+            if tracks.is_pedestrian[k] or not tracks.seen[k]:
+                continue
+            route = self.lane_paths.route_of(tracks.xy[k], float(tracks.heading_rad[k]))
+            if route is None:
                 continue
             x, y = (float(v) for v in tracks.xy[k])
             s0, _ = route.project_point(x, y)
@@ -356,7 +364,7 @@ class SocialLikelihood:
             beta_belief = self._beta_prior
             if prev is not None:
                 a_est, n_seen = (v - prev.v_mps) / DT_S, prev.n_seen + 1
-                a_obs_all[self.agent_names[oid - 1]] = a_est
+                a_obs_all[self.object_name(oid)] = a_est
                 beta_belief = prev.beta_belief
                 if n_seen > cfg.min_track_steps:
                     ll, beta_belief = self._human_log_likelihood(prev, a_est, predicted)
