@@ -110,7 +110,8 @@ class PedestrianBelief:
         self.tracker = tracker or Tracker(pos_noise_m=config.track_pos_noise_m,
                                           vel_noise_mps=config.track_vel_noise_mps,
                                           accel_noise_mps2=config.track_accel_noise_mps2)
-        self.traffic = TrafficSpeedBelief(config.v_traffic_grid_mps, config.hazard_per_s * DT_S,
+        self.traffic = TrafficSpeedBelief(config.traffic_grid_mps(road_map.speed_limit_mps),
+                                          config.hazard_per_s * DT_S,
                                           config.floor)
         self._joint_transition = np.kron(self.transition, self.traffic.transition)
         self.own_sensors = OwnSensors(self.hypotheses, config)
