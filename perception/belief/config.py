@@ -28,14 +28,18 @@ class BeliefConfig:
     """Parameters of the robot's social perception (SI units).
 
     Attributes:
-        walk_speed_mps: walking speed of the hypothesised pedestrians [m/s].
+        walk_speeds_mps: the speed bins of the hypothesised pedestrians [m/s].
+        progress_step_m: length of a progress bin along a crosswalk [m] (None: only "steps
+            off the curb now", the paper's pattern).
         curb_offset_m: how far from the curb a hypothesised pedestrian starts [m].
         p_detect: P(robot detects a pedestrian | it is in a visible part of the region).
         p_false_alarm: P(a crossing pedestrian is reported that is not there).
         accel_noise_mps2: the human's own execution noise about its chosen action [m/s^2]; the
             sigma of N(a_obs; u, sigma^2) is this and the robot's track error in quadrature
             (social.py).
-        hazard_per_s: per-second probability mass moving between hypotheses [1/s].
+        hazard_per_s: rate at which hidden pedestrians arrive at a crosswalk end, and at which
+            hypothesised ones vanish [1/s] (hypotheses.motion_transition); also the traffic
+            speed's rate of change.
         floor: beliefs never drop below this before normalization.
         epsilon: the paper's tail threshold (for the planner; see `PedestrianBelief.live`).
         beta_hat: the robot's model of the humans' rationality.
@@ -45,7 +49,10 @@ class BeliefConfig:
             b_i(beta) ∝ b_i(beta) sum_{l,v} b(l, v) P(a_i | l, v, beta)). An erratic human is
             then explained by a low beta and moves the pedestrian belief less.
         theta_hat: the robot's model of the humans' cost weights (default ROBOT_THETA_HAT).
-        prior_present: prior mass spread over the present hypotheses.
+        prior_present: prior mass of the present hypotheses, spread in proportion to the
+            motion model's long-run distribution; None (the default): that long-run
+            distribution itself (arrivals at hazard_per_s, crossings of a few seconds: about
+            0.1 to 0.2 per crosswalk).
         v_traffic_grid_mps: grid of the traffic-speed belief [m/s]; empty (the default): the
             map's speed limit times V_TRAFFIC_GRID_FRACTIONS (`traffic_grid_mps`).
         human_range_m: range of the field of view the robot assumes a human has for the
@@ -67,7 +74,8 @@ class BeliefConfig:
         track_vel_noise_mps: velocity measurement noise std, likewise [m/s].
     """
 
-    walk_speed_mps: float = 1.3
+    walk_speeds_mps: tuple = (0.9, 1.6)
+    progress_step_m: float | None = 2.5
     curb_offset_m: float = 1.0
     p_detect: float = 0.95
     p_false_alarm: float = 0.01
@@ -78,7 +86,7 @@ class BeliefConfig:
     beta_hat: float = 0.3
     beta_grid_hat: tuple = ()
     theta_hat: CostWeights = field(default_factory=lambda: ROBOT_THETA_HAT)
-    prior_present: float = 0.5
+    prior_present: float | None = None
     v_traffic_grid_mps: tuple = ()
     human_range_m: float = 50.0
     human_half_fov_rad: float = math.radians(70.0)
@@ -94,7 +102,7 @@ class BeliefConfig:
         """Reject probabilities outside [0, 1], negative betas and non-positive noise/floor."""
         for name in ("p_detect", "p_false_alarm", "prior_present"):
             value = getattr(self, name)
-            if not 0.0 <= value <= 1.0:
+            if value is not None and not 0.0 <= value <= 1.0:
                 raise ValueError(f"BeliefConfig.{name} must be in [0, 1], got {value}")
         grid = np.asarray(self.beta_grid_hat, dtype=np.float64)
         if grid.ndim != 1 or not np.all(grid >= 0):  # also rejects NaN

@@ -3,17 +3,19 @@
 The robot keeps two discrete beliefs, built only from its own observation vector each step and
 the static map (never the world):
 
-* `PedestrianBelief`: hidden physical states x_l, l = 1..L, represented by motion patterns
-  (`Hypothesis`, hypotheses.py): "none" (no pedestrian about to cross) and, for each curb end
-  of each crosswalk, "a pedestrian steps off that curb now and walks across".
+* `PedestrianBelief`: hidden physical states x_l, l = 1..L (`Hypothesis`, hypotheses.py):
+  "none" (no hidden pedestrian) and, for each curb end of each crosswalk, "a pedestrian is
+  progress_m along this crossing and walks at speed_mps" for a few progress and speed bins:
+  at the curb entry (the paper's "steps off the curb now") and already on the road.
 * `TrafficSpeedBelief` (bayes.py): the social information I = v_traffic over a small grid
   (eq. 12).
 
 Each step (Algorithm 1, in log space; 0.1 s per step):
 
-1. prediction: a Markov transition moves `hazard_per_s * dt` of the mass uniformly between the
-   hypotheses (beliefs never lock; a new pedestrian may appear), and likewise between traffic
-   speeds;
+1. prediction: the motion model (hypotheses.motion_transition): hypothesised pedestrians walk
+   on along their crossing (mass moves to the next progress bin at their speed, and to "none"
+   once they have crossed), new ones arrive at the curb entries and hypothesised ones vanish
+   at `hazard_per_s` (beliefs never lock); a small Markov transition between traffic speeds;
 2. own sensors (own_sensors.py): positive information from a pedestrian the robot sees
    crossing, negative information from the part of each hypothesis' region its depth rays show
    empty;
@@ -40,11 +42,14 @@ from filterpy.discrete_bayes import normalize
 from marl_social.perception.belief.bayes import (
     TrafficSpeedBelief,
     bayes_step,
-    markov_transition,
     sanitize_log_likelihood,
 )
 from marl_social.perception.belief.config import BeliefConfig
-from marl_social.perception.belief.hypotheses import crosswalk_hypotheses
+from marl_social.perception.belief.hypotheses import (
+    crosswalk_hypotheses,
+    motion_transition,
+    stationary_distribution,
+)
 from marl_social.perception.belief.own_sensors import OwnSensors
 from marl_social.perception.belief.social import SocialLikelihood
 from marl_social.perception.tracking import Tracker
@@ -102,11 +107,11 @@ class PedestrianBelief:
         self.agent_names = list(agent_names)
         self.use_social = bool(use_social)
         self.use_own_sensors = bool(use_own_sensors)
-        self.hypotheses = crosswalk_hypotheses(road_map, config.walk_speed_mps,
-                                               config.curb_offset_m)
-        n = len(self.hypotheses)
+        self.hypotheses = crosswalk_hypotheses(road_map, config.walk_speeds_mps,
+                                               config.curb_offset_m, config.progress_step_m)
         self._present = np.array([h.present for h in self.hypotheses])
-        self.transition = markov_transition(n, config.hazard_per_s * DT_S)
+        self.transition = motion_transition(self.hypotheses, DT_S, config.hazard_per_s)
+        self.prior = self._prior()
         self.tracker = tracker or Tracker(pos_noise_m=config.track_pos_noise_m,
                                           vel_noise_mps=config.track_vel_noise_mps,
                                           accel_noise_mps2=config.track_accel_noise_mps2)
@@ -121,17 +126,24 @@ class PedestrianBelief:
         self.reset()
 
     # -- public API -------------------------------------------------------------------------
+    def _prior(self) -> np.ndarray:
+        """(L,) the prior: the motion model's long-run distribution (BeliefConfig.prior_present)."""
+        if not self._present.any():
+            return np.ones(len(self.hypotheses))
+        longrun = stationary_distribution(self.transition)
+        if longrun[self._present].sum() <= 0.0:
+            longrun[self._present] = 1.0
+        present_mass = self.config.prior_present
+        if present_mass is None:
+            return normalize(np.maximum(longrun, self.config.floor))
+        prior = np.where(self._present, longrun, 0.0)
+        prior *= present_mass / prior.sum()
+        prior[~self._present] = 1.0 - present_mass
+        return normalize(np.maximum(prior, self.config.floor))
+
     def reset(self) -> None:
         """Back to the prior (call at every episode start)."""
-        n = len(self.hypotheses)
-        prior = np.zeros(n)
-        n_present = int(self._present.sum())
-        if n_present:
-            prior[self._present] = self.config.prior_present / n_present
-            prior[~self._present] = 1.0 - self.config.prior_present
-        else:
-            prior[:] = 1.0
-        self.probabilities = normalize(np.maximum(prior, self.config.floor))
+        self.probabilities = self.prior.copy()
         self.tracker.reset()
         self.traffic.reset()
         self.social.reset()
@@ -144,6 +156,14 @@ class PedestrianBelief:
         if self.perceived > 0.5:
             return 1.0
         return float(1.0 - self.probabilities[~self._present].sum())
+
+    def path_probabilities(self) -> dict:
+        """{path name ("crossing_right", ...): belief that a hidden agent is on it} (sums bins)."""
+        out: dict = {}
+        for h, p in zip(self.hypotheses, self.probabilities):
+            if h.present:
+                out[h.path] = out.get(h.path, 0.0) + float(p)
+        return out
 
     def live(self, epsilon: float | None = None) -> np.ndarray:
         """(L,) bool: hypotheses with belief >= epsilon, the ones the planner keeps.

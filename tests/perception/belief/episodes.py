@@ -60,8 +60,11 @@ def run_beliefs(episode, **kwargs):
     return np.array(probs), np.array(p_ped), belief
 
 
-def hyp_index(belief, name):
-    return [h.name for h in belief.hypotheses].index(name)
+def hyp_index(belief, name, progress_bin=None):
+    """(L,) bool: the hypotheses on path `name` ("crossing_right"), all progress and speed
+    bins or only progress bin `progress_bin`; `probs @ mask` is the path's belief."""
+    return np.array([h.path == name and (progress_bin is None or h.progress_bin == progress_bin)
+                     for h in belief.hypotheses])
 
 
 def synthetic_world(n_humans: int):

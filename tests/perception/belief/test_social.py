@@ -92,15 +92,15 @@ def test_social_belief_rises_because_the_human_brakes(crossing_results):
         first_seen = int(np.argmax(seen))
         brake = int(np.argmax(human_v < human_v[0] - 0.05))  # first step the human is slower
         assert 5 < brake < first_seen
-        before = social[brake - 1, right] < 0.1
-        ok += before and social[first_seen - 1, right] > 0.9
+        before = social[brake - 1] @ right < 0.1
+        ok += before and social[first_seen - 1] @ right > 0.9
     assert ok == len(SEEDS), f"{ok}/{len(SEEDS)} seeds"
 
 
 def test_without_social_information_the_belief_stays_low_until_seen(crossing_results):
     for (_, seen, _, _, _), _, alone, right in crossing_results:
         first_seen = int(np.argmax(seen))
-        assert alone[:first_seen, right].max() < 0.5
+        assert (alone[:first_seen] @ right).max() < 0.5
 
 
 @pytest.mark.parametrize("pedestrian", ["none", "waiting"])
