@@ -33,6 +33,11 @@ crosswalk weight of 1000, and an error of ~0.1 m/s in the robot's estimate of th
 moves the human's best first action between -2 and -8 m/s^2 when it is stopping before a
 crosswalk; with beta_hat = 5 the model is then confidently wrong and the belief swings. beta_hat
 absorbs the robot's state-estimation error (measured in tests/perception/belief and the report).
+
+Everything the robot assumes about the humans is its own (BeliefConfig): theta_hat
+(config.ROBOT_THETA_HAT), beta_hat, the humans' assumed view (a generic driver's 50 m, 70 deg),
+the traffic-speed grid (fractions of the posted limit), and each human's path (the lane its
+track drives in, paths.py) -- none is read from the scenario's truth or an agent's name.
 """
 
 from __future__ import annotations

@@ -17,8 +17,8 @@ that one noisy sample cannot flip the belief:
 * the outlier term rho U (BeliefConfig.outlier_prob) explains what the model cannot;
 * each observation's log-likelihood is clipped to max_log_likelihood_ratio below its maximum
   (`bounded_log_likelihood`): one observation moves the log-odds between any two sets of
-  hypotheses by at most BeliefConfig.max_log_likelihood_ratio nats (3 by default: a factor
-  20; a 0.995 belief falls to at most 0.91 from one contrary sample, and two consistent
+  hypotheses by at most BeliefConfig.max_log_likelihood_ratio nats (2.5 by default: a factor
+  12; a 0.995 belief falls to at most 0.94 from one contrary sample, and two consistent
   samples take a 0.5 belief above 0.99).
 
 Modelling choices of `SocialLikelihood`:
