@@ -41,6 +41,7 @@ from marl_social.sim.observation import ObservationLayout
 from marl_social.sim.road_map import RoadMap
 
 BETA_GRID_HAT = (0.03, 0.1, 0.3, 1.0, 3.0)  # social+beta: rationality grid (log-spaced)
+CONSERVATIVE_WALK_SPEED_MPS = 1.3  # conservative: its hypothesised pedestrians' speed [m/s]
 
 
 class HypothesisWeighting(enum.Enum):
@@ -121,6 +122,12 @@ def robot_configs(spec: AgentSpec, planner: str | RobotVariant = "social",
         updates["beta_hat"] = params.beta_hat
     if variant.infer_beta:
         updates["beta_grid_hat"] = BETA_GRID_HAT
+    if variant.weighting is HypothesisWeighting.PRESENT_LIVE:
+        # the conservative baseline assumes the worst at every curb it cannot see: a pedestrian
+        # stepping off right now (the paper's single pattern per curb), not one that may have
+        # walked on; split into progress and speed bins, each bin would fall below epsilon
+        updates["progress_step_m"] = None
+        updates["walk_speeds_mps"] = (CONSERVATIVE_WALK_SPEED_MPS,)
     return (MpcConfig(theta=spec.cost_weights, epsilon=updates["epsilon"]),
             replace(belief, **updates))
 
