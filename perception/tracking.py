@@ -38,6 +38,11 @@ class TrackSet:
             variance [m]; length_m, width_m: (k,) [m]; is_pedestrian: (k,) bool;
         seen: (k,) bool, measured this step; age_unseen_s: (k,) time since last measured [s].
         heading_rad: (k,) footprint heading [rad] (module docstring).
+        velocity_change_cov: (k, 2, 2) covariance of the error of the tracked velocity change
+            over the last step, (v_k - v_{k-1}) estimated minus true [m^2/s^2] (from the
+            filter: P_k + P_{k-1} - C - C^T with C = Cov(e_k, e_{k-1}) = (I - K H) F P_{k-1},
+            velocity block); divided by dt^2 it is the variance of an acceleration read off the
+            track. None: not known (zero).
     """
 
     ids: np.ndarray
@@ -50,6 +55,7 @@ class TrackSet:
     seen: np.ndarray
     age_unseen_s: np.ndarray
     heading_rad: np.ndarray
+    velocity_change_cov: np.ndarray | None = None
 
     def __len__(self) -> int:
         """Number of tracks k."""
@@ -86,6 +92,7 @@ class Tracker:
     def reset(self) -> None:
         """Drop every track."""
         self._filters: dict[int, tuple[np.ndarray, np.ndarray]] = {}  # id -> (x (4,), P (4, 4))
+        self._dv_cov: dict[int, np.ndarray] = {}  # id -> (2, 2) velocity-change error cov
         self._attrs: dict[int, tuple[float, float, bool, float]] = {}  # length, width, ped, psi
         self._unseen: dict[int, float] = {}
         self._seen_now: set[int] = set()
@@ -103,18 +110,25 @@ class Tracker:
         for row in objects:
             oid = round(row[SLOT_INDEX["id"]])
             measured[oid] = row
+        previous = {}
         for oid in list(self._filters):
+            previous[oid] = self._filters[oid][1]
             self._filters[oid] = predict(*self._filters[oid], self._F, self._Q)
             if oid not in measured:
                 self._unseen[oid] += self.dt_s
+                self._dv_cov[oid] = self._velocity_change_cov(previous[oid], None)
                 if self._unseen[oid] > self.timeout_s:
                     del self._filters[oid], self._attrs[oid], self._unseen[oid]
+                    del self._dv_cov[oid]
         for oid, row in measured.items():
             z = row[_MEASURED_STATE].astype(np.float64)
             if oid in self._filters:
+                p_pred = self._filters[oid][1]
                 self._filters[oid] = update(*self._filters[oid], z, self._R, self._H)
+                self._dv_cov[oid] = self._velocity_change_cov(previous[oid], p_pred)
             else:
                 self._filters[oid] = (z, self._R.copy())
+                self._dv_cov[oid] = 2.0 * self._R[2:, 2:]
             self._attrs[oid] = (float(row[SLOT_INDEX["length"]]), float(row[SLOT_INDEX["width"]]),
                                 bool(row[SLOT_INDEX["is_pedestrian"]] > 0.5),
                                 float(np.arctan2(row[SLOT_INDEX["sin_psi"]],
@@ -123,6 +137,24 @@ class Tracker:
         self._seen_now = set(measured)
         return self.tracks()
 
+    def _velocity_change_cov(self, p_prev: np.ndarray, p_pred: np.ndarray | None) -> np.ndarray:
+        """(2, 2) error covariance of the tracked velocity change over the last step [m^2/s^2].
+
+        Args:
+            p_prev: (4, 4) covariance before the step.
+            p_pred: (4, 4) predicted covariance of this step (None: the track coasted).
+        """
+        if p_pred is None:
+            gain_term = np.eye(4)
+            p_new = self._F @ p_prev @ self._F.T + self._Q
+        else:
+            gain = p_pred @ np.linalg.inv(p_pred + self._R)  # K with H = I
+            gain_term = np.eye(4) - gain
+            p_new = gain_term @ p_pred
+        cross = gain_term @ self._F @ p_prev  # Cov(e_k, e_{k-1})
+        d = p_new + p_prev - cross - cross.T
+        return 0.5 * (d[2:, 2:] + d[2:, 2:].T)
+
     def tracks(self) -> TrackSet:
         """The current tracks, ascending object id."""
         ids = np.array(sorted(self._filters), dtype=np.int64)
@@ -130,7 +162,7 @@ class Tracker:
             z2 = np.zeros((0, 2))
             z0 = np.zeros(0)
             return TrackSet(ids, z2, z2, z0, z0, z0, np.zeros(0, bool), np.zeros(0, bool), z0,
-                            z0)
+                            z0, np.zeros((0, 2, 2)))
         states = np.array([self._filters[i][0] for i in ids])
         pos_var = np.array([0.5 * (self._filters[i][1][0, 0] + self._filters[i][1][1, 1])
                             for i in ids])
@@ -139,6 +171,7 @@ class Tracker:
             ids, states[:, :2], states[:, 2:], np.sqrt(pos_var), attrs[:, 0], attrs[:, 1],
             attrs[:, 2] > 0.5, np.array([i in self._seen_now for i in ids]),
             np.array([self._unseen[i] for i in ids]), track_heading(states[:, 2:], attrs[:, 3]),
+            np.array([self._dv_cov[i] for i in ids]),
         )
 
 

@@ -42,6 +42,7 @@ from marl_social.sim.observation import ObservationLayout
 from marl_social.sim.road_map import RoadMap
 
 BETA_GRID_HAT = (0.03, 0.1, 0.3, 1.0, 3.0)  # social+beta: rationality grid (log-spaced)
+CONSERVATIVE_WALK_SPEED_MPS = 1.3  # conservative: its hypothesised pedestrians' speed [m/s]
 
 
 class HypothesisWeighting(enum.Enum):
@@ -97,6 +98,10 @@ def robot_configs(spec: AgentSpec, planner: str | RobotVariant = "social",
                   params: RobotModelParams | None = None) -> tuple[MpcConfig, BeliefConfig]:
     """The MPC and belief configuration of a robot from its spec (see module docstring).
 
+    The belief's tracker gets the robot's own sensor noise (spec.sensor.pos_noise_m,
+    vel_noise_mps); everything else the robot assumes about the humans is the robot's own
+    (BeliefConfig's documented defaults unless spec.planner sets theta_hat / beta_hat).
+
     Args:
         spec: the robot's AgentSpec (its cost weights theta_R and planner parameters).
         planner: a name of ROBOT_VARIANTS or a RobotVariant.
@@ -108,13 +113,22 @@ def robot_configs(spec: AgentSpec, planner: str | RobotVariant = "social",
     variant = _variant(planner)
     params = params or parse_planner_params(RobotModelParams, spec)
     belief = BeliefConfig()
-    updates = {"epsilon": belief.epsilon if params.epsilon is None else params.epsilon}
+    updates = {"epsilon": belief.epsilon if params.epsilon is None else params.epsilon,
+               # the tracker filters with the robot's own sensor noise
+               "track_pos_noise_m": spec.sensor.pos_noise_m,
+               "track_vel_noise_mps": spec.sensor.vel_noise_mps}
     if params.theta_hat is not None:
         updates["theta_hat"] = params.theta_hat
     if params.beta_hat is not None:
         updates["beta_hat"] = params.beta_hat
     if variant.infer_beta:
         updates["beta_grid_hat"] = BETA_GRID_HAT
+    if variant.weighting is HypothesisWeighting.PRESENT_LIVE:
+        # the conservative baseline assumes the worst at every curb it cannot see: a pedestrian
+        # stepping off right now (the paper's single pattern per curb), not one that may have
+        # walked on; split into progress and speed bins, each bin would fall below epsilon
+        updates["progress_step_m"] = None
+        updates["walk_speeds_mps"] = (CONSERVATIVE_WALK_SPEED_MPS,)
     return (MpcConfig(epsilon=updates["epsilon"]),
             replace(belief, **updates))
 

@@ -3,8 +3,9 @@
     policies = marl_social.policies(env)       # {agent: policy}; policy(obs) -> action
 
 Every policy comes from the planner registry (agents/registry.py) and is built from its agent's
-spec (its own parameters), the shared observation layout and the static map; it never receives
-the env or the world. Only a policy with `needs_truth` (the oracle) is also handed
+spec (its own parameters), the shared observation layout and the static map with only its own
+route (`RoadMap.for_agent`); it never receives the env, the world, the other agents' names or
+their routes, so that it learns who else exists only from its observation. Only a policy with `needs_truth` (the oracle) is also handed
 `truth_tracks(env, agent)` before each step, by its caller.
 """
 
@@ -25,20 +26,26 @@ def make_policy(spec: AgentSpec, layout: ObservationLayout, road_map: RoadMap,
     """The built-in planner of one agent, from the planner registry.
 
     Humans and pedestrians run their role's DEFAULT_PLANNER (Boltzmann planners); the robot
-    runs `robot_planner` (one of agents.registry.ROBOT_PLANNERS).
+    runs `robot_planner` (one of agents.registry.ROBOT_PLANNERS). The planner gets
+    `road_map.for_agent(spec.name)` and only its own name as the agent names: what it knows of
+    the others comes from its observations.
 
     Args:
         spec: the agent's own AgentSpec.
         layout: the shared observation layout.
-        road_map: the static map.
-        agent_names: the env's possible_agents.
+        road_map: the static map (the other agents' routes are removed before the planner
+            sees it).
+        agent_names: the env's possible_agents; only checked to contain spec.name, never
+            passed on.
         robot_planner: the robot's planner name.
 
     Raises:
         ValueError: an unknown planner or a bad planner parameter, naming the agent.
     """
+    if spec.name not in agent_names:
+        raise ValueError(f"agent {spec.name!r}: not one of the env's agents {list(agent_names)}")
     name = robot_planner if spec.role == "robot" else DEFAULT_PLANNER[spec.role]
-    return build_planner(name, spec, layout, road_map, agent_names)
+    return build_planner(name, spec, layout, road_map.for_agent(spec.name), (spec.name,))
 
 
 def policies(env) -> dict[str, Policy]:

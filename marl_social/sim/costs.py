@@ -66,7 +66,13 @@ class CostWeights:
 
 
 def crosswalk_occupancy(xy, bounding_radius_m, crosswalk: Crosswalk) -> np.ndarray:
-    """Smooth 0..1 indicator that a footprint overlaps the crosswalk rectangle.
+    """Smooth 0..1 indicator that a footprint is in the crosswalk rectangle.
+
+    Along the road (across the walking direction) the footprint counts as soon as it overlaps
+    the rectangle (its bounding radius is added); across the road (along the walking direction,
+    curb to curb) only its centre counts: a pedestrian standing on the sidewalk next to the
+    curb is not on the crosswalk, however close (occupancy < 0.01 from 0.5 m behind the curb).
+    A car on the road is inside the curbs anyway.
 
     Args:
         xy: (..., 2) footprint centre [m]; may be a marl_social.agents.irl.jets.Jet
@@ -83,8 +89,8 @@ def crosswalk_occupancy(xy, bounding_radius_m, crosswalk: Crosswalk) -> np.ndarr
     u = rel[..., 0] * c + rel[..., 1] * s
     w = -rel[..., 0] * s + rel[..., 1] * c
     depth = np.minimum(
-        0.5 * crosswalk.length_m - np.abs(u), 0.5 * crosswalk.width_m - np.abs(w)
-    ) + bounding_radius_m
+        0.5 * crosswalk.length_m - np.abs(u), 0.5 * crosswalk.width_m - np.abs(w) + bounding_radius_m
+    )
     return 0.5 * (1.0 + np.tanh(0.5 * depth / OCCUPANCY_SOFTNESS_M))
 
 

@@ -8,7 +8,7 @@ radians counter-clockwise from +x.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 
@@ -210,6 +210,18 @@ class RoadMap:
             for i, p in enumerate(self.static_polygons)
         )
         object.__setattr__(self, "static_polygons", polys)
+
+    def for_agent(self, name: str) -> RoadMap:
+        """The map one agent's policy may know: the static map and only its own route.
+
+        Other agents' routes would tell a policy who exists (e.g. a pedestrian route only in a
+        scenario with a pedestrian) without observing anything.
+
+        Args:
+            name: the agent's name (its route is kept if the map has one).
+        """
+        own = {name: self.routes[name]} if name in self.routes else {}
+        return replace(self, routes=own)
 
 
 class RouteSet:

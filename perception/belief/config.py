@@ -13,19 +13,33 @@ import numpy as np
 
 from marl_social.sim.costs import CostWeights
 
+# The robot's own model of a human driver, not the simulated humans' weights (CostWeights'
+# defaults): a driver that minds comfort twice as much and weighs a crosswalk conflict half as
+# much (still far above everything else: it stops for a pedestrian).
+ROBOT_THETA_HAT = CostWeights(tracking=1.0, speed=1.0, accel=0.2, jerk=0.2, safety=1.0,
+                              crosswalk=500.0)
+# The traffic speeds the robot considers, as fractions of the posted limit: the flow is at or
+# below the limit; the grid knows nothing of the simulated humans' desired speed.
+V_TRAFFIC_GRID_FRACTIONS = (0.55, 0.7, 0.85, 1.0)
+
 
 @dataclass(frozen=True)
 class BeliefConfig:
     """Parameters of the robot's social perception (SI units).
 
     Attributes:
-        walk_speed_mps: walking speed of the hypothesised pedestrians [m/s].
+        walk_speeds_mps: the speed bins of the hypothesised pedestrians [m/s].
+        progress_step_m: length of a progress bin along a crosswalk [m] (None: only "steps
+            off the curb now", the paper's pattern).
         curb_offset_m: how far from the curb a hypothesised pedestrian starts [m].
         p_detect: P(robot detects a pedestrian | it is in a visible part of the region).
         p_false_alarm: P(a crossing pedestrian is reported that is not there).
-        accel_noise_mps2: sigma of N(a_obs; u, sigma^2), the noise of the robot's estimate of a
-            human's acceleration [m/s^2].
-        hazard_per_s: per-second probability mass moving between hypotheses [1/s].
+        accel_noise_mps2: the human's own execution noise about its chosen action [m/s^2]; the
+            sigma of N(a_obs; u, sigma^2) is this and the robot's track error in quadrature
+            (social.py).
+        hazard_per_s: rate at which hidden pedestrians arrive at a crosswalk end, and at which
+            hypothesised ones vanish [1/s] (hypotheses.motion_transition); also the traffic
+            speed's rate of change.
         floor: beliefs never drop below this before normalization.
         epsilon: the paper's tail threshold (for the planner; see `PedestrianBelief.live`).
         beta_hat: the robot's model of the humans' rationality.
@@ -34,52 +48,78 @@ class BeliefConfig:
             uniform at first; P(a_i | l, v) = sum_beta b_i(beta) P(a_i | l, v, beta), and
             b_i(beta) ∝ b_i(beta) sum_{l,v} b(l, v) P(a_i | l, v, beta)). An erratic human is
             then explained by a low beta and moves the pedestrian belief less.
-        theta_hat: the robot's model of the humans' cost weights.
-        prior_present: prior mass spread evenly over the present hypotheses.
-        v_traffic_grid_mps: grid of the traffic-speed belief [m/s].
+        theta_hat: the robot's model of the humans' cost weights (default ROBOT_THETA_HAT).
+        prior_present: prior mass of the present hypotheses, spread in proportion to the
+            motion model's long-run distribution; None (the default): that long-run
+            distribution itself (arrivals at hazard_per_s, crossings of a few seconds: about
+            0.1 to 0.2 per crosswalk).
+        v_traffic_grid_mps: grid of the traffic-speed belief [m/s]; empty (the default): the
+            map's speed limit times V_TRAFFIC_GRID_FRACTIONS (`traffic_grid_mps`).
         human_range_m: range of the field of view the robot assumes a human has for the
-            objects it reacts to besides the hypothesised pedestrian [m].
-        human_half_fov_rad: half-angle of that assumed field of view [rad].
+            objects it reacts to besides the hypothesised pedestrian [m] (a generic driver's:
+            SensorParams' default, not a scenario's).
+        human_half_fov_rad: half-angle of that assumed field of view [rad] (likewise).
         walking_speed_min_mps: a seen pedestrian moving at least this fast along a hypothesis'
             walking direction is stepping onto the crosswalk [m/s].
         outlier_prob: weight rho of a uniform outlier component in P(a_obs | x)
             (`action_log_likelihood`; 0 = eq. 10 exactly).
+        max_log_likelihood_ratio: bound on how far one observed action moves the log-odds
+            between any two sets of hypotheses [nats] (social.bounded_log_likelihood).
         min_track_steps: a human's acceleration is used once its track has been measured this
-            many consecutive steps (a new Kalman track's velocity is still settling).
+            many consecutive steps (a new Kalman track's velocity is still settling; with 3,
+            a 1 m position noise gave false beliefs up to 0.54 in the first 0.6 s).
         track_accel_noise_mps2: process noise of the robot's default Kalman tracker [m/s^2]
             (lower: smoother a_obs, more lag; 1.5 keeps the a_obs noise below sigma = 1).
+        track_pos_noise_m: position measurement noise std the robot's tracker assumes: the
+            robot's own sensor's (agents.robot.planner.robot_configs passes spec.sensor's) [m].
+        track_vel_noise_mps: velocity measurement noise std, likewise [m/s].
     """
 
-    walk_speed_mps: float = 1.3
+    walk_speeds_mps: tuple = (0.9, 1.6)
+    progress_step_m: float | None = 2.5
     curb_offset_m: float = 1.0
     p_detect: float = 0.95
     p_false_alarm: float = 0.01
-    accel_noise_mps2: float = 1.0
+    accel_noise_mps2: float = 0.5
     hazard_per_s: float = 0.02
     floor: float = 1e-6
     epsilon: float = 0.02
     beta_hat: float = 0.3
     beta_grid_hat: tuple = ()
-    theta_hat: CostWeights = field(default_factory=CostWeights)
-    prior_present: float = 0.5
-    v_traffic_grid_mps: tuple = (8.0, 10.0, 11.5, 13.0)
-    human_range_m: float = 60.0
-    human_half_fov_rad: float = math.radians(60.0)
+    theta_hat: CostWeights = field(default_factory=lambda: ROBOT_THETA_HAT)
+    prior_present: float | None = None
+    v_traffic_grid_mps: tuple = ()
+    human_range_m: float = 50.0
+    human_half_fov_rad: float = math.radians(70.0)
     walking_speed_min_mps: float = 0.5
-    outlier_prob: float = 0.0
-    min_track_steps: int = 3
+    outlier_prob: float = 0.05
+    max_log_likelihood_ratio: float = 2.5
+    min_track_steps: int = 6
     track_accel_noise_mps2: float = 1.5
+    track_pos_noise_m: float = 0.05
+    track_vel_noise_mps: float = 0.1
 
     def __post_init__(self):
         """Reject probabilities outside [0, 1], negative betas and non-positive noise/floor."""
         for name in ("p_detect", "p_false_alarm", "prior_present"):
             value = getattr(self, name)
-            if not 0.0 <= value <= 1.0:
+            if value is not None and not 0.0 <= value <= 1.0:
                 raise ValueError(f"BeliefConfig.{name} must be in [0, 1], got {value}")
         grid = np.asarray(self.beta_grid_hat, dtype=np.float64)
         if grid.ndim != 1 or not np.all(grid >= 0):  # also rejects NaN
             raise ValueError(f"BeliefConfig.beta_grid_hat must be a sequence of betas >= 0, "
                              f"got {self.beta_grid_hat!r}")
-        if not (self.accel_noise_mps2 > 0 and self.hazard_per_s >= 0 and self.floor > 0):
+        if not (self.accel_noise_mps2 > 0 and self.hazard_per_s >= 0 and self.floor > 0
+                and self.max_log_likelihood_ratio > 0):
             raise ValueError("BeliefConfig: need accel_noise_mps2 > 0, hazard_per_s >= 0, "
-                             "floor > 0")
+                             "floor > 0, max_log_likelihood_ratio > 0")
+
+    def traffic_grid_mps(self, speed_limit_mps: float) -> np.ndarray:
+        """(V,) the traffic-speed grid [m/s]: v_traffic_grid_mps, or fractions of the limit.
+
+        Args:
+            speed_limit_mps: the map's speed limit [m/s].
+        """
+        if len(self.v_traffic_grid_mps):
+            return np.asarray(self.v_traffic_grid_mps, dtype=np.float64)
+        return float(speed_limit_mps) * np.asarray(V_TRAFFIC_GRID_FRACTIONS)

@@ -19,7 +19,6 @@ from marl_social.perception.tracking import TrackSet
 
 from marl_social.sim.observation import EGO_INDEX, DecodedObservation
 
-CORRIDOR_MARGIN_M = 1.0  # a detection within this margin of a hypothesis' corridor can match [m]
 PROBABILITY_MIN = 1e-12  # probabilities are clipped to [this, 1 - this] before the log
 CONE_TOLERANCE_RAD = 1e-9  # a region point on the edge of the sensor cone is inside it [rad]
 
@@ -89,10 +88,9 @@ class OwnSensors:
     def match_pedestrians(self, xy, velocity) -> np.ndarray:
         """(L,) bool: present hypotheses consistent with the pedestrians the robot sees.
 
-        A seen pedestrian matches a hypothesis inside its corridor (the crosswalk from its entry
-        to the far end, +-CORRIDOR_MARGIN_M) and either on the road not walking against its
-        direction, or walking in its direction at >= walking_speed_min_mps. A pedestrian
-        standing on the sidewalk matches nothing.
+        `Hypothesis.matches`: a seen pedestrian in a hypothesis' region (+- a margin), on the
+        road not walking against its direction, or walking in its direction at >=
+        walking_speed_min_mps. A pedestrian standing on the sidewalk matches nothing.
 
         Args:
             xy: (n, 2) seen pedestrians' positions [m].
@@ -105,15 +103,7 @@ class OwnSensors:
             return out
         v_min = self.config.walking_speed_min_mps
         for i in self._present_idx:
-            h = self.hypotheses[i]
-            along, across = h.corridor_coords(xy)
-            v_along = vel @ h.walk_dir
-            corridor = ((np.abs(across) <= h.half_width_m + CORRIDOR_MARGIN_M)
-                        & (along >= -CORRIDOR_MARGIN_M)
-                        & (along <= h.walk_length_m - h.curb_offset_m))
-            on_road = (along >= h.curb_offset_m) & (along <= h.walk_length_m - h.curb_offset_m)
-            crossing = (on_road & (v_along > -v_min)) | (v_along >= v_min)
-            out[i] = bool(np.any(corridor & crossing))
+            out[i] = self.hypotheses[i].matches(xy, vel, v_min)
         return out
 
     def log_likelihood(self, decoded: DecodedObservation, tracks: TrackSet):

@@ -3,17 +3,19 @@
 The robot keeps two discrete beliefs, built only from its own observation vector each step and
 the static map (never the world):
 
-* `PedestrianBelief`: hidden physical states x_l, l = 1..L, represented by motion patterns
-  (`Hypothesis`, hypotheses.py): "none" (no pedestrian about to cross) and, for each curb end
-  of each crosswalk, "a pedestrian steps off that curb now and walks across".
+* `PedestrianBelief`: hidden physical states x_l, l = 1..L (`Hypothesis`, hypotheses.py):
+  "none" (no hidden pedestrian) and, for each curb end of each crosswalk, "a pedestrian is
+  progress_m along this crossing and walks at speed_mps" for a few progress and speed bins:
+  at the curb entry (the paper's "steps off the curb now") and already on the road.
 * `TrafficSpeedBelief` (bayes.py): the social information I = v_traffic over a small grid
   (eq. 12).
 
 Each step (Algorithm 1, in log space; 0.1 s per step):
 
-1. prediction: a Markov transition moves `hazard_per_s * dt` of the mass uniformly between the
-   hypotheses (beliefs never lock; a new pedestrian may appear), and likewise between traffic
-   speeds;
+1. prediction: the motion model (hypotheses.motion_transition): hypothesised pedestrians walk
+   on along their crossing (mass moves to the next progress bin at their speed, and to "none"
+   once they have crossed), new ones arrive at the curb entries and hypothesised ones vanish
+   at `hazard_per_s` (beliefs never lock); a small Markov transition between traffic speeds;
 2. own sensors (own_sensors.py): positive information from a pedestrian the robot sees
    crossing, negative information from the part of each hypothesis' region its depth rays show
    empty;
@@ -31,6 +33,11 @@ crosswalk weight of 1000, and an error of ~0.1 m/s in the robot's estimate of th
 moves the human's best first action between -2 and -8 m/s^2 when it is stopping before a
 crosswalk; with beta_hat = 5 the model is then confidently wrong and the belief swings. beta_hat
 absorbs the robot's state-estimation error (measured in tests/perception/belief and the report).
+
+Everything the robot assumes about the humans is its own (BeliefConfig): theta_hat
+(config.ROBOT_THETA_HAT), beta_hat, the humans' assumed view (a generic driver's 50 m, 70 deg),
+the traffic-speed grid (fractions of the posted limit), and each human's path (the lane its
+track drives in, paths.py) -- none is read from the scenario's truth or an agent's name.
 """
 
 from __future__ import annotations
@@ -40,11 +47,14 @@ from filterpy.discrete_bayes import normalize
 from marl_social.perception.belief.bayes import (
     TrafficSpeedBelief,
     bayes_step,
-    markov_transition,
     sanitize_log_likelihood,
 )
 from marl_social.perception.belief.config import BeliefConfig
-from marl_social.perception.belief.hypotheses import crosswalk_hypotheses
+from marl_social.perception.belief.hypotheses import (
+    crosswalk_hypotheses,
+    motion_transition,
+    stationary_distribution,
+)
 from marl_social.perception.belief.own_sensors import OwnSensors
 from marl_social.perception.belief.social import SocialLikelihood
 from marl_social.perception.tracking import Tracker
@@ -61,17 +71,19 @@ class PedestrianBelief:
     Built from the robot's own observations and the static map only.
 
     Args:
-        road_map: the static map (crosswalks, routes of the human drivers, speed limit).
+        road_map: the static map (crosswalks, lanes, speed limit; other agents' routes are
+            never read).
         layout: the shared observation layout.
         robot_name: the robot's agent name.
-        agent_names: env.possible_agents (public; slot object id k is agent_names[k - 1]); human
-            drivers are the non-pedestrian objects whose name starts with "human" and that have a
-            route in road_map.routes.
+        agent_names: names of object ids in the debugging outputs only (object id k is
+            agent_names[k - 1] when given, else "object_<k>"); human drivers are the tracked
+            vehicles in one of the map's lanes, whatever their names.
         config: BeliefConfig.
         use_social: fold in the humans' behaviour (eq. 9-10, and eq. 12 for v_traffic).
         use_own_sensors: fold in the robot's own detections and negative information.
-        tracker: the robot's Kalman tracker of others (default: Tracker with the default sensor
-            noise levels and config.track_accel_noise_mps2).
+        tracker: the robot's Kalman tracker of others (default: Tracker with the robot's own
+            sensor noise config.track_pos_noise_m, config.track_vel_noise_mps and process noise
+            config.track_accel_noise_mps2).
 
     Attributes:
         hypotheses: the L hypotheses, "none" first.
@@ -100,13 +112,16 @@ class PedestrianBelief:
         self.agent_names = list(agent_names)
         self.use_social = bool(use_social)
         self.use_own_sensors = bool(use_own_sensors)
-        self.hypotheses = crosswalk_hypotheses(road_map, config.walk_speed_mps,
-                                               config.curb_offset_m)
-        n = len(self.hypotheses)
+        self.hypotheses = crosswalk_hypotheses(road_map, config.walk_speeds_mps,
+                                               config.curb_offset_m, config.progress_step_m)
         self._present = np.array([h.present for h in self.hypotheses])
-        self.transition = markov_transition(n, config.hazard_per_s * DT_S)
-        self.tracker = tracker or Tracker(accel_noise_mps2=config.track_accel_noise_mps2)
-        self.traffic = TrafficSpeedBelief(config.v_traffic_grid_mps, config.hazard_per_s * DT_S,
+        self.transition = motion_transition(self.hypotheses, DT_S, config.hazard_per_s)
+        self.prior = self._prior()
+        self.tracker = tracker or Tracker(pos_noise_m=config.track_pos_noise_m,
+                                          vel_noise_mps=config.track_vel_noise_mps,
+                                          accel_noise_mps2=config.track_accel_noise_mps2)
+        self.traffic = TrafficSpeedBelief(config.traffic_grid_mps(road_map.speed_limit_mps),
+                                          config.hazard_per_s * DT_S,
                                           config.floor)
         self._joint_transition = np.kron(self.transition, self.traffic.transition)
         self.own_sensors = OwnSensors(self.hypotheses, config)
@@ -116,17 +131,24 @@ class PedestrianBelief:
         self.reset()
 
     # -- public API -------------------------------------------------------------------------
+    def _prior(self) -> np.ndarray:
+        """(L,) the prior: the motion model's long-run distribution (BeliefConfig.prior_present)."""
+        if not self._present.any():
+            return np.ones(len(self.hypotheses))
+        longrun = stationary_distribution(self.transition)
+        if longrun[self._present].sum() <= 0.0:
+            longrun[self._present] = 1.0
+        present_mass = self.config.prior_present
+        if present_mass is None:
+            return normalize(np.maximum(longrun, self.config.floor))
+        prior = np.where(self._present, longrun, 0.0)
+        prior *= present_mass / prior.sum()
+        prior[~self._present] = 1.0 - present_mass
+        return normalize(np.maximum(prior, self.config.floor))
+
     def reset(self) -> None:
         """Back to the prior (call at every episode start)."""
-        n = len(self.hypotheses)
-        prior = np.zeros(n)
-        n_present = int(self._present.sum())
-        if n_present:
-            prior[self._present] = self.config.prior_present / n_present
-            prior[~self._present] = 1.0 - self.config.prior_present
-        else:
-            prior[:] = 1.0
-        self.probabilities = normalize(np.maximum(prior, self.config.floor))
+        self.probabilities = self.prior.copy()
         self.tracker.reset()
         self.traffic.reset()
         self.social.reset()
@@ -139,6 +161,14 @@ class PedestrianBelief:
         if self.perceived > 0.5:
             return 1.0
         return float(1.0 - self.probabilities[~self._present].sum())
+
+    def path_probabilities(self) -> dict:
+        """{path name ("crossing_right", ...): belief that a hidden agent is on it} (sums bins)."""
+        out: dict = {}
+        for h, p in zip(self.hypotheses, self.probabilities):
+            if h.present:
+                out[h.path] = out.get(h.path, 0.0) + float(p)
+        return out
 
     def live(self, epsilon: float | None = None) -> np.ndarray:
         """(L,) bool: hypotheses with belief >= epsilon, the ones the planner keeps.

@@ -4,9 +4,24 @@ Each human driver the robot tracks is a sensor. The robot predicts the human's a
 distribution under every (pedestrian hypothesis l, traffic speed v) with its model of the human
 (theta_hat, beta_hat; eq. 8 and 11) and, one step later, weighs the acceleration it observed:
 
-    P(a_obs | x_l, v) = sum_u softmax(-beta_hat Q*_H(x_l, v, .))[u] N(a_obs; u, sigma^2)
+    P(a_obs | x_l, v) = (1 - rho) sum_u softmax(-beta_hat Q*_H(x_l, v, .))[u] N(a_obs; u, sigma^2)
+                        + rho U(a_obs)
 
-(`action_log_likelihood`); humans multiply (eq. 12). Modelling choices of `SocialLikelihood`:
+(`action_log_likelihood`; rho = 0 is the paper's eq. 10); humans multiply (eq. 12). Robust, so
+that one noisy sample cannot flip the belief:
+
+* sigma^2 = accel_noise_mps2^2 (the human's own execution noise) + the variance of the robot's
+  own estimate of the human's acceleration, from its Kalman filter
+  (`TrackSet.velocity_change_cov` / dt^2; `SocialLikelihood.observation_sigma_mps2`): a robot
+  with a noisier sensor trusts each sample less;
+* the outlier term rho U (BeliefConfig.outlier_prob) explains what the model cannot;
+* each observation's log-likelihood is clipped to max_log_likelihood_ratio below its maximum
+  (`bounded_log_likelihood`): one observation moves the log-odds between any two sets of
+  hypotheses by at most BeliefConfig.max_log_likelihood_ratio nats (2.5 by default: a factor
+  12; a 0.995 belief falls to at most 0.94 from one contrary sample, and two consistent
+  samples take a 0.5 belief above 0.99).
+
+Modelling choices of `SocialLikelihood`:
 
 * The human sees the hypothesised pedestrian and, besides it, the objects the robot tracks, and
   the robot itself, that lie in an assumed forward field of view of the human
@@ -33,6 +48,7 @@ from filterpy.discrete_bayes import normalize
 from filterpy.discrete_bayes import update as bayes_update
 from marl_social.perception.belief.config import BeliefConfig
 from marl_social.perception.belief.hypotheses import PEDESTRIAN_DIAMETER_M, Hypothesis
+from marl_social.perception.belief.paths import LanePaths
 from marl_social.perception.tracking import TrackSet
 
 from marl_social.models.boltzmann import boltzmann
@@ -50,7 +66,6 @@ from marl_social.sim.road_map import RoadMap, Route
 SIGMA_MIN_MPS2 = 1e-3  # the observation noise on a_obs is at least this [m/s^2]
 OUTLIER_PROB_MAX = 1.0 - 1e-12  # rho stays below 1 (some weight on the model)
 OUTLIER_MARGIN_SIGMAS = 3.0  # the outlier density spans the actions' range +- this many sigma
-HUMAN_NAME_PREFIX = "human"  # agents whose name starts with this are modelled human drivers
 _EGO_XY = [EGO_INDEX["x"], EGO_INDEX["y"]]
 _EGO_COS_SIN = [EGO_INDEX["cos_psi"], EGO_INDEX["sin_psi"]]
 
@@ -101,6 +116,24 @@ def action_log_likelihood(q_values: np.ndarray, beta: float, a_obs: float,
     return np.logaddexp(math.log1p(-rho) + log_model, log_outlier)
 
 
+def bounded_log_likelihood(log_lik: np.ndarray, max_ratio: float) -> np.ndarray:
+    """Log-likelihoods (...) of one observation, none more than max_ratio below the maximum.
+
+    Then no single observation changes the log-odds between any two sets of hypotheses by more
+    than max_ratio [nats] (each set's likelihood is a belief-weighted mean of values within a
+    factor exp(max_ratio) of each other). Non-finite input is returned unchanged (the filter
+    ignores it).
+
+    Args:
+        log_lik: (...) log P(a_obs | hypothesis).
+        max_ratio: the bound [nats], > 0.
+    """
+    ll = np.asarray(log_lik, dtype=np.float64)
+    if not np.all(np.isfinite(ll)):
+        return ll
+    return np.maximum(ll, ll.max() - max_ratio)
+
+
 def _logsumexp(x: np.ndarray, axis: int) -> np.ndarray:
     """Log sum exp along axis, safe for -inf entries (all -inf gives -inf).
 
@@ -137,11 +170,14 @@ class _HumanState:
 class SocialLikelihood:
     """The robot's model of the human drivers and the likelihood of their observed actions.
 
+    Every tracked vehicle driving in one of the map's lanes is a human driver, modelled along
+    that lane (paths.LanePaths: inferred from its track, never from a name or another agent's
+    route).
+
     Args:
-        road_map: the static map (crosswalks and the human drivers' routes).
-        agent_names: env.possible_agents (slot object id k is agent_names[k - 1]); human drivers
-            are the agents whose name starts with HUMAN_NAME_PREFIX and that have a route in
-            road_map.routes.
+        road_map: the static map (crosswalks and lanes).
+        agent_names: names of object ids for the debugging outputs (object id k is
+            agent_names[k - 1] if given; else "object_<k>"); never used to find humans.
         hypotheses: the L pedestrian hypotheses.
         traffic_grid_mps: (V,) traffic speeds of the traffic-speed belief [m/s].
         config: BeliefConfig (theta_hat, beta_hat, beta_grid_hat, accel_noise_mps2, ...).
@@ -159,10 +195,7 @@ class SocialLikelihood:
         self.traffic_grid_mps = traffic_grid_mps
         self.config = config
         self._present = np.array([h.present for h in hypotheses])
-        self._human_routes = {
-            i + 1: road_map.routes[name] for i, name in enumerate(self.agent_names)
-            if name.startswith(HUMAN_NAME_PREFIX) and name in road_map.routes
-        }
+        self.lane_paths = LanePaths(road_map)
         # the robot's model of a human (eq. 8, 11); the speed feature is added per v_ref
         self.model = DriverModel(theta=config.theta_hat, beta=config.beta_hat,
                                  vehicle=VehicleParams())
@@ -290,29 +323,59 @@ class SocialLikelihood:
         a = np.clip(self._first, -veh.brake_max_mps2, veh.accel_max_mps2)
         return np.maximum(a, -max(v0, 0.0) / DT_S)
 
-    def _human_log_likelihood(self, prev: _HumanState, a_est: float, predicted: np.ndarray):
+    def _human_log_likelihood(self, prev: _HumanState, a_est: float, sigma_mps2: float,
+                              predicted: np.ndarray):
         """(L, V) log P(a_est | x_l, v) of one human, and its updated rationality belief (B,).
 
-        With a fixed beta_hat this is eq. 10; with a beta grid the likelihood is marginalized
-        over the human's beta belief, which is then updated with the predicted joint
-        `predicted` (L, V) b(l, v).
+        With a fixed beta_hat this is eq. 10 with the outlier term; with a beta grid the
+        likelihood is marginalized over the human's beta belief, which is then updated with the
+        predicted joint `predicted` (L, V) b(l, v). Either way the result is clipped to
+        max_log_likelihood_ratio below its maximum (`bounded_log_likelihood`).
+
+        Args:
+            prev: what the robot predicted for this human one step ago.
+            a_est: the acceleration read off its track [m/s^2].
+            sigma_mps2: std of a_est about the executed action: the human's own execution
+                noise and the track's error, in quadrature [m/s^2].
+            predicted: (L, V) predicted joint belief b(l, v).
         """
         cfg = self.config
         if not len(self._beta_grid):
-            return action_log_likelihood(prev.q_values, cfg.beta_hat, a_est, prev.actions_mps2,
-                                         cfg.accel_noise_mps2, cfg.outlier_prob), prev.beta_belief
+            ll = action_log_likelihood(prev.q_values, cfg.beta_hat, a_est, prev.actions_mps2,
+                                       sigma_mps2, cfg.outlier_prob)
+            return bounded_log_likelihood(ll, cfg.max_log_likelihood_ratio), prev.beta_belief
         ll = np.stack([action_log_likelihood(prev.q_values, beta, a_est, prev.actions_mps2,
-                                             cfg.accel_noise_mps2, cfg.outlier_prob)
+                                             sigma_mps2, cfg.outlier_prob)
                        for beta in self._beta_grid])  # (B, L, V)
         if not np.all(np.isfinite(ll)):
             return np.zeros(ll.shape[1:]), prev.beta_belief
         log_b = np.log(prev.beta_belief)[:, None, None]
         marginal = _logsumexp((ll + log_b).reshape(len(ll), -1), axis=0).reshape(ll.shape[1:])
+        marginal = bounded_log_likelihood(marginal, cfg.max_log_likelihood_ratio)
         top = ll.max()
         evidence = (np.exp(ll - top) * predicted[None]).sum(axis=(1, 2))  # (B,) up to a constant
         beta_belief = bayes_update(evidence, prev.beta_belief)
         beta_belief = normalize(np.maximum(beta_belief, cfg.floor))
         return marginal, beta_belief
+
+    def observation_sigma_mps2(self, tracks: TrackSet, k: int, heading_rad: float) -> float:
+        """Std of a human's acceleration read off the robot's track about its action [m/s^2].
+
+        sqrt(accel_noise_mps2^2 + var_track), var_track the along-route variance of the
+        track's velocity change over the last step (TrackSet.velocity_change_cov) / dt^2: the
+        robot's own estimation error, which grows with its sensor noise.
+
+        Args:
+            tracks: the robot's current tracks.
+            k: the human's row in tracks.
+            heading_rad: its route heading [rad].
+        """
+        base = self.config.accel_noise_mps2
+        if tracks.velocity_change_cov is None:
+            return base
+        d = np.array([math.cos(heading_rad), math.sin(heading_rad)])
+        var_track = float(d @ tracks.velocity_change_cov[k] @ d) / DT_S ** 2
+        return math.sqrt(base * base + max(var_track, 0.0))
 
     def beta_beliefs(self) -> dict:
         """{human name: (B,) belief over its rationality on config.beta_grid_hat}.
@@ -321,7 +384,13 @@ class SocialLikelihood:
         """
         if not len(self._beta_grid):
             return {}
-        return {self.agent_names[oid - 1]: h.beta_belief.copy() for oid, h in self._humans.items()}
+        return {self.object_name(oid): h.beta_belief.copy() for oid, h in self._humans.items()}
+
+    def object_name(self, object_id: int) -> str:
+        """Name of an object id in the debugging outputs: its agent name if known."""
+        if 1 <= object_id <= len(self.agent_names):
+            return self.agent_names[object_id - 1]
+        return f"object_{object_id}"
 
     def log_likelihoods(self, decoded: DecodedObservation, tracks: TrackSet,
                         predicted: np.ndarray):
@@ -342,8 +411,10 @@ class SocialLikelihood:
         out, a_obs_all = [], {}
         current = {}
         for k, oid in enumerate(tracks.ids.tolist()):
-            route = self._human_routes.get(oid)
-            if route is None or tracks.is_pedestrian[k] or not tracks.seen[k]:
+            if tracks.is_pedestrian[k] or not tracks.seen[k]:
+                continue
+            route = self.lane_paths.route_of(tracks.xy[k], float(tracks.heading_rad[k]))
+            if route is None:
                 continue
             x, y = (float(v) for v in tracks.xy[k])
             s0, _ = route.project_point(x, y)
@@ -356,10 +427,11 @@ class SocialLikelihood:
             beta_belief = self._beta_prior
             if prev is not None:
                 a_est, n_seen = (v - prev.v_mps) / DT_S, prev.n_seen + 1
-                a_obs_all[self.agent_names[oid - 1]] = a_est
+                a_obs_all[self.object_name(oid)] = a_est
                 beta_belief = prev.beta_belief
                 if n_seen > cfg.min_track_steps:
-                    ll, beta_belief = self._human_log_likelihood(prev, a_est, predicted)
+                    sigma = self.observation_sigma_mps2(tracks, k, heading)
+                    ll, beta_belief = self._human_log_likelihood(prev, a_est, sigma, predicted)
                     out.append(ll)
             others = self.others_scene(np.array([x, y]), heading, oid, decoded, tracks)
             v0 = max(v, 0.0)

@@ -4,6 +4,7 @@ cannot read the world."""
 from __future__ import annotations
 
 import math
+import types
 
 import numpy as np
 import pytest
@@ -262,3 +263,79 @@ def test_rational_humans_never_hit_a_crossing_pedestrian_200_seeds():
     # the test has teeth only if pedestrians really cross in front of the humans: in most
     # episodes the human must brake for one (measured 147 of 200; the rest cross behind it)
     assert yields >= 120
+
+
+def test_human_passes_a_pedestrian_waiting_just_behind_the_curb():
+    """A pedestrian 0.5 m behind the curb is on the sidewalk, not on the crosswalk: the human
+    drives past it without slowing by 1 m/s (a few short brakes come from its noisy
+    constant-velocity prediction of the standing pedestrian, the humans' own perception)."""
+    _, speed = _run(60, human_beta=math.inf, pedestrian="waiting",
+                    pedestrian_curb_offset_m=0.5)
+    assert speed.min() > 10.5 and speed[-1] > 11.0
+
+
+def _robot_observations(n_steps=30):
+    """The robot's observations of a crossing episode (every agent on its built-in planner)."""
+    env = marl_social.parallel_env(pedestrian="crossing", robot_planner="cruise")
+    pols = marl_social.policies(env)
+    for i, p in enumerate(pols.values()):
+        p.reset(i)
+    obs, _ = env.reset(seed=3)
+    out = []
+    for _ in range(n_steps):
+        out.append(obs["robot_0"].copy())
+        obs, *_ = env.step({a: pols[a](obs[a]) for a in env.agents})
+    return out
+
+
+def _differences(a, b, path="policy", seen=None) -> list[str]:
+    """Where two policy objects differ (attributes, containers, arrays), recursively."""
+    seen = set() if seen is None else seen
+    if (id(a), id(b)) in seen:
+        return []
+    seen.add((id(a), id(b)))
+    if type(a) is not type(b):
+        return [f"{path}: {type(a).__name__} != {type(b).__name__}"]
+    if isinstance(a, np.ndarray):
+        same = a.shape == b.shape and np.array_equal(a, b, equal_nan=a.dtype.kind == "f")
+        return [] if same else [path]
+    if isinstance(a, dict):
+        if list(a) != list(b):
+            return [f"{path}: keys {list(a)} != {list(b)}"]
+        return [d for k in a for d in _differences(a[k], b[k], f"{path}[{k!r}]", seen)]
+    if isinstance(a, (list, tuple)):
+        if len(a) != len(b):
+            return [f"{path}: length {len(a)} != {len(b)}"]
+        return [d for i, (x, y) in enumerate(zip(a, b))
+                for d in _differences(x, y, f"{path}[{i}]", seen)]
+    if hasattr(a, "__dict__") and not isinstance(a, (type, types.FunctionType,
+                                                     types.MethodType)):
+        return _differences(vars(a), vars(b), path, seen)
+    if isinstance(a, float) and math.isnan(a) and math.isnan(b):
+        return []
+    try:
+        return [] if a == b else [f"{path}: {a!r} != {b!r}"]
+    except ValueError:
+        return [path]
+
+
+@pytest.mark.parametrize("robot_planner", ["social", "social+beta", "aggressive",
+                                           "conservative", "cruise"])
+def test_robot_policy_cannot_tell_the_pedestrian_variants_apart(robot_planner):
+    """The robot's policy for `crossing`, `waiting` and `none` is the same object, state for
+    state and action for action, given the same observations: nothing but its observation
+    (not possible_agents, not the other agents' routes) tells it whether a pedestrian exists."""
+    observations = _robot_observations()
+    robots = []
+    for variant in ("crossing", "waiting", "none"):
+        env = marl_social.parallel_env(pedestrian=variant, robot_planner=robot_planner)
+        robot = marl_social.policies(env)["robot_0"]
+        robot.reset(0)
+        robots.append(robot)
+    assert _differences(robots[0], robots[1]) == [] and _differences(robots[0], robots[2]) == []
+    for obs in observations:
+        actions = [robot(obs) for robot in robots]
+        np.testing.assert_array_equal(actions[0], actions[1])
+        np.testing.assert_array_equal(actions[0], actions[2])
+    assert _differences(robots[0], robots[1]) == []
+    assert _differences(robots[0], robots[2]) == []

@@ -142,3 +142,26 @@ def test_autopilot_feeds_the_oracle_its_truth():
     for _ in range(5):
         env.step({a: np.zeros(2, np.float32) for a in env.agents})
     assert env._autopilots["robot_0"].needs_truth
+
+
+@pytest.mark.parametrize("robot_planner", ROBOT_PLANNERS)
+def test_policies_know_only_their_own_route_and_name(robot_planner):
+    env = marl_social.parallel_env(robot_planner=robot_planner)
+    for name, policy in marl_social.policies(env).items():
+        maps = [v for v in vars(policy).values() if isinstance(v, type(env.road_map))]
+        assert all(set(m.routes) == {name} for m in maps), name
+        assert maps or name != "robot_0" or robot_planner == "cruise"
+        belief = getattr(policy, "belief", None)
+        if belief is not None:
+            assert belief.agent_names == [name]
+
+
+@pytest.mark.parametrize("robot_planner", ROBOT_PLANNERS)
+def test_every_planner_passes_a_pedestrian_waiting_on_the_curb(robot_planner):
+    """0.5 m behind the curb a pedestrian is on the sidewalk: it blocks nobody."""
+    from marl_social.evaluation.run import run_episode
+
+    result = run_episode(pedestrian="waiting", pedestrian_curb_offset_m=0.5,
+                         robot_planner=robot_planner, seed=0)
+    assert np.isfinite(result.metrics["time_to_pass_s"]), robot_planner
+    assert not result.metrics["collision"]

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 import pytest
 from marl_social.perception.tracking import Tracker
@@ -65,3 +67,26 @@ def test_new_objects_get_their_own_tracks_in_id_order():
     tracks = tracker.update(_obs([(5, 0, 0, 0, 0), (2, 10, 0, 1, 0)]))
     assert list(tracks.ids) == [2, 5]
     assert tracks.xy[0] == pytest.approx([10, 0])
+
+
+def test_velocity_change_covariance_matches_the_track_error():
+    """TrackSet.velocity_change_cov / dt^2 is (conservatively) the variance of an acceleration
+    read off the track of a car at constant speed, for a precise and a noisy sensor."""
+
+    layout = ObservationLayout(n_slots=2, n_rays=4)
+    fields = [SLOT_INDEX[f] for f in ("present", "id", "x", "y", "vx", "cos_psi", "length",
+                                      "width")]
+    for pos_noise in (0.05, 1.0):
+        tracker = Tracker(pos_noise_m=pos_noise, vel_noise_mps=0.1, accel_noise_mps2=1.5)
+        rng = np.random.default_rng(0)
+        speed, predicted = [], []
+        for k in range(400):
+            obs = np.zeros(layout.size)
+            obs[EGO_DIM + np.array(fields)] = [
+                1, 2, 1.0 * k + pos_noise * rng.standard_normal(),
+                pos_noise * rng.standard_normal(), 10.0 + 0.1 * rng.standard_normal(), 1, 4.5, 1.8]
+            tracks = tracker.update(layout.decode(obs))
+            speed.append(tracks.velocity[0, 0])
+            predicted.append(math.sqrt(tracks.velocity_change_cov[0, 0, 0]) / 0.1)
+        empirical = np.std(np.diff(speed[20:]) / 0.1)
+        assert empirical <= predicted[-1] <= 1.5 * empirical, (pos_noise, empirical)

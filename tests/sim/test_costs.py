@@ -106,3 +106,12 @@ def test_scalar_projection_matches_vectorized():
         s, lat, _ = route.project(np.array([x, y]))
         s2, lat2 = route.project_point(float(x), float(y))
         assert s2 == pytest.approx(float(s)) and lat2 == pytest.approx(float(lat))
+
+
+def test_a_pedestrian_on_the_sidewalk_does_not_occupy_the_crosswalk():
+    """Across the road only the centre counts: 0.5 m behind the curb (y = -4.0) is off."""
+    on_curb = crosswalk_occupancy(np.array([50.0, -4.0]), 0.42, CW)
+    on_road = crosswalk_occupancy(np.array([50.0, -3.0]), 0.42, CW)
+    assert on_curb < 0.01 and on_road > 0.99
+    # along the road a footprint counts as soon as it overlaps
+    assert crosswalk_occupancy(np.array([47.7, 1.75]), 0.5, CW) > 0.5

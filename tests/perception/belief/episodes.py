@@ -11,7 +11,7 @@ from marl_social.perception.belief import PedestrianBelief
 
 import marl_social
 from marl_social.sim.observation import EGO_DIM, SLOT_DIM, SLOT_INDEX, ObservationLayout
-from marl_social.sim.road_map import RoadMap, Route
+from marl_social.sim.road_map import Lane, RoadMap, Route
 
 SEEDS = tuple(range(10))
 CROSSWALK_X_M = 60.0  # the paper map's crosswalk centre [m]
@@ -60,8 +60,11 @@ def run_beliefs(episode, **kwargs):
     return np.array(probs), np.array(p_ped), belief
 
 
-def hyp_index(belief, name):
-    return [h.name for h in belief.hypotheses].index(name)
+def hyp_index(belief, name, progress_bin=None):
+    """(L,) bool: the hypotheses on path `name` ("crossing_right"), all progress and speed
+    bins or only progress bin `progress_bin`; `probs @ mask` is the path's belief."""
+    return np.array([h.path == name and (progress_bin is None or h.progress_bin == progress_bin)
+                     for h in belief.hypotheses])
 
 
 def synthetic_world(n_humans: int):
@@ -70,7 +73,8 @@ def synthetic_world(n_humans: int):
     names = ["robot_0"] + [f"human_{i}" for i in range(n_humans)]
     routes = {name: Route([[-50.0, y], [1000.0, y]], name)
               for name, y in zip(names, (0.0, -3.5, 3.5))}
-    road_map = RoadMap(lanes=(), crosswalks=(), static_polygons=(), routes=routes)
+    lanes = tuple(Lane(route.points, 3.5) for route in routes.values())  # the humans' paths
+    road_map = RoadMap(lanes=lanes, crosswalks=(), static_polygons=(), routes=routes)
     layout = ObservationLayout(n_slots=4, n_rays=8)
 
     def observe(t_s, visible):

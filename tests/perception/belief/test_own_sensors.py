@@ -11,28 +11,31 @@ from tests.perception.belief.episodes import hyp_index, robot_episode, run_belie
 
 def test_visible_empty_region_collapses_while_occluded_one_keeps_its_mass():
     """Own sensors only. With the human 60 m ahead and a 200 m sensor the robot sees the right
-    curb: "crossing_right" drops below 0.05 within 5 steps. In the paper's scene the right curb
-    is out of range, then hidden behind the human car, and keeps its prior mass, while the
-    left curb (in view from about x = 20 m) collapses."""
+    curb: "crossing_right" (all its bins) drops below 0.05 within 5 steps. In the paper's
+    scene the right curb is out of range, then hidden behind the human car, and its entry bins
+    keep their prior mass, while the left crossing (in view from about x = 20 m) collapses."""
     seen = robot_episode("none", 0, (("human_lead_m", 60.0), ("robot_sensor_range_m", 200.0)),
                           max_steps=8)
     probs, _, belief = run_beliefs(seen, use_social=False)
     right = hyp_index(belief, "crossing_right")
-    assert probs[4, right] < 0.05
-    assert belief.last_likelihoods["visible_fraction"][right] > 0.9
+    right_entry = hyp_index(belief, "crossing_right", progress_bin=0)
+    assert probs[4] @ right < 0.05
+    assert belief.last_likelihoods["visible_fraction"][right_entry].min() > 0.9
 
     hidden = robot_episode("none", 0)
     probs, _, belief = run_beliefs(hidden, use_social=False)
     left = hyp_index(belief, "crossing_left")
+    prior_entry = belief.prior @ right_entry
     robot_x = hidden[2]
-    assert probs[4, right] > 0.24  # prior 0.25, nothing seen
+    assert probs[4] @ right > 0.95 * (belief.prior @ right)  # nothing seen
     k = int(np.argmax(robot_x > 30.0))  # 30 m before the crosswalk: right curb in range
-    assert probs[k, left] < 0.05
-    assert probs[k, right] > 0.25
+    assert probs[k] @ left < 0.05 * (belief.prior @ left)
+    assert probs[k] @ right_entry > prior_entry
     fresh = PedestrianBelief(hidden[4].road_map, hidden[4].obs_layout, "robot_0",
                              hidden[4].possible_agents)
     vis = fresh.visible_fraction(hidden[4].obs_layout.decode(hidden[0][k]))
-    assert vis[right] == 0.0 and vis[left] == 1.0
+    left_entry = hyp_index(belief, "crossing_left", progress_bin=0)
+    assert vis[right_entry].max() == 0.0 and vis[left_entry].min() == 1.0
 
 
 def test_seeing_the_pedestrian_is_positive_information():
@@ -42,5 +45,26 @@ def test_seeing_the_pedestrian_is_positive_information():
     first_seen = int(np.argmax(episode[1]))
     probs, p_ped, belief = run_beliefs(episode, use_social=False)
     right = hyp_index(belief, "crossing_right")
-    assert probs[first_seen + 3, right] > 0.9
+    assert probs[first_seen + 3] @ right > 0.9
     assert p_ped[first_seen + 3] == 1.0
+
+
+def test_detection_and_negative_information_work_per_hypothesis():
+    """A pedestrian the robot sees in the middle of the road matches the hypotheses of that
+    progress bin on its crossing, not the curb entry; a visible empty road rules out the
+    on-road bins while the hidden curb entry keeps its mass."""
+    from marl_social.perception.belief import OwnSensors
+
+    episode = robot_episode("none", 0)
+    env = episode[4]
+    belief = PedestrianBelief(env.road_map, env.obs_layout, "robot_0", env.possible_agents)
+    sensors = OwnSensors(belief.hypotheses, belief.config)
+    hyps = belief.hypotheses
+    mid = sensors.match_pedestrians(np.array([[60.0, 0.6]]), np.array([[0.0, 1.2]]))
+    matched = {(hyps[i].path, hyps[i].progress_bin) for i in np.flatnonzero(mid)}
+    assert matched == {("crossing_right", 2), ("crossing_right", 1)}
+    assert not sensors.match_pedestrians(np.array([[60.0, -4.5]]), np.zeros((1, 2))).any()
+    k = int(np.argmax(episode[2] > 30.0))
+    vis = sensors.visible_fraction(env.obs_layout.decode(episode[0][k]))
+    far_bins = hyp_index(belief, "crossing_right", progress_bin=2)
+    assert vis[far_bins].min() > 0.5 and vis[hyp_index(belief, "crossing_right", 0)].max() == 0

@@ -16,7 +16,8 @@ def test_traffic_speed_belief_multiplies_over_humans():
     road_map, layout, names, observe = synthetic_world(2)
     p13 = {}
     for visible in ((0,), (0, 1)):
-        belief = PedestrianBelief(road_map, layout, "robot_0", names)
+        belief = PedestrianBelief(road_map, layout, "robot_0", names,
+                                  BeliefConfig(v_traffic_grid_mps=(8.0, 10.0, 11.5, 13.0)))
         assert [h.name for h in belief.hypotheses] == ["none"]
         for step in range(12):
             belief.update(observe(0.1 * step, visible))
@@ -60,3 +61,19 @@ def test_belief_never_nan_or_all_zero_with_absurd_inputs():
             assert np.all(np.isfinite(p)) and p.min() > 0 and abs(p.sum() - 1.0) < 1e-9
             assert np.all(np.isfinite(belief.traffic.probabilities))
             assert 0.0 <= belief.p_pedestrian <= 1.0
+
+
+def test_the_robot_tracks_with_its_own_sensor_noise():
+    """robot_configs hands the robot's sensor noise to its belief's Kalman tracker."""
+    from marl_social.agents.robot.planner import robot_configs
+
+    import marl_social
+
+    env = paper_env(robot_pos_noise_m=1.0)
+    spec = env.agent_specs["robot_0"]
+    _, cfg = robot_configs(spec, "social")
+    assert (cfg.track_pos_noise_m, cfg.track_vel_noise_mps) == (1.0, spec.sensor.vel_noise_mps)
+    robot = marl_social.policies(env)["robot_0"]
+    np.testing.assert_allclose(np.diag(robot.belief.tracker._R),
+                               [1.0, 1.0, spec.sensor.vel_noise_mps ** 2,
+                                spec.sensor.vel_noise_mps ** 2])

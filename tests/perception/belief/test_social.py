@@ -92,15 +92,15 @@ def test_social_belief_rises_because_the_human_brakes(crossing_results):
         first_seen = int(np.argmax(seen))
         brake = int(np.argmax(human_v < human_v[0] - 0.05))  # first step the human is slower
         assert 5 < brake < first_seen
-        before = social[brake - 1, right] < 0.1
-        ok += before and social[first_seen - 1, right] > 0.9
+        before = social[brake - 1] @ right < 0.1
+        ok += before and social[first_seen - 1] @ right > 0.9
     assert ok == len(SEEDS), f"{ok}/{len(SEEDS)} seeds"
 
 
 def test_without_social_information_the_belief_stays_low_until_seen(crossing_results):
     for (_, seen, _, _, _), _, alone, right in crossing_results:
         first_seen = int(np.argmax(seen))
-        assert alone[:first_seen, right].max() < 0.5
+        assert (alone[:first_seen] @ right).max() < 0.5
 
 
 @pytest.mark.parametrize("pedestrian", ["none", "waiting"])
@@ -149,3 +149,72 @@ def test_rationality_belief_separates_an_erratic_human_from_a_rational_one():
                 if human_beta < 1:
                     false_alarm[name].append(max(np.array(p_ped)[window]))
     assert np.mean(false_alarm["inferred"]) < np.mean(false_alarm["fixed"])
+
+
+def test_one_extreme_observation_moves_the_log_odds_by_at_most_the_bound():
+    """BeliefConfig.max_log_likelihood_ratio bounds what one observed action does: each human's
+    log-likelihoods span at most the bound, and the human's observation, however absurd its
+    velocity (a_obs up to +-50 m/s^2 off), moves the posterior log-odds of a crossing
+    pedestrian by at most the bound compared with the same step without it."""
+    import copy
+
+    from marl_social.perception.belief.social import bounded_log_likelihood
+
+    from marl_social.sim.observation import EGO_DIM, SLOT_DIM, SLOT_INDEX
+
+    bound = BeliefConfig().max_log_likelihood_ratio
+    ll = bounded_log_likelihood(np.array([0.0, -1.0, -50.0, -1e300]), bound)
+    assert ll.max() - ll.min() <= bound + 1e-12
+    episode = robot_episode("crossing", 1)
+    obs, seen = episode[0], episode[1]
+    _, _, belief = run_beliefs((obs[:5],) + episode[1:])
+    first_seen = int(np.argmax(seen))
+
+    def log_odds(b, o):
+        b = copy.deepcopy(b)
+        b.update(o)
+        return math.log(b.p_pedestrian / (1.0 - b.p_pedestrian))
+
+    checked = 0
+    for k in range(5, first_seen):
+        rows = obs[k][EGO_DIM:EGO_DIM + episode[4].obs_layout.n_slots * SLOT_DIM]
+        ids = rows.reshape(-1, SLOT_DIM)[:, SLOT_INDEX["id"]]
+        slot = EGO_DIM + int(np.flatnonzero(np.round(ids) == 2)[0]) * SLOT_DIM  # human_0
+        without = obs[k].copy()
+        without[slot:slot + SLOT_DIM] = 0.0
+        reference = log_odds(belief, without)
+        for dv in (-5.0, -0.8, 0.0, 0.8, 5.0):
+            o = obs[k].copy()
+            o[slot + SLOT_INDEX["vx"]] += dv
+            assert abs(log_odds(belief, o) - reference) <= bound + 1e-9, (k, dv)
+            checked += 1
+        belief.update(obs[k])
+    assert checked > 40
+
+
+def test_the_robot_trusts_a_noisier_track_less():
+    """The sigma of P(a_obs | x) includes the robot's own track error: larger for a sensor
+    that measures velocity with 0.5 m/s noise than with the default 0.1 m/s."""
+    episode = robot_episode("none", 0, max_steps=20)
+    sigmas = {}
+    for noise in (0.1, 0.5):
+        _, _, belief = run_beliefs(episode, config=BeliefConfig(track_vel_noise_mps=noise))
+        sigmas[noise] = belief.social.observation_sigma_mps2(belief.tracker.tracks(), 0, 0.0)
+    assert BeliefConfig().accel_noise_mps2 < sigmas[0.1] < sigmas[0.5]
+
+
+def test_the_robot_model_of_the_humans_is_its_own():
+    """Defaults that are not the simulated humans' truth: theta_hat differs from the humans'
+    CostWeights, the traffic-speed grid (fractions of the limit) does not contain their
+    11.5 m/s, the assumed view differs from the scenario's human sensor (60 m, 60 deg)."""
+    from marl_social.sim.costs import CostWeights
+
+    cfg = BeliefConfig()
+    env = paper_env()
+    human = env.agent_specs["human_0"]
+    assert cfg.theta_hat != human.cost_weights and cfg.theta_hat != CostWeights()
+    grid = cfg.traffic_grid_mps(env.road_map.speed_limit_mps)
+    assert not np.any(np.isclose(grid, human.v_desired_mps))
+    assert grid.max() <= env.road_map.speed_limit_mps + 1e-9
+    assert (cfg.human_range_m, cfg.human_half_fov_rad) != (human.sensor.range_m,
+                                                           human.sensor.half_angle_rad)
