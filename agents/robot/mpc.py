@@ -177,7 +177,7 @@ class ContingencyMpc:
         self.config, self.vehicle = config, vehicle
         self._qps: dict[int, ContingencyQp] = {}
         self._mode_qp: ContingencyQp | None = None
-        self._curvature: tuple[int, tuple[np.ndarray, np.ndarray]] | None = None
+        self._curvature: tuple[Route, tuple[np.ndarray, np.ndarray]] | None = None
         self._headway = config.headway_s()
 
     def _qp(self, n_branches: int, for_modes: bool = False) -> ContingencyQp:
@@ -197,8 +197,8 @@ class ContingencyMpc:
                      v_cap: float) -> tuple[np.ndarray, bool]:
         """(N,) speed bounds [m/s] for positions in [s_lo, s_hi] (N,) [m]; whether any curve."""
         c = self.config
-        if self._curvature is None or self._curvature[0] != id(route):
-            self._curvature = (id(route), route_curvature(route))
+        if self._curvature is None or self._curvature[0] is not route:
+            self._curvature = (route, route_curvature(route))
         vertex_s, kappa = self._curvature[1]
         bound = curvature_speed_bound(vertex_s, kappa, s_lo, s_hi, c.curvature_window_m,
                                       c.lat_accel_max_mps2)

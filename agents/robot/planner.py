@@ -26,7 +26,6 @@ from __future__ import annotations
 
 import enum
 import math
-import time
 from dataclasses import dataclass, replace
 
 import numpy as np
@@ -179,7 +178,6 @@ class RobotPlanner:
         self.belief.reset()
         self.prev_accel = 0.0
         self.last_result: MpcResult | None = None
-        self.last_solve_s = 0.0
         self.weights = None
 
     def observe_truth(self, tracks: TrackSet) -> None:
@@ -243,11 +241,9 @@ class RobotPlanner:
         self.weights = weights
         scene = self._scene(tracks)
         s0, _ = self.route.project_point(x, y)
-        t0 = time.perf_counter()
         result = self.solver.plan(self.route, s0, v, self.prev_accel, self.v_ref(),
                                   self.road_map.speed_limit_mps, scene, weights,
                                   self._static_boxes)
-        self.last_solve_s = time.perf_counter() - t0  # the MPC alone (bench planners) [s]
         self.last_result = result
         self.prev_accel = result.accel_mps2
         steer = pure_pursuit(self.route, x, y, psi, v, s0, self.spec.vehicle.wheelbase_m)

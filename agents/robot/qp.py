@@ -109,7 +109,10 @@ class ContingencyQp:
                            self._lower_template.copy(), self._upper_template.copy(),
                            verbose=False, eps_abs=tolerance, eps_rel=tolerance,
                            max_iter=4000, polishing=True, warm_starting=True,
-                           check_termination=10)
+                           check_termination=10,
+                           # a fixed rho-update interval: OSQP's default (0) times the setup
+                           # and adapts on wall-clock time, which breaks bit-identical episodes
+                           adaptive_rho_interval=25)
 
     # -- cost ---------------------------------------------------------------------------------
 
