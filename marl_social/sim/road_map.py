@@ -1,4 +1,4 @@
-"""Static map: lanes, routes (reference paths), crosswalks and static polygons.
+"""Static map: lanes, routes (reference paths), crosswalks, stop lines, conflict zones, obstacles.
 
 The static map is what every agent knows in advance (like an HD map): planners may read it, the
 world's dynamic state they may not. All coordinates are metres in the world frame, angles are
@@ -73,6 +73,29 @@ class Route:
         lateral = dir_k[..., 0] * rel_k[..., 1] - dir_k[..., 1] * rel_k[..., 0]
         return self._cum_s[k] + t_k, lateral, self._seg_heading[k]
 
+    def segment_crossings(self, segment) -> np.ndarray:
+        """Arc lengths [m] at which the route crosses a line segment, ascending.
+
+        Args:
+            segment: (2, 2) the segment's end points [m] (a stop line, a zone's edge).
+
+        Returns:
+            (C,) arc lengths of the crossing points [m]; empty if the route does not cross it.
+        """
+        seg = np.asarray(segment, dtype=np.float64)
+        if seg.shape != (2, 2) or not np.all(np.isfinite(seg)):
+            raise ValueError(f"{self.name}: segment must be finite (2, 2) points, got {seg.shape}")
+        q, e = seg[0], seg[1] - seg[0]
+        d = self._seg_vec  # (S, 2)
+        denom = d[:, 0] * e[1] - d[:, 1] * e[0]  # cross(d, e)
+        rel = q - self._seg_start  # (S, 2)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            t = (rel[:, 0] * e[1] - rel[:, 1] * e[0]) / denom  # along the route's segment
+            u = (rel[:, 0] * d[:, 1] - rel[:, 1] * d[:, 0]) / denom  # along the given segment
+        hit = (np.abs(denom) > 1e-12) & (t >= 0.0) & (t <= 1.0) & (u >= 0.0) & (u <= 1.0)
+        s = self._cum_s[:-1][hit] + t[hit] * self._seg_len[hit]
+        return np.unique(s)
+
     def project_point(self, x: float, y: float) -> tuple[float, float]:
         """Arc length [m] and signed lateral offset [m] of one point.
 
@@ -111,10 +134,14 @@ class Route:
 
 @dataclass(frozen=True)
 class Lane:
-    """A lane: centerline polyline (P, 2) [m] in travel direction and width [m]."""
+    """A lane: centerline polyline (P, 2) [m] in travel direction, width [m] and a name.
+
+    Curved lanes (turning lanes of an intersection) are polylines with short segments.
+    """
 
     centerline: np.ndarray
     width_m: float
+    name: str = ""
 
     def polygon(self) -> np.ndarray:
         """(2P, 2) outline of the lane (left edge forward, right edge backward) [m]."""
@@ -167,6 +194,61 @@ class Crosswalk:
         )
 
 
+@dataclass(frozen=True)
+class StopLine:
+    """A line across a lane at which traffic must stop.
+
+    Attributes:
+        segment: (2, 2) end points [m], across the lane.
+        kind: "stop_sign" (stop, then go when the way is clear) or "signal" (stop while the
+            signal head of this approach shows red or yellow).
+        lane: index into RoadMap.lanes of the lane it belongs to (-1: any lane it crosses).
+    """
+
+    segment: np.ndarray
+    kind: str = "stop_sign"
+    lane: int = -1
+
+    def __post_init__(self):
+        seg = np.asarray(self.segment, dtype=np.float64)
+        if seg.shape != (2, 2) or not np.all(np.isfinite(seg)):
+            raise ValueError(f"stop line: segment must be finite (2, 2) points, got {seg.shape}")
+        if self.kind not in ("stop_sign", "signal"):
+            raise ValueError(f"stop line: kind must be 'stop_sign' or 'signal', got {self.kind!r}")
+        object.__setattr__(self, "segment", seg)
+
+
+@dataclass(frozen=True)
+class ConflictZone:
+    """An area where lanes cross or merge (part of an intersection).
+
+    Attributes:
+        polygon: (V, 2) convex outline [m], counter-clockwise.
+        name: used in metrics and error messages.
+        priority_lanes: indices into RoadMap.lanes whose traffic has the right of way here;
+            traffic on any other lane through the zone yields to it.
+    """
+
+    polygon: np.ndarray
+    name: str = "conflict"
+    priority_lanes: tuple[int, ...] = ()
+
+    def __post_init__(self):
+        object.__setattr__(self, "polygon",
+                           _validate_convex_polygon(self.polygon, f"conflict zone {self.name!r}"))
+        object.__setattr__(self, "priority_lanes", tuple(int(i) for i in self.priority_lanes))
+
+    def contains(self, xy, margin_m: float = 0.0) -> np.ndarray:
+        """Whether points (..., 2) [m] lie inside the zone grown by margin_m [m] (bool (...))."""
+        xy = np.asarray(xy, dtype=np.float64)
+        a = self.polygon
+        edge = np.roll(a, -1, axis=0) - a  # (V, 2)
+        length = np.linalg.norm(edge, axis=1)
+        rel = xy[..., None, :] - a  # (..., V, 2)
+        cross = (edge[:, 0] * rel[..., 1] - edge[:, 1] * rel[..., 0]) / length
+        return np.all(cross >= -margin_m, axis=-1)
+
+
 def _validate_convex_polygon(poly, name: str) -> np.ndarray:
     """Validate a static polygon: (V>=3, 2), finite, strictly convex; returned counter-clockwise."""
     arr = np.asarray(poly, dtype=np.float64)
@@ -195,6 +277,8 @@ class RoadMap:
         routes: reference path per agent name.
         speed_limit_mps: legal speed limit [m/s].
         extent: (xmin, xmax, ymin, ymax) of the area worth drawing [m].
+        stop_lines: stop lines (stop signs, signalized approaches).
+        conflict_zones: areas where lanes cross or merge, with their right of way.
     """
 
     lanes: tuple[Lane, ...]
@@ -203,6 +287,8 @@ class RoadMap:
     routes: dict[str, Route] = field(default_factory=dict)
     speed_limit_mps: float = 13.9
     extent: tuple[float, float, float, float] = (0.0, 100.0, -20.0, 20.0)
+    stop_lines: tuple[StopLine, ...] = ()
+    conflict_zones: tuple[ConflictZone, ...] = ()
 
     def __post_init__(self):
         polys = tuple(
@@ -210,6 +296,14 @@ class RoadMap:
             for i, p in enumerate(self.static_polygons)
         )
         object.__setattr__(self, "static_polygons", polys)
+        for i, line in enumerate(self.stop_lines):
+            if not -1 <= line.lane < len(self.lanes):
+                raise ValueError(f"stop_lines[{i}]: lane {line.lane} is not a lane index")
+        for zone in self.conflict_zones:
+            bad = [i for i in zone.priority_lanes if not 0 <= i < len(self.lanes)]
+            if bad:
+                raise ValueError(f"conflict zone {zone.name!r}: priority lanes {bad} are not "
+                                 f"lane indices (the map has {len(self.lanes)} lanes)")
 
     def for_agent(self, name: str) -> RoadMap:
         """The map one agent's policy may know: the static map and only its own route.
