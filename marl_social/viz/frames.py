@@ -111,6 +111,10 @@ class Renderer:
             in one direction to keep 1 m the same length on both axes (no distortion).
         follow: name of an agent to keep horizontally centred (e.g. "robot_0"); None = fixed
             view.
+        follow_within_map: with `follow`, stop the view at the map's ends (the agent is off
+            centre there) when the map is longer than the view, so that no frame shows empty
+            ground beyond the road while there is road to show (from t = 0 the scene ahead of
+            the robot is in view).
         fan_agents: names of the agents whose field of view is drawn when `draw` gets a fov;
             None = every agent (on crowded maps pass e.g. ["robot_0"]: fans cost fill time).
         dpi: resolution for font sizes and line widths [px per inch].
@@ -127,7 +131,7 @@ class Renderer:
     def __init__(self, road_map: RoadMap, show: bool = False, width_px: int = FRAME_WIDTH_PX,
                  height_px: int = FRAME_HEIGHT_PX, view: tuple | None = None,
                  follow: str | None = None, fan_agents: Sequence[str] | None = None,
-                 dpi: int = FRAME_DPI):
+                 dpi: int = FRAME_DPI, follow_within_map: bool = True):
         """Build the Agg figure with the static map; frames rasterise its tiles on demand."""
         for label, value in (("width_px", width_px), ("height_px", height_px), ("dpi", dpi)):
             if isinstance(value, bool) or int(value) != value or value < 16:
@@ -137,6 +141,7 @@ class Renderer:
         self.width_px, self.height_px = int(width_px), int(height_px)
         self.view = view
         self.follow = follow
+        self.follow_within_map = bool(follow_within_map)
         self.fan_agents = fan_agents
         self.fig = Figure(figsize=(self.width_px / dpi, self.height_px / dpi), dpi=dpi,
                           facecolor=BACKGROUND_COLOR)
@@ -190,13 +195,21 @@ class Renderer:
         if self.follow not in world.names:
             raise ValueError(f"follow={self.follow!r} is not an agent; agents: {world.names}")
         cx = float(world.state[world.names.index(self.follow), 0])
-        return round((cx - x0) / m_per_px - 0.5 * self.width_px)
+        col = round((cx - x0) / m_per_px - 0.5 * self.width_px)
+        if self.follow_within_map:
+            map_x0, map_x1 = self.road_map.extent[:2]
+            first = math.ceil((map_x0 - x0) / m_per_px - 1e-9)  # frame's left edge on the map
+            last = math.floor((map_x1 - x0) / m_per_px + 1e-9) - self.width_px
+            if first <= last:  # the map is longer than the frame
+                col = min(max(col, first), last)
+        return col
 
     def view_limits(self, world=None) -> tuple[float, float, float, float]:
         """(xmin, xmax, ymin, ymax) [m] that a frame of `world` shows.
 
         That is the view (or the map's extent) grown to the frame's aspect ratio, with `follow`
-        centred on that agent's x (to the nearest pixel).
+        centred on that agent's x (to the nearest pixel; with `follow_within_map`, held inside
+        the map's ends).
 
         Args:
             world: the World to be drawn (needed only with `follow`), or None.

@@ -36,7 +36,7 @@ HOUSE_EDGE_PT = 0.8  # outline of houses and parked cars [pt]
 
 # -- live frames ------------------------------------------------------------------------------
 FRAME_WIDTH_PX = 1000  # default frame size [px]
-FRAME_HEIGHT_PX = 360
+FRAME_HEIGHT_PX = 240  # 1000 x 240 px: a 150 m view over the map's 25 m height plus margin
 FRAME_DPI = 100  # resolution of the font sizes and line widths [px per inch]
 FAN_ALPHA = {"robot": 0.18, "human": 0.13, "pedestrian": 0.09}  # fill opacity of the fans
 OTHER_FAN_ALPHA = 0.1  # fan opacity of an unknown role
@@ -78,11 +78,13 @@ class RenderConfig:
     """How the env draws its frames (`render_mode="rgb_array"` or `"human"`).
 
     The view shows the map's full height and `view_width_m` of its length, keeping the
-    `follow_agent` horizontally centred; without that agent the view is the map's extent.
+    `follow_agent` horizontally centred except near the map's ends, where the view stops (so
+    that, in the occluded crosswalk, the robot, the human car, the crosswalk 60 m ahead and the
+    pedestrian are all in view from t = 0); without that agent the view is the map's extent.
 
     Attributes:
         view_width_m: road length shown around the followed agent [m] (the map's own length if
-            shorter).
+            shorter); 150 m shows 60 m and more ahead of the robot at the start of the map.
         width_px: frame width [px].
         height_px: frame height [px].
         dpi: resolution for font sizes and line widths [px per inch].
@@ -91,7 +93,7 @@ class RenderConfig:
             drawn (fans cost fill time on crowded maps).
     """
 
-    view_width_m: float = 90.0
+    view_width_m: float = 150.0
     width_px: int = FRAME_WIDTH_PX
     height_px: int = FRAME_HEIGHT_PX
     dpi: int = FRAME_DPI

@@ -17,7 +17,7 @@ from marl_social.viz.frames import Renderer
 from marl_social.viz.style import RenderConfig
 from tests.viz.pixels import green_pixels, red_pixels
 
-W, H = 1000, 360
+W, H = 1000, 240
 
 
 def _world(**overrides) -> World:
@@ -133,12 +133,13 @@ def test_real_fov_changes_the_image(world):
 
 def test_zoomed_view_makes_the_robot_bigger(world):
     wide = red_pixels(Renderer(world.road_map).draw(world)).sum()
-    zoom = red_pixels(Renderer(world.road_map, view=(-10.0, 30.0, -8.0, 8.0)).draw(world)).sum()
+    zoom = red_pixels(Renderer(world.road_map, view=(-10.0, 30.0, -5.0, 5.0)).draw(world)).sum()
     assert zoom > 10 * wide
 
 
 def test_follow_keeps_the_agent_centred_and_stitches_the_map(world):
-    follow = Renderer(world.road_map, follow="robot_0", view=(-10.0, 50.0, -12.5, 12.5))
+    follow = Renderer(world.road_map, follow="robot_0", view=(-10.0, 50.0, -12.5, 12.5),
+                      follow_within_map=False)
     for dx in (0.0, 37.3, 81.9):  # crosses tile boundaries of the cached static map
         world.state[0, 0] = dx
         frame = follow.draw(world)
@@ -177,33 +178,62 @@ def test_rgb_rendering_never_imports_pyplot():
         "env = marl_social.parallel_env(render_mode='rgb_array')\n"
         "env.reset(seed=0)\n"
         "frame = env.render()\n"
-        "assert frame.shape == (360, 1000, 3), frame.shape\n"
+        "assert frame.shape == (240, 1000, 3), frame.shape\n"
         "assert 'matplotlib.pyplot' not in sys.modules\n"
     )
     subprocess.run([sys.executable, "-c", code], check=True, timeout=120)
 
 
 # -- the env ----------------------------------------------------------------------------------
-def test_env_render_rgb_array_returns_frames_that_follow_the_episode():
+@pytest.mark.parametrize("x_m", [-40.0, -12.0, 0.0, 33.3, 71.7, 118.0, 149.0, 170.0])
+def test_follow_stops_at_the_map_ends_and_keeps_the_agent_in_view(world, x_m):
+    x_map0, x_map1 = world.road_map.extent[:2]
+    renderer = Renderer(world.road_map, follow="robot_0",
+                        view=(x_map0, x_map0 + 80.0, -12.5, 12.5))
+    world.state[0, 0] = x_m
+    frame = renderer.draw(world)
+    left, right = renderer.view_limits(world)[:2]
+    m_per_px = (right - left) / W
+    assert right - left < x_map1 - x_map0
+    # the view never leaves the map ...
+    assert left >= x_map0 - 0.5 * m_per_px and right <= x_map1 + 0.5 * m_per_px
+    # ... is centred on the agent wherever that is possible ...
+    centre = min(max(x_m, x_map0 + 0.5 * (right - left)), x_map1 - 0.5 * (right - left))
+    assert 0.5 * (left + right) == pytest.approx(centre, abs=m_per_px)
+    # ... and the agent is drawn where it is while it is on the map
+    col, _ = renderer.world_to_pixel(world.state[0, :2])
+    half_car_px = 0.5 * 4.5 / m_per_px + 2
+    if half_car_px <= col < W - half_car_px:  # wholly in view
+        assert abs(np.nonzero(red_pixels(frame))[1].mean() - col) < 3.0
+    elif not -half_car_px < col < W + half_car_px:  # wholly out of view
+        assert red_pixels(frame).sum() == 0
+
+
+def test_env_render_shows_the_crosswalk_ahead_from_the_start_and_follows_the_robot():
     env = marl_social.parallel_env(render_mode="rgb_array", render_fov=False)
     env.reset(seed=0)
     first = env.render()
     assert first.shape == (H, W, 3) and first.dtype == np.uint8
-    x0 = env.world.state[0, 0]
-    left0 = env._renderer.view_limits(env.world)[0]
-    for _ in range(10):
+    # at t = 0 the robot, the crosswalk 60 m ahead and the pedestrian beside it are all in view
+    renderer = env._renderer
+    for xy in (env.world.state[0, :2], env.road_map.crosswalks[0].center,
+               env.world.state[env.world.names.index("pedestrian_0"), :2]):
+        col, row = renderer.world_to_pixel(xy)
+        assert 0 <= col < W and 0 <= row < H
+    assert green_pixels(first).sum() > 20  # the pedestrian is drawn
+    assert abs(np.nonzero(red_pixels(first))[1].mean()
+               - renderer.world_to_pixel(env.world.state[0, :2])[0]) < 3.0
+    left0 = renderer.view_limits(env.world)[0]
+    assert left0 == pytest.approx(env.road_map.extent[0], abs=0.2)  # held at the map's start
+    while env.agents and env.world.state[0, 0] < 70.0:  # past the middle of the view
         env.step({a: np.zeros(2) for a in env.agents})
     later = env.render()
-    assert later.shape == (H, W, 3)
-    # frames follow the robot: it stays centred while the view slides with it
-    for frame in (first, later):
-        assert np.nonzero(red_pixels(frame))[1].mean() == pytest.approx(W / 2, abs=6)
-    x_min, x_max = env._renderer.view_limits(env.world)[:2]
+    x_min, x_max = renderer.view_limits(env.world)[:2]
     m_per_px = (x_max - x_min) / W
-    moved = env.world.state[0, 0] - x0
-    assert moved > 10.0
-    assert x_min - left0 == pytest.approx(moved, abs=1.5 * m_per_px)
-    assert np.any(first != later)
+    # then the view slides with the robot, which stays centred
+    assert x_min > left0 + 10.0
+    assert 0.5 * (x_min + x_max) == pytest.approx(env.world.state[0, 0], abs=m_per_px)
+    assert np.nonzero(red_pixels(later))[1].mean() == pytest.approx(W / 2, abs=6)
     env.close()
 
 

@@ -18,7 +18,7 @@ from marl_social.viz.style import (
 
 def test_render_config_defaults_and_frozen():
     config = RenderConfig()
-    assert (config.view_width_m, config.width_px, config.height_px) == (90.0, 1000, 360)
+    assert (config.view_width_m, config.width_px, config.height_px) == (150.0, 1000, 240)
     assert config.follow_agent == "robot_0"
     with pytest.raises(dataclasses.FrozenInstanceError):
         config.width_px = 10  # type: ignore[misc]
