@@ -1,11 +1,11 @@
 """Regenerate the pictures of the docs and README: the demo GIF and the paper's figures.
 
-    python docs/scripts/make_media.py [--out docs/img]
+    python docs/scripts/make_media.py [--gif docs/demo.gif] [--out docs/img]
 
-Writes demo.gif (the occluded crosswalk with the social robot and a crossing pedestrian,
+Writes the GIF (the occluded crosswalk with the social robot and a crossing pedestrian,
 every agent's field of view, the legend and the robot's belief under each frame; every
 second step, < 1.5 MB) and the paper-style figures of `marl-social reproduce` (Figs. 3-6,
-seed 0) as small PNGs. Deterministic: the same files for the same code.
+seed 0) as small PNGs into --out. Deterministic: the same files for the same code.
 """
 
 from __future__ import annotations
@@ -25,7 +25,7 @@ FRAME_STRIDE = 2  # keep every second step: 5 frames per simulated second
 FIGURE_WIDTH_PX = 900  # the docs' PNGs are downscaled to this width [px]
 
 
-def demo_gif(out: Path, seed: int = 0) -> Path:
+def demo_gif(path: Path, seed: int = 0) -> Path:
     """The captioned demo animation of the social robot, crossing pedestrian."""
     res = run_episode("occluded_crosswalk", seed=seed, render=True, pedestrian="crossing",
                       robot_planner="social")
@@ -39,7 +39,7 @@ def demo_gif(out: Path, seed: int = 0) -> Path:
     last = min(len(frames), int(np.flatnonzero(on_map)[-1]) + 1 + 10)
     frames = frames[:last]
     fps = round(10 / FRAME_STRIDE)
-    return write_animation(frames[::FRAME_STRIDE], out / "demo.gif", fps=fps)
+    return write_animation(frames[::FRAME_STRIDE], path, fps=fps)
 
 
 def figures(out: Path, seed: int = 0) -> list[Path]:
@@ -56,12 +56,14 @@ def figures(out: Path, seed: int = 0) -> list[Path]:
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--out", default=str(Path(__file__).resolve().parents[1] / "img"))
+    docs = Path(__file__).resolve().parents[1]
+    parser.add_argument("--gif", default=str(docs / "demo.gif"))
+    parser.add_argument("--out", default=str(docs / "img"))
     parser.add_argument("--seed", type=int, default=0)
     args = parser.parse_args()
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
-    gif = demo_gif(out, args.seed)
+    gif = demo_gif(Path(args.gif), args.seed)
     print(f"{gif}: {gif.stat().st_size / 1e6:.2f} MB")
     for path in figures(out, args.seed):
         print(f"{path}: {path.stat().st_size / 1e3:.0f} kB")

@@ -95,7 +95,7 @@ def saturate_pedestrian_action(action: np.ndarray, speed_max_mps: np.ndarray) ->
     component, so its norm cannot overflow: 1e155 in x saturates to speed_max along x, not to 0.
 
     Args:
-        action: (n, 2) finite velocity commands [vx, vy] [m/s].
+        action: (n, 2) finite velocity commands (vx, vy) [m/s].
         speed_max_mps: (n,) top speed of each pedestrian [m/s].
 
     Returns:

@@ -219,13 +219,13 @@ class Renderer:
         return (left, left + self.width_px * m_per_px, y0, y1)
 
     def world_to_pixel(self, xy) -> np.ndarray:
-        """Pixel coordinates (..., 2) [column, row] of world points in the last drawn frame.
+        """Pixel coordinates (..., 2) (column, row) of world points in the last drawn frame.
 
         Args:
             xy: (..., 2) world points [m].
 
         Returns:
-            (..., 2) [column, row] [px], row 0 at the top, not rounded.
+            (..., 2) (column, row) [px], row 0 at the top, not rounded.
         """
         if self._limits is None:
             raise RuntimeError("world_to_pixel() needs a frame: call draw() first")

@@ -242,11 +242,12 @@ def read_interaction_csv(path_or_paths) -> dict[str, Track]:
         get one, so pedestrian and vehicle ids stay distinct.
 
     Raises:
-        FileNotFoundError for a missing file; ValueError naming the file, line / track and column
-        for a missing column, a non-numeric or non-finite value, a non-integral frame_id /
-        timestamp_ms, a duplicate (track_id, frame_id), timestamps not increasing with the frame
-        within a track, a non-positive length / width, and for the same track id in two files
-        (files of different recordings: read them separately, see `load_interaction`).
+        FileNotFoundError: a missing file.
+        ValueError: naming the file, line / track and column, for a missing column, a
+            non-numeric or non-finite value, a non-integral frame_id / timestamp_ms, a duplicate
+            (track_id, frame_id), timestamps not increasing with the frame within a track, a
+            non-positive length / width, and for the same track id in two files (files of
+            different recordings: read them separately, see `load_interaction`).
     """
     paths = [path_or_paths] if isinstance(path_or_paths, (str, Path)) else list(path_or_paths)
     if not paths:
