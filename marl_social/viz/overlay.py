@@ -153,7 +153,7 @@ class DemoCaption:
         ax.set_ylim(0, h)
         text = {"fontsize": CAPTION_FONT_PT, "color": LABEL_COLOR, "va": "center"}
         sw, sh = 18, 10  # legend swatch [px]
-        y1 = 0.73 * h if p is not None or status else 0.5 * h  # the legend's line
+        y1 = 0.73 * h if p is not None else 0.5 * h  # the legend's line (alone: centred)
         ax.text(8, y1, "field of view:", **text)
         x = 90
         for role in self.roles:
