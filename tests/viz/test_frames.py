@@ -209,6 +209,16 @@ def test_follow_stops_at_the_map_ends_and_keeps_the_agent_in_view(world, x_m):
         assert red_pixels(frame).sum() == 0
 
 
+def test_follow_on_a_map_shorter_than_the_view_keeps_the_agent_centred(world):
+    x_map0, x_map1 = world.road_map.extent[:2]
+    renderer = Renderer(world.road_map, follow="robot_0",
+                        view=(x_map0, x_map0 + 1.5 * (x_map1 - x_map0), -12.5, 12.5))
+    for x_m in np.random.default_rng(4).uniform(x_map0, x_map1, size=4):
+        world.state[0, 0] = x_m
+        left, right = renderer.view_limits(world)[:2]
+        assert 0.5 * (left + right) == pytest.approx(x_m, abs=(right - left) / W)
+
+
 def test_env_render_shows_the_crosswalk_ahead_from_the_start_and_follows_the_robot():
     env = marl_social.parallel_env(render_mode="rgb_array", render_fov=False)
     env.reset(seed=0)
