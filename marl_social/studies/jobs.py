@@ -7,10 +7,14 @@ backend is in `marl_social/studies/ray_backend.py`; `runner.execute` picks one.
 
 from __future__ import annotations
 
+import hashlib
+import importlib
 import os
 import re
 import time
 from collections.abc import Iterator
+from functools import cache
+from pathlib import Path
 
 import numpy as np
 
@@ -52,6 +56,27 @@ def run_job(job: tuple) -> tuple[str, dict | None, str | None, float]:
     except Exception as err:  # noqa: BLE001  (a failed run is recorded; the study goes on)
         values, error = None, error_text(err)
     return key, values, error, time.perf_counter() - start
+
+
+CODE_PACKAGES = ("marl_social", "marl_social.agents", "marl_social.perception")
+
+
+@cache
+def code_fingerprint() -> tuple[str, str]:
+    """(sha256 of marl-social's Python sources, where they are) as this process imports them.
+
+    The hash covers the relative path and bytes of every .py file of the packages in
+    CODE_PACKAGES (agents/ and perception/ are mapped into marl_social by the install), so two
+    processes with the same code agree wherever it is installed.
+    """
+    digest, places = hashlib.sha256(), []
+    for name in CODE_PACKAGES:
+        folder = Path(next(iter(importlib.import_module(name).__path__)))
+        places.append(str(folder))
+        for path in sorted(folder.rglob("*.py")):
+            digest.update(f"{name}/{path.relative_to(folder).as_posix()}\0".encode())
+            digest.update(path.read_bytes())
+    return digest.hexdigest(), ", ".join(places)
 
 
 def local_results(jobs: list[tuple], workers: int) -> Iterator[tuple]:

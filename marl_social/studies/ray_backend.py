@@ -20,8 +20,13 @@ process then needs RAY_AUTH_MODE=token and the head's token (RAY_AUTH_TOKEN=`ray
 get-auth-token` of the head). A connection that fails raises `RayConnectionError`, one line
 naming the address and the fix (the CLI prints it without a traceback).
 
+Every task first checks that its worker imports the same marl-social sources as the study
+process (`jobs.code_fingerprint`); a worker with other code (e.g. a node started with another
+Python environment, whose `ray` runs an older install) stops the study with a
+`RayConnectionError` instead of mixing results of two code versions.
+
 Stopping: at most 2 tasks per cluster CPU are in flight. When the study ends early (an exception,
-Ctrl-C, or SIGTERM, which this backend turns into SystemExit(143) while its tasks run) every
+Ctrl-C, or SIGTERM, which ends the study with exit code 143 while its tasks run) every
 pending task is cancelled (`ray.cancel(force=True)`: its worker process is killed) before the
 process disconnects, so no run keeps a cluster CPU busy after its study is gone.
 """
@@ -36,7 +41,7 @@ import socket
 import threading
 from collections.abc import Iterator
 
-from marl_social.studies.jobs import error_text, run_job
+from marl_social.studies.jobs import code_fingerprint, error_text, run_job
 
 CONNECT_PROBE_S = 5.0  # timeout of the TCP probe of an explicit HOST:PORT address [s]
 GCS_CONNECT_TRIES = "3"  # Ray's GCS connection attempts (~1 s each) for an explicit address
@@ -150,20 +155,33 @@ def connect(ray, address: str | None, workers: int) -> bool:
     return True
 
 
-def _sigterm_to_exit(signum, frame):
-    raise SystemExit(SIGTERM_EXIT_CODE)
+class _Terminated(KeyboardInterrupt):
+    """SIGTERM arrived (raised as a KeyboardInterrupt: Ray's waits turn SystemExit into 1)."""
+
+
+_sigterm_seen = threading.Event()
+
+
+def _sigterm_to_interrupt(signum, frame):
+    _sigterm_seen.set()
+    raise _Terminated
+
+
+def terminated() -> bool:
+    """True if SIGTERM interrupted the last Ray study of this process."""
+    return _sigterm_seen.is_set()
 
 
 def sigterm_exits():
-    """Make SIGTERM raise SystemExit(143) in this process (main thread only).
+    """Make SIGTERM interrupt this process (main thread only) so that cleanup code runs.
 
-    So the `finally` blocks that cancel remote tasks run. Returns the previous handler, to be
-    restored with `signal.signal(signal.SIGTERM, previous)`, or None off the main thread (no
-    change).
+    `ray_results` turns the interrupt into SystemExit(143) once its tasks are cancelled.
+    Returns the previous handler, to be restored with `signal.signal(signal.SIGTERM,
+    previous)`, or None off the main thread (no change).
     """
     if threading.current_thread() is not threading.main_thread():
         return None
-    return signal.signal(signal.SIGTERM, _sigterm_to_exit)
+    return signal.signal(signal.SIGTERM, _sigterm_to_interrupt)
 
 
 def _cancel(ray, refs) -> None:
@@ -171,6 +189,26 @@ def _cancel(ray, refs) -> None:
     for ref in list(refs):
         with contextlib.suppress(Exception):  # finished meanwhile, or the cluster is gone
             ray.cancel(ref, force=True)
+
+
+def run_checked(job: tuple, fingerprint: str) -> tuple:
+    """`run_job` on a Ray worker, refused if the worker imports other marl-social code.
+
+    Returns run_job's result, or ("code-mismatch", where the worker's code is) if its sources
+    differ from the study process's (`jobs.code_fingerprint`).
+    """
+    mine, places = code_fingerprint()
+    if mine != fingerprint:
+        return "code-mismatch", places
+    return run_job(job)
+
+
+def _mismatch_error(places: str) -> RayConnectionError:
+    _, here = code_fingerprint()
+    return RayConnectionError(
+        f"a Ray worker runs other marl-social code ({places}) than this study ({here}): start "
+        "every node with the Python environment in which marl-social is installed, e.g. "
+        "`python -m ray.scripts.scripts start ...` with that environment's python (docs/ray.md)")
 
 
 def ray_results(jobs: list[tuple], workers: int, address: str | None) -> Iterator[tuple]:
@@ -182,16 +220,18 @@ def ray_results(jobs: list[tuple], workers: int, address: str | None) -> Iterato
     ray = import_ray()
     auth_mode = os.environ.get("RAY_AUTH_MODE")
     previous = sigterm_exits()
+    _sigterm_seen.clear()
     pending: dict = {}
     started = False
     try:
         started = connect(ray, address, workers)
         sigterm_exits()  # ray.init installs its own SIGTERM handler
-        remote = ray.remote(num_cpus=1)(run_job)
+        remote = ray.remote(num_cpus=1)(run_checked)
+        fingerprint, _ = code_fingerprint()
         window = max(2 * int(ray.cluster_resources().get("CPU", workers)), 2)
         queue = iter(jobs)
         for job in itertools.islice(queue, window):
-            pending[remote.remote(job)] = job
+            pending[remote.remote(job, fingerprint)] = job
         while pending:
             done, _ = ray.wait(list(pending), num_returns=1)
             for ref in done:
@@ -200,9 +240,15 @@ def ray_results(jobs: list[tuple], workers: int, address: str | None) -> Iterato
                     result = ray.get(ref)
                 except ray.exceptions.RayError as err:
                     result = (job[0], None, error_text(err), float("nan"))
+                if result[0] == "code-mismatch":
+                    raise _mismatch_error(result[1])
                 for nxt in itertools.islice(queue, 1):
-                    pending[remote.remote(nxt)] = nxt
+                    pending[remote.remote(nxt, fingerprint)] = nxt
                 yield result
+    except KeyboardInterrupt:
+        if _sigterm_seen.is_set():  # Ray's wait drops the exception's type: a flag tells
+            raise SystemExit(SIGTERM_EXIT_CODE) from None
+        raise
     finally:
         _cancel(ray, pending)
         if started:

@@ -32,7 +32,13 @@ from pathlib import Path
 from typing import Any
 
 from marl_social.studies.jobs import PARENT_POLL_S, die_with_parent, local_results, run_job
-from marl_social.studies.ray_backend import RayConnectionError, import_ray, ray_results
+from marl_social.studies.ray_backend import (
+    SIGTERM_EXIT_CODE,
+    RayConnectionError,
+    import_ray,
+    ray_results,
+    terminated,
+)
 from marl_social.studies.results import (
     DEFAULT_OUT_ROOT,
     HEAD_COLUMNS,
@@ -278,10 +284,10 @@ def cli(args: argparse.Namespace) -> int:
     except (ValueError, RuntimeError, FileExistsError, FileNotFoundError, ImportError) as err:
         print(f"error: {err}", file=sys.stderr)
         return 2
-    except KeyboardInterrupt:
+    except KeyboardInterrupt:  # Ctrl-C, or SIGTERM on the Ray backend
         print("interrupted: the finished runs are in results.csv; continue with --resume",
               file=sys.stderr)
-        return 130
+        return SIGTERM_EXIT_CODE if terminated() else 130
     print(f"summary: {outputs.summary_md}")
     if outputs.figures:
         print(f"plots:   {len(outputs.figures)} in {outputs.figures[0].parent}")
