@@ -262,17 +262,28 @@ def _exclusive(out_dir: Path) -> Iterator[None]:
         yield
 
 
+def _has_rows(table: Path) -> bool:
+    """True unless the table holds a header only (an unreadable table counts as rows)."""
+    try:
+        return bool(read_results(table)[1])
+    except (ValueError, OSError):
+        return True
+
+
 def _prepare_out(spec: StudySpec, out_dir: Path, resume: bool, overwrite: bool,
                  retry_failed: bool) -> dict[str, dict]:
     """Prepare out_dir for a run of the spec; returns the finished rows by key.
 
     Checks out_dir against the spec, clears it (overwrite) or reads its finished rows (resume),
-    and writes study.json.
+    and writes study.json. A table without rows (a study that stopped before its first run
+    finished, e.g. it could not reach its Ray cluster) is cleared as if overwrite were set.
     """
     table = out_dir / RESULTS_FILE
     if table.exists() and not (resume or overwrite):
-        raise FileExistsError(f"{table} exists: pass --resume to continue the study or "
-                              "--overwrite to start it again")
+        if _has_rows(table):
+            raise FileExistsError(f"{table} exists: pass --resume to continue the study or "
+                                  "--overwrite to start it again")
+        overwrite = True  # nothing to keep
     if overwrite:
         _clear_outputs(out_dir)
     meta = study_metadata(spec)

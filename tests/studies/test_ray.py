@@ -192,3 +192,25 @@ def test_a_worker_with_other_code_is_refused():
     assert run_checked(job, "0" * 64) == ("code-mismatch", places)
     key, values, error, _ = run_checked(job, fingerprint)
     assert (key, error) == ("k", None) and values == {"robot_collision": False}
+
+
+@pytest.mark.parametrize("address, message", [
+    ("127.0.0.1:{port}", ("error: cannot reach the Ray cluster at 127.0.0.1:{port} "
+                         "(Connection refused): start its head with `ray start --head --port "
+                         "{port}`")),
+    ("headnode", "error: --address 'headnode': expected HOST:PORT of a Ray head"),
+])
+def test_no_cluster_at_the_address_is_one_line_with_the_fix(tmp_path, capsys, address,
+                                                            message):
+    spec = tmp_path / "tiny.toml"
+    spec.write_text(TINY)
+    port = _free_port()
+    assert studies.main([str(spec), "--out", str(tmp_path / "out"), "--backend", "ray",
+                         "--address", address.format(port=port), "--no-progress"]) == 2
+    err = capsys.readouterr().err
+    assert err.startswith(message.format(port=port)) and err.count("\n") == 1, err
+    assert not (tmp_path / "out" / studies.RESULTS_FILE).exists() or \
+        studies.read_results(tmp_path / "out" / studies.RESULTS_FILE)[1] == []
+    # nothing ran, so the same folder takes the study without --resume or --overwrite
+    outcome = studies.run_study(spec, tmp_path / "out", progress=False, analyze=False)
+    assert (outcome.n_runs, outcome.n_executed, outcome.n_errors) == (4, 4, 0)
