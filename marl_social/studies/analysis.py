@@ -1,23 +1,25 @@
 """Analysis of a study: summary tables with 95 % confidence intervals and plots.
 
-They are written next to the study's results.csv (`marl_social/studies/results.py`).
+They are written next to the study's results.csv (`marl_social/studies/results.py`); the
+statistics are in `marl_social/studies/stats.py`, the figures in `marl_social/studies/plots.py`.
 
-* Rates (metrics that are true/false, e.g. robot_collision): the share of runs, with the Wilson
-  score interval of the binomial proportion (no continuity correction, as
-  `scipy.stats.binomtest(k, n).proportion_ci(method="wilson")`).
-* Other metrics (e.g. time_to_pass_s [s]): the mean over the runs with a finite value (a run
-  whose robot never passes has time_to_pass_s = nan) with the Student-t interval
-  mean +- t(0.975, n-1) s / sqrt(n); no interval for n < 2.
-* Failed runs (error column set) count in n_errors and in no metric.
+* Rates (true/false metrics, e.g. robot_collision): the share of the finished runs with its
+  Wilson interval.
+* Other metrics (e.g. time_to_pass_s [s]): the mean over the runs with a finite value, with its
+  Student-t interval, and how many runs that is of the runs that finished: "passed k/n" for
+  time_to_pass_s (NaN: the robot did not pass), "k/n with a value" for the others. A mean over
+  1 of 5 runs is never shown as if it were over 5.
+* Failed runs (error column set) count in n_errors and in no metric; every cell says how many.
 
 Outputs:
     summary.csv: one row per (planner, pedestrian, point of the swept parameters): n_runs,
-        n_errors and per metric <m>_n, <m>_mean, <m>_ci_low, <m>_ci_high.
+        n_errors and per metric <m>_n (runs with a value), <m>_n_nan (finished runs without
+        one, e.g. did not pass), <m>_mean, <m>_ci_low, <m>_ci_high.
     summary.md: the same as one table per metric (planners as columns), the parameters held
         fixed, and the errors with their counts.
     plots/<metric>_vs_<param>.png: the metric against each swept parameter with its 95 %
         interval, one line per planner and one panel per pedestrian variant (pooled over the
-        other swept parameters).
+        other swept parameters), with the runs behind each point.
     plots/heatmap_<metric>_<a>_x_<b>[_<pedestrian>].png: for each pair of swept parameters,
         one panel per planner, for the collision rate and the time to pass.
 """
@@ -25,12 +27,12 @@ Outputs:
 from __future__ import annotations
 
 import itertools
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
-from scipy import stats
 
+from marl_social.studies.plots import plot_1d, plot_heatmaps
 from marl_social.studies.results import (
     META_FILE,
     PLOTS_DIR,
@@ -42,192 +44,24 @@ from marl_social.studies.results import (
 )
 from marl_social.studies.runs import format_value
 from marl_social.studies.spec import SPEC_PACKAGE_DIR
+from marl_social.studies.stats import (
+    CONFIDENCE,
+    GroupStats,
+    StudyTable,
+    count_text,
+    display,
+    fmt,
+    group_stats,
+    t_interval,
+    wilson_interval,
+)
 
-CONFIDENCE = 0.95
-HEATMAP_METRICS = ("robot_collision", "time_to_pass_s")
-_BOOL_TEXT = {"true": 1.0, "false": 0.0}
-
-
-# ------------------------------------------------------------------------------- intervals
-
-
-def wilson_interval(successes, trials, confidence: float = CONFIDENCE):
-    """Wilson score interval of a binomial proportion, vectorized.
-
-    Newcombe 1998, without continuity correction: arrays of successes k and trials n ->
-    (low, high); nan where n = 0. Equal to
-    scipy.stats.binomtest(k, n).proportion_ci(method="wilson").
-    """
-    k = np.asarray(successes, dtype=float)
-    n = np.asarray(trials, dtype=float)
-    z = stats.norm.ppf(0.5 + 0.5 * confidence)
-    with np.errstate(invalid="ignore", divide="ignore"):
-        p = k / n
-        denom = 2.0 * (n + z**2)
-        centre = (2.0 * n * p + z**2) / denom
-        delta = z / denom * np.sqrt(4.0 * n * p * (1.0 - p) + z**2)
-        low = np.where(k == 0, 0.0, centre - delta)
-        high = np.where(k == n, 1.0, centre + delta)
-    empty = n == 0
-    return np.where(empty, np.nan, low), np.where(empty, np.nan, high)
-
-
-def t_interval(mean, std, n, confidence: float = CONFIDENCE):
-    """Student-t interval of a mean, vectorized.
-
-    mean +- t(1/2 + c/2, n - 1) std / sqrt(n) with std the sample standard deviation (ddof 1);
-    nan where n < 2.
-    """
-    mean, std = np.asarray(mean, dtype=float), np.asarray(std, dtype=float)
-    n = np.asarray(n, dtype=float)
-    ok = n >= 2
-    dof = np.where(ok, n - 1.0, 1.0)
-    with np.errstate(invalid="ignore", divide="ignore"):
-        half = stats.t.ppf(0.5 + 0.5 * confidence, dof) * std / np.sqrt(n)
-    return np.where(ok, mean - half, np.nan), np.where(ok, mean + half, np.nan)
-
-
-# ----------------------------------------------------------------------------------- table
-
-
-def _value_order(label: str):
-    """Sort key of a parameter's text value: bools, then numbers, then other text."""
-    if label in _BOOL_TEXT:
-        return (0, _BOOL_TEXT[label], "")
-    try:
-        return (1, float(label), "")
-    except ValueError:
-        return (2, 0.0, label)
-
-
-@dataclass
-class StudyTable:
-    """results.csv as arrays.
-
-    Attributes:
-        meta: study.json.
-        labels: column -> (N,) texts, for planner, pedestrian and every parameter.
-        values: metric -> (N,) floats (true = 1, false = 0; nan = missing or failed run).
-        is_rate: metric -> True if its values are true/false.
-        errors: (N,) error texts ("" = success).
-        swept: parameters with more than one value in the table; fixed: the others -> value.
-    """
-
-    meta: dict
-    labels: dict[str, np.ndarray]
-    values: dict[str, np.ndarray]
-    is_rate: dict[str, bool]
-    errors: np.ndarray
-    swept: list[str] = field(default_factory=list)
-    fixed: dict[str, str] = field(default_factory=dict)
-
-    @property
-    def metrics(self) -> list[str]:
-        return list(self.meta["metrics"])
-
-    def __len__(self) -> int:
-        return len(self.errors)
-
-    @classmethod
-    def from_rows(cls, rows: list[dict], meta: dict) -> StudyTable:
-        label_columns = ["planner", "pedestrian", *meta["params"]]
-        labels = {c: np.array([r[c] for r in rows], dtype=object) for c in label_columns}
-        values, is_rate = {}, {}
-        for m in meta["metrics"]:
-            texts = [r[m] for r in rows]
-            present = [t for t in texts if t != ""]
-            is_rate[m] = bool(present) and all(t in _BOOL_TEXT for t in present)
-            values[m] = np.array([_BOOL_TEXT[t] if t in _BOOL_TEXT else float(t) if t else np.nan
-                                  for t in texts], dtype=float)
-        table = cls(meta, labels, values, is_rate,
-                    np.array([r["error"] for r in rows], dtype=object))
-        for p in meta["params"]:
-            distinct = set(labels[p])
-            if len(distinct) > 1:
-                table.swept.append(p)
-            elif distinct:
-                table.fixed[p] = next(iter(distinct))
-        return table
-
-    def order(self, column: str) -> list[str]:
-        """Distinct values of a column.
-
-        Planners and pedestrians in table order, parameter values sorted (bools, numbers, text).
-        """
-        first = list(dict.fromkeys(self.labels[column]))
-        if column in ("planner", "pedestrian"):
-            return first
-        return sorted(first, key=_value_order)
-
-
-@dataclass
-class GroupStats:
-    """Per-group statistics of every metric.
-
-    Attributes:
-        by: the grouping columns; groups: one tuple of their values per group.
-        n_runs, n_errors: (G,) counts.
-        stats: metric -> {"n", "mean", "ci_low", "ci_high"} (G,) arrays.
-    """
-
-    by: list[str]
-    groups: list[tuple[str, ...]]
-    n_runs: np.ndarray
-    n_errors: np.ndarray
-    stats: dict[str, dict[str, np.ndarray]]
-
-    def index(self) -> dict[tuple[str, ...], int]:
-        return {g: i for i, g in enumerate(self.groups)}
-
-
-def group_stats(table: StudyTable, by: list[str], confidence: float = CONFIDENCE) -> GroupStats:
-    """Counts, means and confidence intervals of every metric per group of `by` columns.
-
-    Vectorized with bincount; groups ordered as StudyTable.order.
-    """
-    orders = [table.order(c) for c in by]
-    if len(table) == 0:
-        return GroupStats(by, [], np.zeros(0, int), np.zeros(0, int), {})
-    codes = np.array([[{v: i for i, v in enumerate(o)}[v] for v in table.labels[c]]
-                      for c, o in zip(by, orders)]).T
-    unique, inverse = np.unique(codes, axis=0, return_inverse=True)
-    inverse = inverse.reshape(-1)
-    n_groups = len(unique)
-    groups = [tuple(orders[j][c] for j, c in enumerate(row)) for row in unique]
-    failed = (table.errors != "").astype(float)
-    out = {}
-    for m in table.metrics:
-        v = table.values[m]
-        ok = np.isfinite(v)
-        idx = inverse[ok]
-        n = np.bincount(idx, minlength=n_groups).astype(float)
-        total = np.bincount(idx, weights=v[ok], minlength=n_groups)
-        with np.errstate(invalid="ignore", divide="ignore"):
-            mean = total / n
-            squares = np.bincount(idx, weights=(v[ok] - mean[idx]) ** 2, minlength=n_groups)
-            std = np.sqrt(squares / (n - 1.0))
-        if table.is_rate[m]:
-            low, high = wilson_interval(total, n, confidence)
-        else:
-            low, high = t_interval(mean, std, n, confidence)
-        out[m] = {"n": n.astype(int), "mean": mean, "ci_low": low, "ci_high": high}
-    return GroupStats(by, groups, np.bincount(inverse, minlength=n_groups),
-                      np.bincount(inverse, weights=failed, minlength=n_groups).astype(int), out)
+__all__ = ["AnalysisOutputs", "GroupStats", "StudyTable", "analyze", "group_stats",
+           "load_table", "t_interval", "wilson_interval", "write_summary_csv",
+           "write_summary_md"]
 
 
 # --------------------------------------------------------------------------------- summary
-
-
-def display(label: str) -> str:
-    """A parameter value for tables and axes: numbers with 4 significant digits."""
-    kind, number, _ = _value_order(label)
-    return f"{number:.4g}" if kind == 1 else label or "–"
-
-
-def _fmt(x: float, rate: bool) -> str:
-    if not np.isfinite(x):
-        return "–"
-    return f"{x:.2f}" if rate else f"{x:.3g}"
 
 
 def write_summary_csv(gs: GroupStats, metrics: list[str], path: Path) -> Path:
@@ -235,7 +69,8 @@ def write_summary_csv(gs: GroupStats, metrics: list[str], path: Path) -> Path:
     import csv
 
     columns = [*gs.by, "n_runs", "n_errors",
-               *(f"{m}_{s}" for m in metrics for s in ("n", "mean", "ci_low", "ci_high"))]
+               *(f"{m}_{s}" for m in metrics
+                 for s in ("n", "n_nan", "mean", "ci_low", "ci_high"))]
     with open(path, "w", newline="", encoding="utf-8") as f:
         writer = csv.writer(f, lineterminator="\n")
         writer.writerow(columns)
@@ -243,7 +78,7 @@ def write_summary_csv(gs: GroupStats, metrics: list[str], path: Path) -> Path:
             cells = [*group, str(gs.n_runs[i]), str(gs.n_errors[i])]
             for m in metrics:
                 st = gs.stats[m]
-                cells += [str(st["n"][i]), *(format_value(float(st[s][i]))
+                cells += [str(st["n"][i]), str(st["n_nan"][i]), *(format_value(float(st[s][i]))
                                              for s in ("mean", "ci_low", "ci_high"))]
             writer.writerow(cells)
     return path
@@ -262,11 +97,15 @@ def _metric_table(table: StudyTable, gs: GroupStats, metric: str) -> list[str]:
         cells = [display(c) for c in row]
         for p in planners:
             i = index.get((p, *row))
-            if i is None or st["n"][i] == 0:
+            if i is None:
                 cells.append("–")
                 continue
-            cells.append(f"{_fmt(st['mean'][i], rate)} [{_fmt(st['ci_low'][i], rate)}, "
-                         f"{_fmt(st['ci_high'][i], rate)}] ({st['n'][i]})")
+            counts = count_text(metric, st["n"][i], gs.n_finished[i], gs.n_errors[i])
+            if st["n"][i] == 0:
+                cells.append(f"– {counts}")
+                continue
+            cells.append(f"{fmt(st['mean'][i], rate)} [{fmt(st['ci_low'][i], rate)}, "
+                         f"{fmt(st['ci_high'][i], rate)}] {counts}")
         lines.append("| " + " | ".join(cells) + " |")
     return lines
 
@@ -308,9 +147,13 @@ def write_summary_md(table: StudyTable, gs: GroupStats, path: Path,
     if table.swept:
         lines += ["Swept: " + ", ".join(f"{p} ({len(table.order(p))} values)"
                                         for p in table.swept), ""]
-    legend = (f"Rates (true/false metrics): share of runs [{CONFIDENCE:.0%} Wilson interval]; "
-              f"other metrics: mean over the runs with a finite value [{CONFIDENCE:.0%} "
-              "Student-t interval]; (n) = runs counted.")
+    legend = (f"Rates (true/false metrics): share of the finished runs [{CONFIDENCE:.0%} "
+              f"Wilson interval]. Other metrics: mean over the runs that have a value only "
+              f"[{CONFIDENCE:.0%} Student-t interval]. In parentheses, the runs a value rests "
+              "on: (5) = all 5 finished runs; (passed 1/5) = time_to_pass_s over the 1 of 5 "
+              "finished runs in which the robot passed (the other 4 did not pass); (3/5 with a "
+              "value) = the same for other metrics (nan: e.g. never saw a pedestrian); "
+              "\"N failed\" = runs that raised an error and have no value.")
     lines += [legend, ""]
     for m in table.metrics:
         lines += [f"## {m}" + (" (rate)" if table.is_rate[m] else ""), "",
@@ -320,125 +163,6 @@ def write_summary_md(table: StudyTable, gs: GroupStats, path: Path,
         lines += ["## Plots", "", *(f"- [{f.name}]({PLOTS_DIR}/{f.name})" for f in figures), ""]
     path.write_text("\n".join(lines), encoding="utf-8")
     return path
-
-
-# ----------------------------------------------------------------------------------- plots
-
-
-def _ylabel(table: StudyTable, metric: str) -> str:
-    return f"{metric} (rate)" if table.is_rate[metric] else metric
-
-
-def _series(values: np.ndarray, ids: list[int | None]) -> np.ndarray:
-    """values[ids] with nan where a group is missing (None)."""
-    return np.array([values[i] if i is not None else np.nan for i in ids])
-
-
-def plot_1d(table: StudyTable, param: str, out_dir: Path) -> list[Path]:
-    """For every metric, a figure of it against `param` with its interval.
-
-    One line per planner, one panel per pedestrian variant, pooled over the other swept
-    parameters.
-    """
-    from matplotlib.figure import Figure
-
-    gs = group_stats(table, ["planner", "pedestrian", param])
-    index, planners = gs.index(), table.order("planner")
-    pedestrians, xs = table.order("pedestrian"), table.order(param)
-    pooled = [p for p in table.swept if p != param]
-    offsets = (np.arange(len(planners)) - (len(planners) - 1) / 2) * 0.08
-    paths = []
-    for m in table.metrics:
-        st = gs.stats[m]
-        if not np.isfinite(st["mean"]).any():
-            continue  # no run has a value (e.g. a belief metric of the oracle only)
-        fig = Figure(figsize=(max(6.4, 1.0 + 4.2 * len(pedestrians)), 4.0),
-                     layout="constrained")
-        axs = fig.subplots(1, len(pedestrians), squeeze=False, sharey=True)[0]
-        for ax, ped in zip(axs, pedestrians):
-            for j, planner in enumerate(planners):
-                ids = [index.get((planner, ped, x)) for x in xs]
-                mean, low, high = (_series(st[s], ids) for s in ("mean", "ci_low", "ci_high"))
-                if not np.isfinite(mean).any():
-                    continue
-                err = np.vstack([mean - low, high - mean])
-                ax.errorbar(np.arange(len(xs)) + offsets[j], mean,
-                            yerr=np.where(np.isfinite(err), err, 0.0), marker="o",
-                            capsize=3, label=planner)
-            ax.set_xticks(np.arange(len(xs)), [display(x) for x in xs],
-                          rotation=30 if len(xs) > 6 else 0)
-            ax.set_xlabel(param)
-            ax.set_title(f"pedestrian: {ped}" if ped else "")
-            ax.grid(alpha=0.3)
-        axs[0].set_ylabel(_ylabel(table, m))
-        if table.is_rate[m]:
-            axs[0].set_ylim(-0.03, 1.03)
-        axs[0].legend(fontsize="small")
-        fig.suptitle(f"{m} vs {param}, mean and {CONFIDENCE:.0%} CI"
-                     + (f"\n(pooled over {', '.join(pooled)})" if pooled else ""))
-        path = out_dir / f"{m}_vs_{param}.png"
-        fig.savefig(path, dpi=100)
-        paths.append(path)
-    return paths
-
-
-def _color_range(values: np.ndarray, rate: bool) -> tuple[float, float]:
-    """Colour scale of a heatmap: [0, 1] for rates, else the values' range.
-
-    The range is widened if the values are all equal, so every panel maps a value to the same
-    colour.
-    """
-    if rate:
-        return 0.0, 1.0
-    low, high = float(values.min()), float(values.max())
-    if high - low <= 1e-12 * max(1.0, abs(high)):
-        low, high = low - 0.5, high + 0.5
-    return low, high
-
-
-def plot_heatmaps(table: StudyTable, a: str, b: str, out_dir: Path) -> list[Path]:
-    """Heatmaps of the collision rate and the time to pass over swept parameters a and b.
-
-    Parameter a on x, b on y; one figure per metric and pedestrian variant, one panel per
-    planner.
-    """
-    from matplotlib.figure import Figure
-
-    gs = group_stats(table, ["planner", "pedestrian", a, b])
-    index, planners = gs.index(), table.order("planner")
-    xs, ys = table.order(a), table.order(b)
-    metrics = [m for m in HEATMAP_METRICS if m in table.metrics] or table.metrics[:1]
-    paths = []
-    for m, ped in itertools.product(metrics, table.order("pedestrian")):
-        grids = np.full((len(planners), len(ys), len(xs)), np.nan)
-        for (p, y, x), _ in np.ndenumerate(grids):
-            i = index.get((planners[p], ped, xs[x], ys[y]))
-            if i is not None:
-                grids[p, y, x] = gs.stats[m]["mean"][i]
-        finite = grids[np.isfinite(grids)]
-        if not len(finite):
-            continue
-        vmin, vmax = _color_range(finite, table.is_rate[m])
-        fig = Figure(figsize=(1.5 + 3.4 * len(planners), 3.4), layout="constrained")
-        axs = fig.subplots(1, len(planners), squeeze=False)[0]
-        for ax, planner, grid in zip(axs, planners, grids):
-            image = ax.imshow(grid, origin="lower", cmap="viridis", vmin=vmin, vmax=vmax,
-                              aspect="auto")
-            for (y, x), value in np.ndenumerate(grid):
-                if np.isfinite(value):
-                    ax.text(x, y, _fmt(value, table.is_rate[m]), ha="center", va="center",
-                            fontsize=7, color="w" if value < (vmin + vmax) / 2 else "k")
-            ax.set_xticks(np.arange(len(xs)), [display(x) for x in xs])
-            ax.set_yticks(np.arange(len(ys)), [display(y) for y in ys])
-            ax.set_xlabel(a)
-            ax.set_title(planner)
-        axs[0].set_ylabel(b)
-        fig.colorbar(image, ax=list(axs), label=_ylabel(table, m))
-        fig.suptitle(f"{m}" + (f", pedestrian: {ped}" if ped else ""))
-        path = out_dir / (f"heatmap_{m}_{a}_x_{b}" + (f"_{ped}" if ped else "") + ".png")
-        fig.savefig(path, dpi=100)
-        paths.append(path)
-    return paths
 
 
 # -------------------------------------------------------------------------------- analyze

@@ -11,7 +11,9 @@ spec and seeds give the same rows from any backend and number of workers. Floats
 with repr precision, bools as true/false; a failed run has empty metric cells. When a study
 completes, the table is rewritten in the spec's order (planner, pedestrian, point, seed); runs
 execute seed-major, so an interrupted study has every cell covered by its first seeds.
-`<out>/study.json` records the resolved spec.
+`<out>/study.json` records the resolved spec. A completed study also writes the same rows with
+typed columns to `<out>/results.parquet` (`marl_social/studies/table.py`; read it with
+`marl_social.studies.load`).
 
 Resume: with `resume=True` (`--resume`) every finished row is kept and only the missing keys
 run; a truncated last line (the process was killed while writing it) is dropped. A run that
@@ -38,6 +40,7 @@ from marl_social.studies.spec import Run, StudySpec
 
 DEFAULT_OUT_ROOT = Path("marl_social_out") / "studies"
 RESULTS_FILE = "results.csv"
+PARQUET_FILE = "results.parquet"  # the typed table of a completed study (studies/table.py)
 META_FILE = "study.json"
 META_REQUIRED = ("name", "scenario", "source", "max_cycles", "randomize", "params", "metrics", "columns")
 PLOTS_DIR = "plots"
@@ -206,7 +209,7 @@ def _check_meta(out_dir: Path, meta: dict) -> None:
 
 def _clear_outputs(out_dir: Path) -> None:
     """Delete what a study writes into out_dir (--overwrite)."""
-    for name in (RESULTS_FILE, META_FILE, SUMMARY_MD, SUMMARY_CSV):
+    for name in (RESULTS_FILE, PARQUET_FILE, META_FILE, SUMMARY_MD, SUMMARY_CSV):
         (out_dir / name).unlink(missing_ok=True)
     plots = out_dir / PLOTS_DIR
     if plots.is_dir():
@@ -259,17 +262,28 @@ def _exclusive(out_dir: Path) -> Iterator[None]:
         yield
 
 
+def _has_rows(table: Path) -> bool:
+    """True unless the table holds a header only (an unreadable table counts as rows)."""
+    try:
+        return bool(read_results(table)[1])
+    except (ValueError, OSError):
+        return True
+
+
 def _prepare_out(spec: StudySpec, out_dir: Path, resume: bool, overwrite: bool,
                  retry_failed: bool) -> dict[str, dict]:
     """Prepare out_dir for a run of the spec; returns the finished rows by key.
 
     Checks out_dir against the spec, clears it (overwrite) or reads its finished rows (resume),
-    and writes study.json.
+    and writes study.json. A table without rows (a study that stopped before its first run
+    finished, e.g. it could not reach its Ray cluster) is cleared as if overwrite were set.
     """
     table = out_dir / RESULTS_FILE
     if table.exists() and not (resume or overwrite):
-        raise FileExistsError(f"{table} exists: pass --resume to continue the study or "
-                              "--overwrite to start it again")
+        if _has_rows(table):
+            raise FileExistsError(f"{table} exists: pass --resume to continue the study or "
+                                  "--overwrite to start it again")
+        overwrite = True  # nothing to keep
     if overwrite:
         _clear_outputs(out_dir)
     meta = study_metadata(spec)

@@ -4,14 +4,17 @@ A study sweeps scenario parameters x robot planners x pedestrian variants x seed
 episode (`run.run_episode`) per run, on a local process pool or on Ray. This module runs
 studies (`run_study`: one job per run, `execute` on a backend) and holds the `marl-social study`
 CLI. The TOML spec format and its parsing are in `marl_social/studies/spec.py`, loading,
-validation and expansion into runs in `marl_social/studies/runs.py`; the results table (results.csv, study.json, resume) is in
-`marl_social/studies/results.py`. Their public names are re-exported here.
+validation and expansion into runs in `marl_social/studies/runs.py`; the results table
+(results.csv, study.json, resume) is in `marl_social/studies/results.py`, its typed copy
+results.parquet and `load` (a pandas DataFrame) in `marl_social/studies/table.py`. Their public
+names are re-exported here.
 
-Backends: "local" runs in process with 1 worker, else on a spawn-context process pool;
-"ray" sends one remote task per run to the cluster at `address`, to the one this process is
-already connected to, to a running local cluster (address "auto"), or else to a new local Ray
-with `workers` CPUs (shut down at the end). Ray is optional: `pip install marl-social[ray]`;
-every cluster node needs marl-social installed.
+Backends (`marl_social/studies/jobs.py`, `marl_social/studies/ray_backend.py`): "local" runs in
+process with 1 worker, else on a spawn-context process pool; "ray" sends one remote task per run
+to the cluster at `address` ("HOST:PORT", "auto", "ray://..."), to the one this process is
+already connected to, or else to a private local Ray instance with `workers` CPUs (shut down at
+the end). Ray is optional: `pip install marl-social[ray]`; every cluster node needs marl-social
+installed (docs/ray.md).
 
 Analysis (`marl_social/studies/analysis.py`) runs at the end of a study: plots and summary.md /
 summary.csv next to results.csv.
@@ -20,18 +23,22 @@ summary.csv next to results.csv.
 from __future__ import annotations
 
 import argparse
-import itertools
+import contextlib
 import os
-import re
 import sys
-import time
 from collections.abc import Iterator
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-import numpy as np
-
+from marl_social.studies.jobs import PARENT_POLL_S, die_with_parent, local_results, run_job
+from marl_social.studies.ray_backend import (
+    SIGTERM_EXIT_CODE,
+    RayConnectionError,
+    import_ray,
+    ray_results,
+    terminated,
+)
 from marl_social.studies.results import (
     DEFAULT_OUT_ROOT,
     HEAD_COLUMNS,
@@ -71,21 +78,21 @@ from marl_social.studies.spec import (
     _is_int,
     parse_spec,
 )
+from marl_social.studies.table import PARQUET_FILE, load, write_parquet
 
 # the public names of this module, marl_social.studies.spec, .runs and .results
 __all__ = [
     "BACKENDS", "DEFAULT_MAX_CYCLES", "DEFAULT_METRICS", "DEFAULT_OUT_ROOT",
     "DEFAULT_PEDESTRIANS", "DEFAULT_PLANNERS", "DEFAULT_SEEDS", "HEAD_COLUMNS", "LOCK_FILE",
-    "META_FILE", "RESULTS_FILE", "SPEC_PACKAGE_DIR", "TAIL_COLUMNS", "Run", "StudyOutcome",
-    "StudySpec", "add_arguments", "available_metrics", "axes", "builtin_specs", "cli",
-    "default_out", "execute", "expand", "format_value", "load_spec", "main", "parse_spec",
+    "META_FILE", "PARENT_POLL_S", "PARQUET_FILE", "RESULTS_FILE", "SPEC_PACKAGE_DIR",
+    "TAIL_COLUMNS", "RayConnectionError", "Run", "StudyOutcome", "StudySpec", "add_arguments",
+    "available_metrics", "axes", "builtin_specs", "cli", "default_out", "die_with_parent",
+    "execute", "expand", "format_value", "load", "load_spec", "main", "parse_spec",
     "read_results", "register_cli", "result_columns", "run_job", "run_key", "run_study",
-    "study_metadata", "with_seeds",
+    "study_metadata", "with_seeds", "write_parquet",
 ]
 
 BACKENDS = ("local", "ray")
-_MAX_ERROR_CHARS = 500
-PARENT_POLL_S = 0.25  # how often a pool worker checks that the study process still runs [s]
 
 
 @dataclass
@@ -104,136 +111,15 @@ class StudyOutcome:
 # ---------------------------------------------------------------------------- running runs
 
 
-def _error_text(err: BaseException) -> str:
-    text = re.sub(r"\s+", " ", f"{type(err).__name__}: {err}").strip()
-    return text if len(text) <= _MAX_ERROR_CHARS else text[: _MAX_ERROR_CHARS - 3] + "..."
-
-
-def _plain(value):
-    """A metric value as a plain Python bool / int / float (pickles and formats the same)."""
-    if isinstance(value, (bool, np.bool_)):
-        return bool(value)
-    if isinstance(value, (int, np.integer)):
-        return int(value)
-    return float(value)
-
-
-def run_job(job: tuple) -> tuple[str, dict | None, str | None, float]:
-    """Run one study job (key, scenario, seed, max_cycles, overrides, metrics) in this process.
-
-    Returns (key, metric values or None, error text or None, elapsed wall time [s]). Any
-    exception of the episode is caught and returned as "TypeName: message".
-    """
-    key, scenario, seed, max_cycles, overrides, metrics = job
-    from marl_social.evaluation import run  # looked up per call: tests may patch run.run_episode
-
-    start = time.perf_counter()
-    try:
-        result = run.run_episode(scenario, seed=seed, max_cycles=max_cycles, **overrides)
-        missing = [m for m in metrics if m not in result.metrics]
-        if missing:
-            raise KeyError(f"run_episode returned no metric(s) {missing}")
-        values, error = {m: _plain(result.metrics[m]) for m in metrics}, None
-    except Exception as err:  # noqa: BLE001  (a failed run is recorded; the study goes on)
-        values, error = None, _error_text(err)
-    return key, values, error, time.perf_counter() - start
-
-
-def _local_results(jobs: list[tuple], workers: int) -> Iterator[tuple]:
-    """Results of jobs as they finish: in process for 1 worker, else a spawn process pool."""
-    if workers == 1 or len(jobs) <= 1:
-        yield from map(run_job, jobs)
-        return
-    import multiprocessing as mp
-    from concurrent.futures import ProcessPoolExecutor, as_completed
-
-    pool = ProcessPoolExecutor(min(workers, len(jobs)), mp_context=mp.get_context("spawn"),
-                               initializer=die_with_parent, initargs=(os.getpid(),))
-    try:
-        futures = [pool.submit(run_job, job) for job in jobs]
-        for future in as_completed(futures):
-            yield future.result()
-    finally:  # an interrupted study cancels what has not started
-        pool.shutdown(wait=True, cancel_futures=True)
-
-
-def die_with_parent(parent_pid: int, poll_s: float = PARENT_POLL_S) -> None:
-    """Pool worker initializer: exit as soon as the study process is gone.
-
-    A killed study (SIGKILL: no cleanup runs) would otherwise leave its workers blocked on the
-    job queue forever, and with them multiprocessing's resource tracker. A daemon thread polls
-    the parent pid every `poll_s` seconds and ends the worker when it changes.
-
-    Args:
-        parent_pid: pid of the process that started the pool.
-        poll_s: polling period [s].
-    """
-    import threading
-
-    def watch() -> None:
-        while os.getppid() == parent_pid:
-            time.sleep(poll_s)
-        os._exit(1)  # the parent is gone: nobody reads our results
-
-    threading.Thread(target=watch, name="die-with-parent", daemon=True).start()
-
-
-def _import_ray():
-    try:
-        import ray
-    except ImportError as err:
-        raise ImportError("the Ray backend needs Ray: pip install marl-social[ray]") from err
-    return ray
-
-
-def _ray_init(ray, address: str | None, workers: int) -> bool:
-    """Connect to (or start) Ray; True if this call started it (and must shut it down)."""
-    if ray.is_initialized():
-        return False
-    if address is not None:
-        ray.init(address=address, logging_level="WARNING")
-        return True
-    try:
-        ray.init(address="auto", logging_level="WARNING")
-    except ConnectionError:
-        ray.init(num_cpus=workers, include_dashboard=False, logging_level="WARNING")
-    return True
-
-
-def _ray_results(jobs: list[tuple], workers: int, address: str | None) -> Iterator[tuple]:
-    """Results of jobs as they finish, one Ray task per job (at most 2 per CPU in flight).
-
-    A task that fails inside Ray (e.g. its worker crashed) yields an error result.
-    """
-    ray = _import_ray()
-    started = _ray_init(ray, address, workers)
-    try:
-        remote = ray.remote(num_cpus=1)(run_job)
-        window = max(2 * int(ray.cluster_resources().get("CPU", workers)), 2)
-        queue, pending = iter(jobs), {}
-        for job in itertools.islice(queue, window):
-            pending[remote.remote(job)] = job
-        while pending:
-            done, _ = ray.wait(list(pending), num_returns=1)
-            for ref in done:
-                job = pending.pop(ref)
-                try:
-                    yield ray.get(ref)
-                except ray.exceptions.RayError as err:
-                    yield job[0], None, _error_text(err), float("nan")
-                for nxt in itertools.islice(queue, 1):
-                    pending[remote.remote(nxt)] = nxt
-    finally:
-        if started:
-            ray.shutdown()
-
-
 def execute(jobs: list[tuple], workers: int = 1, backend: str = "local",
             address: str | None = None) -> Iterator[tuple]:
-    """Run jobs (see `run_job`) on a backend; yields results in completion order."""
+    """Run jobs (see `jobs.run_job`) on a backend; yields results in completion order.
+
+    Close the iterator (or exhaust it) to stop: pending runs are cancelled.
+    """
     if backend == "ray":
-        return _ray_results(jobs, workers, address)
-    return _local_results(jobs, workers)
+        return ray_results(jobs, workers, address)
+    return local_results(jobs, workers)
 
 
 # ----------------------------------------------------------------------------------- running a study
@@ -277,7 +163,7 @@ def run_study(spec: StudySpec | str | os.PathLike, out: str | os.PathLike | None
         raise ValueError("choose one of resume and overwrite")
     runs = expand(spec)
     if backend == "ray":
-        _import_ray()
+        import_ray()
     out_dir = Path(out) if out is not None else default_out(spec.name)
     table = out_dir / RESULTS_FILE
     out_dir.mkdir(parents=True, exist_ok=True)
@@ -286,6 +172,7 @@ def run_study(spec: StudySpec | str | os.PathLike, out: str | os.PathLike | None
         n_errors = _execute_into(spec, runs, done, table, result_columns(spec), workers,
                                  backend, address, progress)
         _finalize(table, result_columns(spec), runs)
+        write_parquet(out_dir)
     todo = sum(r.key not in done for r in runs)
     outcome = StudyOutcome(out_dir, table, len(runs), len(runs) - todo, todo, n_errors)
     if analyze:
@@ -309,8 +196,9 @@ def _execute_into(spec: StudySpec, runs: list[Run], done: dict, table: Path,
     n_errors = 0
     with _appender(table, columns, done) as write, tqdm(
             total=len(runs), initial=len(runs) - len(todo), desc=f"study {spec.name}",
-            unit="run", disable=not progress or not todo, dynamic_ncols=True) as bar:
-        for key, values, error, elapsed_s in execute(jobs, workers, backend, address):
+            unit="run", disable=not progress or not todo, dynamic_ncols=True) as bar, \
+            contextlib.closing(execute(jobs, workers, backend, address)) as results:
+        for key, values, error, elapsed_s in results:
             write(_row(spec, by_key[key], values, error, elapsed_s))
             n_errors += error is not None
             bar.update(1)
@@ -330,8 +218,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--workers", type=int, default=os.cpu_count() or 1,
                         help="parallel episodes (default: the number of CPUs)")
     parser.add_argument("--backend", choices=BACKENDS, default="local")
-    parser.add_argument("--address", help="Ray cluster address (default: the running cluster "
-                        "or a new local Ray)")
+    parser.add_argument("--address", help="Ray cluster: HOST:PORT of its head, auto or "
+                        "ray://HOST:PORT (default: a private local Ray; docs/ray.md)")
     parser.add_argument("--resume", action="store_true",
                         help="keep the finished runs of an existing results.csv")
     parser.add_argument("--retry-failed", action="store_true", help="with --resume, run again "
@@ -342,7 +230,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--no-plots", action="store_true", help="summary tables only")
     parser.add_argument("--no-progress", action="store_true", help="no progress bar")
     parser.add_argument("--analyze-only", action="store_true",
-                        help="only (re)write the plots and summary of an existing study")
+                        help="only (re)write the plots, summary and results.parquet of an "
+                        "existing study")
     parser.add_argument("--list", action="store_true", help="list the built-in studies")
 
 
@@ -381,6 +270,7 @@ def cli(args: argparse.Namespace) -> int:
 
             out = Path(args.out) if args.out else default_out(load_spec(args.spec, False).name)
             outputs = analyze(out, plots=not args.no_plots)
+            write_parquet(out)
         else:
             outcome = run_study(
                 args.spec, args.out, workers=args.workers, backend=args.backend,
@@ -394,6 +284,10 @@ def cli(args: argparse.Namespace) -> int:
     except (ValueError, RuntimeError, FileExistsError, FileNotFoundError, ImportError) as err:
         print(f"error: {err}", file=sys.stderr)
         return 2
+    except KeyboardInterrupt:  # Ctrl-C, or SIGTERM on the Ray backend
+        print("interrupted: the finished runs are in results.csv; continue with --resume",
+              file=sys.stderr)
+        return SIGTERM_EXIT_CODE if terminated() else 130
     print(f"summary: {outputs.summary_md}")
     if outputs.figures:
         print(f"plots:   {len(outputs.figures)} in {outputs.figures[0].parent}")

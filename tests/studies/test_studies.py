@@ -131,6 +131,10 @@ def test_two_workers_give_the_same_table(tiny, reference, tmp_path):
     # the finished table is in the spec's order (planner, pedestrian, point, seed)
     _, rows = studies.read_results(outcome.results_path)
     assert [r["key"] for r in rows] == [r.key for r in studies.expand(studies.load_spec(tiny))]
+    # the typed Parquet table is written when the study completes, and is the same too
+    assert (tmp_path / studies.PARQUET_FILE).is_file()
+    assert studies.load(tmp_path).drop(columns="elapsed_s").equals(
+        studies.load(reference.parent).drop(columns="elapsed_s"))
 
 
 def test_ray_gives_the_same_table(tiny, reference, tmp_path):
@@ -320,6 +324,10 @@ def test_analysis_writes_summary_with_right_intervals_and_plots(tmp_path):
                                          None, 1.0))
             rows.append(studies._row(spec, run._replace(key=run.key + "#x"), None,
                                      "RuntimeError: boom", 1.0))
+        elif run.overrides["human_beta"] == 10.0 and run.overrides["human_speed_mps"] == 12.0 \
+                and run.overrides["robot_planner"] == "aggressive":  # did not pass
+            rows.append(studies._row(spec, run, {"robot_collision": False,
+                                                 "time_to_pass_s": float("nan")}, None, 1.0))
         else:
             values = {"robot_collision": bool(rng.random() < 0.2),
                       "time_to_pass_s": float(rng.uniform(7, 11))}
@@ -343,14 +351,22 @@ def test_analysis_writes_summary_with_right_intervals_and_plots(tmp_path):
     finite = np.array([p for p in passing if np.isfinite(p)])
     low, high = stats.t.interval(0.95, len(finite) - 1, loc=finite.mean(),
                                  scale=stats.sem(finite))
-    assert cell["time_to_pass_s_n"] == "9"
+    assert (cell["time_to_pass_s_n"], cell["time_to_pass_s_n_nan"]) == ("9", "1")
     assert float(cell["time_to_pass_s_mean"]) == pytest.approx(finite.mean(), rel=1e-12)
     assert float(cell["time_to_pass_s_ci_low"]) == pytest.approx(low, rel=1e-12)
     assert float(cell["time_to_pass_s_ci_high"]) == pytest.approx(high, rel=1e-12)
     assert len(summary) == 2 * 2 * 2
 
+    never = next(r for r in summary if (r["planner"], r["human_beta"], r["human_speed_mps"])
+                 == ("aggressive", "10.0", "12.0"))
+    assert (never["time_to_pass_s_n"], never["time_to_pass_s_n_nan"]) == ("0", "1")
+    assert never["time_to_pass_s_mean"] == "nan"
+
     md = out.summary_md.read_text()
-    assert f"0.30 [{wilson.low:.2f}, {wilson.high:.2f}] (10)" in md
+    # every value says how many runs it rests on, of how many finished, and how many failed
+    assert f"0.30 [{wilson.low:.2f}, {wilson.high:.2f}] (10, 1 failed)" in md
+    assert f"{finite.mean():.3g} [{low:.3g}, {high:.3g}] (passed 9/10, 1 failed)" in md
+    assert "| – (passed 0/1) |" in md
     assert "| 1 | RuntimeError: boom |" in md
     names = {p.name for p in out.figures}
     assert names == {"robot_collision_vs_human_beta.png", "time_to_pass_s_vs_human_beta.png",
