@@ -80,9 +80,9 @@ class BeliefConfig:
         vehicle_upstream_s: the progress bins reach this many seconds upstream of the point
             where the lane meets the robot's route, at the fastest speed bin [s] (beyond it
             a vehicle cannot reach the conflict within a planning horizon).
-        vehicle_hazard_per_s: rate at which hidden vehicles arrive at a lane's entry bin, and
+        vehicle_hazard_per_s: rate at which hidden vehicles arrive at those lanes' entry bins, and
             at which hypothesised ones vanish [1/s] (a main road's sparse traffic: with the
-            defaults the prior puts about 0.15 on a hidden vehicle per lane).
+            defaults the prior puts about 0.2 on a hidden vehicle, spread over all such lanes).
     """
 
     walk_speeds_mps: tuple = (0.9, 1.6)

@@ -397,7 +397,8 @@ def motion_transition(hypotheses: list[Hypothesis], dt_s: float,
         p = p_event[h.kind]
         advance = min(h.walk_speed_mps * dt_s / h.bin_length_m, 1.0) if h.bin_length_m else 0.0
         nxt = index.get((h.path, h.progress_bin + 1, h.speed_bin), 0)
-        if h.bin_length_m >= h.walk_length_m:  # the paper's single "steps off now" pattern
+        if h.kind == "pedestrian" and h.bin_length_m >= h.walk_length_m:
+            # the paper's single "steps off now" pattern
             advance = 0.0
         mat[:, i] = 0.0
         mat[i, i] = (1.0 - p) * (1.0 - advance)

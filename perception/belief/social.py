@@ -314,8 +314,8 @@ class SocialLikelihood:
         Equal to driver_q_values(DriverModel(theta_hat, beta_hat, v_desired_mps=v), route, s0,
         v0, prev_accel, scene_l, crosswalks) with scene_l = `others` plus hypothesis l's hidden
         agent (eq. 11; a hypothesised vehicle only if the human at s0 can see it,
-        `hypothesis_scene` with the human as viewer): the candidates are evaluated once for all L scenes without the
-        speed feature, which is then added for each v.
+        `hypothesis_scene` with the human as viewer): the candidates are evaluated once for
+        all L scenes without the speed feature, which is then added for each v.
 
         Args:
             route: the human's route.
