@@ -5,7 +5,7 @@
   model, regions and predictions);
 * conflicts.py: `lane_conflicts`, `vehicle_hypotheses` (the lanes that cross or merge into the
   robot's route with the right of way, and the hidden vehicles on them);
-* paths.py: `LanePaths` (a tracked car's lane, from its track);
+* paths.py: `LanePaths` (a tracked car's lane and the lane it continues into, from its track);
 * bayes.py: `bayes_step`, `markov_transition`, `TrafficSpeedBelief` (discrete Bayes, eq. 12);
 * own_sensors.py: `OwnSensors` (detections and negative information from depth rays);
 * social.py: `action_log_likelihood`, `SocialLikelihood` (the robot's model of a human, eq. 9-11);

@@ -20,10 +20,11 @@ from marl_social.perception.belief import (
 
 from marl_social.models.driver import DriverModel, driver_q_values
 from marl_social.sim.dynamics import DT_S
-from marl_social.sim.observation import EGO_DIM, SLOT_DIM, SLOT_INDEX
+from marl_social.sim.observation import EGO_DIM, SLOT_DIM, SLOT_INDEX, ObservationLayout
 from marl_social.sim.road_map import ConflictZone, Lane, RoadMap, Route
 from tests.perception.belief.crossing_world import (
     LANE_POINTS,
+    LANE_WIDTH_M,
     NORTH_X_M,
     SPEED_LIMIT_MPS,
     CrossingWorld,
@@ -368,3 +369,41 @@ def test_bad_vehicle_parameters_are_rejected_by_name():
     zone = ConflictZone(np.array([[0.0, 0.0], [1.0, 0.0], [1.0, 1.0]]), "z", priority_lanes=(3,))
     with pytest.raises(ValueError, match="priority lanes"):
         RoadMap(lanes=(), crosswalks=(), static_polygons=(), conflict_zones=(zone,))
+
+
+def test_a_human_is_modelled_along_its_lane_and_the_lane_it_continues_into():
+    """paths.LanePaths chains a lane with the one lane starting at its end: a human coming south
+    on an approach lane that ends in a left turn across the northbound lane is modelled
+    turning, so a hypothesised northbound car it sees coming changes its Q-values (holding its
+    speed would hit it); modelled on the approach lane alone (parallel to the northbound lane)
+    only its safety margin would. A lane that branches in two ends the path."""
+    from marl_social.perception.belief.paths import LanePaths
+
+    theta = np.linspace(np.pi, 1.5 * np.pi, 24)  # south -> east, centre (62, -14), radius 8
+    turn = np.column_stack([62.0 + 8.0 * np.cos(theta), -14.0 + 8.0 * np.sin(theta)])
+    approach = np.array([[54.0, -4.0], [54.0, -14.0]])
+    lanes = (Lane(np.array(LANE_POINTS["east"]), LANE_WIDTH_M, "east"),
+             Lane(np.array(LANE_POINTS["north"]), LANE_WIDTH_M, "north"),
+             Lane(approach, LANE_WIDTH_M, "approach"),
+             Lane(np.vstack([turn, [[100.0, -22.0]]]), LANE_WIDTH_M, "turn_east"))
+    robot = Route(LANE_POINTS["east"], "robot_0")
+    road_map = RoadMap(lanes=lanes, crosswalks=(), static_polygons=(),
+                       routes={"robot_0": robot}, speed_limit_mps=SPEED_LIMIT_MPS)
+    paths = LanePaths(road_map)
+    assert paths.successors[2] == [3]
+    route = paths.route_of(np.array([54.0, -12.0]), -0.5 * math.pi)
+    assert route.name == "lane_2+3" and route.points[-1].tolist() == [100.0, -22.0]
+    belief = HiddenAgentBelief(road_map, ObservationLayout(4, 8), "robot_0", ["robot_0"])
+    assert {h.path for h in belief.hypotheses if h.present} == {"vehicle_north"}
+    hold = belief.model.first_actions_mps2.index(0.0)
+    s0 = 8.0  # 10 m before the turn crosses the northbound lane, at 6 m/s
+    q_turn = belief.human_q_values(route, s0, 6.0, 0.0)[:, -1, hold]
+    assert (q_turn[1:] - q_turn[0]).max() > 100.0
+    q_straight = belief.human_q_values(Route(approach), s0, 6.0, 0.0)[:, -1, hold]
+    assert np.abs(q_straight[1:] - q_straight[0]).max() < 10.0  # a safety margin at most
+    # a second lane starting at the approach's end: no unique continuation
+    branching = RoadMap(lanes=(*lanes, Lane(np.array([[54.0, -14.0], [54.0, -60.0]]),
+                                            LANE_WIDTH_M, "straight_on")),
+                        crosswalks=(), static_polygons=())
+    paths = LanePaths(branching)
+    assert sorted(paths.successors[2]) == [3, 4] and paths.routes[2].name == "lane_2"
