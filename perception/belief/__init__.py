@@ -1,13 +1,17 @@
 """The robot's social perception (Sun et al. 2019, eq. 9-12, Algorithm 1), one job per module.
 
-* hypotheses.py: `Hypothesis`, `crosswalk_hypotheses`, `motion_transition` (hidden agents as
-  (kind, path, progress bin, speed bin), their motion model and regions);
-* paths.py: `LanePaths` (a tracked car's lane, from its track);
+* hypotheses.py: `Hypothesis`, `crosswalk_hypotheses`, `motion_transition`,
+  `hypothesis_objects` (hidden agents as (kind, path, progress bin, speed bin), their motion
+  model, regions and predictions);
+* conflicts.py: `lane_conflicts`, `vehicle_hypotheses` (the lanes that cross or merge into the
+  robot's route with the right of way, and the hidden vehicles on them);
+* paths.py: `LanePaths` (a tracked car's lane and the lane it continues into, from its track);
 * bayes.py: `bayes_step`, `markov_transition`, `TrafficSpeedBelief` (discrete Bayes, eq. 12);
 * own_sensors.py: `OwnSensors` (detections and negative information from depth rays);
 * social.py: `action_log_likelihood`, `SocialLikelihood` (the robot's model of a human, eq. 9-11);
 * config.py: `BeliefConfig`;
-* pedestrian.py: `PedestrianBelief`, which combines them (the joint b(l, v) update).
+* hidden.py: `HiddenAgentBelief` (alias `PedestrianBelief`), which combines them (the joint
+  b(l, v) update).
 """
 
 from marl_social.perception.belief.bayes import (
@@ -17,21 +21,29 @@ from marl_social.perception.belief.bayes import (
     sanitize_log_likelihood,
 )
 from marl_social.perception.belief.config import BeliefConfig
+from marl_social.perception.belief.conflicts import (
+    LaneConflict,
+    lane_conflicts,
+    vehicle_hypotheses,
+)
+from marl_social.perception.belief.hidden import HiddenAgentBelief, PedestrianBelief
 from marl_social.perception.belief.hypotheses import (
     PEDESTRIAN_DIAMETER_M,
     Hypothesis,
     crosswalk_hypotheses,
+    hypothesis_objects,
     motion_transition,
     stationary_distribution,
 )
 from marl_social.perception.belief.own_sensors import OwnSensors
-from marl_social.perception.belief.pedestrian import PedestrianBelief
 from marl_social.perception.belief.social import SocialLikelihood, action_log_likelihood
 
 __all__ = [
     "PEDESTRIAN_DIAMETER_M",
     "BeliefConfig",
+    "HiddenAgentBelief",
     "Hypothesis",
+    "LaneConflict",
     "OwnSensors",
     "PedestrianBelief",
     "SocialLikelihood",
@@ -39,8 +51,11 @@ __all__ = [
     "action_log_likelihood",
     "bayes_step",
     "crosswalk_hypotheses",
+    "hypothesis_objects",
+    "lane_conflicts",
     "markov_transition",
     "motion_transition",
     "sanitize_log_likelihood",
     "stationary_distribution",
+    "vehicle_hypotheses",
 ]

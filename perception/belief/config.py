@@ -73,6 +73,16 @@ class BeliefConfig:
         track_pos_noise_m: position measurement noise std the robot's tracker assumes: the
             robot's own sensor's (agents.robot.planner.robot_configs passes spec.sensor's) [m].
         track_vel_noise_mps: velocity measurement noise std, likewise [m/s].
+        vehicle_speed_fractions: the speed bins of hidden vehicles on the lanes with the right
+            of way where they meet the robot's route, as fractions of the map's speed limit
+            (conflicts.vehicle_hypotheses): the posted limit and a slower flow.
+        vehicle_progress_step_m: length of a hidden vehicle's progress bin along its lane [m].
+        vehicle_upstream_s: the progress bins reach this many seconds upstream of the point
+            where the lane meets the robot's route, at the fastest speed bin [s] (beyond it
+            a vehicle cannot reach the conflict within a planning horizon).
+        vehicle_hazard_per_s: rate at which hidden vehicles arrive at those lanes' entry bins, and
+            at which hypothesised ones vanish [1/s] (a main road's sparse traffic: with the
+            defaults the prior puts about 0.2 on a hidden vehicle, spread over all such lanes).
     """
 
     walk_speeds_mps: tuple = (0.9, 1.6)
@@ -98,6 +108,10 @@ class BeliefConfig:
     track_accel_noise_mps2: float = 1.5
     track_pos_noise_m: float = 0.05
     track_vel_noise_mps: float = 0.1
+    vehicle_speed_fractions: tuple = (0.7, 1.0)
+    vehicle_progress_step_m: float = 10.0
+    vehicle_upstream_s: float = 4.0
+    vehicle_hazard_per_s: float = 0.05
 
     def __post_init__(self):
         """Reject probabilities outside [0, 1], negative betas and non-positive noise/floor."""
@@ -113,6 +127,18 @@ class BeliefConfig:
                 and self.max_log_likelihood_ratio > 0):
             raise ValueError("BeliefConfig: need accel_noise_mps2 > 0, hazard_per_s >= 0, "
                              "floor > 0, max_log_likelihood_ratio > 0")
+        fractions = np.asarray(self.vehicle_speed_fractions, dtype=np.float64)
+        if fractions.ndim != 1 or len(fractions) == 0 or not np.all(fractions > 0):
+            raise ValueError("BeliefConfig.vehicle_speed_fractions must be a non-empty sequence "
+                             f"of positive fractions, got {self.vehicle_speed_fractions!r}")
+        if not (self.vehicle_progress_step_m > 0 and self.vehicle_upstream_s >= 0
+                and self.vehicle_hazard_per_s >= 0):
+            raise ValueError("BeliefConfig: need vehicle_progress_step_m > 0, "
+                             "vehicle_upstream_s >= 0, vehicle_hazard_per_s >= 0")
+
+    def hazards_per_s(self) -> dict:
+        """{kind: arrival and vanishing rate [1/s]} of the hidden agents (motion_transition)."""
+        return {"pedestrian": self.hazard_per_s, "vehicle": self.vehicle_hazard_per_s}
 
     def traffic_grid_mps(self, speed_limit_mps: float) -> np.ndarray:
         """(V,) the traffic-speed grid [m/s]: v_traffic_grid_mps, or fractions of the limit.

@@ -1,8 +1,10 @@
-"""The robot's own sensors as evidence about hidden pedestrians (Algorithm 1, step 2).
+"""The robot's own sensors as evidence about hidden agents (Algorithm 1, step 2).
 
-A pedestrian the robot sees crossing (or stepping onto) a crosswalk is positive information for
-the matching hypotheses (p_detect against p_false_alarm). Otherwise the part of each
-hypothesis' region that the robot's depth rays show empty is negative information:
+A pedestrian the robot sees crossing (or stepping onto) a crosswalk, or a vehicle it sees
+driving along a lane with the right of way towards the robot's route, is positive information
+for the matching hypotheses (p_detect against p_false_alarm; `Hypothesis.matches`). Otherwise
+the part of each hypothesis' region that the robot's depth rays show empty is negative
+information:
 
     P(no detection | l) = (1 - p_false_alarm) (1 - p_detect * visible_fraction_l)
 """
@@ -37,6 +39,7 @@ class OwnSensors:
         self.config = config
         self._present = np.array([h.present for h in hypotheses])
         self._present_idx = np.flatnonzero(self._present)
+        self._has_vehicles = any(h.kind == "vehicle" for h in hypotheses)
         regions = [h.region() for h in hypotheses if h.present]
         self._region = np.array(regions) if regions else np.zeros((0, 1, 2))  # (P, K, 2)
         self._ray_cache: tuple | None = None
@@ -85,8 +88,21 @@ class OwnSensors:
             self._ray_cache = (key, depth_ray_angles(np.array([half]), n_rays)[0])
         return self._ray_cache[1]
 
+    def _match(self, kind: str, xy, velocity) -> np.ndarray:
+        """(L,) bool: the hypotheses of one kind that one of the seen agents matches."""
+        out = np.zeros(len(self.hypotheses), dtype=bool)
+        xy = np.asarray(xy, dtype=np.float64).reshape(-1, 2)
+        vel = np.asarray(velocity, dtype=np.float64).reshape(-1, 2)
+        if len(xy) == 0:
+            return out
+        v_min = self.config.walking_speed_min_mps
+        for i in self._present_idx:
+            if self.hypotheses[i].kind == kind:
+                out[i] = self.hypotheses[i].matches(xy, vel, v_min)
+        return out
+
     def match_pedestrians(self, xy, velocity) -> np.ndarray:
-        """(L,) bool: present hypotheses consistent with the pedestrians the robot sees.
+        """(L,) bool: pedestrian hypotheses consistent with the pedestrians the robot sees.
 
         `Hypothesis.matches`: a seen pedestrian in a hypothesis' region (+- a margin), on the
         road not walking against its direction, or walking in its direction at >=
@@ -96,15 +112,20 @@ class OwnSensors:
             xy: (n, 2) seen pedestrians' positions [m].
             velocity: (n, 2) their velocities [m/s].
         """
-        out = np.zeros(len(self.hypotheses), dtype=bool)
-        xy = np.asarray(xy, dtype=np.float64).reshape(-1, 2)
-        vel = np.asarray(velocity, dtype=np.float64).reshape(-1, 2)
-        if len(xy) == 0:
-            return out
-        v_min = self.config.walking_speed_min_mps
-        for i in self._present_idx:
-            out[i] = self.hypotheses[i].matches(xy, vel, v_min)
-        return out
+        return self._match("pedestrian", xy, velocity)
+
+    def match_vehicles(self, xy, velocity) -> np.ndarray:
+        """(L,) bool: vehicle hypotheses consistent with the vehicles the robot sees.
+
+        `Hypothesis.matches`: a seen vehicle on the hypothesis' lane within its bin's footprint
+        (+- a margin), heading along the lane at a speed in the hypothesis' speed bin. A car
+        standing in the lane, or driving against it, matches nothing.
+
+        Args:
+            xy: (n, 2) seen vehicles' positions [m].
+            velocity: (n, 2) their velocities [m/s].
+        """
+        return self._match("vehicle", xy, velocity)
 
     def log_likelihood(self, decoded: DecodedObservation, tracks: TrackSet):
         """Positive and negative information from the robot's own sensors.
@@ -119,12 +140,15 @@ class OwnSensors:
         cfg = self.config
         seen_ped = tracks.is_pedestrian & tracks.seen
         detected = self.match_pedestrians(tracks.xy[seen_ped], tracks.velocity[seen_ped])
+        if self._has_vehicles:
+            seen_veh = ~tracks.is_pedestrian & tracks.seen
+            detected |= self.match_vehicles(tracks.xy[seen_veh], tracks.velocity[seen_veh])
         visible = self.visible_fraction(decoded)
         miss = np.clip(1.0 - cfg.p_detect * visible, PROBABILITY_MIN, 1.0)
         p_fa = np.clip(cfg.p_false_alarm, PROBABILITY_MIN, 1.0 - PROBABILITY_MIN)
         if detected.any():
             # the detection is explained by a matching hypothesis, or is a false alarm (then
-            # any other pedestrian's region was missed)
+            # any other hidden agent's region was missed)
             lik = np.where(detected, cfg.p_detect, p_fa * np.where(self._present, miss, 1.0))
         else:
             lik = (1.0 - p_fa) * np.where(self._present, miss, 1.0)

@@ -3,46 +3,100 @@
 The robot knows the lanes of the map, not where each other car is going: a tracked vehicle
 drives along the lane whose centre line is nearest to it (within the lane's half width plus
 LANE_MATCH_MARGIN_M) and whose heading matches the track's heading (within
-LANE_MATCH_HEADING_RAD). Intersections will add the lane's possible continuations as
-hypotheses; on the straight roads of today each lane has one.
+LANE_MATCH_HEADING_RAD). Its path is that lane followed by the lane's continuation: a lane
+that starts where it ends (within LANE_JOIN_M, heading within LANE_MATCH_HEADING_RAD), as long
+as there is exactly one (a left-turn-only lane continues into its turn; up to
+MAX_CHAINED_LANES lanes). Where a lane branches into several, the path ends with the lane (the
+car's choice would be one more hypothesis).
 """
 
 from __future__ import annotations
 
 import math
 
+import numpy as np
+
 from marl_social.sim.road_map import RoadMap, Route
 
 LANE_MATCH_MARGIN_M = 0.5  # a car this far outside a lane's edges still drives in it [m]
 LANE_MATCH_HEADING_RAD = math.radians(45.0)  # largest track-to-lane heading difference [rad]
+LANE_JOIN_M = 0.5  # a lane starting this close to another's end continues it [m]
+MAX_CHAINED_LANES = 4  # a car's path follows at most this many lanes
+_SAME_POINT_M = 1e-6  # a continuation's first point this close to the end is the same point [m]
+
+
+def _angle_diff(a, b):
+    """Wrapped difference a - b of angles [rad], in [-pi, pi)."""
+    return (a - b + np.pi) % (2.0 * np.pi) - np.pi
 
 
 class LanePaths:
-    """The map's lanes as routes, and the lane a tracked car drives in.
+    """The map's lanes as routes, and the path a tracked car drives along.
 
     Args:
         road_map: the static map (its lanes).
+
+    Attributes:
+        successors: per lane, the indices of the lanes that continue it.
+        routes: per lane, the Route of the lane followed by its unique continuations.
     """
 
     def __init__(self, road_map: RoadMap):
-        """Turn every lane's centre line into a Route."""
-        self.routes = [Route(lane.centerline, f"lane_{i}") for i, lane in enumerate(road_map.lanes)]
-        self._half_width_m = [0.5 * lane.width_m for lane in road_map.lanes]
+        """Turn every lane's centre line into a Route and chain each lane's continuations."""
+        lanes = road_map.lanes
+        self._lanes = [Route(lane.centerline, f"lane_{i}") for i, lane in enumerate(lanes)]
+        self._half_width_m = [0.5 * lane.width_m for lane in lanes]
+        self.successors = self._find_successors(lanes)
+        self.routes = [self._chained(i, lanes) for i in range(len(lanes))]
+
+    @staticmethod
+    def _find_successors(lanes) -> list[list[int]]:
+        """Per lane, the lanes starting at its end with a matching heading."""
+        if not lanes:
+            return []
+        starts = np.array([lane.centerline[0] for lane in lanes])
+        ends = np.array([lane.centerline[-1] for lane in lanes])
+        first = np.array([lane.centerline[1] - lane.centerline[0] for lane in lanes])
+        last = np.array([lane.centerline[-1] - lane.centerline[-2] for lane in lanes])
+        heading_in = np.arctan2(first[:, 1], first[:, 0])
+        heading_out = np.arctan2(last[:, 1], last[:, 0])
+        gap = np.linalg.norm(ends[:, None, :] - starts[None, :, :], axis=-1)  # (from, to)
+        turn = np.abs(_angle_diff(heading_in[None, :], heading_out[:, None]))
+        joins = (gap <= LANE_JOIN_M) & (turn <= LANE_MATCH_HEADING_RAD)
+        np.fill_diagonal(joins, False)
+        return [np.flatnonzero(row).tolist() for row in joins]
+
+    def _chained(self, i: int, lanes) -> Route:
+        """Lane i's route followed by its unique continuations (lane i's own Route if none)."""
+        chain = [i]
+        while len(chain) < MAX_CHAINED_LANES:
+            nxt = self.successors[chain[-1]]
+            if len(nxt) != 1 or nxt[0] in chain:
+                break
+            chain.append(nxt[0])
+        if len(chain) == 1:
+            return self._lanes[i]
+        points = [lanes[i].centerline]
+        for j in chain[1:]:
+            pts = lanes[j].centerline
+            if np.linalg.norm(pts[0] - points[-1][-1]) <= _SAME_POINT_M:
+                pts = pts[1:]
+            points.append(pts)
+        return Route(np.vstack(points), "lane_" + "+".join(str(j) for j in chain))
 
     def route_of(self, xy, heading_rad: float) -> Route | None:
-        """The route of the lane a car at xy (2,) [m] heading heading_rad [rad] drives in.
+        """The path of a car at xy (2,) [m] heading heading_rad [rad]: its lane and onward.
 
         None if no lane matches (off the road, or driving against every lane).
         """
         x, y = float(xy[0]), float(xy[1])
         best, best_offset = None, math.inf
-        for route, half in zip(self.routes, self._half_width_m):
-            s, lateral = route.project_point(x, y)
+        for k, (lane, half) in enumerate(zip(self._lanes, self._half_width_m)):
+            s, lateral = lane.project_point(x, y)
             if abs(lateral) > half + LANE_MATCH_MARGIN_M or abs(lateral) >= best_offset:
                 continue
-            _, lane_heading = route.point_at(s)
+            _, lane_heading = lane.point_at(s)
             diff = (heading_rad - float(lane_heading) + math.pi) % (2.0 * math.pi) - math.pi
             if abs(diff) <= LANE_MATCH_HEADING_RAD:
-                best, best_offset = route, abs(lateral)
+                best, best_offset = self.routes[k], abs(lateral)
         return best
-

@@ -1,7 +1,7 @@
 """Social information: a human driver's observed action as evidence (eq. 9-12).
 
 Each human driver the robot tracks is a sensor. The robot predicts the human's action
-distribution under every (pedestrian hypothesis l, traffic speed v) with its model of the human
+distribution under every (hidden-agent hypothesis l, traffic speed v) with its model of the human
 (theta_hat, beta_hat; eq. 8 and 11) and, one step later, weighs the acceleration it observed:
 
     P(a_obs | x_l, v) = (1 - rho) sum_u softmax(-beta_hat Q*_H(x_l, v, .))[u] N(a_obs; u, sigma^2)
@@ -23,9 +23,12 @@ that one noisy sample cannot flip the belief:
 
 Modelling choices of `SocialLikelihood`:
 
-* The human sees the hypothesised pedestrian and, besides it, the objects the robot tracks, and
-  the robot itself, that lie in an assumed forward field of view of the human
-  (`BeliefConfig.human_range_m`, `human_half_fov_rad`), predicted at constant velocity.
+* The human sees the hypothesised pedestrian, a hypothesised vehicle (kind "vehicle": a car's
+  footprint driving along its lane, so the human's Q* keeps it out of collision) if it lies in
+  an assumed forward field of view of the human (`BeliefConfig.human_range_m`,
+  `human_half_fov_rad`), and, besides it, the objects the robot tracks, and the robot
+  itself, that lie in that view, predicted at constant velocity. A human who waits at a
+  conflict for a hypothesised vehicle it can see is then evidence for that vehicle.
 * The human's desired speed is v_traffic (marginalized with the traffic-speed belief).
 * a_obs is estimated from the robot's own Kalman track (along-route speed difference over one
   step); candidate accelerations are compared with a_obs after the vehicle's limits (no
@@ -47,7 +50,7 @@ import numpy as np
 from filterpy.discrete_bayes import normalize
 from filterpy.discrete_bayes import update as bayes_update
 from marl_social.perception.belief.config import BeliefConfig
-from marl_social.perception.belief.hypotheses import PEDESTRIAN_DIAMETER_M, Hypothesis
+from marl_social.perception.belief.hypotheses import Hypothesis, hypothesis_objects
 from marl_social.perception.belief.paths import LanePaths
 from marl_social.perception.tracking import TrackSet
 
@@ -178,7 +181,7 @@ class SocialLikelihood:
         road_map: the static map (crosswalks and lanes).
         agent_names: names of object ids for the debugging outputs (object id k is
             agent_names[k - 1] if given; else "object_<k>"); never used to find humans.
-        hypotheses: the L pedestrian hypotheses.
+        hypotheses: the L hidden-agent hypotheses (pedestrians and vehicles).
         traffic_grid_mps: (V,) traffic speeds of the traffic-speed belief [m/s].
         config: BeliefConfig (theta_hat, beta_hat, beta_grid_hat, accel_noise_mps2, ...).
 
@@ -203,10 +206,14 @@ class SocialLikelihood:
         self._theta_no_speed = replace(config.theta_hat, speed=0.0).as_array()
         self._times = self._candidates.plan_times_s
         self._first = np.asarray(self._candidates.first_actions_mps2, dtype=np.float64)
-        self._hyp_scene = self._hypothesis_objects()
+        self._hyp_scene = hypothesis_objects(hypotheses, self._times)
+        self._vehicle = np.array([h.kind == "vehicle" for h in hypotheses])
+        self._now_xy = np.array([h.predict_xy(np.zeros(1))[0] if h.present else np.zeros(2)
+                                 for h in hypotheses]).reshape(-1, 2)
         self._beta_grid = np.asarray(config.beta_grid_hat, dtype=np.float64)
         self._beta_prior = np.full(len(self._beta_grid), 1.0 / max(len(self._beta_grid), 1))
         self._empty_scene: ScenePrediction | None = None
+        self._empty_hyp_scene: ScenePrediction | None = None
         self.reset()
 
     def reset(self) -> None:
@@ -214,17 +221,19 @@ class SocialLikelihood:
         self._humans: dict[int, _HumanState] = {}
 
     # -- the scenes the human is modelled against -----------------------------------------------
-    def _hypothesis_objects(self):
-        """Per-hypothesis pedestrian predictions at the planner times (fixed patterns)."""
-        n, n_t = len(self.hypotheses), len(self._times)
-        xy = np.zeros((n, n_t, 2))
-        heading = np.zeros((n, n_t))
-        for i, h in enumerate(self.hypotheses):
-            if h.present:
-                xy[i] = h.predict_xy(self._times)
-                heading[i] = math.atan2(h.walk_dir[1], h.walk_dir[0])
-        size = np.full(n, PEDESTRIAN_DIAMETER_M)
-        return xy, heading, size, size, np.ones(n, dtype=bool), self._present.copy()
+    def in_view(self, viewer_xy, viewer_heading_rad: float) -> np.ndarray:
+        """(L,) bool: hypothesised agents inside a human's assumed field of view now.
+
+        The view the robot assumes a human has (BeliefConfig.human_range_m,
+        human_half_fov_rad) from viewer_xy (2,) [m] looking along viewer_heading_rad [rad];
+        False for "none".
+        """
+        rel = self._now_xy - np.asarray(viewer_xy, dtype=np.float64)
+        dist = np.hypot(rel[:, 0], rel[:, 1])
+        bearing = np.arctan2(rel[:, 1], rel[:, 0]) - viewer_heading_rad
+        bearing = np.abs((bearing + np.pi) % (2.0 * np.pi) - np.pi)
+        return (self._present & (dist <= self.config.human_range_m)
+                & (bearing <= self.config.human_half_fov_rad))
 
     def others_scene(self, human_xy, human_heading, human_id, decoded: DecodedObservation,
                      tracks: TrackSet) -> ScenePrediction | None:
@@ -267,33 +276,46 @@ class SocialLikelihood:
                                0.5 * np.hypot(length, width)[None], is_ped[None],
                                np.ones((1, m), dtype=bool))
 
-    def hypothesis_scene(self, others: ScenePrediction | None = None) -> ScenePrediction:
+    def hypothesis_scene(self, others: ScenePrediction | None = None,
+                         viewer: tuple | None = None) -> ScenePrediction:
         """The L scenes the human is modelled against.
 
         Args:
             others: one-hypothesis scene of the other objects (None: nothing else); each
-                hypothesis' pedestrian is added to it (masked out for "none").
+                hypothesis' hidden agent is added to it (masked out for "none").
+            viewer: (xy (2,) [m], heading [rad]) of the human: a hypothesised vehicle outside
+                its assumed field of view (`in_view`) is masked out, the human does not react
+                to it (None: every hypothesised agent is in the scene). Hypothesised
+                pedestrians stay in (the human knows the crosswalk ahead of it).
         """
+        objects = self._hyp_scene
+        if viewer is not None and self._vehicle.any():
+            hidden = self._vehicle & ~self.in_view(*viewer)
+            objects = (*objects[:5], objects[5] & ~hidden)
         if others is None:
             if self._empty_scene is None:
                 n_t = len(self._times)
-                empty = ScenePrediction(np.zeros((1, 0, n_t, 2)), np.zeros((1, 0, n_t)),
-                                        np.zeros((1, 0)), np.zeros((1, 0)), np.zeros((1, 0)),
-                                        np.zeros((1, 0), dtype=bool),
-                                        np.zeros((1, 0), dtype=bool))
-                self._empty_scene = empty.with_extra(*self._hyp_scene)
-            return self._empty_scene
-        return others.with_extra(*self._hyp_scene)
+                self._empty_scene = ScenePrediction(
+                    np.zeros((1, 0, n_t, 2)), np.zeros((1, 0, n_t)), np.zeros((1, 0)),
+                    np.zeros((1, 0)), np.zeros((1, 0)), np.zeros((1, 0), dtype=bool),
+                    np.zeros((1, 0), dtype=bool))
+            if objects is self._hyp_scene:
+                if self._empty_hyp_scene is None:
+                    self._empty_hyp_scene = self._empty_scene.with_extra(*objects)
+                return self._empty_hyp_scene
+            return self._empty_scene.with_extra(*objects)
+        return others.with_extra(*objects)
 
     # -- the human's Q-values and the likelihood of its action ----------------------------------
     def human_q_values(self, route: Route, s0: float, v0: float, prev_accel: float,
                        others: ScenePrediction | None = None) -> np.ndarray:
-        """Q*_H(x_l, v, u) for every pedestrian hypothesis l and traffic speed v, one rollout.
+        """Q*_H(x_l, v, u) for every hidden-agent hypothesis l and traffic speed v, one rollout.
 
         Equal to driver_q_values(DriverModel(theta_hat, beta_hat, v_desired_mps=v), route, s0,
-        v0, prev_accel, scene_l, crosswalks) with scene_l = `others` plus hypothesis l's
-        pedestrian (eq. 11): the candidates are evaluated once for all L scenes without the
-        speed feature, which is then added for each v.
+        v0, prev_accel, scene_l, crosswalks) with scene_l = `others` plus hypothesis l's hidden
+        agent (eq. 11; a hypothesised vehicle only if the human at s0 can see it,
+        `hypothesis_scene` with the human as viewer): the candidates are evaluated once for
+        all L scenes without the speed feature, which is then added for each v.
 
         Args:
             route: the human's route.
@@ -301,12 +323,16 @@ class SocialLikelihood:
             v0: its along-route speed [m/s].
             prev_accel: its previous acceleration [m/s^2].
             others: one-hypothesis scene of the other objects the human reacts to (None:
-                nothing but the hypothesised pedestrian).
+                nothing but the hypothesised agent).
 
         Returns:
             (L, V, A) optimal cost-to-go of each first action.
         """
-        scene = self.hypothesis_scene(others)
+        viewer = None
+        if self._vehicle.any():
+            xy, heading = route.point_at(s0)
+            viewer = (xy, float(heading))
+        scene = self.hypothesis_scene(others, viewer)
         ev = evaluate_candidates(self._candidates, self._theta_no_speed, 0.0, self.model.vehicle,
                                  route, s0, v0, prev_accel, scene, self.road_map.crosswalks,
                                  geometry=True)

@@ -3,30 +3,37 @@
 The robot keeps two discrete beliefs, built only from its own observation vector each step and
 the static map (never the world):
 
-* `PedestrianBelief`: hidden physical states x_l, l = 1..L (`Hypothesis`, hypotheses.py):
-  "none" (no hidden pedestrian) and, for each curb end of each crosswalk, "a pedestrian is
-  progress_m along this crossing and walks at speed_mps" for a few progress and speed bins:
-  at the curb entry (the paper's "steps off the curb now") and already on the road.
+* `HiddenAgentBelief` (`PedestrianBelief` is the same class): hidden physical states x_l,
+  l = 1..L (`Hypothesis`, hypotheses.py): "none" (no hidden agent) and
+  - for each curb end of each crosswalk, "a pedestrian is progress_m along this crossing and
+    walks at speed_mps" for a few progress and speed bins: at the curb entry (the paper's
+    "steps off the curb now") and already on the road;
+  - for each lane that crosses or merges into the robot's route with the right of way there
+    (conflicts.py: from the map the robot may know and its own route only), "a vehicle is
+    progress_m along this lane and drives at speed_mps", in progress bins upstream of the
+    point where it meets the route and speed bins around the speed limit (paper Fig. 1 b).
+  The hypotheses are mutually exclusive: at most one hidden agent at a time.
 * `TrafficSpeedBelief` (bayes.py): the social information I = v_traffic over a small grid
   (eq. 12).
 
 Each step (Algorithm 1, in log space; 0.1 s per step):
 
-1. prediction: the motion model (hypotheses.motion_transition): hypothesised pedestrians walk
-   on along their crossing (mass moves to the next progress bin at their speed, and to "none"
-   once they have crossed), new ones arrive at the curb entries and hypothesised ones vanish
-   at `hazard_per_s` (beliefs never lock); a small Markov transition between traffic speeds;
+1. prediction: the motion model (hypotheses.motion_transition): hypothesised agents move on
+   along their path (mass moves to the next progress bin at their speed, and to "none" once
+   they have crossed or passed the conflict), new ones arrive at the entry bins and
+   hypothesised ones vanish at `hazard_per_s` (pedestrians) and `vehicle_hazard_per_s`
+   (beliefs never lock); a small Markov transition between traffic speeds;
 2. own sensors (own_sensors.py): positive information from a pedestrian the robot sees
-   crossing, negative information from the part of each hypothesis' region its depth rays show
-   empty;
+   crossing or a vehicle it sees driving along a lane with the right of way, negative
+   information from the part of each hypothesis' region its depth rays show empty;
 3. social information (social.py, eq. 9-10, 12): each human driver the robot tracks is a
    sensor, its observed acceleration weighed under the robot's model of the human for every
    (hypothesis l, traffic speed v); humans multiply (eq. 12);
 4. normalization, with a floor (beliefs are never NaN or all-zero).
 
 The update is done on the joint b(l, v) ∝ b(l) b(v) P(own | l) prod_i P(a_i | l, v) and stored
-as its two marginals (Algorithm 1's "fuse" step), so that a human braking for a pedestrian is
-not read as slow traffic, nor a slow human as a pedestrian.
+as its two marginals (Algorithm 1's "fuse" step), so that a human braking for a pedestrian (or
+waiting for a vehicle) is not read as slow traffic, nor a slow human as a pedestrian.
 
 beta_hat defaults to 0.3, not the humans' own 5: Q* is in simulator-step cost units with a
 crosswalk weight of 1000, and an error of ~0.1 m/s in the robot's estimate of the human's speed
@@ -50,8 +57,11 @@ from marl_social.perception.belief.bayes import (
     sanitize_log_likelihood,
 )
 from marl_social.perception.belief.config import BeliefConfig
+from marl_social.perception.belief.conflicts import vehicle_hypotheses
 from marl_social.perception.belief.hypotheses import (
+    KINDS,
     crosswalk_hypotheses,
+    hypothesis_objects,
     motion_transition,
     stationary_distribution,
 )
@@ -65,14 +75,15 @@ from marl_social.sim.observation import DecodedObservation, ObservationLayout
 from marl_social.sim.road_map import RoadMap, Route
 
 
-class PedestrianBelief:
-    """The robot's belief over hidden crossing pedestrians (Algorithm 1).
+class HiddenAgentBelief:
+    """The robot's belief over hidden agents: crossing pedestrians, vehicles (Algorithm 1).
 
     Built from the robot's own observations and the static map only.
 
     Args:
-        road_map: the static map (crosswalks, lanes, speed limit; other agents' routes are
-            never read).
+        road_map: the static map the robot may know (`RoadMap.for_agent(robot_name)`:
+            crosswalks, lanes, conflict zones, speed limit and the robot's own route; other
+            agents' routes are never read).
         layout: the shared observation layout.
         robot_name: the robot's agent name.
         agent_names: names of object ids in the debugging outputs only (object id k is
@@ -95,6 +106,8 @@ class PedestrianBelief:
         perceived: 1.0 if the robot currently sees a pedestrian crossing (or stepping onto) a
             crosswalk, else 0.0 (the paper's "perceived probability"). A pedestrian standing on
             the sidewalk is not a crossing pedestrian.
+        perceived_kinds: {kind: whether the robot currently sees an agent of that kind that
+            matches one of its hypotheses} ("pedestrian", "vehicle").
         last_likelihoods: this step's likelihoods (each scaled to max 1): "own" (L,), "social"
             (L,), "traffic" (V,), "visible_fraction" (L,), "detected" (L,) bool, "a_obs"
             {human name: observed acceleration [m/s^2]}.
@@ -114,8 +127,12 @@ class PedestrianBelief:
         self.use_own_sensors = bool(use_own_sensors)
         self.hypotheses = crosswalk_hypotheses(road_map, config.walk_speeds_mps,
                                                config.curb_offset_m, config.progress_step_m)
+        self.hypotheses += vehicle_hypotheses(
+            road_map, road_map.routes.get(robot_name), config.vehicle_speed_fractions,
+            config.vehicle_progress_step_m, config.vehicle_upstream_s)
         self._present = np.array([h.present for h in self.hypotheses])
-        self.transition = motion_transition(self.hypotheses, DT_S, config.hazard_per_s)
+        self._kinds = np.array([h.kind for h in self.hypotheses])
+        self.transition = motion_transition(self.hypotheses, DT_S, config.hazards_per_s())
         self.prior = self._prior()
         self.tracker = tracker or Tracker(pos_noise_m=config.track_pos_noise_m,
                                           vel_noise_mps=config.track_vel_noise_mps,
@@ -153,14 +170,36 @@ class PedestrianBelief:
         self.traffic.reset()
         self.social.reset()
         self.perceived = 0.0
+        self.perceived_kinds = dict.fromkeys(KINDS, False)
         self.last_likelihoods: dict = {}
+
+    def p_hidden(self, kind: str) -> float:
+        """Belief that an agent of this kind is present where the robot cannot rule it out.
+
+        1 when the robot sees one matching a hypothesis (perceived_kinds), 0 without
+        hypotheses of that kind, else the mass of that kind's hypotheses, as 1 - the mass of
+        all others ("none" included).
+
+        Args:
+            kind: "pedestrian" or "vehicle".
+        """
+        if kind not in KINDS:
+            raise ValueError(f"p_hidden: kind must be one of {KINDS}, got {kind!r}")
+        if self.perceived_kinds[kind]:
+            return 1.0
+        if not np.any(self._kinds == kind):
+            return 0.0
+        return max(float(1.0 - self.probabilities[self._kinds != kind].sum()), 0.0)
 
     @property
     def p_pedestrian(self) -> float:
-        """Belief that a crossing pedestrian is present: 1 when perceived, else 1 - P(none)."""
-        if self.perceived > 0.5:
-            return 1.0
-        return float(1.0 - self.probabilities[~self._present].sum())
+        """Belief that a crossing pedestrian is present: 1 when perceived (`p_hidden`)."""
+        return self.p_hidden("pedestrian")
+
+    @property
+    def p_vehicle(self) -> float:
+        """Belief that a hidden vehicle is coming to the robot's route (`p_hidden`)."""
+        return self.p_hidden("vehicle")
 
     def path_probabilities(self) -> dict:
         """{path name ("crossing_right", ...): belief that a hidden agent is on it} (sums bins)."""
@@ -199,7 +238,8 @@ class PedestrianBelief:
         detected = np.zeros(n, dtype=bool)
         if self.use_own_sensors:
             ll_own, visible, detected = self.own_sensors.log_likelihood(decoded, tracks)
-        self.perceived = 1.0 if detected.any() else 0.0
+        self.perceived_kinds = {k: bool(detected[self._kinds == k].any()) for k in KINDS}
+        self.perceived = 1.0 if self.perceived_kinds["pedestrian"] else 0.0
         pred_l = self.transition @ self.probabilities
         pred_v = self.traffic.transition @ self.traffic.probabilities
         ll_social = np.zeros((0, n, n_v))
@@ -208,9 +248,9 @@ class PedestrianBelief:
             ll_social, a_obs = self.social.log_likelihoods(decoded, tracks,
                                                            np.outer(pred_l, pred_v))
             if detected.any():
-                # the robot sees a crossing pedestrian itself: the humans' behaviour is read
-                # under the most probable detected hypothesis (informative about v_traffic
-                # only), not as evidence about pedestrians it can see
+                # the robot sees the hidden agent itself: the humans' behaviour is read under
+                # the most probable detected hypothesis (informative about v_traffic only),
+                # not as evidence about agents it can see
                 seen = np.flatnonzero(detected)
                 best = seen[np.argmax(self.probabilities[seen])]
                 ll_social = np.broadcast_to(ll_social[:, best:best + 1, :], ll_social.shape)
@@ -241,6 +281,25 @@ class PedestrianBelief:
         """
         return self.own_sensors.visible_fraction(decoded)
 
+    def match_vehicles(self, xy, velocity) -> np.ndarray:
+        """(L,) bool: hypotheses matching the seen vehicles (OwnSensors).
+
+        Args:
+            xy: (n, 2) seen vehicles' positions [m].
+            velocity: (n, 2) their velocities [m/s].
+        """
+        return self.own_sensors.match_vehicles(xy, velocity)
+
+    def hypothesis_objects(self, times_s) -> tuple:
+        """Each hypothesis' hidden agent at times_s (T,) [s], for the robot's own planner.
+
+        The arguments of ScenePrediction.with_extra (hypotheses.hypothesis_objects): a planner's
+        scenes are `ScenePrediction.from_tracks(tracks, times_s).with_extra(*this)`; a
+        hypothesised vehicle has a car's footprint and heading along its lane and is not a
+        pedestrian.
+        """
+        return hypothesis_objects(self.hypotheses, times_s)
+
     def match_pedestrians(self, xy, velocity) -> np.ndarray:
         """(L,) bool: hypotheses matching the seen pedestrians (OwnSensors).
 
@@ -250,13 +309,16 @@ class PedestrianBelief:
         """
         return self.own_sensors.match_pedestrians(xy, velocity)
 
-    def hypothesis_scene(self, others: ScenePrediction | None = None) -> ScenePrediction:
+    def hypothesis_scene(self, others: ScenePrediction | None = None,
+                         viewer: tuple | None = None) -> ScenePrediction:
         """The L scenes the human is modelled against (SocialLikelihood).
 
         Args:
             others: one-hypothesis scene of the other objects (None: nothing else).
+            viewer: (xy (2,) [m], heading [rad]) of the human: hypothesised vehicles outside
+                its assumed view are left out (None: all in).
         """
-        return self.social.hypothesis_scene(others)
+        return self.social.hypothesis_scene(others, viewer)
 
     def human_q_values(self, route: Route, s0: float, v0: float, prev_accel: float,
                        others: ScenePrediction | None = None) -> np.ndarray:
@@ -274,3 +336,6 @@ class PedestrianBelief:
     def beta_beliefs(self) -> dict:
         """{human name: (B,) rationality belief} of the humans tracked now (social+beta only)."""
         return self.social.beta_beliefs()
+
+
+PedestrianBelief = HiddenAgentBelief  # the name from before vehicles were hypothesised
