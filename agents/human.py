@@ -62,7 +62,10 @@ from marl_social.sim.route_rules import (
 )
 
 STOPPED_SPEED_MPS = 0.1  # at or below this speed a driver is at rest [m/s]
-STOP_REACH_M = 3.0  # at rest with its front within this of a stop line, it has served it [m]
+# at rest with its front within this of a stop line, it has served it [m]: its plans cannot
+# creep the last metres (the gentlest start from rest, 0 then +1 m/s^2, covers 3.1 m within
+# the 3 s horizon, so it comes to rest about that far before the line)
+STOP_REACH_M = 4.0
 CURVE_LAT_ACCEL_MPS2 = 2.5  # lateral acceleration a driver accepts in a bend [m/s^2]
 
 
