@@ -85,7 +85,14 @@ def _bench(args) -> int:
 
 
 def _reproduce(args) -> int:
-    from marl_social.evaluation.reproduce import format_table, run_table, write_figures
+    if args.scenario == "t_intersection":
+        from marl_social.evaluation.reproduce_intersection import (
+            format_table,
+            run_table,
+            write_figures,
+        )
+    else:
+        from marl_social.evaluation.reproduce import format_table, run_table, write_figures
 
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
@@ -246,6 +253,9 @@ def main(argv=None) -> int:
     rep.add_argument("--out", default=f"{DEFAULT_OUT}/reproduce")
     rep.add_argument("--seeds", type=int, default=20)
     rep.add_argument("--workers", type=int, default=2)
+    rep.add_argument("--scenario", default="occluded_crosswalk",
+                     choices=["occluded_crosswalk", "t_intersection"],
+                     help="the paper's crosswalk (Figs. 3-6) or the T-intersection (Fig. 1 b)")
     rep.set_defaults(func=_reproduce)
 
     bench = sub.add_parser("bench", help="benchmarks: `bench env`, `bench planners`")

@@ -38,7 +38,7 @@ def episode_metrics(trace: Trace, road_map: RoadMap,
             long sides).
         yielded: the robot was never in the crosswalk while the pedestrian was in it, and
             never in a conflict zone on its route, where it yields, that an agent with the
-            right of way was in or reached within physical.YIELD_WINDOW_S.
+            right of way reached within physical.YIELD_WINDOW_S or was in behind the robot.
         time_to_pass_s: time until the robot's footprint (bounding circle) has entered and left
             the scenario's conflict area [s]: the crosswalk, or on a map without one every
             conflict zone on its route (nan if never).

@@ -158,12 +158,13 @@ def min_gap_pedestrian(trace: Trace, road_map: RoadMap, robot: str) -> float:
 
 @register_metric("yielded", group="episode")
 def yielded(trace: Trace, road_map: RoadMap, robot: str) -> bool:
-    """The robot gave way: in no crosswalk with the pedestrian, in no zone claimed by others.
+    """The robot gave way: in no crosswalk with the pedestrian, in no zone in another's way.
 
     Crosswalk: the robot was never in the first crosswalk while the first pedestrian was in
-    it. Conflict zones: the robot was never in a zone on its route where it yields while an
-    agent with the right of way there was in it or reached it within YIELD_WINDOW_S. True
-    without either.
+    it. Conflict zones (those on its route where it yields): the robot was never in one while
+    an agent with the right of way there reached it within YIELD_WINDOW_S, or was in it behind
+    the robot along its own route (the robot in its way; merging behind it is giving way).
+    True without either.
     """
     r = trace.index(robot)
     peds = pedestrian_indices(trace)
@@ -180,14 +181,32 @@ def yielded(trace: Trace, road_map: RoadMap, robot: str) -> bool:
         polygon = conflict.zone.polygon
         robot_in = (zone_series(trace, r, polygon) > OCCUPIED_FRACTION) & trace.active[:, r]
         for j in right_of_way_agents(trace, road_map, conflict.zone_index, robot):
-            other_in = (zone_series(trace, j, polygon) > OCCUPIED_FRACTION) & trace.active[:, j]
-            # other_in anywhere in [t, t + window], by a cumulative count
-            count = np.concatenate([[0], np.cumsum(other_in)])
-            t = np.arange(len(other_in))
-            claimed = count[np.minimum(t + window + 1, len(other_in))] - count[t] > 0
-            if np.any(robot_in & claimed):
+            if np.any(robot_in & _claims(trace, road_map, j, r, polygon, window)):
                 return False
     return True
+
+
+def _claims(trace: Trace, road_map: RoadMap, j: int, r: int, polygon: np.ndarray,
+            window: int) -> np.ndarray:
+    """(T+1,) bool: agent j enters the zone within `window` steps, or is in it behind agent r.
+
+    Args:
+        trace: the episode's trace.
+        road_map: the map (j's route).
+        j: trace index of the agent with the right of way.
+        r: trace index of the robot.
+        polygon: (V, 2) the zone's outline [m].
+        window: the look-ahead [steps].
+    """
+    inside = (zone_series(trace, j, polygon) > OCCUPIED_FRACTION) & trace.active[:, j]
+    entry = inside & ~np.concatenate([[False], inside[:-1]])
+    count = np.concatenate([[0], np.cumsum(entry)])  # count[k]: entries before step k
+    t = np.arange(len(inside))
+    arrives = count[np.minimum(t + window, len(inside) - 1) + 1] - count[t + 1] > 0
+    route = road_map.routes[trace.names[j]]
+    s_j, _, _ = route.project(trace.states[:, j, :2])
+    s_r, _, _ = route.project(trace.states[:, r, :2])
+    return arrives | (inside & (s_j < s_r))
 
 
 def _time_passed(occupancy: np.ndarray, times_s: np.ndarray) -> float:

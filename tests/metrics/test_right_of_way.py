@@ -116,3 +116,14 @@ def test_episode_metrics_have_the_new_key_after_time_to_pass():
     keys = list(metrics)
     assert keys.index("others_max_decel_mps2") == keys.index("time_to_pass_s") + 1
     assert metrics["yielded"] is True
+
+
+def test_merging_behind_the_car_is_giving_way_cutting_in_front_is_not():
+    """The car is already in the merge zone when the robot enters it: behind the car (it has
+    passed the robot's path) the robot yielded; ahead of it (the car still to come) it did not."""
+    rm = _road_map()
+    behind = _trace(rm, _robot_s(rm, 1.5), _car_s(rm, 1.0))
+    assert yielded(behind, rm, "robot_0")
+    assert others_max_decel(behind, rm, "robot_0") == 0.0
+    ahead = _trace(rm, _robot_s(rm, 0.5), _car_s(rm, 1.5))
+    assert not yielded(ahead, rm, "robot_0")
