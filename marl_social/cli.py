@@ -85,12 +85,14 @@ def _bench(args) -> int:
 
 
 def _reproduce(args) -> int:
+    randomization = "marl_social/run.randomized_overrides"
     if args.scenario == "t_intersection":
         from marl_social.evaluation.reproduce_intersection import (
             format_table,
             run_table,
             write_figures,
         )
+        randomization = "marl_social/evaluation/reproduce_intersection.randomized_overrides"
     else:
         from marl_social.evaluation.reproduce import format_table, run_table, write_figures
 
@@ -102,7 +104,7 @@ def _reproduce(args) -> int:
     table = format_table(rows)
     (out / "table.md").write_text(table + "\n")
     (out / "table.json").write_text(json.dumps(rows, indent=2))
-    print(f"\n{args.seeds} randomized seeds per cell (marl_social/run.randomized_overrides):\n")
+    print(f"\n{args.seeds} randomized seeds per cell ({randomization}):\n")
     print(table)
     return 0
 
