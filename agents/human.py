@@ -15,6 +15,22 @@ with the episode's seeded generator; beta = inf is the argmin (perfectly rationa
 uniform. Others are predicted at constant velocity from the human's tracks. The human chooses
 its acceleration along its route (path-velocity decomposition); pure pursuit steers.
 
+The road's rules come from the static map along the human's own route
+(sim/route_rules.py) and what it sees:
+
+* stop signs: at a stop line it has not yet served, its plans must keep their front behind the
+  line; once it has come to rest (speed <= STOPPED_SPEED_MPS) with its front within
+  STOP_REACH_M of the line, the line is served and it may go;
+* right of way: in a conflict zone it yields at, its cost adds the conflict of its own
+  occupancy with that of every *tracked* object travelling along one of the zone's priority
+  lanes (sim/costs.py), so it waits for oncoming traffic it sees and goes when the gap is
+  large enough for its plans (gap acceptance emerges from Q*); traffic it does not see does
+  not hold it back;
+* bends: its plans keep the speed at or below sqrt(CURVE_LAT_ACCEL_MPS2 / curvature).
+
+On a straight route without stop lines or conflict zones nothing of this applies and the
+decision is exactly the one without rules.
+
 The decision model itself (`models/driver.py`, `models/boltzmann.py`) is shared: the robot's
 model of a human calls `driver_q_values` with its own hypotheses and (theta_hat, beta_hat).
 """
@@ -28,11 +44,29 @@ from marl_social.agents.base import BoltzmannPolicy
 from marl_social.agents.params import DriverParams, parse_planner_params
 
 from marl_social.models.candidates import ScenePrediction
-from marl_social.models.driver import DriverModel, driver_choice_features, driver_q_values
+from marl_social.models.driver import (
+    DriverModel,
+    RoadRules,
+    driver_choice_features,
+    driver_q_values,
+)
 from marl_social.models.steering import pure_pursuit
 from marl_social.sim.agent_spec import AgentSpec
 from marl_social.sim.observation import Measurements, ObservationLayout
 from marl_social.sim.road_map import RoadMap
+from marl_social.sim.route_rules import (
+    CurveSpeed,
+    priority_mask,
+    route_conflicts,
+    stop_line_positions,
+)
+
+STOPPED_SPEED_MPS = 0.1  # at or below this speed a driver is at rest [m/s]
+# at rest with its front within this of a stop line, it has served it [m]: its plans cannot
+# creep the last metres (the gentlest start from rest, 0 then +1 m/s^2, covers 3.1 m within
+# the 3 s horizon, so it comes to rest about that far before the line)
+STOP_REACH_M = 4.0
+CURVE_LAT_ACCEL_MPS2 = 2.5  # lateral acceleration a driver accepts in a bend [m/s^2]
 
 
 class BoltzmannDriver(BoltzmannPolicy):
@@ -58,14 +92,60 @@ class BoltzmannDriver(BoltzmannPolicy):
             vehicle=spec.vehicle,
         )
         super().__init__(spec, layout, road_map, model)
+        self.road_map = road_map
+        self.stop_lines_s = stop_line_positions(self.route, road_map)  # (S,) [m]
+        self.yield_conflicts = tuple(c for c in route_conflicts(self.route, road_map)
+                                     if c.yields)
+        curve = CurveSpeed(self.route, CURVE_LAT_ACCEL_MPS2, 0.5 * spec.vehicle.length_m)
+        self.curve_speed = None if curve.is_straight else curve
+        self._has_rules = bool(len(self.stop_lines_s) or self.yield_conflicts
+                               or self.curve_speed is not None)
         self.record_decisions = False
         self.reset()
 
     def reset_state(self) -> None:
-        """Forget the previous acceleration and the recorded decisions."""
+        """Forget the previous acceleration, the served stop lines and the recorded decisions."""
         self.prev_accel = 0.0
+        self.stops_served = 0  # stop lines of its route it has come to rest at
         self.decisions = []  # with record_decisions: (features, allowed, chosen index) per step
         self._pending_features = None
+        self._tracks = None
+
+    def predict(self, tracks) -> ScenePrediction:
+        """The others at constant velocity (the tracks are kept for the right of way)."""
+        self._tracks = tracks
+        return super().predict(tracks)
+
+    def road_rules(self, s0: float, v: float) -> RoadRules | None:
+        """The rules of this decision (see the module docstring); None where none applies.
+
+        Args:
+            s0: its arc length along its route [m].
+            v: its speed [m/s].
+        """
+        if not self._has_rules:
+            return None
+        half_length = 0.5 * self.model.vehicle.length_m
+        front = s0 + half_length
+        while self.stops_served < len(self.stop_lines_s):
+            line = self.stop_lines_s[self.stops_served]
+            at_rest = v <= STOPPED_SPEED_MPS and line - front <= STOP_REACH_M
+            if not (at_rest or front > line):
+                break
+            self.stops_served += 1
+        stop = (float(self.stop_lines_s[self.stops_served])
+                if self.stops_served < len(self.stop_lines_s) else None)
+        zones = []
+        tracks = self._tracks
+        if tracks is not None and len(tracks):
+            for conflict in self.yield_conflicts:
+                if s0 - half_length > conflict.s_exit_m:  # already through it
+                    continue
+                priority = priority_mask(conflict.zone, self.road_map, tracks.xy,
+                                         tracks.heading_rad)
+                if priority.any():
+                    zones.append((conflict.zone.polygon, priority[None]))
+        return RoadRules(stop, tuple(zones), self.curve_speed)
 
     def q_values(self, decoded: Measurements, scene: ScenePrediction) -> np.ndarray:
         """(A,) Q* of each first acceleration (eq. 11) along the driver's route."""
@@ -73,11 +153,12 @@ class BoltzmannDriver(BoltzmannPolicy):
         v = float(decoded.ego[4])
         s0, _ = self.route.project_point(x, y)
         self._last_pose = (x, y, math.atan2(float(decoded.ego[3]), float(decoded.ego[2])), v, s0)
+        rules = self.road_rules(s0, v)
         q = driver_q_values(self.model, self.route, s0, v, self.prev_accel, scene,
-                            self.crosswalks)[0]
+                            self.crosswalks, rules)[0]
         if self.record_decisions:  # computed apart: the decision itself is unchanged
             self._pending_features = driver_choice_features(
-                self.model, self.route, s0, v, self.prev_accel, scene, self.crosswalks)
+                self.model, self.route, s0, v, self.prev_accel, scene, self.crosswalks, rules)
         return q
 
     def choose(self, probabilities: np.ndarray) -> int:

@@ -85,7 +85,16 @@ def _bench(args) -> int:
 
 
 def _reproduce(args) -> int:
-    from marl_social.evaluation.reproduce import format_table, run_table, write_figures
+    randomization = "marl_social/run.randomized_overrides"
+    if args.scenario == "t_intersection":
+        from marl_social.evaluation.reproduce_intersection import (
+            format_table,
+            run_table,
+            write_figures,
+        )
+        randomization = "marl_social/evaluation/reproduce_intersection.randomized_overrides"
+    else:
+        from marl_social.evaluation.reproduce import format_table, run_table, write_figures
 
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
@@ -95,7 +104,7 @@ def _reproduce(args) -> int:
     table = format_table(rows)
     (out / "table.md").write_text(table + "\n")
     (out / "table.json").write_text(json.dumps(rows, indent=2))
-    print(f"\n{args.seeds} randomized seeds per cell (marl_social/run.randomized_overrides):\n")
+    print(f"\n{args.seeds} randomized seeds per cell ({randomization}):\n")
     print(table)
     return 0
 
@@ -246,6 +255,9 @@ def main(argv=None) -> int:
     rep.add_argument("--out", default=f"{DEFAULT_OUT}/reproduce")
     rep.add_argument("--seeds", type=int, default=20)
     rep.add_argument("--workers", type=int, default=2)
+    rep.add_argument("--scenario", default="occluded_crosswalk",
+                     choices=["occluded_crosswalk", "t_intersection"],
+                     help="the paper's crosswalk (Figs. 3-6) or the T-intersection (Fig. 1 b)")
     rep.set_defaults(func=_reproduce)
 
     bench = sub.add_parser("bench", help="benchmarks: `bench env`, `bench planners`")

@@ -36,9 +36,15 @@ def episode_metrics(trace: Trace, road_map: RoadMap,
         min_gap_pedestrian_m: smallest centre distance robot-pedestrian minus both bounding
             radii [m], >= 0 (nan without pedestrian or crosswalk; conservative for the car's
             long sides).
-        yielded: the robot was never in the crosswalk while the pedestrian was in it.
+        yielded: the robot was never in the crosswalk while the pedestrian was in it, and
+            never in a conflict zone on its route, where it yields, that an agent with the
+            right of way reached within physical.YIELD_WINDOW_S or was in behind the robot.
         time_to_pass_s: time until the robot's footprint (bounding circle) has entered and left
-            the crosswalk [s] (nan if never).
+            the scenario's conflict area [s]: the crosswalk, or on a map without one every
+            conflict zone on its route (nan if never).
+        others_max_decel_mps2: hardest braking the robot forced on a human driver [m/s^2]
+            (>= 0): braking while the robot was the nearest agent in the human's way
+            (physical.others_max_decel).
         hard_brake: max_decel > HARD_BRAKE_MPS2.
     """
     return compute_metrics(trace, road_map, robot, metric_names("episode"))

@@ -1,8 +1,11 @@
-"""Physical metrics of the robot (group "episode"): collisions, speeds, braking, crosswalk.
+"""Physical metrics of the robot (group "episode"): collisions, speeds, braking, right of way.
 
-Measured against the first pedestrian and the first crosswalk of the map. Each metric is a
-short function of (trace, road_map, robot) registered in `marl_social.metrics.registry`; the
-helpers below give the per-agent series they share.
+The right-of-way metrics are measured against the scenario's conflict areas: on a map with a
+crosswalk, the first crosswalk and the first pedestrian (the paper's scenario); elsewhere the
+conflict zones on the robot's route (sim/road_map.ConflictZone) and the agents whose routes
+have the right of way there (sim/route_rules.route_conflicts). Each metric is a short function
+of (trace, road_map, robot) registered in `marl_social.metrics.registry`; the helpers below give
+the per-agent series they share.
 """
 
 from __future__ import annotations
@@ -10,14 +13,19 @@ from __future__ import annotations
 import numpy as np
 
 from marl_social.metrics.registry import register_metric
-from marl_social.sim.costs import crosswalk_occupancy
+from marl_social.sim.costs import crosswalk_occupancy, zone_occupancy
 from marl_social.sim.dynamics import DT_S
-from marl_social.sim.road_map import RoadMap
+from marl_social.sim.road_map import RoadMap, Route
+from marl_social.sim.route_rules import RouteConflict, route_conflicts
 from marl_social.sim.trace import Trace
 
 HARD_BRAKE_MPS2 = 5.0  # braking harder than this counts as a hard brake [m/s^2]
-OCCUPIED_FRACTION = 0.5  # crosswalk_occupancy above this counts as "in the crosswalk"
+OCCUPIED_FRACTION = 0.5  # crosswalk / zone occupancy above this counts as "in it"
 PASSED_FRACTION = 0.01  # ... and below this as clear of it
+YIELD_WINDOW_S = 2.0  # a right-of-way agent in the zone within this of the robot: not yielded
+FORCING_LOOKAHEAD_S = 3.0  # the robot is "in the way" of a human within this time ahead [s]
+FORCING_MARGIN_M = 10.0  # ... plus this distance [m]
+IN_PATH_HALF_WIDTH_M = 2.5  # ... and this close to its path (half a lane + half a car) [m]
 NAN = float("nan")
 
 
@@ -39,6 +47,46 @@ def agent_occupancy(trace: Trace, agent: int, road_map: RoadMap) -> np.ndarray:
     """
     return crosswalk_occupancy(trace.states[:, agent, :2], trace.bounding_radius_m[agent],
                                road_map.crosswalks[0])
+
+
+def robot_conflicts(trace: Trace, road_map: RoadMap, robot: str) -> tuple[RouteConflict, ...]:
+    """The conflict zones on the robot's route (empty if the map has no route for it)."""
+    route = road_map.routes.get(robot)
+    return route_conflicts(route, road_map) if route is not None else ()
+
+
+def zone_series(trace: Trace, agent: int, polygon: np.ndarray) -> np.ndarray:
+    """(T+1,) occupancy of a conflict zone by one agent's bounding circle, in [0, 1].
+
+    Args:
+        trace: the episode's trace.
+        agent: trace index of the agent.
+        polygon: (V, 2) the zone's outline, counter-clockwise [m].
+    """
+    xy = trace.states[:, agent, None, :2]  # (T+1, 1, 2): one circle per state
+    radius = np.full(xy.shape[:2], trace.bounding_radius_m[agent])
+    return zone_occupancy(xy, radius, polygon)
+
+
+def right_of_way_agents(trace: Trace, road_map: RoadMap, zone_index: int,
+                        robot: str) -> list[int]:
+    """Trace indices of the agents other than the robot whose route has the right of way in a zone.
+
+    Args:
+        trace: the episode's trace.
+        road_map: the map with every agent's route.
+        zone_index: index into road_map.conflict_zones.
+        robot: the robot's name (excluded).
+    """
+    out = []
+    for i, name in enumerate(trace.names):
+        route = road_map.routes.get(name)
+        if name == robot or route is None:
+            continue
+        if any(c.zone_index == zone_index and not c.yields
+               for c in route_conflicts(route, road_map)):
+            out.append(i)
+    return out
 
 
 def _robot_speeds(trace: Trace, robot: str) -> np.ndarray:
@@ -110,29 +158,128 @@ def min_gap_pedestrian(trace: Trace, road_map: RoadMap, robot: str) -> float:
 
 @register_metric("yielded", group="episode")
 def yielded(trace: Trace, road_map: RoadMap, robot: str) -> bool:
-    """The robot was never in the crosswalk while the pedestrian was in it (True without)."""
+    """The robot gave way: in no crosswalk with the pedestrian, in no zone in another's way.
+
+    Crosswalk: the robot was never in the first crosswalk while the first pedestrian was in
+    it. Conflict zones (those on its route where it yields): the robot was never in one while
+    an agent with the right of way there reached it within YIELD_WINDOW_S, or was in it behind
+    the robot along its own route (the robot in its way; merging behind it is giving way).
+    True without either.
+    """
+    r = trace.index(robot)
     peds = pedestrian_indices(trace)
-    if not road_map.crosswalks or not peds:
-        return True
-    r, p = trace.index(robot), peds[0]
-    robot_in = (agent_occupancy(trace, r, road_map) > OCCUPIED_FRACTION) & trace.active[:, r]
-    ped_in = agent_occupancy(trace, p, road_map) > OCCUPIED_FRACTION
-    return not bool(np.any(robot_in & ped_in & trace.active[:, p]))
+    if road_map.crosswalks and peds:
+        p = peds[0]
+        robot_in = (agent_occupancy(trace, r, road_map) > OCCUPIED_FRACTION) & trace.active[:, r]
+        ped_in = agent_occupancy(trace, p, road_map) > OCCUPIED_FRACTION
+        if np.any(robot_in & ped_in & trace.active[:, p]):
+            return False
+    window = round(YIELD_WINDOW_S / DT_S)
+    for conflict in robot_conflicts(trace, road_map, robot):
+        if not conflict.yields:
+            continue
+        polygon = conflict.zone.polygon
+        robot_in = (zone_series(trace, r, polygon) > OCCUPIED_FRACTION) & trace.active[:, r]
+        for j in right_of_way_agents(trace, road_map, conflict.zone_index, robot):
+            if np.any(robot_in & _claims(trace, road_map, j, r, polygon, window)):
+                return False
+    return True
+
+
+def _claims(trace: Trace, road_map: RoadMap, j: int, r: int, polygon: np.ndarray,
+            window: int) -> np.ndarray:
+    """(T+1,) bool: agent j enters the zone within `window` steps, or is in it behind agent r.
+
+    Args:
+        trace: the episode's trace.
+        road_map: the map (j's route).
+        j: trace index of the agent with the right of way.
+        r: trace index of the robot.
+        polygon: (V, 2) the zone's outline [m].
+        window: the look-ahead [steps].
+    """
+    inside = (zone_series(trace, j, polygon) > OCCUPIED_FRACTION) & trace.active[:, j]
+    entry = inside & ~np.concatenate([[False], inside[:-1]])
+    count = np.concatenate([[0], np.cumsum(entry)])  # count[k]: entries before step k
+    t = np.arange(len(inside))
+    arrives = count[np.minimum(t + window, len(inside) - 1) + 1] - count[t + 1] > 0
+    route = road_map.routes[trace.names[j]]
+    s_j, _, _ = route.project(trace.states[:, j, :2])
+    s_r, _, _ = route.project(trace.states[:, r, :2])
+    return arrives | (inside & (s_j < s_r))
+
+
+def _time_passed(occupancy: np.ndarray, times_s: np.ndarray) -> float:
+    """First time [s] an occupancy series (T+1,) is clear after having been touched; nan if never."""
+    entered = np.cumsum(occupancy > PASSED_FRACTION) > 0
+    passed = np.flatnonzero(entered & (occupancy <= PASSED_FRACTION))
+    return float(times_s[passed[0]]) if len(passed) else NAN
 
 
 @register_metric("time_to_pass_s", group="episode")
 def time_to_pass(trace: Trace, road_map: RoadMap, robot: str) -> float:
-    """Time until the robot's bounding circle has entered and left the crosswalk [s].
+    """Time until the robot's bounding circle has entered and left the scenario's conflict area [s].
 
-    The first time the robot no longer touches the crosswalk after touching it; nan if never
-    or without a crosswalk.
+    The area: the first crosswalk if the map has one, else every conflict zone on the robot's
+    route (the time it has left the last of them). The first time the robot no longer touches
+    the area after touching it; nan if never, or without a crosswalk or zone on its route.
     """
-    if not road_map.crosswalks:
+    r = trace.index(robot)
+    if road_map.crosswalks:
+        return _time_passed(agent_occupancy(trace, r, road_map), trace.times_s)
+    conflicts = robot_conflicts(trace, road_map, robot)
+    if not conflicts:
         return NAN
-    occupancy = agent_occupancy(trace, trace.index(robot), road_map)
-    entered = np.cumsum(occupancy > PASSED_FRACTION) > 0
-    passed = np.flatnonzero(entered & (occupancy <= PASSED_FRACTION))
-    return float(trace.times_s[passed[0]]) if len(passed) else NAN
+    times = [_time_passed(zone_series(trace, r, c.zone.polygon), trace.times_s)
+             for c in conflicts]
+    return float(max(times))  # nan if any zone was never passed
+
+
+def _in_path_distance(route: Route, xy_self: np.ndarray, xy_other: np.ndarray) -> np.ndarray:
+    """(T+1,) how far ahead along `route` another agent is [m], inf where not on the path.
+
+    Args:
+        route: the human's route.
+        xy_self: (T+1, 2) the human's positions [m].
+        xy_other: (T+1, 2) the other agent's positions [m].
+    """
+    s_self, _, _ = route.project(xy_self)
+    s_other, lateral, _ = route.project(xy_other)
+    ahead = s_other - s_self
+    on_path = (ahead > 0.0) & (np.abs(lateral) <= IN_PATH_HALF_WIDTH_M)
+    return np.where(on_path, ahead, np.inf)
+
+
+@register_metric("others_max_decel_mps2", group="episode")
+def others_max_decel(trace: Trace, road_map: RoadMap, robot: str) -> float:
+    """Hardest braking the robot forced on a human driver [m/s^2] (>= 0; 0 if none).
+
+    A human's braking in a step counts as forced by the robot when, at the start of that
+    step, the robot is in the human's way: its centre lies ahead on the human's route (within
+    IN_PATH_HALF_WIDTH_M of it), closer than FORCING_LOOKAHEAD_S at the human's speed plus
+    FORCING_MARGIN_M, and nearer along the route than any other agent there (a car queued
+    behind another brakes for that one). Both must be active.
+    """
+    if not len(trace.accel_mps2):
+        return 0.0
+    r = trace.index(robot)
+    worst = 0.0
+    for h, role in enumerate(trace.roles):
+        route = road_map.routes.get(trace.names[h])
+        if role != "human" or route is None:
+            continue
+        xy_h = trace.states[:, h, :2]
+        reach = trace.states[:, h, 3] * FORCING_LOOKAHEAD_S + FORCING_MARGIN_M
+        dist = {j: np.where(trace.active[:, j],
+                            _in_path_distance(route, xy_h, trace.states[:, j, :2]), np.inf)
+                for j in range(len(trace.names)) if j != h}
+        nearest_other = np.min([d for j, d in dist.items() if j != r], axis=0, initial=np.inf)
+        forced = ((dist[r] <= reach) & (dist[r] < nearest_other)
+                  & trace.active[:, h] & trace.active[:, r])[:-1]
+        braking = -trace.accel_mps2[:, h][forced]
+        if len(braking):
+            worst = max(worst, float(braking.max()))
+    return worst
 
 
 @register_metric("hard_brake", group="episode")

@@ -15,10 +15,17 @@ from dataclasses import dataclass
 import numpy as np
 
 from marl_social.sim.agent_spec import VehicleParams
-from marl_social.sim.costs import circle_gap, crosswalk_occupancy, step_cost, step_features
+from marl_social.sim.costs import (
+    circle_gap,
+    crosswalk_occupancy,
+    step_cost,
+    step_features,
+    zone_occupancy,
+)
 from marl_social.sim.dynamics import DT_S
 from marl_social.sim.footprint import covering_circles
 from marl_social.sim.road_map import Crosswalk, Route
+from marl_social.sim.route_rules import CurveSpeed
 
 
 @dataclass(frozen=True)
@@ -164,9 +171,14 @@ class CandidateEvaluation:
         static_gap_m: (A, C) smallest gap between the covering circles and the bounding boxes
             of the static polygons [m] (inf without polygons); only with geometry=True.
         min_vehicle_gap_m: (L, A, C) as min_gap_m, vehicles only; only with geometry=True.
+        vehicle_clearance_m: (L, A, C) as min_vehicle_gap_m but not clipped at 0 (negative:
+            the deepest overlap of covering circles) [m]; only with geometry=True.
+        curve_excess_mps: (A, C) largest excess of the speed over the curve speed along the
+            plan [m/s] (<= 0: within it everywhere); only with curve_speed.
         feature_totals: (L, A, C, N_FEATURES) per-feature totals over the horizon, in
             simulator-step units (step_cost summed over T is theta . feature_totals); only with
             features=True.
+        travel_m: (A, C, T) distance travelled along the route up to each step [m].
     """
 
     step_cost: np.ndarray
@@ -177,6 +189,39 @@ class CandidateEvaluation:
     static_gap_m: np.ndarray | None = None
     min_vehicle_gap_m: np.ndarray | None = None
     feature_totals: np.ndarray | None = None
+    travel_m: np.ndarray | None = None
+    vehicle_clearance_m: np.ndarray | None = None
+    curve_excess_mps: np.ndarray | None = None
+
+
+def zone_claims(scene: ScenePrediction, polygon: np.ndarray, priority: np.ndarray,
+                margin_s: float, dt_s: float) -> np.ndarray:
+    """(L, M, T) how much each priority object claims a zone at each planner step, 0..1.
+
+    An object claims the zone when it occupies it now or will within margin_s, extrapolating
+    its predicted motion at its current predicted velocity (beyond the horizon too); the claim
+    is the largest occupancy (sim/costs.zone_occupancy) over offsets 0, dt, ..., margin_s.
+
+    Args:
+        scene: the predicted objects (L hypotheses, M objects, T steps).
+        polygon: (V, 2) the zone's convex outline, counter-clockwise [m].
+        priority: (L, M) bool, the objects with the right of way in the zone.
+        margin_s: the time margin [s], >= 0.
+        dt_s: the planner step [s].
+    """
+    xy = scene.xy  # (L, M, T, 2)
+    if xy.shape[2] > 1:
+        velocity = np.gradient(xy, dt_s, axis=2)
+    else:
+        velocity = np.zeros_like(xy)
+    offsets = np.arange(round(margin_s / dt_s) + 1) * dt_s  # (J,)
+    ahead = xy[None] + offsets[:, None, None, None, None] * velocity[None]  # (J, L, M, T, 2)
+    circles, radii = covering_circles(ahead, scene.heading[None],
+                                      scene.length_m[None, ..., None],
+                                      scene.width_m[None, ..., None],
+                                      scene.is_pedestrian[None, ..., None])
+    claim = zone_occupancy(circles, radii, polygon).max(axis=0)  # (L, M, T)
+    return np.where((np.asarray(priority, dtype=bool) & scene.mask)[..., None], claim, 0.0)
 
 
 def collision_free_totals(ev: CandidateEvaluation) -> np.ndarray:
@@ -186,13 +231,51 @@ def collision_free_totals(ev: CandidateEvaluation) -> np.ndarray:
     geometry=True) is set to +inf, so that a driver's Q* never chooses to run into a car: the safety feature alone saturates at 1 per
     step, less than the speed cost of stopping behind a stopped car. (Pedestrians are kept
     out of the ego's way by the crosswalk feature.) A first action all of whose continuations
-    collide gets Q* = inf. Under a hypothesis where every plan collides, all keep their
-    unconstrained costs (the least bad).
+    collide gets Q* = inf. Under a hypothesis where every plan collides (e.g. stopped so
+    close behind a car that the covering circles, which overestimate a car's length, already
+    touch), only the plans with the largest clearance (least overlap) keep their costs: a
+    driver stopped too close behind a car does not drive on into it, one with a car too close
+    behind it drives away.
     """
     total = ev.step_cost.sum(axis=-1)
     colliding = ev.min_vehicle_gap_m <= 0.0
     hopeless = colliding.all(axis=(-1, -2), keepdims=True)
-    return np.where(colliding & ~hopeless, np.inf, total)
+    if not hopeless.any():
+        return np.where(colliding, np.inf, total)
+    clearance = ev.vehicle_clearance_m  # (L, A, C)
+    best = clearance >= clearance.max(axis=(-1, -2), keepdims=True)
+    return np.where(np.where(hopeless, ~best, colliding), np.inf, total)
+
+
+def _governed(v: np.ndarray, ds: np.ndarray, v0: float, cont: np.ndarray, n_first: int,
+              dt_s: float, v_ceiling_mps: float) -> tuple[np.ndarray, ...]:
+    """Accelerating continuations stop accelerating at a speed ceiling (then hold it).
+
+    "Speed up to the curve speed, then keep it": without it, a driver in a bend could only
+    choose between holding its speed and accelerating past the curve speed, and would keep
+    putting the acceleration off. The continuation is monotone, so clamping it is exact.
+
+    Args:
+        v: (A, C, T) speeds of the plans [m/s].
+        ds: (A, C, T) their distances [m] (returned as they are for an infinite ceiling).
+        v0: initial speed [m/s].
+        cont: (C,) continuation accelerations [m/s^2].
+        n_first: steps of the first segment.
+        dt_s: step [s].
+        v_ceiling_mps: the ceiling [m/s] (inf: nothing changes).
+
+    Returns:
+        v, ds, a_eff as rollout_speeds returns them.
+    """
+    if not np.isfinite(v_ceiling_mps):
+        return v, ds, np.diff(np.concatenate([np.full(v.shape[:-1] + (1,), v0), v], -1),
+                              axis=-1) / dt_s
+    v1 = v[..., n_first - 1: n_first]  # (A, C, 1) speed at the end of the first segment
+    rising = (cont > 0)[None, :, None] & (np.arange(v.shape[-1]) >= n_first)
+    v = np.where(rising, np.minimum(v, np.maximum(v1, v_ceiling_mps)), v)
+    v_full = np.concatenate([np.full(v.shape[:-1] + (1,), v0), v], axis=-1)
+    ds = np.cumsum(0.5 * (v_full[..., 1:] + v_full[..., :-1]) * dt_s, axis=-1)
+    return v, ds, np.diff(v_full, axis=-1) / dt_s
 
 
 def evaluate_candidates(cands: CandidateSet, theta: np.ndarray, v_ref_mps: float,
@@ -200,8 +283,18 @@ def evaluate_candidates(cands: CandidateSet, theta: np.ndarray, v_ref_mps: float
                         prev_accel: float, scene: ScenePrediction,
                         crosswalks: tuple[Crosswalk, ...], geometry: bool = False,
                         static_boxes: np.ndarray | None = None,
-                        features: bool = False) -> CandidateEvaluation:
+                        features: bool = False, yield_zones: tuple = (),
+                        yield_margin_s: float = 0.0,
+                        curve_speed: CurveSpeed | None = None) -> CandidateEvaluation:
     """Roll out every candidate and cost it against every scene hypothesis (see module doc).
+
+    yield_zones: the conflict zones the ego yields at, each (polygon (V, 2) [m], priority
+    (L, M) bool: the scene objects with the right of way there); they add to the conflict
+    feature (sim/costs.py) the ego's occupancy times each priority object's claim on the zone
+    (`zone_claims`: in it now or within yield_margin_s [s] at its predicted velocity).
+
+    curve_speed: the curve speed along the route (sim/route_rules.CurveSpeed), for
+    curve_excess_mps; None: not computed.
 
     features: also return the per-feature totals (for discrete-choice IRL, agents/irl/choice.py);
     the costs are computed exactly as without it.
@@ -215,6 +308,11 @@ def evaluate_candidates(cands: CandidateSet, theta: np.ndarray, v_ref_mps: float
     step = np.arange(cands.n_steps)
     accel = np.where(step < cands.n_first, first[:, None, None], cont[None, :, None])  # (A,C,T)
     v, ds, a_eff = rollout_speeds(v0, accel, dt)
+    curve_excess = None
+    if curve_speed is not None:
+        v, ds, a_eff = _governed(v, ds, v0, cont, cands.n_first, dt,
+                                 float(curve_speed.at(s0 + ds).min()))
+        curve_excess = (v - curve_speed.at(s0 + ds)).max(axis=-1)  # (A, C)
     xy, heading = route.point_at(s0 + ds)  # (A, C, T, 2), (A, C, T)
     ego_circles, ego_r = covering_circles(xy, heading, vehicle.length_m, vehicle.width_m, False)
     ego_radius = 0.5 * math.hypot(vehicle.length_m, vehicle.width_m)
@@ -230,9 +328,10 @@ def evaluate_candidates(cands: CandidateSet, theta: np.ndarray, v_ref_mps: float
     other_is_ped = scene.is_pedestrian[:, None, None, None, :]
     other_mask = scene.mask[:, None, None, None, :]
     prev = np.concatenate([np.full(a_eff.shape[:-1] + (1,), prev_accel), a_eff[..., :-1]], -1)
-    gap = None
+    gap = raw_gap = None
     if geometry and scene.mask.shape[1]:  # shared by the safety cost and the gap constraint
-        gap = circle_gap(ego_circles, ego_r, other_circles, other_circle_r)  # (L,A,C,T,M)
+        raw_gap = circle_gap(ego_circles, ego_r, other_circles, other_circle_r, clip=False)
+        gap = np.maximum(raw_gap, 0.0)  # (L, A, C, T, M)
     feature_args = {
         "lateral_m": 0.0, "speed_mps": v, "v_ref_mps": v_ref_mps, "accel_mps2": a_eff,
         "prev_accel_mps2": prev, "ego_xy": xy, "ego_radius": ego_radius, "ego_is_ped": False,
@@ -241,6 +340,10 @@ def evaluate_candidates(cands: CandidateSet, theta: np.ndarray, v_ref_mps: float
         "other_circles": other_circles, "other_circle_r": other_circle_r,
         "other_mask": other_mask, "crosswalks": crosswalks, "gap": gap,
     }
+    if yield_zones:
+        feature_args["yield_zones"] = tuple(
+            (polygon, to_cand(zone_claims(scene, polygon, priority, yield_margin_s, dt)))
+            for polygon, priority in yield_zones)
     cost = step_cost(theta, **feature_args) * (dt / DT_S)
     cost = np.broadcast_to(cost, (len(scene.mask),) + v.shape)
     totals = None
@@ -248,16 +351,19 @@ def evaluate_candidates(cands: CandidateSet, theta: np.ndarray, v_ref_mps: float
         phi = step_features(**feature_args) * (dt / DT_S)  # (L or 1, A, C, T, F)
         totals = np.broadcast_to(phi.sum(axis=-2), cost.shape[:-1] + (phi.shape[-1],))
     if not geometry:
-        return CandidateEvaluation(cost, v, a_eff, feature_totals=totals)
+        return CandidateEvaluation(cost, v, a_eff, feature_totals=totals, travel_m=ds,
+                                   curve_excess_mps=curve_excess)
     n_hyp = len(scene.mask)
     if gap is not None:
         gap = np.where(other_mask, gap, np.inf)
         min_gap = np.broadcast_to(gap.min(axis=(-1, -2)), (n_hyp,) + v.shape[:2])
         vehicle_gap = np.where(other_is_ped, np.inf, gap)
         min_vehicle_gap = np.broadcast_to(vehicle_gap.min(axis=(-1, -2)), min_gap.shape)
+        clearance = np.where(other_mask & ~other_is_ped, raw_gap, np.inf)
+        clearance = np.broadcast_to(clearance.min(axis=(-1, -2)), min_gap.shape)
     else:
         min_gap = np.full((n_hyp,) + v.shape[:2], np.inf)
-        min_vehicle_gap = min_gap
+        min_vehicle_gap = clearance = min_gap
     conflict = np.zeros((n_hyp,) + v.shape)
     ped_mask = other_mask & other_is_ped
     for cw in crosswalks:
@@ -280,4 +386,4 @@ def evaluate_candidates(cands: CandidateSet, theta: np.ndarray, v_ref_mps: float
         dist = np.sqrt((outside ** 2).sum(axis=-1)) - ego_r[..., None]  # (A, C, T, K, S)
         static_gap = dist.min(axis=(-1, -2, -3))
     return CandidateEvaluation(cost, v, a_eff, min_gap, conflict.max(axis=-1), static_gap,
-                               min_vehicle_gap, totals)
+                               min_vehicle_gap, totals, ds, clearance, curve_excess)

@@ -4,6 +4,12 @@ It is shared by the human drivers (who act on it) and the robot (which infers fr
 
 Q*(x_hat, u) = min over continuations c of  sum_k theta^T phi(x_k, u_k); continuations that
 run into an object the driver predicts are excluded (it never plans a collision).
+
+The road's rules enter through `RoadRules` (built by agents/human.py from the static map with
+sim/route_rules.py): a stop line the driver has not yet stopped at is a constraint (plans
+whose front passes it are excluded), the right of way is a cost (the conflict feature over
+the zones it yields at: gap acceptance emerges from it), and it keeps to the curve speed in
+bends (a constraint, like the stop line).
 """
 
 from __future__ import annotations
@@ -13,6 +19,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from marl_social.models.candidates import (
+    CandidateEvaluation,
     CandidateSet,
     ScenePrediction,
     collision_free_totals,
@@ -21,6 +28,7 @@ from marl_social.models.candidates import (
 from marl_social.sim.agent_spec import VehicleParams
 from marl_social.sim.costs import CostWeights
 from marl_social.sim.road_map import Crosswalk, Route
+from marl_social.sim.route_rules import CurveSpeed
 
 
 @dataclass(frozen=True)
@@ -38,6 +46,8 @@ class DriverModel:
         plan_dt_s: time step of the planner's rollout [s] (coarser than the simulator's;
             per-step costs are scaled by plan_dt / DT_S so Q is in simulator-step units).
         vehicle: its physical parameters.
+        yield_margin_s: in a conflict zone it yields at, it wants to be out of the zone this
+            long before a car with the right of way arrives (its accepted gap) [s].
     """
 
     theta: CostWeights = field(default_factory=CostWeights)
@@ -49,12 +59,15 @@ class DriverModel:
     horizon_s: float = 3.0
     plan_dt_s: float = 0.25
     vehicle: VehicleParams = field(default_factory=VehicleParams)
+    yield_margin_s: float = 1.5
 
     def __post_init__(self):
         if not (self.beta >= 0):  # also rejects NaN
             raise ValueError(f"DriverModel.beta must be >= 0 (inf allowed), got {self.beta}")
         if not self.horizon_s > self.first_segment_s >= self.plan_dt_s > 0:
             raise ValueError("DriverModel: need horizon_s > first_segment_s >= plan_dt_s > 0")
+        if not self.yield_margin_s >= 0:
+            raise ValueError(f"DriverModel.yield_margin_s must be >= 0, got {self.yield_margin_s}")
 
     @property
     def candidates(self) -> CandidateSet:
@@ -67,8 +80,69 @@ class DriverModel:
         return self.candidates.plan_times_s
 
 
+@dataclass(frozen=True)
+class RoadRules:
+    """What the static map imposes on one decision of a driver (sim/route_rules.py).
+
+    Attributes:
+        stop_s_m: arc length its front must not pass: the next stop line it has not yet come to
+            rest at [m]; None: no such line ahead.
+        yield_zones: the conflict zones it yields at, each (polygon (V, 2) [m], priority (L, M)
+            bool: the scene objects with the right of way there).
+        curve_speed: the speed it keeps to in bends (a constraint); None: straight route.
+    """
+
+    stop_s_m: float | None = None
+    yield_zones: tuple = ()
+    curve_speed: CurveSpeed | None = None
+
+
+def _evaluate(model: DriverModel, route: Route, s0: float, v0: float, prev_accel: float,
+              scene: ScenePrediction, crosswalks: tuple[Crosswalk, ...], rules: RoadRules | None,
+              features: bool) -> CandidateEvaluation:
+    extra = {} if rules is None else {"yield_zones": rules.yield_zones,
+                                      "yield_margin_s": model.yield_margin_s,
+                                      "curve_speed": rules.curve_speed}
+    return evaluate_candidates(model.candidates, model.theta.as_array(), model.v_desired_mps,
+                               model.vehicle, route, s0, v0, prev_accel, scene, crosswalks,
+                               geometry=True, features=features, **extra)
+
+
+def rule_abiding_totals(ev: CandidateEvaluation, model: DriverModel, s0: float,
+                        rules: RoadRules | None) -> np.ndarray:
+    """(L, A, C) collision_free_totals, also +inf for plans that break a rule of the road.
+
+    Plans whose front passes rules.stop_s_m are excluded (if none stops in time, those that
+    overshoot least are kept: the hardest braking), then those that exceed the curve speed
+    (if every one does, those that exceed it least are kept). If no plan both keeps these
+    rules and avoids the predicted vehicles, the rules are dropped under that hypothesis
+    (avoiding a collision comes first).
+
+    Args:
+        ev: the candidates' evaluation (with travel_m, and curve_excess_mps for a bendy route).
+        model: the driver's decision model (its vehicle length).
+        s0: the driver's arc length along its route [m].
+        rules: the road's rules (None: collision_free_totals).
+    """
+    totals = collision_free_totals(ev)
+    if rules is None:
+        return totals
+    ok = np.ones(ev.v.shape[:2], dtype=bool)  # (A, C)
+    if rules.stop_s_m is not None:
+        front = s0 + ev.travel_m[..., -1] + 0.5 * model.vehicle.length_m  # (A, C)
+        overshoot = np.maximum(front - rules.stop_s_m, 0.0)
+        ok &= overshoot <= overshoot.min()
+    if ev.curve_excess_mps is not None:
+        excess = np.where(ok, np.maximum(ev.curve_excess_mps, 0.0), np.inf)
+        ok &= excess <= excess.min()
+    kept = np.where(ok, totals, np.inf)
+    hopeless = ~np.isfinite(kept).any(axis=(-1, -2), keepdims=True)
+    return np.where(hopeless, totals, kept)
+
+
 def driver_q_values(model: DriverModel, route: Route, s0: float, v0: float, prev_accel: float,
-                    scene: ScenePrediction, crosswalks: tuple[Crosswalk, ...]) -> np.ndarray:
+                    scene: ScenePrediction, crosswalks: tuple[Crosswalk, ...],
+                    rules: RoadRules | None = None) -> np.ndarray:
     """Q*(x_hat, u) for each first action u and each scene hypothesis (eq. 11).
 
     Args:
@@ -79,20 +153,21 @@ def driver_q_values(model: DriverModel, route: Route, s0: float, v0: float, prev
         prev_accel: its last acceleration [m/s^2] (for the jerk term).
         scene: predicted others, L hypotheses, at model.plan_times_s.
         crosswalks: the crosswalks of the map.
+        rules: stop line, right of way and curve speeds on its route (None: none).
 
     Returns:
         (L, A) optimal cost-to-go of each first action; continuations that run into a
-        predicted object are excluded (candidates.collision_free_totals).
+        predicted object, or past a stop line not yet served, are excluded
+        (rule_abiding_totals).
     """
-    ev = evaluate_candidates(model.candidates, model.theta.as_array(), model.v_desired_mps,
-                             model.vehicle, route, s0, v0, prev_accel, scene, crosswalks,
-                             geometry=True)
-    return collision_free_totals(ev).min(axis=-1)
+    ev = _evaluate(model, route, s0, v0, prev_accel, scene, crosswalks, rules, False)
+    return rule_abiding_totals(ev, model, s0, rules).min(axis=-1)
 
 
 def driver_choice_features(model: DriverModel, route: Route, s0: float, v0: float,
                            prev_accel: float, scene: ScenePrediction,
-                           crosswalks: tuple[Crosswalk, ...]) -> tuple[np.ndarray, np.ndarray]:
+                           crosswalks: tuple[Crosswalk, ...],
+                           rules: RoadRules | None = None) -> tuple[np.ndarray, np.ndarray]:
     """What a driver's decision depends on, linear in theta.
 
     For discrete-choice IRL (agents/irl/choice.py): Q*(u) = min over allowed c of
@@ -100,10 +175,8 @@ def driver_choice_features(model: DriverModel, route: Route, s0: float, v0: floa
 
     Returns:
         features (A, C, N_FEATURES): per-feature totals of each candidate [simulator-step units];
-        allowed (A, C) bool: the continuations collision_free_totals keeps.
+        allowed (A, C) bool: the continuations rule_abiding_totals keeps.
         Both for the first scene hypothesis.
     """
-    ev = evaluate_candidates(model.candidates, model.theta.as_array(), model.v_desired_mps,
-                             model.vehicle, route, s0, v0, prev_accel, scene, crosswalks,
-                             geometry=True, features=True)
-    return ev.feature_totals[0].copy(), np.isfinite(collision_free_totals(ev)[0])
+    ev = _evaluate(model, route, s0, v0, prev_accel, scene, crosswalks, rules, True)
+    return ev.feature_totals[0].copy(), np.isfinite(rule_abiding_totals(ev, model, s0, rules)[0])

@@ -10,8 +10,13 @@ Features per step (units):
   accel      a^2 [m^2/s^4]
   jerk       (a_k - a_{k-1})^2, change of acceleration over one step [m^2/s^4]
   safety     sum_i exp(-d_i), d_i = gap to other agent i between covering circles [m], >= 0
-  crosswalk  sum over crosswalks of occupancy(ego) * sum over agents of the other kind of
-             occupancy(other): a vehicle and a pedestrian in the same crosswalk at once [-]
+  crosswalk  the right-of-way conflict [-]: sum over crosswalks of occupancy(ego) * sum over
+             agents of the other kind of occupancy(other) (a vehicle and a pedestrian in the
+             same crosswalk at once), plus sum over the conflict zones the ego yields at of
+             occupancy(ego) * sum over the agents with the right of way there of their claim
+             on the zone (`yield_zones`: their occupancy now or within the ego's time margin;
+             e.g. a left-turner and oncoming traffic in the lane it crosses). The name stays
+             "crosswalk" so that stored weights keep their meaning.
 """
 
 from __future__ import annotations
@@ -94,7 +99,33 @@ def crosswalk_occupancy(xy, bounding_radius_m, crosswalk: Crosswalk) -> np.ndarr
     return 0.5 * (1.0 + np.tanh(0.5 * depth / OCCUPANCY_SOFTNESS_M))
 
 
-def circle_gap(ego_circles, ego_circle_r, other_circles, other_circle_r) -> np.ndarray:
+def zone_occupancy(circles, circle_r, polygon) -> np.ndarray:
+    """Smooth 0..1 indicator that a footprint's covering circles overlap a convex zone.
+
+    The overlap depth of a circle is its centre's signed distance inside the polygon (the
+    smallest over its edges; outside near a corner this underestimates the distance, so the
+    zone counts as slightly larger there) plus its radius; the footprint's is the largest over
+    its circles.
+
+    Args:
+        circles: (..., C, 2) centres of the covering circles [m] (footprint.covering_circles).
+        circle_r: (..., C) their radii [m].
+        polygon: (V, 2) the zone's convex outline, counter-clockwise [m].
+
+    Returns:
+        (...) occupancy in 0..1.
+    """
+    poly = np.asarray(polygon, dtype=np.float64)
+    edge = np.roll(poly, -1, axis=0) - poly  # (V, 2)
+    length = np.linalg.norm(edge, axis=1)
+    rel = np.asarray(circles)[..., None, :] - poly  # (..., C, V, 2)
+    inside = ((edge[:, 0] * rel[..., 1] - edge[:, 1] * rel[..., 0]) / length).min(axis=-1)
+    depth = (inside + circle_r).max(axis=-1)
+    return 0.5 * (1.0 + np.tanh(0.5 * depth / OCCUPANCY_SOFTNESS_M))
+
+
+def circle_gap(ego_circles, ego_circle_r, other_circles, other_circle_r,
+               clip: bool = True) -> np.ndarray:
     """Gap between two footprints given by their covering circles [m], >= 0.
 
     Args:
@@ -103,25 +134,30 @@ def circle_gap(ego_circles, ego_circle_r, other_circles, other_circle_r) -> np.n
         ego_circle_r: (..., C) radii of the ego's covering circles [m].
         other_circles: (..., M, C, 2) centres of the others' covering circles [m].
         other_circle_r: (..., M, C) radii of the others' covering circles [m].
+        clip: clip the gap at 0; False: negative values are the deepest circle overlap.
 
     Returns:
-        (..., M) smallest circle-to-circle gap per other agent, clipped at 0 [m].
+        (..., M) smallest circle-to-circle gap per other agent, clipped at 0 [m] (with clip).
     """
     ex, ey = ego_circles[..., None, :, None, 0], ego_circles[..., None, :, None, 1]
     ox, oy = other_circles[..., :, None, :, 0], other_circles[..., :, None, :, 1]
     dx, dy = ex - ox, ey - oy
     dist = np.sqrt(dx * dx + dy * dy)
     gap = dist - ego_circle_r[..., None, :, None] - other_circle_r[..., :, None, :]
-    return np.maximum(gap.min(axis=(-1, -2)), 0.0)
+    gap = gap.min(axis=(-1, -2))
+    return np.maximum(gap, 0.0) if clip else gap
 
 
 def _feature_terms(*, lateral_m, speed_mps, v_ref_mps, accel_mps2, prev_accel_mps2,
                    ego_xy, ego_radius, ego_is_ped, ego_circles, ego_circle_r,
                    other_xy, other_radius, other_is_ped, other_circles, other_circle_r, other_mask,
-                   crosswalks, needed=(True,) * N_FEATURES, gap=None) -> list:
+                   crosswalks, needed=(True,) * N_FEATURES, gap=None, yield_zones=()) -> list:
     """The six per-step features in FEATURE_NAMES order (None where not needed).
 
-    `gap` may pass circle_gap(ego, others) already computed by the caller.
+    `gap` may pass circle_gap(ego, others) already computed by the caller. `yield_zones`: the
+    conflict zones the ego yields at, each (polygon (V, 2) [m], claim (..., M) in 0..1: how much
+    each other with the right of way there claims the zone, 0 for the others; broadcast
+    against other_mask).
     """
     terms = [None] * N_FEATURES
     if needed[0]:
@@ -146,6 +182,9 @@ def _feature_terms(*, lateral_m, speed_mps, v_ref_mps, accel_mps2, prev_accel_mp
                 occ_other = crosswalk_occupancy(other_xy, other_radius, cw)
                 conflict = conflict + occ_ego * np.sum(np.where(pair_mask, occ_other, 0.0),
                                                        axis=-1)
+        for polygon, claim in yield_zones:
+            occ_ego = zone_occupancy(ego_circles, ego_circle_r, polygon)
+            conflict = conflict + occ_ego * np.sum(np.where(other_mask, claim, 0.0), axis=-1)
         terms[5] = conflict
     return terms
 
@@ -157,8 +196,9 @@ def step_features(**kwargs) -> np.ndarray:
     ego_xy (..., 2), ego_radius, ego_is_ped (...), ego_circles (..., C, 2) and ego_circle_r
     (..., C) from footprint.covering_circles; other_xy (..., M, 2), other_radius,
     other_is_ped (..., M), other_circles (..., M, C, 2), other_circle_r (..., M, C),
-    other_mask (..., M) bool (excludes absent agents and the ego itself); crosswalks.
-    Leading dimensions broadcast. Returns (..., N_FEATURES) in FEATURE_NAMES order.
+    other_mask (..., M) bool (excludes absent agents and the ego itself); crosswalks;
+    optionally yield_zones (see the module docstring: ((polygon (V, 2), claim (..., M)),
+    ...)). Leading dimensions broadcast. Returns (..., N_FEATURES) in FEATURE_NAMES order.
     """
     terms = _feature_terms(**kwargs)
     return np.stack(np.broadcast_arrays(*terms), axis=-1)

@@ -13,6 +13,7 @@ from marl_social.scenarios.roads import (
     straight_lane,
     straight_route,
 )
+from marl_social.sim.road_map import Route
 
 
 def test_lane_centres_are_symmetric_and_one_lane_width_apart():
@@ -40,10 +41,13 @@ def test_every_lane_of_every_scenario_has_the_shared_width(name):
     layout = make_scenario(name).build(np.random.default_rng(0))
     assert layout.road_map.lanes
     assert all(lane.width_m == LANE_WIDTH_M for lane in layout.road_map.lanes)
-    # every vehicle starts on the centreline of a lane, its route along that lane
-    lane_y = {float(lane.centerline[0, 1]) for lane in layout.road_map.lanes}
+    # every vehicle starts on the centreline of a lane, on its own route, heading along it
+    lane_routes = [Route(lane.centerline) for lane in layout.road_map.lanes]
     for spec in layout.agents:
         if spec.kind == "vehicle":
-            assert float(spec.initial_state[1]) in lane_y
-            route_y = layout.road_map.routes[spec.name].point_at(np.array([0.0]))[0][0, 1]
-            assert route_y == spec.initial_state[1]
+            xy, heading = spec.initial_state[:2], spec.initial_state[2]
+            offsets = [abs(route.project(xy)[1]) for route in lane_routes]
+            assert min(offsets) < 1e-9, f"{spec.name} starts off every lane centreline"
+            _, lateral, route_heading = layout.road_map.routes[spec.name].project(xy)
+            assert abs(lateral) < 1e-9
+            assert abs(np.angle(np.exp(1j * (heading - route_heading)))) < 1e-9

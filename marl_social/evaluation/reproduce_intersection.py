@@ -1,0 +1,169 @@
+"""`marl-social reproduce --scenario t_intersection`: the T-intersection (paper Fig. 1 b).
+
+Figures: trajectory snapshots, speeds and who sees the hidden car V3 (the robot; the first
+left-turner) for the social planner with V3 near and far, the aggressive planner with V3 near
+(it should not pull out) and the conservative planner with V3 far (it need not wait).
+
+Table: every robot planner x hidden_vehicle variant over N seeds of `randomized_overrides`
+(the left-turners' start, speed and rationality, V3's speed and start distance, the gap between
+the parked cars): collision, yield and hard-brake rates of the robot, its mean time to pass its
+conflict zone and mean speed, the mean hardest braking it forced on a human, and how often the
+first left-turner let V3 pass before turning.
+"""
+
+from __future__ import annotations
+
+import multiprocessing as mp
+from pathlib import Path
+
+import numpy as np
+
+SCENARIO = "t_intersection"
+PLANNERS = ("social", "aggressive", "conservative", "oracle")
+VARIANTS = ("near", "far", "none")
+FIGURES = (
+    ("t_social_near", "social", "near"),
+    ("t_social_far", "social", "far"),
+    ("t_aggressive_near", "aggressive", "near"),
+    ("t_conservative_far", "conservative", "far"),
+)
+MAX_CYCLES = 150  # 15 s: every planner that goes has left the junction by then
+# the whole plausible range of each randomized knob (SI units, see TIntersectionParams)
+RANDOMIZATION: dict[str, tuple[float, float]] = {
+    "human_start_m": (6.0, 20.0),
+    "human_speed_mps": (3.0, 8.0),
+    "human_beta": (2.0, 30.0),
+    "hidden_speed_mps": (9.0, 13.0),
+    "hidden_near_m": (30.0, 45.0),
+    "hidden_far_m": (110.0, 160.0),
+    "parked_gap_m": (0.5, 2.0),
+}
+
+
+def randomized_overrides(seed: int) -> dict:
+    """Overrides of one randomized episode.
+
+    Each knob of RANDOMIZATION uniform over its range, in that order, from a generator seeded
+    with 30_000 + `seed`.
+    """
+    rng = np.random.default_rng(30_000 + seed)
+    return {key: float(rng.uniform(lo, hi)) for key, (lo, hi) in RANDOMIZATION.items()}
+
+
+def first_left_turner_waited(result, hidden: str) -> float:
+    """Whether human_0 let V3 pass.
+
+    1.0 if it entered the left-turn crossing only after V3 had left it, 0.0 if before (or if V3
+    never came); nan without human_0 or V3.
+
+    Args:
+        result: an EpisodeResult of the t_intersection scenario.
+        hidden: V3's name (human_<n_humans>).
+    """
+    trace, road_map = result.trace, result.road_map
+    if "human_0" not in trace.names or hidden not in trace.names or hidden == "human_0":
+        return float("nan")
+    zone = next(z for z in road_map.conflict_zones if z.name == "left_turn_crossing")
+
+    def inside(name):
+        i = trace.index(name)
+        return np.flatnonzero(zone.contains(trace.states[:, i, :2]) & trace.active[:, i])
+
+    turner, car = inside("human_0"), inside(hidden)
+    if not len(car):
+        return 0.0
+    return float(len(turner) == 0 or turner[0] > car[-1])
+
+
+def _one(job):
+    from marl_social.evaluation.run import run_episode
+
+    planner, variant, seed = job
+    try:
+        res = run_episode(SCENARIO, seed=seed, robot_planner=planner, hidden_vehicle=variant,
+                          max_cycles=MAX_CYCLES, **randomized_overrides(seed))
+        summary = dict(res.metrics)
+        hidden = f"human_{res.trace.roles.count('human') - 1}"  # V3 is the last human
+        summary["human_0_waited"] = first_left_turner_waited(res, hidden)
+        return planner, variant, seed, summary, None
+    except Exception as err:  # noqa: BLE001  (a failed run is recorded, the table goes on)
+        return planner, variant, seed, None, f"{type(err).__name__}: {err}"
+
+
+def run_table(n_seeds: int, workers: int = 2, planners=PLANNERS, variants=VARIANTS,
+              progress: bool = True) -> list[dict]:
+    """One row per (planner, variant): rates and means over n_seeds randomized episodes."""
+    jobs = [(p, v, s) for p in planners for v in variants for s in range(n_seeds)]
+    if workers > 1:
+        with mp.get_context("spawn").Pool(workers) as pool:
+            results = list(_progress(pool.imap(_one, jobs), len(jobs), progress))
+    else:
+        results = list(_progress(map(_one, jobs), len(jobs), progress))
+    rows = []
+    for p in planners:
+        for v in variants:
+            runs = [m for pp, vv, _, m, _ in results if pp == p and vv == v and m is not None]
+            errors = [err for pp, vv, _, _, err in results if pp == p and vv == v and err]
+            row = {"planner": p, "variant": v, "n": len(runs), "errors": errors}
+            if runs:
+                def mean(key, runs=runs):
+                    return float(np.nanmean([float(m[key]) for m in runs]))
+
+                row.update({
+                    "collision_rate": mean("robot_collision"), "yield_rate": mean("yielded"),
+                    "hard_brake_rate": mean("hard_brake"), "time_to_pass_s": mean("time_to_pass_s"),
+                    "mean_speed_mps": mean("mean_speed_mps"),
+                    "others_max_decel_mps2": mean("others_max_decel_mps2"),
+                    "human_0_waited_rate": (mean("human_0_waited") if v != "none"
+                                            else float("nan")),
+                })
+            rows.append(row)
+    return rows
+
+
+def _progress(iterable, total, enabled):
+    if not enabled:
+        return iterable
+    from tqdm import tqdm
+
+    return tqdm(iterable, total=total, desc="episodes")
+
+
+def format_table(rows: list[dict]) -> str:
+    """The rows of run_table as a Markdown table."""
+    header = ("| planner | V3 | n | collision | yielded | hard brake | time to pass [s] | "
+              "mean speed [m/s] | forced braking [m/s^2] | human_0 let V3 pass |")
+    lines = [header, "|---|---|---|---|---|---|---|---|---|---|"]
+    for r in rows:
+        if r["n"] == 0:
+            lines.append(f"| {r['planner']} | {r['variant']} | 0 | errors: {r['errors'][:1]} "
+                         "| | | | | | |")
+            continue
+        waited = r["human_0_waited_rate"]
+        lines.append(
+            f"| {r['planner']} | {r['variant']} | {r['n']} | {r['collision_rate']:.0%} | "
+            f"{r['yield_rate']:.0%} | {r['hard_brake_rate']:.0%} | {r['time_to_pass_s']:.2f} | "
+            f"{r['mean_speed_mps']:.2f} | {r['others_max_decel_mps2']:.2f} | "
+            f"{'-' if np.isnan(waited) else f'{waited:.0%}'} |")
+    return "\n".join(lines)
+
+
+def write_figures(out: Path, seed: int = 0) -> list[Path]:
+    """The FIGURES as PNGs in `out`; panel (c) shows who sees V3 (1) or not (0)."""
+    from marl_social.evaluation.run import run_episode
+    from marl_social.viz.figures import plot_episode
+
+    paths = []
+    for stem, planner, variant in FIGURES:
+        res = run_episode(SCENARIO, seed=seed, robot_planner=planner, hidden_vehicle=variant,
+                          max_cycles=MAX_CYCLES)
+        tr = res.trace
+        hidden = tr.index(f"human_{tr.roles.count('human') - 1}")  # V3 is the last human
+        seen = {f"{observer} sees V3 ({tr.names[hidden]})":
+                tr.visible[:, tr.index(observer), hidden].astype(float)
+                for observer in ("robot_0", "human_0") if observer in tr.names}
+        paths.append(plot_episode(
+            res.road_map, tr.names, tr.roles, tr.times_s, tr.states, tr.active, tr.visible,
+            out / f"{stem}.png", title=f"T-intersection: {planner} planner, V3 {variant}",
+            beliefs=seen))
+    return paths

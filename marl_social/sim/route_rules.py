@@ -1,0 +1,170 @@
+"""What the static map imposes along a route: stop lines, right of way, curve speeds.
+
+Everything here is read from the static map (which every agent knows, like an HD map) and the
+driver's own route, plus, for the right of way, the driver's own tracks:
+
+* stop lines (`StopLine` of kind "stop_sign") the route crosses, as arc lengths: the driver must
+  come to rest before its front passes one, then may go (`stop_line_positions`);
+* conflict zones the route passes, with the arc lengths where it enters and leaves them and
+  whether the driver yields there: it yields unless its route enters the zone along one of the
+  zone's priority lanes (`route_conflicts`);
+* which tracked objects have the right of way in a zone: those travelling along one of its
+  priority lanes (`priority_mask`);
+* the curve speed the route allows: v <= sqrt(a_lat / kappa) (`CurveSpeed`).
+
+The human drivers (agents/human.py) turn these into their Q* (models/driver.py, `RoadRules`):
+the stop line and the curve speed are constraints, the right of way a cost (the conflict term
+of sim/costs.py). A robot planner gets the same facts from the same functions:
+`route_conflicts(route, road_map)` and `stop_line_positions(route, road_map)`; the metrics
+(metrics/physical.py) use them to tell who had the right of way.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from marl_social.sim.road_map import ConflictZone, Lane, RoadMap, Route
+
+LANE_HEADING_TOLERANCE_RAD = math.radians(35.0)  # heading within this of a lane's = along it
+LANE_LATERAL_MARGIN_M = 0.25  # a centre this far beyond half a lane width still counts [m]
+ROUTE_SAMPLE_STEP_M = 0.25  # route sampling step to find where it enters a zone [m]
+CURVE_PROFILE_STEP_M = 0.5  # grid step of the curve-speed profile along a route [m]
+
+
+@dataclass(frozen=True)
+class RouteConflict:
+    """A conflict zone on a route.
+
+    Attributes:
+        zone_index: index into RoadMap.conflict_zones.
+        zone: the zone.
+        s_enter_m: arc length at which the route's centre line enters the zone [m].
+        s_exit_m: arc length at which it leaves it (the last sample inside) [m].
+        yields: the route enters the zone on none of its priority lanes, so a driver on it
+            gives way to the traffic on them.
+    """
+
+    zone_index: int
+    zone: ConflictZone
+    s_enter_m: float
+    s_exit_m: float
+    yields: bool
+
+
+def _lane_routes(lanes: tuple[Lane, ...]) -> list[Route]:
+    return [Route(lane.centerline, lane.name or f"lane {i}") for i, lane in enumerate(lanes)]
+
+
+def on_lanes(lanes, xy, heading) -> np.ndarray:
+    """Whether objects travel along any of the given lanes.
+
+    An object is on a lane when its centre is within half the lane width (plus
+    LANE_LATERAL_MARGIN_M) of the centreline, between the centreline's ends, and its heading is
+    within LANE_HEADING_TOLERANCE_RAD of the lane's direction there.
+
+    Args:
+        lanes: the lanes (Lane).
+        xy: (M, 2) object centres [m].
+        heading: (M,) object headings [rad].
+
+    Returns:
+        (M,) bool.
+    """
+    xy = np.asarray(xy, dtype=np.float64).reshape(-1, 2)
+    heading = np.asarray(heading, dtype=np.float64).reshape(-1)
+    out = np.zeros(len(xy), dtype=bool)
+    for lane, route in zip(lanes, _lane_routes(tuple(lanes))):
+        s, lateral, lane_heading = route.project(xy)
+        inside = (s > 0.0) & (s < route.length_m)
+        near = np.abs(lateral) <= 0.5 * lane.width_m + LANE_LATERAL_MARGIN_M
+        dpsi = np.abs((heading - lane_heading + np.pi) % (2 * np.pi) - np.pi)
+        out |= inside & near & (dpsi <= LANE_HEADING_TOLERANCE_RAD)
+    return out
+
+
+def priority_mask(zone: ConflictZone, road_map: RoadMap, xy, heading) -> np.ndarray:
+    """(M,) bool: the objects that have the right of way in `zone` (on one of its priority lanes).
+
+    Args:
+        zone: the conflict zone.
+        road_map: the static map (its lanes).
+        xy: (M, 2) object centres [m] (e.g. a driver's tracks).
+        heading: (M,) object headings [rad].
+    """
+    lanes = [road_map.lanes[i] for i in zone.priority_lanes]
+    return on_lanes(lanes, xy, heading)
+
+
+def route_conflicts(route: Route, road_map: RoadMap) -> tuple[RouteConflict, ...]:
+    """The conflict zones a route passes, in the order it reaches them.
+
+    Args:
+        route: the driver's route.
+        road_map: the static map (its conflict zones and lanes).
+
+    Returns:
+        One RouteConflict per zone the route's centre line passes through.
+    """
+    n = max(2, math.ceil(route.length_m / ROUTE_SAMPLE_STEP_M) + 1)
+    s = np.linspace(0.0, route.length_m, n)
+    xy, heading = route.point_at(s)
+    found = []
+    for k, zone in enumerate(road_map.conflict_zones):
+        inside = np.flatnonzero(zone.contains(xy))
+        if not len(inside):
+            continue
+        first = inside[0]
+        lanes = [road_map.lanes[i] for i in zone.priority_lanes]
+        yields = not bool(on_lanes(lanes, xy[first:first + 1], heading[first:first + 1])[0])
+        found.append(RouteConflict(k, zone, float(s[first]), float(s[inside[-1]]), yields))
+    return tuple(sorted(found, key=lambda c: c.s_enter_m))
+
+
+def stop_line_positions(route: Route, road_map: RoadMap, kind: str = "stop_sign") -> np.ndarray:
+    """(S,) ascending arc lengths [m] at which the route crosses the map's stop lines of `kind`.
+
+    Args:
+        route: the driver's route.
+        road_map: the static map (its stop lines).
+        kind: "stop_sign" or "signal".
+    """
+    found = [route.segment_crossings(line.segment) for line in road_map.stop_lines
+             if line.kind == kind]
+    return np.unique(np.concatenate(found)) if found else np.zeros(0)
+
+
+class CurveSpeed:
+    """The curve speed a route allows, v <= sqrt(a_lat / kappa), on a grid along it.
+
+    The curvature at an arc length is the largest at the route's vertices within half a
+    footprint (`window_m`) of it, so a car slows before its front enters a bend.
+
+    Args:
+        route: the route.
+        lat_accel_mps2: the lateral acceleration the driver accepts [m/s^2], > 0.
+        window_m: how far ahead and behind a vertex's curvature counts [m].
+    """
+
+    def __init__(self, route: Route, lat_accel_mps2: float, window_m: float):
+        if not lat_accel_mps2 > 0:
+            raise ValueError(f"CurveSpeed: lat_accel_mps2 must be > 0, got {lat_accel_mps2}")
+        seg = np.diff(route.points, axis=0)
+        seg_len = np.linalg.norm(seg, axis=1)
+        heading = np.unwrap(np.arctan2(seg[:, 1], seg[:, 0]))
+        vertex_s = np.cumsum(seg_len)[:-1]  # (V,) inner vertices
+        kappa = np.abs(np.diff(heading)) / (0.5 * (seg_len[1:] + seg_len[:-1]))
+        grid = np.arange(0.0, route.length_m + CURVE_PROFILE_STEP_M, CURVE_PROFILE_STEP_M)
+        near = np.abs(grid[:, None] - vertex_s[None, :]) <= window_m  # (G, V)
+        k_max = np.where(near, kappa[None, :], 0.0).max(axis=1, initial=0.0)
+        with np.errstate(divide="ignore"):
+            self.v_max_mps = np.sqrt(lat_accel_mps2 / k_max)  # (G,), inf where straight
+        self.is_straight = not bool(np.any(k_max > 1e-9))
+
+    def at(self, s_m) -> np.ndarray:
+        """(...) the speed cap [m/s] at arc lengths (...) [m] (inf on straight stretches)."""
+        k = np.clip(np.rint(np.asarray(s_m) / CURVE_PROFILE_STEP_M).astype(np.int64), 0,
+                    len(self.v_max_mps) - 1)
+        return self.v_max_mps[k]
