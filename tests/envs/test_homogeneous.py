@@ -94,9 +94,15 @@ def test_autopilot_robot_as_the_only_learner_vectorizes():
                                 base_class="gymnasium")
     obs, _ = vec.reset(seed=1)
     first = obs.copy()
-    for _ in range(40):
+    ended = np.zeros(2, dtype=bool)
+    for step in range(40):  # full throttle, straight on
         obs, rew, term, trunc, _ = vec.step(np.ones((2, 2), dtype=np.float32) * [1.0, 0.0])
+        assert np.all(np.isfinite(rew))
+        if step == 10:
+            assert np.all(obs[:, 0] > first[:, 0] + 5.0)  # the robots drove forward
+        ended |= (term | trunc).astype(bool)
     assert obs.shape == first.shape == (2, env.observation_space("robot_0").shape[0])
+    assert ended.all()  # both copies finished an episode (max_cycles 30) and went on
     vec.close()
 
 
