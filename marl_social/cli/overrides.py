@@ -101,8 +101,8 @@ def parse_overrides(scenario: str, assignments) -> dict:
         assignments: the "KEY=VALUE" texts, in order (a later one wins).
 
     Returns:
-        {parameter: value} with each value of its field's type (a tuple field may hold the
-        path of a fit result, which the scenario loads).
+        {parameter: value} as the scenario's validated parameters hold it (each of its field's
+        type; a fit result's path as the weights the scenario loaded from it).
 
     Raises:
         ValueError: a malformed assignment, an unknown parameter (with a suggestion) or a value
@@ -129,10 +129,10 @@ def parse_overrides(scenario: str, assignments) -> dict:
         if named and isinstance(value, str) and value not in named:
             raise unknown_name(f"{key} variant", value, named)
     try:
-        cls(**overrides)  # the scenario's own validation of every value
+        params = cls(**overrides).params  # the scenario's own validation of every value
     except TypeError as err:  # make_params reports a wrong type as TypeError
         raise ValueError(str(err)) from None
-    return overrides
+    return {key: getattr(params, key) for key in overrides}
 
 
 def describe_params(scenario: str) -> str:

@@ -17,6 +17,11 @@
   involved) or reaching the end of its route; truncation after max_cycles steps.
 * infos[agent]: "visible" (names the agent truly sees), "collision" (bool), "collided_with"
   (names, "static" for a building or parked car), "arrived" (bool).
+* AEC: `env()` is PettingZoo's parallel-to-AEC conversion with each action checked as it is
+  given (a rejected one raises and is not stored) inside OrderEnforcingWrapper; `raw_env()`
+  the same without OrderEnforcingWrapper.
+* `parallel_env(homogeneous_spaces=True)`: one action space for all agents and padding for
+  finished ones, for SuperSuit's vector envs (marl_social/envs/homogeneous.py).
 """
 
 from __future__ import annotations
