@@ -7,7 +7,7 @@ and stable-baselines3's PPO learns from it. The robot's reward is the env's: min
 step cost -(theta . phi) (marl_social/sim/costs.py), minus the collision penalty.
 
     pip install "marl-social[rl]"
-    python examples/train_robot_ppo.py --steps 40000 --eval-episodes 20
+    python examples/train_robot_ppo.py --steps 30000 --eval-episodes 20
 
 It prints the mean episode return of a uniformly random policy and of the trained one over the
 same evaluation seeds (disjoint from the training seeds).
@@ -155,7 +155,7 @@ def trained_policy(model: PPO, vec: VecNormalize):
 def main(argv=None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0],
                                      formatter_class=argparse.ArgumentDefaultsHelpFormatter)
-    parser.add_argument("--steps", type=int, default=40_000, help="PPO env steps")
+    parser.add_argument("--steps", type=int, default=30_000, help="PPO env steps")
     parser.add_argument("--envs", type=int, default=4, help="env copies stepped together")
     parser.add_argument("--eval-episodes", type=int, default=20, help="evaluation episodes")
     parser.add_argument("--max-cycles", type=int, default=200, help="episode step limit")
