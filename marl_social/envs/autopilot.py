@@ -36,9 +36,11 @@ class AutopilotEnv(ParallelEnv):
         self.render_mode = base.render_mode
         self.observation_spaces = {a: base.observation_space(a) for a in self.possible_agents}
         self.action_spaces = {a: base.action_space(a) for a in self.possible_agents}
+        self.state_space = base.state_space
         self._autopilots = {a: p for a, p in policies(base).items() if a not in self.controlled}
         self.agents = []
         self._last_obs = {}
+        self._seed_stream: np.random.Generator | None = None
 
     @property
     def unwrapped(self):
@@ -51,9 +53,20 @@ class AutopilotEnv(ParallelEnv):
         return self.action_spaces[agent]
 
     def reset(self, seed=None, options=None):
+        """Reset the env and the built-in policies; returns the controlled agents' (obs, infos).
+
+        A seed seeds each built-in policy (seed * 1000 + its rank + 1); a later reset without
+        one draws their seeds from a stream seeded by the last seed (entropy if never seeded),
+        so a seeded run of many episodes is reproducible.
+        """
         obs, infos = self.env.reset(seed=seed, options=options)
+        if seed is not None:
+            self._seed_stream = np.random.default_rng(seed)
+        elif self._seed_stream is None:
+            self._seed_stream = np.random.default_rng()
         for i, (name, policy) in enumerate(sorted(self._autopilots.items())):
-            policy.reset(None if seed is None else seed * 1000 + i + 1)
+            policy.reset(seed * 1000 + i + 1 if seed is not None
+                         else int(self._seed_stream.integers(2**63)))
         self._last_obs = obs
         self.agents = [a for a in self.env.agents if a in self.controlled]
         return ({a: obs[a] for a in self.agents}, {a: infos[a] for a in self.agents})
@@ -87,6 +100,7 @@ class AutopilotEnv(ParallelEnv):
         self.env.close()
 
     def state(self) -> np.ndarray:
+        """The wrapped env's global state of every agent (marl_social/envs/spaces.py)."""
         return self.env.state()
 
 

@@ -3,7 +3,10 @@
     env = marl_social.parallel_env(scenario="occluded_crosswalk", max_cycles=200, **overrides)
 
 * Agents: `robot_0`, `human_0...` (human drivers), `pedestrian_0...`.
-* Observation: one float32 Box layout for all agents (marl_social/sim/observation.py).
+* Observation: one float32 Box layout for all agents (marl_social/sim/observation.py), its
+  bounds from the agents' physical limits (map extent and reach, speeds, sensor ranges).
+* State: `state()` is every agent's true state over `possible_agents`, a fixed-size
+  float32 vector in `state_space` (marl_social/envs/spaces.py), for centralized critics.
 * Actions: vehicles Box [a m/s^2, delta rad] within [-brake_max, accel_max] x [-steer_max,
   steer_max]; pedestrians Box [vx, vy] m/s within [-v_max, v_max]^2. Values outside the physical
   limits saturate (marl_social/sim/dynamics.py); NaN/inf, a wrong shape or an unknown agent raise a
@@ -14,6 +17,11 @@
   involved) or reaching the end of its route; truncation after max_cycles steps.
 * infos[agent]: "visible" (names the agent truly sees), "collision" (bool), "collided_with"
   (names, "static" for a building or parked car), "arrived" (bool).
+* AEC: `env()` is PettingZoo's parallel-to-AEC conversion with each action checked as it is
+  given (a rejected one raises and is not stored) inside OrderEnforcingWrapper; `raw_env()`
+  the same without OrderEnforcingWrapper.
+* `parallel_env(homogeneous_spaces=True)`: one action space for all agents and padding for
+  finished ones, for SuperSuit's vector envs (marl_social/envs/homogeneous.py).
 """
 
 from __future__ import annotations
@@ -28,6 +36,7 @@ from pettingzoo.utils import wrappers
 from pettingzoo.utils.conversions import parallel_to_aec_wrapper
 
 from marl_social.envs.rewards import step_rewards
+from marl_social.envs.spaces import encode_state, env_limits, state_space
 from marl_social.envs.world import World
 from marl_social.scenarios import make_scenario
 from marl_social.scenarios.base import as_integer
@@ -86,7 +95,9 @@ class SocialDrivingEnv(ParallelEnv, EzPickle):
         self.agent_specs = {s.name: s for s in template.agents}
         self.possible_agents = [s.name for s in template.agents]
         self.obs_layout = ObservationLayout(template.params.n_slots, template.params.n_rays)
-        obs_space = self.obs_layout.space()
+        self.limits = env_limits(template, self.max_cycles)
+        self.state_space = state_space(self.limits, template.agents)
+        obs_space = self.obs_layout.space(self.limits)
         self.observation_spaces = {a: obs_space for a in self.possible_agents}
         self.action_spaces = {s.name: _action_space(s) for s in template.agents}
         self.agents: list[str] = []
@@ -284,11 +295,20 @@ class SocialDrivingEnv(ParallelEnv, EzPickle):
             self._renderer = None
 
     def state(self) -> np.ndarray:
-        """Global true state (n, 4) [x m, y m, heading rad, speed m/s] as float32.
+        """Every agent's true state: (n_agents * STATE_DIM,) float32 in `state_space`.
 
-        For centralized critics; planners never receive it.
+        Per agent in `possible_agents` order: [x m, y m, cos(psi), sin(psi), v m/s, active];
+        agents no longer in the episode are all-zero rows (marl_social/envs/spaces.py). For
+        centralized critics; planners never receive it.
+
+        Raises:
+            RuntimeError: called before reset().
         """
-        return self.world.state.astype(np.float32).copy()
+        if self.world is None:
+            raise RuntimeError("state() called before reset(): the env has no episode yet")
+        live = np.zeros(self.world.n, dtype=bool)
+        live[[self._index[a] for a in self.agents]] = True
+        return encode_state(self.world.state, live)
 
 
 def _action_space(spec) -> spaces.Box:
@@ -304,10 +324,27 @@ def _action_space(spec) -> spaces.Box:
 
 
 def parallel_env(scenario: str = "occluded_crosswalk", render_mode: str | None = None,
-                 max_cycles: int = 200, **overrides) -> SocialDrivingEnv:
-    """The PettingZoo ParallelEnv (see SocialDrivingEnv)."""
-    return SocialDrivingEnv(scenario=scenario, render_mode=render_mode, max_cycles=max_cycles,
-                            **overrides)
+                 max_cycles: int = 200, homogeneous_spaces: bool = False, **overrides):
+    """The PettingZoo ParallelEnv (see SocialDrivingEnv).
+
+    Args:
+        scenario: name of a registered scenario.
+        render_mode: None, "human" or "rgb_array".
+        max_cycles: steps before every agent is truncated.
+        homogeneous_spaces: one Box(-1, 1, (2,)) action space for every agent and zero padding
+            for agents that finish early, for SuperSuit's vector envs
+            (marl_social/envs/homogeneous.py).
+        **overrides: scenario parameters and SocialDrivingEnv's other options.
+    """
+    env = SocialDrivingEnv(scenario=scenario, render_mode=render_mode, max_cycles=max_cycles,
+                           **overrides)
+    if not isinstance(homogeneous_spaces, (bool, np.bool_)):
+        raise TypeError(f"homogeneous_spaces must be a bool, got {_short(homogeneous_spaces)}")
+    if homogeneous_spaces:
+        from marl_social.envs.homogeneous import HomogeneousSpacesEnv
+
+        return HomogeneousSpacesEnv(env)
+    return env
 
 
 def _short(value, limit: int = 80) -> str:
@@ -325,7 +362,7 @@ class CheckedAECWrapper(parallel_to_aec_wrapper):
     stock wrapper asserts).
 
     Args:
-        parallel_env: a SocialDrivingEnv.
+        parallel_env: a SocialDrivingEnv (or its HomogeneousSpacesEnv).
     """
 
     def step(self, action):
@@ -341,12 +378,21 @@ class CheckedAECWrapper(parallel_to_aec_wrapper):
 
 
 def raw_env(**kwargs):
-    """AEC version without wrappers (actions checked as they are given)."""
-    return wrappers.OrderEnforcingWrapper(CheckedAECWrapper(parallel_env(**kwargs)))
+    """AEC version without PettingZoo's wrappers (actions still checked as they are given).
+
+    Args:
+        **kwargs: the arguments of parallel_env.
+    """
+    return CheckedAECWrapper(parallel_env(**kwargs))
 
 
 def env(**kwargs):
-    """AEC version with PettingZoo's standard wrappers (order enforcing, bounds for Box)."""
-    aec = raw_env(**kwargs)
-    aec = wrappers.OrderEnforcingWrapper(aec)
-    return aec
+    """AEC version: raw_env inside PettingZoo's OrderEnforcingWrapper (reset before step).
+
+    No action clipping wrapper: out-of-range actions saturate in the dynamics as in the
+    parallel env (a pedestrian's command by its norm, which per-axis clipping would change).
+
+    Args:
+        **kwargs: the arguments of parallel_env.
+    """
+    return wrappers.OrderEnforcingWrapper(raw_env(**kwargs))

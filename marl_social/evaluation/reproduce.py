@@ -55,9 +55,12 @@ def run_episodes(jobs, workers: int = 2, max_cycles: int = 200, progress: bool =
 
 
 def run_table(n_seeds: int, workers: int = 2, planners=PAPER_PLANNERS, variants=VARIANTS,
-              progress=True) -> list[dict]:
-    """One row per (planner, variant): rates and means over n_seeds randomized episodes."""
-    jobs = [(p, v, s) for p in planners for v in variants for s in range(n_seeds)]
+              progress=True, overrides: dict | None = None) -> list[dict]:
+    """One row per (planner, variant): rates and means over n_seeds randomized episodes.
+
+    `overrides` (scenario parameters) go on top of each episode's randomization.
+    """
+    jobs = [(p, v, s, overrides or {}) for p in planners for v in variants for s in range(n_seeds)]
     results = run_episodes(jobs, workers, progress=progress)
     rows = []
     for p in planners:

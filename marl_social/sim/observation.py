@@ -10,6 +10,12 @@ slot:  present (0/1), object id (agent index + 1; 0 = empty), x, y [m], vx, vy [
 rays:  distance to the first hit along each depth ray [m] (the visibility polygon); ray i points
        at heading + ray_angle(i), angles spread evenly over the agent's cone, edges included
        (`perception.fov.depth_ray_angles`).
+
+Bounds (`ObservationLimits`, `ObservationLayout.space(limits)`): positions lie within the map's
+extent grown by how far any agent can travel in an episode (top speed x step x max steps) plus
+a noise margin; speeds in [0, top speed]; measured velocities within the top speed plus a noise
+margin; cos/sin in [-1, 1]; flags in [0, 1]; object ids in [0, n_agents]; sizes in [0, largest
+footprint]; sensor ranges and ray depths in [0, longest sensor range]; half-angles in [0, pi].
 """
 
 from __future__ import annotations
@@ -28,6 +34,52 @@ EGO_INDEX = {name: i for i, name in enumerate(EGO_FIELDS)}  # field name -> colu
 SLOT_INDEX = {name: i for i, name in enumerate(SLOT_FIELDS)}  # field name -> column of a slot
 OBS_BOUND = 1.0e5  # [m]; worlds larger than 100 km are out of scope
 SLOT_DIM = len(SLOT_FIELDS)
+NOISE_SIGMAS = 10.0  # measurement noise margin of the bounds [standard deviations]; P < 1e-20
+
+
+@dataclass(frozen=True)
+class ObservationLimits:
+    """The physical limits of every agent in an env, from which the observation bounds follow.
+
+    Attributes:
+        extent_m: (xmin, xmax, ymin, ymax) of the map [m].
+        reach_m: farthest an agent can travel from the map in an episode [m] (top speed x step
+            length x max steps; capped so that coordinates stay within +-OBS_BOUND).
+        speed_max_mps: top speed over all agents [m/s].
+        sensor_range_max_m: longest sensor range [m].
+        half_angle_max_rad: widest sensor half-angle [rad].
+        size_max_m: largest footprint length or width [m].
+        n_agents: agents in the env (object ids are 1..n_agents).
+        pos_noise_max_m: largest position measurement noise std [m].
+        vel_noise_max_mps: largest velocity measurement noise std [m/s].
+    """
+
+    extent_m: tuple[float, float, float, float]
+    reach_m: float
+    speed_max_mps: float
+    sensor_range_max_m: float
+    half_angle_max_rad: float
+    size_max_m: float
+    n_agents: int
+    pos_noise_max_m: float = 0.0
+    vel_noise_max_mps: float = 0.0
+
+    def field_bounds(self) -> tuple[dict, dict]:
+        """({ego field: (low, high)}, {slot field: (low, high)}) in the fields' units."""
+        x0, x1, y0, y1 = self.extent_m
+        grow = self.reach_m + NOISE_SIGMAS * self.pos_noise_max_m
+        x = (max(x0 - grow, -OBS_BOUND), min(x1 + grow, OBS_BOUND))
+        y = (max(y0 - grow, -OBS_BOUND), min(y1 + grow, OBS_BOUND))
+        unit, flag = (-1.0, 1.0), (0.0, 1.0)
+        v_meas = self.speed_max_mps + NOISE_SIGMAS * self.vel_noise_max_mps
+        ego = {"x": x, "y": y, "cos_psi": unit, "sin_psi": unit, "v": (0.0, self.speed_max_mps),
+               "sensor_range": (0.0, self.sensor_range_max_m),
+               "sensor_half_angle": (0.0, self.half_angle_max_rad), "is_pedestrian": flag}
+        slot = {"present": flag, "id": (0.0, float(self.n_agents)), "x": x, "y": y,
+                "vx": (-v_meas, v_meas), "vy": (-v_meas, v_meas), "cos_psi": unit,
+                "sin_psi": unit, "length": (0.0, self.size_max_m),
+                "width": (0.0, self.size_max_m), "is_pedestrian": flag}
+        return ego, slot
 
 
 @dataclass(frozen=True)
@@ -84,12 +136,24 @@ class ObservationLayout:
     def size(self) -> int:
         return EGO_DIM + self.n_slots * SLOT_DIM + self.n_rays
 
-    def space(self) -> spaces.Box:
-        """Box with finite bounds.
+    def space(self, limits: ObservationLimits | None = None) -> spaces.Box:
+        """The float32 Box of this layout.
 
-        Coordinates lie within +-OBS_BOUND (100 km), every other field far inside that.
+        Args:
+            limits: the env's physical limits, giving each field its own bounds (see the
+                module docstring); None for the loose +-OBS_BOUND (100 km) on every field.
         """
-        return spaces.Box(-OBS_BOUND, OBS_BOUND, shape=(self.size,), dtype=np.float32)
+        if limits is None:
+            return spaces.Box(-OBS_BOUND, OBS_BOUND, shape=(self.size,), dtype=np.float32)
+        ego, slot = limits.field_bounds()
+        ego_b = np.array([ego[f] for f in EGO_FIELDS])  # (EGO_DIM, 2) low, high
+        slot_b = np.array([slot[f] for f in SLOT_FIELDS])  # (SLOT_DIM, 2)
+        ray_b = np.array([[0.0, limits.sensor_range_max_m]])
+        bounds = np.concatenate([ego_b, np.tile(slot_b, (self.n_slots, 1)),
+                                 np.repeat(ray_b, self.n_rays, axis=0)])  # (size, 2)
+        # float32 rounding is monotonic: a value within a limit stays within it in float32
+        return spaces.Box(bounds[:, 0].astype(np.float32), bounds[:, 1].astype(np.float32),
+                          dtype=np.float32)
 
     def slot_index(self, field: str) -> int:
         return SLOT_FIELDS.index(field)

@@ -1,8 +1,7 @@
-"""Command line: `marl-social demo | bench`."""
+"""The subcommands of `marl-social`: demo, bench, reproduce, record and irl fit."""
 
 from __future__ import annotations
 
-import argparse
 import json
 import math
 import sys
@@ -10,7 +9,7 @@ from pathlib import Path
 
 import numpy as np
 
-from marl_social.agents.registry import ROBOT_PLANNERS
+from marl_social.cli.overrides import parse_overrides
 
 DEFAULT_OUT = "marl_social_out"
 
@@ -37,25 +36,42 @@ def _annotate_belief(frames, p_pedestrian, perceived):
     return out
 
 
-def _demo(args) -> int:
+def demo_overrides(args) -> dict:
+    """The demo's scenario overrides: --planner and --pedestrian, then every --set."""
+    options = {}
+    if args.planner is not None:
+        options["robot_planner"] = args.planner
+    if args.pedestrian is not None:
+        options["pedestrian"] = args.pedestrian
+    given = [f"{k}={v}" for k, v in options.items()]
+    return parse_overrides(args.scenario, given + list(args.set or ()))
+
+
+def demo(args) -> int:
+    """`marl-social demo`: one episode; a figure, an animation and the metrics."""
     from marl_social.evaluation.run import run_episode
+    from marl_social.scenarios import make_scenario
     from marl_social.viz.animation import write_animation
     from marl_social.viz.figures import plot_episode
 
+    overrides = demo_overrides(args)
+    params = make_scenario(args.scenario, **overrides).params
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
-    res = run_episode("occluded_crosswalk", seed=args.seed, render=not args.no_animation,
-                      max_cycles=args.max_cycles, pedestrian=args.pedestrian,
-                      robot_planner=args.planner)
+    res = run_episode(args.scenario, seed=args.seed, render=not args.no_animation,
+                      max_cycles=args.max_cycles, **overrides)
     trace, metrics = res.trace, res.metrics
-    stem = f"occluded_crosswalk_{args.pedestrian}_{args.planner}"
+    pedestrian = getattr(params, "pedestrian", None)
+    stem = "_".join(str(p) for p in (args.scenario, pedestrian, params.robot_planner)
+                    if p is not None).replace("+", "_")
     beliefs = None
     if "p_pedestrian" in trace.extras:
         beliefs = {"robot's P(pedestrian): perceived or inferred": trace.extras["p_pedestrian"]}
+    title = ", ".join([args.scenario] + ([f"pedestrian={pedestrian}"] if pedestrian else [])
+                      + [f"robot: {params.robot_planner} planner"])
     figure = plot_episode(res.road_map, trace.names, trace.roles, trace.times_s, trace.states,
                           trace.active, trace.visible, out / f"{stem}.png",
-                          title=f"occluded_crosswalk, pedestrian={args.pedestrian}, robot: "
-                                f"{args.planner} planner", beliefs=beliefs)
+                          title=title, beliefs=beliefs)
     print(f"figure:    {figure}")
     if not args.no_animation:
         frames = trace.frames
@@ -71,7 +87,8 @@ def _demo(args) -> int:
     return 0
 
 
-def _bench(args) -> int:
+def bench(args) -> int:
+    """`marl-social bench env | planners`."""
     from marl_social.bench.env_bench import bench_planners, run_env_benchmark
 
     if args.what == "planners":
@@ -84,18 +101,50 @@ def _bench(args) -> int:
     return 0
 
 
-def _reproduce(args) -> int:
-    randomization = "marl_social/run.randomized_overrides"
-    if args.scenario == "t_intersection":
-        from marl_social.evaluation.reproduce_intersection import (
-            format_table,
-            run_table,
-            write_figures,
-        )
-        randomization = "marl_social/evaluation/reproduce_intersection.randomized_overrides"
-    else:
-        from marl_social.evaluation.reproduce import format_table, run_table, write_figures
+TABLE_AXES = ("robot_planner", "pedestrian")  # what the reproduce table sweeps itself
 
+
+def reproduce(args) -> int:
+    """`marl-social reproduce`: the paper's figures and the table over randomized seeds."""
+    if args.scenario == "t_intersection":
+        return _reproduce_intersection(args)
+    if args.scenario != "occluded_crosswalk":
+        raise ValueError(f"--scenario {args.scenario}: reproduce knows occluded_crosswalk "
+                         "(Figs. 3-6) and t_intersection (Fig. 1 b)")
+    from marl_social.evaluation.reproduce import format_table, run_table, write_figures
+
+    overrides = parse_overrides("occluded_crosswalk", args.set)
+    fixed_axes = [k for k in TABLE_AXES if k in overrides]
+    if fixed_axes:
+        raise ValueError(f"--set {fixed_axes[0]}: the table sweeps {' and '.join(TABLE_AXES)} "
+                         "itself; set other parameters")
+    out = Path(args.out)
+    out.mkdir(parents=True, exist_ok=True)
+    for path in write_figures(out):
+        print(f"figure: {path}")
+    rows = run_table(args.seeds, workers=args.workers, overrides=overrides)
+    table = format_table(rows)
+    (out / "table.md").write_text(table + "\n")
+    (out / "table.json").write_text(json.dumps(rows, indent=2))
+    fixed = "".join(f", {k}={v}" for k, v in overrides.items())
+    print(f"\n{args.seeds} randomized seeds per cell (marl_social/run.randomized_overrides"
+          f"{fixed}):\n")
+    print(table)
+    return 0
+
+
+def _reproduce_intersection(args) -> int:
+    """`marl-social reproduce --scenario t_intersection`: Fig. 1 (b) figures and its table."""
+    from marl_social.evaluation.reproduce_intersection import (
+        format_table,
+        run_table,
+        write_figures,
+    )
+
+    if args.set:
+        raise ValueError("--set: reproduce --scenario t_intersection sweeps its own "
+                         "randomization (evaluation/reproduce_intersection.py); run "
+                         "`marl-social demo --scenario t_intersection --set ...` for one episode")
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
     for path in write_figures(out):
@@ -104,15 +153,19 @@ def _reproduce(args) -> int:
     table = format_table(rows)
     (out / "table.md").write_text(table + "\n")
     (out / "table.json").write_text(json.dumps(rows, indent=2))
-    print(f"\n{args.seeds} randomized seeds per cell ({randomization}):\n")
+    print(f"\n{args.seeds} randomized seeds per cell "
+          "(marl_social/evaluation/reproduce_intersection.randomized_overrides):\n")
     print(table)
     return 0
 
 
-def _record(args) -> int:
+def record(args) -> int:
+    """`marl-social record`: human demonstrations or decisions to a file."""
     from marl_social.data.demonstrations import save_demonstrations
 
     _check_output_file(args.out, "-o/--out")
+    if not args.synthetic:
+        _recording_overrides(args)  # bad --set values fail before any episode
     if args.decisions:
         return _record_decisions(args)
     if args.synthetic:
@@ -138,10 +191,13 @@ def _record(args) -> int:
 
 
 def _recording_overrides(args) -> dict:
-    overrides = {"robot_planner": args.robot_planner, "pedestrian": args.pedestrian}
+    """--robot-planner, --pedestrian and --human-beta, then every --set (validated)."""
+    given = [f"robot_planner={args.robot_planner}"]
+    if args.pedestrian is not None:
+        given.append(f"pedestrian={args.pedestrian}")
     if args.human_beta is not None:
-        overrides["human_beta"] = args.human_beta
-    return overrides
+        given.append(f"human_beta={args.human_beta!r}")
+    return parse_overrides(args.scenario, given + list(args.set or ()))
 
 
 def _record_decisions(args) -> int:
@@ -192,7 +248,8 @@ def _check_output_file(path, option: str) -> None:
         raise ValueError(f"{option} {path}: is a directory; give a file name")
 
 
-def _irl_fit(args) -> int:
+def irl_fit(args) -> int:
+    """`marl-social irl fit`: theta from demonstrations or decisions."""
     from marl_social.agents.irl.laplace import FITTABLE, cosine_similarity, fit_theta
 
     _check_output_file(args.out, "-o/--out")
@@ -236,89 +293,3 @@ def _irl_fit(args) -> int:
         print(f"   the scale is in the robot's units: add robot_beta_hat={beta_hat:.4g} to use "
               "the learned rationality too")
     return 0
-
-
-def main(argv=None) -> int:
-    parser = argparse.ArgumentParser(prog="marl-social", description=__doc__)
-    sub = parser.add_subparsers(dest="command", required=True)
-
-    demo = sub.add_parser("demo", help="run the paper scenario; write an animation and a figure")
-    demo.add_argument("--out", default=DEFAULT_OUT, help=f"output folder (default {DEFAULT_OUT})")
-    demo.add_argument("--pedestrian", default="crossing", choices=["crossing", "waiting", "none"])
-    demo.add_argument("--planner", default="social", choices=list(ROBOT_PLANNERS))
-    demo.add_argument("--seed", type=int, default=0)
-    demo.add_argument("--max-cycles", type=int, default=200)
-    demo.add_argument("--no-animation", action="store_true", help="figure only (faster)")
-    demo.set_defaults(func=_demo)
-
-    rep = sub.add_parser("reproduce", help="the paper's Figs. 3-6 and a table over seeds")
-    rep.add_argument("--out", default=f"{DEFAULT_OUT}/reproduce")
-    rep.add_argument("--seeds", type=int, default=20)
-    rep.add_argument("--workers", type=int, default=2)
-    rep.add_argument("--scenario", default="occluded_crosswalk",
-                     choices=["occluded_crosswalk", "t_intersection"],
-                     help="the paper's crosswalk (Figs. 3-6) or the T-intersection (Fig. 1 b)")
-    rep.set_defaults(func=_reproduce)
-
-    bench = sub.add_parser("bench", help="benchmarks: `bench env`, `bench planners`")
-    bench.add_argument("what", choices=["env", "planners"])
-    bench.add_argument("--agents", type=int, nargs="+", default=[3, 10, 30, 100])
-    bench.add_argument("--steps", type=int, default=500)
-    bench.add_argument("--no-peer", action="store_true", help="skip highway-env")
-    bench.add_argument("--profile", action="store_true", help="print a cProfile breakdown")
-    bench.add_argument("--json", help="also write the rows to this JSON file")
-    bench.set_defaults(func=_bench)
-
-    rec = sub.add_parser("record", help="record human demonstrations for inverse optimal "
-                         "control (npz, marl_social/data/demonstrations.py)")
-    rec.add_argument("-o", "--out", default=f"{DEFAULT_OUT}/demos.npz")
-    rec.add_argument("--scenario", default="occluded_crosswalk")
-    rec.add_argument("--episodes", type=int, default=20)
-    rec.add_argument("--seed0", type=int, default=0, help="first seed")
-    rec.add_argument("--pedestrian", default="crossing", choices=["crossing", "waiting", "none"])
-    rec.add_argument("--robot-planner", default="cruise", choices=list(ROBOT_PLANNERS))
-    rec.add_argument("--human-beta", type=float, default=None)
-    rec.add_argument("--max-cycles", type=int, default=150)
-    rec.add_argument("--segment-steps", type=int, default=30)
-    rec.add_argument("--stride", type=int, default=10)
-    rec.add_argument("--workers", type=int, default=1)
-    rec.add_argument("--decisions", action="store_true",
-                     help="record every human decision (what its discrete choice depends on, "
-                          "marl_social/data/decisions.py) for the exact discrete-choice fit")
-    rec.add_argument("--synthetic", action="store_true",
-                     help="near-rational continuous demonstrations with a known theta instead "
-                          "(agents/irl/synthetic.py)")
-    rec.add_argument("--theta", type=float, nargs=6, default=[0.0, 1.0, 0.1, 0.1, 1.0, 1000.0],
-                     help="--synthetic: the demonstrator's weights (marl_social.sim.costs.FEATURE_NAMES)")
-    rec.add_argument("--beta", type=float, default=10.0, help="--synthetic: its rationality")
-    rec.add_argument("--segments", type=int, default=100, help="--synthetic: how many")
-    rec.set_defaults(func=_record)
-
-    irl = sub.add_parser("irl", help="inverse optimal control: `irl fit DEMOS -o theta.json`")
-    irl_sub = irl.add_subparsers(dest="irl_command", required=True)
-    fit = irl_sub.add_parser("fit", help="fit theta to demonstrations (Laplace approximation) "
-                             "or to recorded decisions (exact discrete-choice likelihood)")
-    fit.add_argument("demos", nargs="+", help=".npz from `record` (demonstrations: Laplace fit; "
-                     "`record --decisions`: discrete-choice fit), or INTERACTION-format .csv")
-    fit.add_argument("-o", "--out", default=f"{DEFAULT_OUT}/theta.json")
-    fit.add_argument("--features", nargs="+", default=None,
-                     help="features to fit (default: speed accel jerk safety crosswalk)")
-    fit.set_defaults(func=_irl_fit)
-
-    try:
-        from marl_social.studies.runner import register_cli
-    except ImportError:  # pragma: no cover - the study runner is part of the package
-        register_cli = None
-    if register_cli is not None:
-        register_cli(sub)
-
-    args = parser.parse_args(argv)
-    try:
-        return args.func(args)
-    except (ValueError, OSError) as err:  # bad input or file: one line, no traceback
-        print(f"marl-social {args.command}: error: {err}", file=sys.stderr)
-        return 2
-
-
-if __name__ == "__main__":
-    sys.exit(main())
