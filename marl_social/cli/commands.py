@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import json
-import math
 import sys
 from pathlib import Path
 
@@ -12,28 +11,6 @@ import numpy as np
 from marl_social.cli.overrides import parse_overrides
 
 DEFAULT_OUT = "marl_social_out"
-
-
-def _annotate_belief(frames, p_pedestrian, perceived):
-    """Write the robot's belief onto each frame (a bar and its value), in place order."""
-    from PIL import Image, ImageDraw
-
-    out = []
-    for k, frame in enumerate(frames):
-        img = Image.fromarray(frame)
-        draw = ImageDraw.Draw(img)
-        w, h = img.size
-        p = float(p_pedestrian[min(k, len(p_pedestrian) - 1)])
-        seen = bool(perceived[min(k, len(perceived) - 1)] > 0.5)
-        if not math.isnan(p):  # NaN once the robot has left the episode
-            x0, y0, bar_w = w - 260, h - 34, 200
-            draw.rectangle([x0 - 6, y0 - 20, w - 8, h - 8], fill=(255, 255, 255))
-            draw.text((x0, y0 - 16), f"robot's P(pedestrian) = {p:.2f}"
-                      + ("  (sees it)" if seen else "  (inferred)"), fill=(0, 0, 0))
-            draw.rectangle([x0, y0, x0 + bar_w, y0 + 12], outline=(0, 0, 0))
-            draw.rectangle([x0, y0, x0 + int(bar_w * p), y0 + 12], fill=(31, 119, 180))
-        out.append(np.asarray(img))
-    return out
 
 
 def demo_overrides(args) -> dict:
@@ -53,6 +30,7 @@ def demo(args) -> int:
     from marl_social.scenarios import make_scenario
     from marl_social.viz.animation import write_animation
     from marl_social.viz.figures import plot_episode
+    from marl_social.viz.overlay import caption_frames, crosswalk_ahead
 
     overrides = demo_overrides(args)
     params = make_scenario(args.scenario, **overrides).params
@@ -75,9 +53,13 @@ def demo(args) -> int:
     print(f"figure:    {figure}")
     if not args.no_animation:
         frames = trace.frames
-        if beliefs:
-            frames = _annotate_belief(frames, trace.extras["p_pedestrian"],
-                                      trace.extras["perceived"])
+        if beliefs:  # the legend and the belief bar in a strip under the scene
+            ahead = crosswalk_ahead(trace.states, trace.active, res.road_map,
+                                    trace.names.index("robot_0"))
+            frames = caption_frames(frames, trace.extras["p_pedestrian"],
+                                    trace.extras["perceived"], ahead)
+        else:
+            frames = caption_frames(frames)
         gif = write_animation(frames, out / f"{stem}.gif", fps=10)
         print(f"animation: {gif}")
     (out / f"{stem}_metrics.json").write_text(json.dumps(metrics, indent=2))
