@@ -8,9 +8,12 @@ Rays are answered in two phases, for all observers at once:
 
 1. numpy broad phase: each ray segment against every other agent's bounding circle and every
    static polygon's bounding box. A ray that crosses no other object's bound cannot be occluded
-   (a target ray) or hits nothing (a depth ray): it needs no query.
-2. pymunk narrow phase: `Space.segment_query_first` for the remaining rays (exact first hit,
-   the observer's own shape filtered out by its ShapeFilter group).
+   (a target ray) or hits nothing (a depth ray): it needs no query. The depth rays of an
+   observer with a static polygon within its range skip it: most of them end on the polygon
+   (buildings lining the road), so the test would cost more than the few queries it saves.
+2. chipmunk narrow phase (the pymunk Space, `GeometryMirror.first_hits` / `hits_targets`):
+   the exact first hit of every remaining ray, the observer's own shape filtered out by its
+   group.
 """
 
 from __future__ import annotations
@@ -143,6 +146,8 @@ class FieldOfView:
         self._angles_key = None
         self._angles = None
         self._local = None  # body-frame sample points, built on first use (sizes are fixed)
+        self._layout_key = None
+        self._layout = None
 
     def ray_angles(self, half_angle_rad: np.ndarray) -> np.ndarray:
         """depth_ray_angles for these half-angles, cached (sensors do not change in an episode)."""
@@ -169,6 +174,8 @@ class FieldOfView:
         n = len(xy)
         self._queries = 0
         radii = np.where(active, bounding_radius, -1.0)  # inactive agents never occlude
+        angles, d_obs, d_angle, d_range, pair_ok = self._active_layout(active, half_angle_rad,
+                                                                       range_m)
         # -- target sample points within range and cone: (observer, target, point)
         if self._local is None or len(self._local) != n:
             self._local = sample_point_layout(length, width, is_pedestrian)
@@ -177,35 +184,40 @@ class FieldOfView:
         dist2 = rel[..., 0] ** 2 + rel[..., 1] ** 2
         bearing = np.arctan2(rel[..., 1], rel[..., 0]) - heading[:, None, None]
         bearing = np.abs((bearing + np.pi) % (2 * np.pi) - np.pi)
-        pair_ok = active[:, None] & active[None, :]
-        np.fill_diagonal(pair_ok, False)
         sensed = (
             (dist2 <= (range_m ** 2)[:, None, None])
             & (bearing <= half_angle_rad[:, None, None])
-            & pair_ok[..., None]
+            & pair_ok
         )
-        # -- round 1, one broad phase for all centre rays and all depth rays
+        # -- round 1: centre rays, and depth rays of observers with no static polygon in
+        # range, through one broad phase; depth rays that may end on a static polygon (most
+        # of them, where buildings line the road) go straight to the narrow phase
         visible = np.zeros((n, n), dtype=bool)
         o1, t1 = np.nonzero(sensed[:, :, 0])
-        angles = self.ray_angles(half_angle_rad)  # (n, R)
-        d_obs = np.repeat(np.flatnonzero(active), self.n_rays)
-        d_dir = heading[d_obs] + angles[active].ravel()
-        d_end = xy[d_obs] + np.column_stack([np.cos(d_dir), np.sin(d_dir)]) * range_m[d_obs, None]
+        d_dir = heading[d_obs] + d_angle
+        d_end = np.empty((len(d_obs), 2))
+        d_end[:, 0] = np.cos(d_dir)
+        d_end[:, 1] = np.sin(d_dir)
+        d_end *= d_range
+        d_end += xy[d_obs]
+        static_near = self._statics_in_range(xy, range_m)  # (n,) bool
         n_t = len(o1)
         ray_obs = np.concatenate([o1, d_obs])
         start = xy[ray_obs]
         end = np.concatenate([points[t1, 0], d_end])
-        maybe = self._maybe_blocked(start, end, ray_obs, t1, xy, radii)
+        maybe = np.ones(len(ray_obs), dtype=bool)
+        check = np.flatnonzero(~static_near[ray_obs])
+        check = np.concatenate([np.arange(n_t), check[check >= n_t]])
+        maybe[check] = self._maybe_blocked(start[check], end[check], ray_obs[check],
+                                           t1, xy, radii,
+                                           boxes=bool(static_near.any()))
         self._resolve_targets(start[:n_t], end[:n_t], o1, t1, maybe[:n_t], visible)
-        alpha = np.ones(len(d_obs))
-        first_hit = self.mirror.first_hit
         todo = np.flatnonzero(maybe[n_t:])
-        for r, o, a, b in zip(todo.tolist(), d_obs[todo].tolist(), start[n_t + todo].tolist(),
-                              d_end[todo].tolist()):
-            alpha[r] = first_hit(a, b, o)[1]
+        alpha = np.ones(len(d_obs))
+        alpha[todo] = self.mirror.first_hits(start[n_t + todo], d_end[todo], d_obs[todo])[1]
         self._queries += len(todo)
         depth = np.zeros((n, self.n_rays))
-        depth[active] = (alpha * range_m[d_obs]).reshape(-1, self.n_rays)
+        depth[active] = (alpha * d_range[:, 0]).reshape(-1, self.n_rays)
         # -- round 2: corner rays of targets in view whose centre was hidden
         sensed[:, :, 1:] &= ~visible[..., None]
         o2, t2, k2 = np.nonzero(sensed[:, :, 1:])
@@ -217,17 +229,46 @@ class FieldOfView:
             visible[o] &= ~_inside_convex(xy, poly)
         return FovResult(visible, depth, angles, self._queries)
 
-    def _maybe_blocked(self, start, end, ray_obs, tgt, centres, radii) -> np.ndarray:
+    def _active_layout(self, active, half_angle_rad, range_m) -> tuple:
+        """Constants of a set of active observers, rebuilt only when it changes.
+
+        Returns:
+            ray angles (n, R) [rad], the observer (A * R,) int, relative angle (A * R,) [rad]
+            and length (A * R, 1) [m] of every active observer's depth ray, and the
+            (observer, target) pairs that can see each other (n, n, 1) bool.
+        """
+        key = active.tobytes() + half_angle_rad.tobytes() + range_m.tobytes()
+        if key != self._layout_key:
+            angles = self.ray_angles(half_angle_rad)
+            d_obs = np.repeat(np.flatnonzero(active), self.n_rays)
+            pair_ok = active[:, None] & active[None, :]
+            np.fill_diagonal(pair_ok, False)
+            self._layout_key = key
+            self._layout = (angles, d_obs, angles[active].ravel(), range_m[d_obs, None],
+                            pair_ok[..., None])
+        return self._layout
+
+    def _statics_in_range(self, xy, range_m) -> np.ndarray:
+        """(n,) bool: some static polygon's bounding box lies within each observer's range."""
+        if not len(self._box_min):
+            return np.zeros(len(xy), dtype=bool)
+        gap = np.maximum(np.maximum(self._box_min[None] - xy[:, None], xy[:, None]
+                                    - self._box_max[None]), 0.0)  # (n, S, 2) [m]
+        return np.any(gap[..., 0] ** 2 + gap[..., 1] ** 2 <= (range_m ** 2)[:, None], axis=1)
+
+    def _maybe_blocked(self, start, end, ray_obs, tgt, centres, radii,
+                       boxes: bool = True) -> np.ndarray:
         """Broad phase: could anything be in the way of each ray? (R,) bool.
 
         Anything but the ray's observer and, for the first len(tgt) rays, their target.
+        `boxes=False` skips the static polygons (none is within reach of these rays).
         """
         blockers = _segments_hit_circles(start, end, centres, radii)
         rows = np.arange(len(ray_obs))
         blockers[rows, ray_obs] = False
         blockers[rows[:len(tgt)], tgt] = False
         maybe = blockers.any(axis=1)
-        if len(self._box_min):
+        if boxes and len(self._box_min):
             maybe |= _segments_hit_boxes(start, end, self._box_min, self._box_max).any(axis=1)
         return maybe
 
@@ -238,11 +279,7 @@ class FieldOfView:
         """
         clear = ~maybe
         visible[obs[clear], tgt[clear]] = True
-        first_hit = self.mirror.first_hit
-        todo = np.flatnonzero(maybe)
-        for o, t, a, b in zip(obs[todo].tolist(), tgt[todo].tolist(), start[todo].tolist(),
-                              end[todo].tolist()):
-            if visible[o, t]:
-                continue
-            self._queries += 1
-            visible[o, t] = first_hit(a, b, o)[0] == t
+        todo = np.flatnonzero(maybe & ~visible[obs, tgt])
+        seen, n_queries = self.mirror.hits_targets(start[todo], end[todo], obs[todo], tgt[todo])
+        visible[obs[todo[seen]], tgt[todo[seen]]] = True
+        self._queries += n_queries
