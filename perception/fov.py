@@ -6,11 +6,12 @@ Depth rays at fixed angles across the cone give each observer's visibility polyg
 
 Rays are answered in two phases, for all observers at once:
 
-1. numpy broad phase: each ray segment against every other agent's bounding circle and every
-   static polygon's bounding box. A ray that crosses no other object's bound cannot be occluded
-   (a target ray) or hits nothing (a depth ray): it needs no query. The depth rays of an
-   observer with a static polygon within its range skip it: most of them end on the polygon
-   (buildings lining the road), so the test would cost more than the few queries it saves.
+1. numpy broad phase, for the observers with no static polygon's bounding box within their
+   range: each ray segment against every other agent's bounding circle. A ray that crosses no
+   other agent's circle cannot be occluded (a target ray) or hits nothing (a depth ray): it
+   needs no query. The rays of an observer with a static polygon in range all go to the narrow
+   phase: where buildings line the road most of them end on one, and the test would cost more
+   than the queries it saves.
 2. chipmunk narrow phase (the pymunk Space, `GeometryMirror.first_hits` / `hits_targets`):
    the exact first hit of every remaining ray, the observer's own shape filtered out by its
    group.
@@ -106,22 +107,6 @@ def _inside_convex(points, polygon) -> np.ndarray:
     return np.all(cross >= 0, axis=1) | np.all(cross <= 0, axis=1)
 
 
-def _segments_hit_boxes(start, end, box_min, box_max) -> np.ndarray:
-    """Slab test of segments (R, 2)->(R, 2) against axis-aligned boxes (S, 2): (R, S) bool."""
-    if len(box_min) == 0:
-        return np.zeros((len(start), 0), dtype=bool)
-    d = end - start
-    d = np.where(np.abs(d) < 1e-12, 1e-12, d)  # axis-parallel rays: a huge finite slope
-    inv = 1.0 / d
-    tx1 = np.subtract.outer(-start[:, 0], -box_min[:, 0]) * inv[:, 0:1]
-    tx2 = np.subtract.outer(-start[:, 0], -box_max[:, 0]) * inv[:, 0:1]
-    ty1 = np.subtract.outer(-start[:, 1], -box_min[:, 1]) * inv[:, 1:2]
-    ty2 = np.subtract.outer(-start[:, 1], -box_max[:, 1]) * inv[:, 1:2]
-    enter = np.maximum(np.minimum(tx1, tx2), np.minimum(ty1, ty2))
-    leave = np.minimum(np.maximum(tx1, tx2), np.maximum(ty1, ty2))
-    return (enter <= leave) & (leave >= 0.0) & (enter <= 1.0)
-
-
 class FieldOfView:
     """Computes every agent's field of view against a GeometryMirror.
 
@@ -189,9 +174,10 @@ class FieldOfView:
             & (bearing <= half_angle_rad[:, None, None])
             & pair_ok
         )
-        # -- round 1: centre rays, and depth rays of observers with no static polygon in
-        # range, through one broad phase; depth rays that may end on a static polygon (most
-        # of them, where buildings line the road) go straight to the narrow phase
+        # -- round 1: centre rays and depth rays. The rays of observers with a static polygon
+        # in range go straight to the narrow phase (where buildings line the road most of
+        # them end on one); the others' through one numpy broad phase.
+        static_near = self._statics_in_range(xy, range_m)  # (n,) bool
         visible = np.zeros((n, n), dtype=bool)
         o1, t1 = np.nonzero(sensed[:, :, 0])
         d_dir = heading[d_obs] + d_angle
@@ -200,17 +186,11 @@ class FieldOfView:
         d_end[:, 1] = np.sin(d_dir)
         d_end *= d_range
         d_end += xy[d_obs]
-        static_near = self._statics_in_range(xy, range_m)  # (n,) bool
         n_t = len(o1)
         ray_obs = np.concatenate([o1, d_obs])
         start = xy[ray_obs]
         end = np.concatenate([points[t1, 0], d_end])
-        maybe = np.ones(len(ray_obs), dtype=bool)
-        check = np.flatnonzero(~static_near[ray_obs])
-        check = np.concatenate([np.arange(n_t), check[check >= n_t]])
-        maybe[check] = self._maybe_blocked(start[check], end[check], ray_obs[check],
-                                           t1, xy, radii,
-                                           boxes=bool(static_near.any()))
+        maybe = self._maybe_blocked(start, end, ray_obs, t1, xy, radii, static_near)
         self._resolve_targets(start[:n_t], end[:n_t], o1, t1, maybe[:n_t], visible)
         todo = np.flatnonzero(maybe[n_t:])
         alpha = np.ones(len(d_obs))
@@ -223,7 +203,7 @@ class FieldOfView:
         o2, t2, k2 = np.nonzero(sensed[:, :, 1:])
         if len(o2):
             start2, end2 = xy[o2], points[t2, k2 + 1]
-            maybe2 = self._maybe_blocked(start2, end2, o2, t2, xy, radii)
+            maybe2 = self._maybe_blocked(start2, end2, o2, t2, xy, radii, static_near)
             self._resolve_targets(start2, end2, o2, t2, maybe2, visible)
         for o, poly in self._blind:
             visible[o] &= ~_inside_convex(xy, poly)
@@ -256,20 +236,23 @@ class FieldOfView:
                                     - self._box_max[None]), 0.0)  # (n, S, 2) [m]
         return np.any(gap[..., 0] ** 2 + gap[..., 1] ** 2 <= (range_m ** 2)[:, None], axis=1)
 
-    def _maybe_blocked(self, start, end, ray_obs, tgt, centres, radii,
-                       boxes: bool = True) -> np.ndarray:
+    def _maybe_blocked(self, start, end, ray_obs, tgt, centres, radii, static_near
+                       ) -> np.ndarray:
         """Broad phase: could anything be in the way of each ray? (R,) bool.
 
-        Anything but the ray's observer and, for the first len(tgt) rays, their target.
-        `boxes=False` skips the static polygons (none is within reach of these rays).
+        Anything but the ray's observer and, for the first len(tgt) rays, their target. The
+        rays of observers with `static_near` are not tested (True); the others' observers have
+        no static polygon within their range, so only the agents' bounding circles count.
         """
-        blockers = _segments_hit_circles(start, end, centres, radii)
-        rows = np.arange(len(ray_obs))
-        blockers[rows, ray_obs] = False
-        blockers[rows[:len(tgt)], tgt] = False
-        maybe = blockers.any(axis=1)
-        if boxes and len(self._box_min):
-            maybe |= _segments_hit_boxes(start, end, self._box_min, self._box_max).any(axis=1)
+        maybe = np.ones(len(ray_obs), dtype=bool)
+        check = np.flatnonzero(~static_near[ray_obs])
+        if len(check):
+            blockers = _segments_hit_circles(start[check], end[check], centres, radii)
+            rows = np.arange(len(check))
+            blockers[rows, ray_obs[check]] = False
+            is_target = check < len(tgt)
+            blockers[rows[is_target], tgt[check[is_target]]] = False
+            maybe[check] = blockers.any(axis=1)
         return maybe
 
     def _resolve_targets(self, start, end, obs, tgt, maybe, visible) -> None:

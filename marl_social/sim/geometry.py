@@ -54,6 +54,7 @@ class GeometryMirror:
         self._geom_label: dict[int, int] = {}
         self._geoms = []  # keep geometries alive: labels are keyed by id()
         self._in_space = np.zeros(self.n_agents, dtype=bool)
+        self._off_diagonal = ~np.eye(self.n_agents, dtype=bool)
         self._ray_filters: list[pymunk.ShapeFilter] = []
         self._cp_filter_owners = []  # chipmunk cpShapeFilter structs, built once per agent
 
@@ -274,17 +275,19 @@ class GeometryMirror:
 
     def _bounds_may_touch(self, xy, radius, active) -> bool:
         r = np.where(active, radius, -1e9)
-        diff = xy[:, None, :] - xy[None, :, :]
-        reach = r[:, None] + r[None, :]
-        close = np.einsum("ijk,ijk->ij", diff, diff) <= reach * reach
-        np.fill_diagonal(close, False)
+        dx = xy[:, 0:1] - xy[:, 0]
+        dy = xy[:, 1:2] - xy[:, 1]
+        reach = r[:, None] + r
+        close = dx * dx + dy * dy <= reach * reach
+        close &= self._off_diagonal
         if close.any():
             return True
         if not len(self._static_min):
             return False
-        nearest = np.clip(xy[:, None, :], self._static_min[None], self._static_max[None])
-        d2 = np.sum((xy[:, None, :] - nearest) ** 2, axis=-1)
-        return bool(np.any(d2 <= (r * r)[:, None] * (r > 0)[:, None]))
+        gap = np.maximum(np.maximum(self._static_min - xy[:, None], xy[:, None] - self._static_max),
+                         0.0)  # (n, S, 2) from each centre to each static box [m]
+        d2 = gap[..., 0] ** 2 + gap[..., 1] ** 2
+        return bool(np.any(d2 <= np.where(r > 0, r * r, -1.0)[:, None]))
 
     def distance(self, label_a: int, label_b: int) -> float:
         """Exact fcl distance between two labelled solids [m] (0 when they overlap)."""

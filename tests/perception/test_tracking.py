@@ -94,7 +94,6 @@ def test_velocity_change_covariance_matches_the_track_error():
 
 def test_inlined_kalman_steps_are_filterpy_bit_for_bit():
     from filterpy.kalman import predict, update
-
     from marl_social.perception.tracking import kf_predict, kf_update
 
     rng = np.random.default_rng()
