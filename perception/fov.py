@@ -6,11 +6,15 @@ Depth rays at fixed angles across the cone give each observer's visibility polyg
 
 Rays are answered in two phases, for all observers at once:
 
-1. numpy broad phase: each ray segment against every other agent's bounding circle and every
-   static polygon's bounding box. A ray that crosses no other object's bound cannot be occluded
-   (a target ray) or hits nothing (a depth ray): it needs no query.
-2. pymunk narrow phase: `Space.segment_query_first` for the remaining rays (exact first hit,
-   the observer's own shape filtered out by its ShapeFilter group).
+1. numpy broad phase, for the observers with no static polygon's bounding box within their
+   range: each ray segment against every other agent's bounding circle. A ray that crosses no
+   other agent's circle cannot be occluded (a target ray) or hits nothing (a depth ray): it
+   needs no query. The rays of an observer with a static polygon in range all go to the narrow
+   phase: where buildings line the road most of them end on one, and the test would cost more
+   than the queries it saves.
+2. chipmunk narrow phase (the pymunk Space, `GeometryMirror.first_hits` / `hits_targets`):
+   the exact first hit of every remaining ray, the observer's own shape filtered out by its
+   group.
 """
 
 from __future__ import annotations
@@ -103,22 +107,6 @@ def _inside_convex(points, polygon) -> np.ndarray:
     return np.all(cross >= 0, axis=1) | np.all(cross <= 0, axis=1)
 
 
-def _segments_hit_boxes(start, end, box_min, box_max) -> np.ndarray:
-    """Slab test of segments (R, 2)->(R, 2) against axis-aligned boxes (S, 2): (R, S) bool."""
-    if len(box_min) == 0:
-        return np.zeros((len(start), 0), dtype=bool)
-    d = end - start
-    d = np.where(np.abs(d) < 1e-12, 1e-12, d)  # axis-parallel rays: a huge finite slope
-    inv = 1.0 / d
-    tx1 = np.subtract.outer(-start[:, 0], -box_min[:, 0]) * inv[:, 0:1]
-    tx2 = np.subtract.outer(-start[:, 0], -box_max[:, 0]) * inv[:, 0:1]
-    ty1 = np.subtract.outer(-start[:, 1], -box_min[:, 1]) * inv[:, 1:2]
-    ty2 = np.subtract.outer(-start[:, 1], -box_max[:, 1]) * inv[:, 1:2]
-    enter = np.maximum(np.minimum(tx1, tx2), np.minimum(ty1, ty2))
-    leave = np.minimum(np.maximum(tx1, tx2), np.maximum(ty1, ty2))
-    return (enter <= leave) & (leave >= 0.0) & (enter <= 1.0)
-
-
 class FieldOfView:
     """Computes every agent's field of view against a GeometryMirror.
 
@@ -143,6 +131,8 @@ class FieldOfView:
         self._angles_key = None
         self._angles = None
         self._local = None  # body-frame sample points, built on first use (sizes are fixed)
+        self._layout_key = None
+        self._layout = None
 
     def ray_angles(self, half_angle_rad: np.ndarray) -> np.ndarray:
         """depth_ray_angles for these half-angles, cached (sensors do not change in an episode)."""
@@ -169,6 +159,8 @@ class FieldOfView:
         n = len(xy)
         self._queries = 0
         radii = np.where(active, bounding_radius, -1.0)  # inactive agents never occlude
+        angles, d_obs, d_angle, d_range, pair_ok = self._active_layout(active, half_angle_rad,
+                                                                       range_m)
         # -- target sample points within range and cone: (observer, target, point)
         if self._local is None or len(self._local) != n:
             self._local = sample_point_layout(length, width, is_pedestrian)
@@ -177,58 +169,90 @@ class FieldOfView:
         dist2 = rel[..., 0] ** 2 + rel[..., 1] ** 2
         bearing = np.arctan2(rel[..., 1], rel[..., 0]) - heading[:, None, None]
         bearing = np.abs((bearing + np.pi) % (2 * np.pi) - np.pi)
-        pair_ok = active[:, None] & active[None, :]
-        np.fill_diagonal(pair_ok, False)
         sensed = (
             (dist2 <= (range_m ** 2)[:, None, None])
             & (bearing <= half_angle_rad[:, None, None])
-            & pair_ok[..., None]
+            & pair_ok
         )
-        # -- round 1, one broad phase for all centre rays and all depth rays
+        # -- round 1: centre rays and depth rays. The rays of observers with a static polygon
+        # in range go straight to the narrow phase (where buildings line the road most of
+        # them end on one); the others' through one numpy broad phase.
+        static_near = self._statics_in_range(xy, range_m)  # (n,) bool
         visible = np.zeros((n, n), dtype=bool)
         o1, t1 = np.nonzero(sensed[:, :, 0])
-        angles = self.ray_angles(half_angle_rad)  # (n, R)
-        d_obs = np.repeat(np.flatnonzero(active), self.n_rays)
-        d_dir = heading[d_obs] + angles[active].ravel()
-        d_end = xy[d_obs] + np.column_stack([np.cos(d_dir), np.sin(d_dir)]) * range_m[d_obs, None]
+        d_dir = heading[d_obs] + d_angle
+        d_end = np.empty((len(d_obs), 2))
+        d_end[:, 0] = np.cos(d_dir)
+        d_end[:, 1] = np.sin(d_dir)
+        d_end *= d_range
+        d_end += xy[d_obs]
         n_t = len(o1)
         ray_obs = np.concatenate([o1, d_obs])
         start = xy[ray_obs]
         end = np.concatenate([points[t1, 0], d_end])
-        maybe = self._maybe_blocked(start, end, ray_obs, t1, xy, radii)
+        maybe = self._maybe_blocked(start, end, ray_obs, t1, xy, radii, static_near)
         self._resolve_targets(start[:n_t], end[:n_t], o1, t1, maybe[:n_t], visible)
-        alpha = np.ones(len(d_obs))
-        first_hit = self.mirror.first_hit
         todo = np.flatnonzero(maybe[n_t:])
-        for r, o, a, b in zip(todo.tolist(), d_obs[todo].tolist(), start[n_t + todo].tolist(),
-                              d_end[todo].tolist()):
-            alpha[r] = first_hit(a, b, o)[1]
+        alpha = np.ones(len(d_obs))
+        alpha[todo] = self.mirror.first_hits(start[n_t + todo], d_end[todo], d_obs[todo])[1]
         self._queries += len(todo)
         depth = np.zeros((n, self.n_rays))
-        depth[active] = (alpha * range_m[d_obs]).reshape(-1, self.n_rays)
+        depth[active] = (alpha * d_range[:, 0]).reshape(-1, self.n_rays)
         # -- round 2: corner rays of targets in view whose centre was hidden
         sensed[:, :, 1:] &= ~visible[..., None]
         o2, t2, k2 = np.nonzero(sensed[:, :, 1:])
         if len(o2):
             start2, end2 = xy[o2], points[t2, k2 + 1]
-            maybe2 = self._maybe_blocked(start2, end2, o2, t2, xy, radii)
+            maybe2 = self._maybe_blocked(start2, end2, o2, t2, xy, radii, static_near)
             self._resolve_targets(start2, end2, o2, t2, maybe2, visible)
         for o, poly in self._blind:
             visible[o] &= ~_inside_convex(xy, poly)
         return FovResult(visible, depth, angles, self._queries)
 
-    def _maybe_blocked(self, start, end, ray_obs, tgt, centres, radii) -> np.ndarray:
+    def _active_layout(self, active, half_angle_rad, range_m) -> tuple:
+        """Constants of a set of active observers, rebuilt only when it changes.
+
+        Returns:
+            ray angles (n, R) [rad], the observer (A * R,) int, relative angle (A * R,) [rad]
+            and length (A * R, 1) [m] of every active observer's depth ray, and the
+            (observer, target) pairs that can see each other (n, n, 1) bool.
+        """
+        key = active.tobytes() + half_angle_rad.tobytes() + range_m.tobytes()
+        if key != self._layout_key:
+            angles = self.ray_angles(half_angle_rad)
+            d_obs = np.repeat(np.flatnonzero(active), self.n_rays)
+            pair_ok = active[:, None] & active[None, :]
+            np.fill_diagonal(pair_ok, False)
+            self._layout_key = key
+            self._layout = (angles, d_obs, angles[active].ravel(), range_m[d_obs, None],
+                            pair_ok[..., None])
+        return self._layout
+
+    def _statics_in_range(self, xy, range_m) -> np.ndarray:
+        """(n,) bool: some static polygon's bounding box lies within each observer's range."""
+        if not len(self._box_min):
+            return np.zeros(len(xy), dtype=bool)
+        gap = np.maximum(np.maximum(self._box_min[None] - xy[:, None], xy[:, None]
+                                    - self._box_max[None]), 0.0)  # (n, S, 2) [m]
+        return np.any(gap[..., 0] ** 2 + gap[..., 1] ** 2 <= (range_m ** 2)[:, None], axis=1)
+
+    def _maybe_blocked(self, start, end, ray_obs, tgt, centres, radii, static_near
+                       ) -> np.ndarray:
         """Broad phase: could anything be in the way of each ray? (R,) bool.
 
-        Anything but the ray's observer and, for the first len(tgt) rays, their target.
+        Anything but the ray's observer and, for the first len(tgt) rays, their target. The
+        rays of observers with `static_near` are not tested (True); the others' observers have
+        no static polygon within their range, so only the agents' bounding circles count.
         """
-        blockers = _segments_hit_circles(start, end, centres, radii)
-        rows = np.arange(len(ray_obs))
-        blockers[rows, ray_obs] = False
-        blockers[rows[:len(tgt)], tgt] = False
-        maybe = blockers.any(axis=1)
-        if len(self._box_min):
-            maybe |= _segments_hit_boxes(start, end, self._box_min, self._box_max).any(axis=1)
+        maybe = np.ones(len(ray_obs), dtype=bool)
+        check = np.flatnonzero(~static_near[ray_obs])
+        if len(check):
+            blockers = _segments_hit_circles(start[check], end[check], centres, radii)
+            rows = np.arange(len(check))
+            blockers[rows, ray_obs[check]] = False
+            is_target = check < len(tgt)
+            blockers[rows[is_target], tgt[check[is_target]]] = False
+            maybe[check] = blockers.any(axis=1)
         return maybe
 
     def _resolve_targets(self, start, end, obs, tgt, maybe, visible) -> None:
@@ -238,11 +262,7 @@ class FieldOfView:
         """
         clear = ~maybe
         visible[obs[clear], tgt[clear]] = True
-        first_hit = self.mirror.first_hit
-        todo = np.flatnonzero(maybe)
-        for o, t, a, b in zip(obs[todo].tolist(), tgt[todo].tolist(), start[todo].tolist(),
-                              end[todo].tolist()):
-            if visible[o, t]:
-                continue
-            self._queries += 1
-            visible[o, t] = first_hit(a, b, o)[0] == t
+        todo = np.flatnonzero(maybe & ~visible[obs, tgt])
+        seen, n_queries = self.mirror.hits_targets(start[todo], end[todo], obs[todo], tgt[todo])
+        visible[obs[todo[seen]], tgt[todo[seen]]] = True
+        self._queries += n_queries

@@ -1,6 +1,8 @@
 """Multi-object tracking from an agent's own observations: one Kalman filter per object.
 
-filterpy's predict / update, constant-velocity model, state [x m, y m, vx m/s, vy m/s].
+filterpy's predict / update (the same array operations in the same order, without their
+per-call argument handling: `kf_predict`, `kf_update`), constant-velocity model, state
+[x m, y m, vx m/s, vy m/s].
 
 Association is by the object id in the observation slot (a perception stack's track id). A track
 that is not measured coasts on its prediction and is dropped after `timeout_s`.
@@ -17,7 +19,7 @@ from dataclasses import dataclass
 
 import numpy as np
 from filterpy.common import Q_discrete_white_noise
-from filterpy.kalman import predict, update
+from numpy import dot
 
 from marl_social.sim.dynamics import DT_S
 from marl_social.sim.observation import SLOT_INDEX, DecodedObservation
@@ -26,6 +28,47 @@ MOVING_MPS = 1.0  # below this tracked speed the heading is the measured box hea
 MIN_NOISE_STD = 1e-3  # measurement noise stds are at least this [m, m/s]
 # slot columns of the measured state [x m, y m, vx m/s, vy m/s]
 _MEASURED_STATE = [SLOT_INDEX["x"], SLOT_INDEX["y"], SLOT_INDEX["vx"], SLOT_INDEX["vy"]]
+
+
+def kf_predict(x: np.ndarray, P: np.ndarray, F: np.ndarray, Q: np.ndarray
+               ) -> tuple[np.ndarray, np.ndarray]:
+    """`filterpy.kalman.predict(x, P, F, Q)`: the same operations, bit for bit.
+
+    Args:
+        x: (d,) state.
+        P: (d, d) covariance.
+        F: (d, d) transition.
+        Q: (d, d) process noise.
+
+    Returns:
+        the predicted (x, P).
+    """
+    return dot(F, x) + dot(1, 0), (1 * 1) * dot(dot(F, P), F.T) + Q
+
+
+def kf_update(x: np.ndarray, P: np.ndarray, z: np.ndarray, R: np.ndarray,
+              H: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """`filterpy.kalman.update(x, P, z, R, H)` for a 1-D state and z: the same operations.
+
+    Joseph form, P = (I - KH) P (I - KH)^T + K R K^T, bit for bit as filterpy computes it.
+
+    Args:
+        x: (d,) predicted state.
+        P: (d, d) predicted covariance.
+        z: (m,) float measurement.
+        R: (m, m) measurement noise.
+        H: (m, d) measurement matrix.
+
+    Returns:
+        the updated (x, P).
+    """
+    y = z - dot(H, x)
+    S = dot(dot(H, P), H.T) + R
+    K = dot(dot(P, H.T), np.linalg.inv(S))
+    x = x + dot(K, y)
+    KH = dot(K, H)
+    I_KH = np.eye(KH.shape[0]) - KH
+    return x, dot(dot(I_KH, P), I_KH.T) + dot(dot(K, R), K.T)
 
 
 @dataclass(frozen=True)
@@ -113,7 +156,7 @@ class Tracker:
         previous = {}
         for oid in list(self._filters):
             previous[oid] = self._filters[oid][1]
-            self._filters[oid] = predict(*self._filters[oid], self._F, self._Q)
+            self._filters[oid] = kf_predict(*self._filters[oid], self._F, self._Q)
             if oid not in measured:
                 self._unseen[oid] += self.dt_s
                 self._dv_cov[oid] = self._velocity_change_cov(previous[oid], None)
@@ -124,7 +167,7 @@ class Tracker:
             z = row[_MEASURED_STATE].astype(np.float64)
             if oid in self._filters:
                 p_pred = self._filters[oid][1]
-                self._filters[oid] = update(*self._filters[oid], z, self._R, self._H)
+                self._filters[oid] = kf_update(*self._filters[oid], z, self._R, self._H)
                 self._dv_cov[oid] = self._velocity_change_cov(previous[oid], p_pred)
             else:
                 self._filters[oid] = (z, self._R.copy())

@@ -112,8 +112,12 @@ def profile_env(scenario: str, n_steps: int, top: int = 15, **overrides) -> str:
 
 
 def run_env_benchmark(agent_counts=(3, 10, 30, 100), n_steps: int = 500, peer: bool = True,
-                      profile: bool = False, echo=print) -> list[dict]:
-    """The `marl-social bench env` job. Returns one row per configuration."""
+                      profile: bool = False, echo=print, vector: bool = True) -> list[dict]:
+    """The `marl-social bench env` job. Returns one row per configuration.
+
+    The paper scenario's peer is highway-env with its 3 agents; with `vector`, a last row
+    compares vector_env(2) with one autopilot env (marl_social/bench/vector_bench.py).
+    """
     rows = []
     configs = [("paper scenario (occluded_crosswalk)", "occluded_crosswalk", 3, {})]
     configs += [(f"long_road n={n}", "long_road", n,
@@ -126,15 +130,17 @@ def run_env_benchmark(agent_counts=(3, 10, 30, 100), n_steps: int = 500, peer: b
             peer_fn = bench_highway.highway_env_steps_per_second
         else:
             echo("highway-env not installed (pip install 'marl-social[bench]'): no peer column")
-    echo(f"{'configuration':<38}{'agents':>7}{'live':>7}{'steps/s':>10}{'rays/step':>10}"
-         f"{'highway-env':>13}{'ratio':>8}")
+    echo(f"{'configuration':<38}{'agents':>7}{'live':>7}{'steps/s':>10}{'us/agent':>10}"
+         f"{'rays/step':>10}{'highway-env':>13}{'ratio':>8}")
     for label, scenario, n, overrides in configs:
         steps = max(50, n_steps // max(1, n // 10))
         res = bench_env(scenario, steps, label=label, **overrides)
+        us_per_agent = 1e6 / (res.steps_per_s * res.mean_live_agents)  # per live agent-step
         row = {"configuration": label, "agents": n, "live_agents": res.mean_live_agents,
-               "steps_per_s": res.steps_per_s, "ray_queries_per_step": res.ray_queries_per_step}
+               "steps_per_s": res.steps_per_s, "us_per_agent_step": us_per_agent,
+               "ray_queries_per_step": res.ray_queries_per_step}
         peer_txt, ratio_txt = "", ""
-        if peer_fn is not None and scenario == "long_road":
+        if peer_fn is not None:
             peer_res = peer_fn(n, n_steps=max(30, steps // 4))
             row["highway_env_steps_per_s"] = peer_res["steps_per_s"]
             row["highway_env_vehicles"] = peer_res["n_vehicles_in_scene"]
@@ -142,8 +148,12 @@ def run_env_benchmark(agent_counts=(3, 10, 30, 100), n_steps: int = 500, peer: b
             peer_txt = f"{peer_res['steps_per_s']:.1f}"
             ratio_txt = f"{row['ratio']:.1f}x"
         echo(f"{label:<38}{n:>7}{res.mean_live_agents:>7.1f}{res.steps_per_s:>10.1f}"
-             f"{res.ray_queries_per_step:>10.1f}{peer_txt:>13}{ratio_txt:>8}")
+             f"{us_per_agent:>10.0f}{res.ray_queries_per_step:>10.1f}{peer_txt:>13}{ratio_txt:>8}")
         rows.append(row)
+    if vector:
+        from marl_social.bench.vector_bench import bench_vector
+
+        rows.append(bench_vector(echo=echo))
     if profile:
         echo("\nprofile, paper scenario (top functions by own time):")
         echo(profile_env("occluded_crosswalk", 2000))

@@ -108,6 +108,8 @@ class World:
         self.active = np.ones(self.n, dtype=bool)
         self.time_s = 0.0
         self._progress = None
+        self._kinds_key = None
+        self._kinds = None
         geometry = (self.is_pedestrian, self.length_m, self.width_m,
                     self.road_map.static_polygons)
         if reuse is not None and reuse.mirror.matches(*geometry):  # same solids: no rebuild
@@ -134,24 +136,26 @@ class World:
                 [vx, vy] m/s); rows of inactive agents are ignored. Out-of-range values saturate.
         """
         applied = np.zeros_like(action)
-        veh = self.active & ~self.is_pedestrian
-        ped = self.active & self.is_pedestrian
+        veh, ped, veh_params, ped_speed_max = self._active_kinds()
         self.prev_accel_mps2 = self.accel_mps2.copy()
-        if veh.any():
-            applied[veh] = saturate_vehicle_action(
-                action[veh], self.state[veh, 3], self.wheelbase_m[veh], self.accel_max[veh],
-                self.brake_max[veh], self.steer_max[veh], self.lat_accel_max[veh],
-            )
-            v_before = self.state[veh, 3].copy()
-            self.state[veh] = bicycle_step(self.state[veh], applied[veh], self.wheelbase_m[veh],
-                                           self.speed_max[veh])
+        if len(veh):
+            before = self.state[veh]
+            wheelbase, accel_max, brake_max, steer_max, lat_accel_max, speed_max = veh_params
+            applied_veh = saturate_vehicle_action(action[veh], before[:, 3], wheelbase,
+                                                  accel_max, brake_max, steer_max, lat_accel_max)
+            after = bicycle_step(before, applied_veh, wheelbase, speed_max)
+            self.state[veh] = after
+            applied[veh] = applied_veh
             # effective acceleration: a stopped car "braking" does not decelerate
-            self.accel_mps2[veh] = (self.state[veh, 3] - v_before) / DT_S
-        if ped.any():
-            applied[ped] = saturate_pedestrian_action(action[ped], self.speed_max[ped])
-            old_velocity = self.velocity_mps[ped]
-            self.state[ped] = pedestrian_step(self.state[ped], applied[ped])
-            self.accel_mps2[ped] = np.linalg.norm(applied[ped] - old_velocity, axis=1) / DT_S
+            self.accel_mps2[veh] = (after[:, 3] - before[:, 3]) / DT_S
+        if len(ped):
+            before = self.state[ped]
+            applied_ped = saturate_pedestrian_action(action[ped], ped_speed_max)
+            old_velocity = before[:, 3:4] * np.column_stack([np.cos(before[:, 2]),
+                                                            np.sin(before[:, 2])])
+            self.state[ped] = pedestrian_step(before, applied_ped)
+            applied[ped] = applied_ped
+            self.accel_mps2[ped] = np.linalg.norm(applied_ped - old_velocity, axis=1) / DT_S
         self.last_applied_action = applied
         self.time_s += DT_S
         self.mirror.sync(self.state[:, :2], self.state[:, 2], self.active)
@@ -166,6 +170,23 @@ class World:
         s, _ = self.route_progress()
         arrived = self.active & (s >= self.route_length_m - ROUTE_END_MARGIN_M)
         return StepEvents(collided, contacts, arrived, applied)
+
+    def _active_kinds(self) -> tuple:
+        """Index arrays of the active vehicles and pedestrians and their limits, cached.
+
+        Returns:
+            vehicle indices (v,), pedestrian indices (p,), the vehicles' (wheelbase, accel_max,
+            brake_max, steer_max, lat_accel_max, speed_max), each (v,), and the pedestrians'
+            speed_max (p,).
+        """
+        key = self.active.tobytes()
+        if key != self._kinds_key:
+            veh = np.flatnonzero(self.active & ~self.is_pedestrian)
+            ped = np.flatnonzero(self.active & self.is_pedestrian)
+            params = tuple(a[veh] for a in (self.wheelbase_m, self.accel_max, self.brake_max,
+                                            self.steer_max, self.lat_accel_max, self.speed_max))
+            self._kinds_key, self._kinds = key, (veh, ped, params, self.speed_max[ped])
+        return self._kinds
 
     def deactivate(self, mask: np.ndarray) -> None:
         """Remove agents from the world and from its geometry mirrors."""

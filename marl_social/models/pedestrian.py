@@ -6,6 +6,7 @@ the features every agent shares.
 
 from __future__ import annotations
 
+import functools
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -13,7 +14,7 @@ import numpy as np
 from marl_social.models.candidates import ScenePrediction
 from marl_social.sim.costs import CostWeights, step_cost
 from marl_social.sim.dynamics import DT_S
-from marl_social.sim.footprint import covering_circles
+from marl_social.sim.footprint import circle_layout, covering_circles, place_along
 from marl_social.sim.road_map import Crosswalk, Route
 
 
@@ -49,25 +50,49 @@ class PedestrianModel:
         return (np.arange(round(self.horizon_s / self.plan_dt_s)) + 1) * self.plan_dt_s
 
 
+def _model_constants(model: PedestrianModel) -> tuple:
+    """What a decision needs of the model alone, computed once per (hashable) model.
+
+    Returns:
+        plan times (T,) [s], candidate speeds (A,) [m/s], theta (N_FEATURES,), the covering
+        circles' offsets along the heading (C,) [m] and radii (C,) [m] of its disc.
+    """
+    try:
+        return _cached_model_constants(model)
+    except TypeError:  # a field that cannot be hashed (e.g. speeds given as a list)
+        return _cached_model_constants.__wrapped__(model)
+
+
+@functools.lru_cache(maxsize=64)
+def _cached_model_constants(model: PedestrianModel) -> tuple:
+    diam = 2.0 * model.radius_m
+    along, radius = circle_layout(diam, diam, True)
+    out = (model.plan_times_s, np.array(model.speeds_mps, dtype=np.float64),
+           model.theta.as_array(), along, radius)
+    for array in out:  # shared by every decision of the model
+        array.setflags(write=False)
+    return out
+
+
 def pedestrian_q_values(model: PedestrianModel, route: Route, s0: float, v_ref: float,
                         prev_speed: float, scene: ScenePrediction,
                         crosswalks: tuple[Crosswalk, ...]) -> np.ndarray:
     """Cost (L, A) of walking at each candidate speed for the horizon, per scene hypothesis."""
     dt = model.plan_dt_s
-    t = model.plan_times_s
-    speeds = np.asarray(model.speeds_mps, dtype=np.float64)
+    t, speeds, theta, ego_along, ego_radius = _model_constants(model)
     s = np.minimum(s0 + speeds[:, None] * t[None, :], route.length_m)  # (A, T)
     xy, heading = route.point_at(s)
     v = np.broadcast_to(speeds[:, None], s.shape)
     accel = np.zeros_like(v)
     accel[:, 0] = (speeds - prev_speed) / dt
-    diam = 2.0 * model.radius_m
-    ego_c, ego_r = covering_circles(xy, heading, diam, diam, True)
+    ego_c = place_along(xy, heading, ego_along)
+    ego_r = np.broadcast_to(ego_radius, ego_c.shape[:-1])
     oc, orad = covering_circles(scene.xy, scene.heading, scene.length_m[..., None],
                                 scene.width_m[..., None], scene.is_pedestrian[..., None])
     to_cand = lambda a: np.moveaxis(a, 1, 2)[:, None]  # (L, 1, T, M, ...)
     cost = step_cost(
-        model.theta.as_array(), lateral_m=0.0, speed_mps=v, v_ref_mps=v_ref, accel_mps2=accel, prev_accel_mps2=0.0,
+        theta, lateral_m=0.0, speed_mps=v, v_ref_mps=v_ref, accel_mps2=accel,
+        prev_accel_mps2=0.0,
         ego_xy=xy, ego_radius=model.radius_m, ego_is_ped=True, ego_circles=ego_c,
         ego_circle_r=ego_r, other_xy=to_cand(scene.xy),
         other_radius=scene.radius_m[:, None, None, :],

@@ -54,7 +54,9 @@ class GeometryMirror:
         self._geom_label: dict[int, int] = {}
         self._geoms = []  # keep geometries alive: labels are keyed by id()
         self._in_space = np.zeros(self.n_agents, dtype=bool)
+        self._off_diagonal = ~np.eye(self.n_agents, dtype=bool)
         self._ray_filters: list[pymunk.ShapeFilter] = []
+        self._cp_filter_owners = []  # chipmunk cpShapeFilter structs, built once per agent
 
         for i, is_ped in enumerate(kinds_is_pedestrian):
             body = pymunk.Body(body_type=pymunk.Body.KINEMATIC)
@@ -67,6 +69,7 @@ class GeometryMirror:
                 geom = fcl.Box(length, width, _TALL_M)
             shape.filter = pymunk.ShapeFilter(group=i + 1)
             self._ray_filters.append(pymunk.ShapeFilter(group=i + 1))
+            self._cp_filter_owners.append(ffi.new("cpShapeFilter *", tuple(shape.filter)))
             self._bodies.append(body)
             self._shapes.append(shape)
             self.shape_label[shape] = i
@@ -95,6 +98,8 @@ class GeometryMirror:
                            [p.copy() for p in polys])
         self._static_min = np.array([p.min(axis=0) for p in polys]).reshape(-1, 2)
         self._static_max = np.array([p.max(axis=0) for p in polys]).reshape(-1, 2)
+        # passed by value to chipmunk: a ready struct converts faster than a ShapeFilter tuple
+        self._cp_filters = [owner[0] for owner in self._cp_filter_owners]
 
     def matches(self, kinds_is_pedestrian, lengths_m, widths_m, static_polygons) -> bool:
         """True if this mirror was built from exactly these agents and static polygons.
@@ -189,6 +194,63 @@ class GeometryMirror:
             return -1, 1.0
         return self._cp_label[hit], self._query_info.alpha
 
+    def first_hits(self, start: np.ndarray, end: np.ndarray, observer: np.ndarray
+                   ) -> tuple[np.ndarray, np.ndarray]:
+        """`first_hit` of many segments, one chipmunk query each, no per-ray Python call.
+
+        Args:
+            start: (R, 2) segment starts [m].
+            end: (R, 2) segment ends [m].
+            observer: (R,) int, label of the agent whose shape each segment ignores.
+
+        Returns:
+            labels (R,) int (-1 where nothing is hit) and alpha (R,) in [0, 1] (1.0 where
+            nothing is hit).
+        """
+        query, space, info = lib.cpSpaceSegmentQueryFirst, self.space._space, self._query_info
+        filters, label_of = self._cp_filters, self._cp_label
+        labels = [-1] * len(observer)
+        alpha = [1.0] * len(observer)
+        for r, a, b, o in zip(range(len(observer)), np.asarray(start).tolist(),
+                              np.asarray(end).tolist(), np.asarray(observer).tolist()):
+            hit = query(space, a, b, 0.0, filters[o], info)
+            if hit:
+                labels[r] = label_of[hit]
+                alpha[r] = info.alpha
+        return np.array(labels, dtype=np.int64), np.array(alpha, dtype=np.float64)
+
+    def hits_targets(self, start: np.ndarray, end: np.ndarray, observer: np.ndarray,
+                     target: np.ndarray) -> tuple[np.ndarray, int]:
+        """Whether each segment's first hit is its target: rays from observers to targets.
+
+        The rays of one (observer, target) pair must be consecutive; once one of them hits its
+        target, the pair's remaining rays are not queried (False).
+
+        Args:
+            start: (R, 2) segment starts [m].
+            end: (R, 2) segment ends [m] (sample points on the targets).
+            observer: (R,) int, label of the agent whose shape each segment ignores.
+            target: (R,) int, label of the agent each segment aims at.
+
+        Returns:
+            (R,) bool and the number of chipmunk queries made.
+        """
+        query, space, info = lib.cpSpaceSegmentQueryFirst, self.space._space, self._query_info
+        filters, label_of = self._cp_filters, self._cp_label
+        seen = [False] * len(observer)
+        found, n_queries = None, 0
+        for r, a, b, o, t in zip(range(len(observer)), np.asarray(start).tolist(),
+                                 np.asarray(end).tolist(), np.asarray(observer).tolist(),
+                                 np.asarray(target).tolist()):
+            if found == (o, t):
+                continue
+            n_queries += 1
+            hit = query(space, a, b, 0.0, filters[o], info)
+            if hit and label_of[hit] == t:
+                seen[r] = True
+                found = (o, t)
+        return np.array(seen, dtype=bool), n_queries
+
     def contacts(self, xy=None, bounding_radius=None, active=None) -> list[tuple[int, int]]:
         """All touching pairs (label_a < label_b), agent-agent and agent-static.
 
@@ -213,17 +275,19 @@ class GeometryMirror:
 
     def _bounds_may_touch(self, xy, radius, active) -> bool:
         r = np.where(active, radius, -1e9)
-        diff = xy[:, None, :] - xy[None, :, :]
-        reach = r[:, None] + r[None, :]
-        close = np.einsum("ijk,ijk->ij", diff, diff) <= reach * reach
-        np.fill_diagonal(close, False)
+        dx = xy[:, 0:1] - xy[:, 0]
+        dy = xy[:, 1:2] - xy[:, 1]
+        reach = r[:, None] + r
+        close = dx * dx + dy * dy <= reach * reach
+        close &= self._off_diagonal
         if close.any():
             return True
         if not len(self._static_min):
             return False
-        nearest = np.clip(xy[:, None, :], self._static_min[None], self._static_max[None])
-        d2 = np.sum((xy[:, None, :] - nearest) ** 2, axis=-1)
-        return bool(np.any(d2 <= (r * r)[:, None] * (r > 0)[:, None]))
+        gap = np.maximum(np.maximum(self._static_min - xy[:, None], xy[:, None] - self._static_max),
+                         0.0)  # (n, S, 2) from each centre to each static box [m]
+        d2 = gap[..., 0] ** 2 + gap[..., 1] ** 2
+        return bool(np.any(d2 <= np.where(r > 0, r * r, -1.0)[:, None]))
 
     def distance(self, label_a: int, label_b: int) -> float:
         """Exact fcl distance between two labelled solids [m] (0 when they overlap)."""

@@ -67,6 +67,7 @@ def test_recording_decisions_does_not_change_the_episode():
     assert plain.decisions is None and len(recorded.decisions["human_0"]) == 80
 
 
+@pytest.mark.slow
 def test_likelihood_gradient_matches_finite_differences(decisions):
     data = decisions[2.0].subset(np.arange(300))
     theta = np.array([0.0, 1.7, 0.3, 0.2, 1.1, 900.0])
@@ -80,6 +81,7 @@ def test_likelihood_gradient_matches_finite_differences(decisions):
         assert grad[:, k].sum() == pytest.approx(fd, rel=1e-4, abs=1e-6)
 
 
+@pytest.mark.slow
 def test_recovers_the_humans_weights_and_rationality(decisions):
     scales = {}
     for beta, data in decisions.items():
@@ -96,6 +98,7 @@ def test_recovers_the_humans_weights_and_rationality(decisions):
     assert 5.0 < scales[20.0] / scales[2.0] < 20.0
 
 
+@pytest.mark.slow
 def test_held_out_choices_prefer_the_learned_weights(decisions):
     data = decisions[2.0]
     first = np.arange(len(data)) < 450
@@ -111,6 +114,7 @@ def test_held_out_choices_prefer_the_learned_weights(decisions):
                 < choice_neg_log_likelihood(rival, test))
 
 
+@pytest.mark.slow
 def test_decision_files_round_trip_and_fit_from_the_cli(decisions, tmp_path, capsys):
     path = save_decisions(tmp_path / "decisions.npz", decisions[20.0])
     loaded = load_decisions(path)
@@ -126,6 +130,7 @@ def test_decision_files_round_trip_and_fit_from_the_cli(decisions, tmp_path, cap
     assert "does not exist" in capsys.readouterr().err
 
 
+@pytest.mark.slow
 def test_bad_decision_data_is_rejected_with_the_field_named(decisions):
     data = decisions[20.0]
     with pytest.raises(ValueError, match="chosen index out of range"):

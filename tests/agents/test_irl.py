@@ -119,6 +119,7 @@ def synthetic():
     return demos[:100], demos[100:]
 
 
+@pytest.mark.slow
 def test_recovers_a_known_theta_from_100_near_rational_demonstrations(synthetic):
     train, held_out = synthetic
     result = irl.fit_theta(train)
@@ -138,6 +139,7 @@ def test_recovers_a_known_theta_from_100_near_rational_demonstrations(synthetic)
         assert learned < irl.neg_log_likelihood(c * direction, held_out)
 
 
+@pytest.mark.slow
 def test_an_irrelevant_feature_gets_a_weight_near_zero():
     theta = THETA_TRUE.copy()
     theta[3] = 0.0  # the demonstrator does not care about jerk

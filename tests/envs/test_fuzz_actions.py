@@ -49,6 +49,7 @@ def _check_step(env, agent, action):
     assert np.all(np.isfinite(env.world.state))
 
 
+@pytest.mark.slow
 @fuzz(150)
 @given(agent=st.sampled_from(AGENTS), action=ARRAYS)
 def test_numpy_actions_of_every_dtype_and_shape(env, agent, action):

@@ -156,6 +156,7 @@ def test_policies_know_only_their_own_route_and_name(robot_planner):
             assert belief.agent_names == [name]
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("robot_planner", ROBOT_PLANNERS)
 def test_every_planner_passes_a_pedestrian_waiting_on_the_curb(robot_planner):
     """0.5 m behind the curb a pedestrian is on the sidewalk: it blocks nobody."""

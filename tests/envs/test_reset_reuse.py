@@ -6,6 +6,7 @@ from __future__ import annotations
 import gc
 
 import numpy as np
+import pytest
 
 import marl_social
 from marl_social.envs.world import World
@@ -53,6 +54,7 @@ def _rss_mb() -> float:
         return int(f.read().split()[1]) * os.sysconf("SC_PAGE_SIZE") / 1e6
 
 
+@pytest.mark.slow
 def test_memory_is_flat_over_resets():
     """Rebuilding the mirror grew RSS ~1.2 KB per reset (2.4 MB over these 2000)."""
     env = marl_social.parallel_env()

@@ -33,6 +33,7 @@ def episode_digest(planner: str, seed: int) -> str:
     return h.hexdigest()
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("planner", ["social", "conservative"])
 def test_same_seed_same_episode_in_another_process(planner):
     here = [episode_digest(planner, 4), episode_digest(planner, 4)]

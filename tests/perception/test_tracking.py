@@ -90,3 +90,24 @@ def test_velocity_change_covariance_matches_the_track_error():
             predicted.append(math.sqrt(tracks.velocity_change_cov[0, 0, 0]) / 0.1)
         empirical = np.std(np.diff(speed[20:]) / 0.1)
         assert empirical <= predicted[-1] <= 1.5 * empirical, (pos_noise, empirical)
+
+
+def test_inlined_kalman_steps_are_filterpy_bit_for_bit():
+    from filterpy.kalman import predict, update
+    from marl_social.perception.tracking import kf_predict, kf_update
+
+    rng = np.random.default_rng()
+    tracker = Tracker(pos_noise_m=rng.uniform(0.01, 1.0), vel_noise_mps=rng.uniform(0.01, 1.0))
+    F, Q, R, H = tracker._F, tracker._Q, tracker._R, tracker._H
+    x, P = rng.normal(0, 20, 4), tracker._R.copy()
+    x[rng.integers(4)] = -0.0  # signed zeros must come out the same too
+    for _ in range(200):
+        a, b = kf_predict(x, P, F, Q), predict(x, P, F, Q)
+        assert all(np.array_equal(u, v) and np.array_equal(np.signbit(u), np.signbit(v))
+                   for u, v in zip(a, b))
+        x, P = a
+        z = x + rng.normal(0, 1, 4)
+        a, b = kf_update(x, P, z, R, H), update(x, P, z, R, H)
+        assert all(np.array_equal(u, v) and np.array_equal(np.signbit(u), np.signbit(v))
+                   for u, v in zip(a, b))
+        x, P = a

@@ -106,6 +106,7 @@ def test_robot_planner_parameters_are_validated():
         robot_configs(replace(spec, planner={"beta": 1.0}), "social")
 
 
+@pytest.mark.slow
 def test_following_humans_stop_behind_the_braking_leader():
     """Human drivers never plan into a predicted vehicle collision: with three humans in a
     platoon braking for a crossing pedestrian, no human rear-ends another (the safety feature

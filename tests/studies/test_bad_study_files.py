@@ -48,6 +48,7 @@ def test_huge_seed_count_is_rejected_fast(tmp_path):
     assert time.perf_counter() - start < 1.0
 
 
+@pytest.mark.slow
 def test_too_many_runs_is_rejected(tmp_path):
     path = _spec(tmp_path, "[random]\nhuman_beta = {low = 0, high = 10, n = 10000}\n"
                  "robot_beta_hat = {low = 0, high = 10, n = 10000}\n")

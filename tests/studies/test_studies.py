@@ -125,6 +125,7 @@ def test_expand_keys_overrides_and_random_axes(tiny, tmp_path):
 # --------------------------------------------------------------------------- determinism
 
 
+@pytest.mark.slow
 def test_two_workers_give_the_same_table(tiny, reference, tmp_path):
     outcome = studies.run_study(tiny, tmp_path, workers=2, progress=False, analyze=False)
     assert _content(outcome.results_path) == _content(reference)
@@ -137,6 +138,7 @@ def test_two_workers_give_the_same_table(tiny, reference, tmp_path):
         studies.load(reference.parent).drop(columns="elapsed_s"))
 
 
+@pytest.mark.slow
 def test_ray_gives_the_same_table(tiny, reference, tmp_path):
     import ray
 
@@ -150,6 +152,7 @@ def test_ray_gives_the_same_table(tiny, reference, tmp_path):
 # -------------------------------------------------------------------- resume, failed runs
 
 
+@pytest.mark.slow
 def test_kill_and_resume(tiny, reference, tmp_path, episode_calls):
     table = tmp_path / studies.RESULTS_FILE
     proc = subprocess.Popen([sys.executable, "-m", "marl_social.studies", str(tiny), "--out",
@@ -186,6 +189,7 @@ def test_kill_and_resume(tiny, reference, tmp_path, episode_calls):
     assert episode_calls == []
 
 
+@pytest.mark.slow
 def test_failed_run_is_recorded_and_retried_only_on_request(tiny, reference, tmp_path,
                                                             monkeypatch, episode_calls):
     counting = marl_social.evaluation.run.run_episode

@@ -83,6 +83,7 @@ def crossing_results():
     return out
 
 
+@pytest.mark.slow
 def test_social_belief_rises_because_the_human_brakes(crossing_results):
     """Paper Fig. 5: the robot cannot see the pedestrian (the human car hides it), but the
     human brakes. For every seed the belief in "crossing_right" is below 0.1 just before the
@@ -97,12 +98,14 @@ def test_social_belief_rises_because_the_human_brakes(crossing_results):
     assert ok == len(SEEDS), f"{ok}/{len(SEEDS)} seeds"
 
 
+@pytest.mark.slow
 def test_without_social_information_the_belief_stays_low_until_seen(crossing_results):
     for (_, seen, _, _, _), _, alone, right in crossing_results:
         first_seen = int(np.argmax(seen))
         assert (alone[:first_seen] @ right).max() < 0.5
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("pedestrian", ["none", "waiting"])
 def test_social_belief_stays_low_when_the_human_keeps_its_speed(pedestrian):
     """Paper Fig. 6: no crossing pedestrian, the human drives on; from 50 m before the
@@ -116,6 +119,7 @@ def test_social_belief_stays_low_when_the_human_keeps_its_speed(pedestrian):
         assert p_ped[window].max() < 0.1, (seed, p_ped[window].max())
 
 
+@pytest.mark.slow
 def test_rationality_belief_separates_an_erratic_human_from_a_rational_one():
     """social+beta (BeliefConfig.beta_grid_hat): the robot's belief over the human's beta ends
     at the grid's low end for a nearly random human (beta 0.003) and well above it for a

@@ -1,0 +1,108 @@
+"""vector_env: n autopilot envs in worker processes behave exactly like n single envs."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+import marl_social
+from marl_social.envs.vector import AutopilotGymEnv
+
+MAX_CYCLES = 8  # short episodes: the rollouts below cross autoresets
+
+
+def _rollout(env, seed: int, steps: int, n: int | None = None):
+    """(observations, rewards, terminated, truncated) of a seeded random-action rollout."""
+    obs, _ = env.reset(seed=seed)
+    rng = np.random.default_rng(seed)
+    space = env.single_action_space if n else env.action_space
+    low, high = space.low, space.high
+    out = [(np.array(obs, copy=True), None, None, None)]
+    for _ in range(steps):
+        action = rng.uniform(low, high, (n, 2) if n else 2) * 0.5
+        obs, reward, term, trunc, _ = env.step(action)
+        out.append((np.array(obs, copy=True), np.array(reward), np.array(term), np.array(trunc)))
+    return out
+
+
+def _same(a, b) -> bool:
+    return all(all(np.array_equal(x, y) for x, y in zip(ra, rb)) for ra, rb in zip(a, b))
+
+
+def test_worker_processes_give_the_same_episodes_as_one_process_and_repeat_per_seed():
+    seed = int(np.random.default_rng().integers(1000))
+    kwargs = {"scenario": "occluded_crosswalk", "max_cycles": MAX_CYCLES}
+    venv = marl_social.vector_env(2, **kwargs)
+    try:
+        first = _rollout(venv, seed, 2 * MAX_CYCLES + 3, n=2)
+        again = _rollout(venv, seed, 2 * MAX_CYCLES + 3, n=2)
+    finally:
+        venv.close()
+    sync = marl_social.vector_env(2, asynchronous=False, **kwargs)
+    in_process = _rollout(sync, seed, 2 * MAX_CYCLES + 3, n=2)
+    assert _same(first, again)
+    assert _same(first, in_process)
+    assert first[1][0].shape == (2, venv.single_observation_space.shape[0])
+    assert not np.array_equal(first[1][0][0], first[1][0][1])  # the copies differ
+
+
+def test_each_copy_is_the_single_env_seeded_with_seed_plus_its_index():
+    seed = int(np.random.default_rng().integers(1000))
+    kwargs = {"scenario": "occluded_crosswalk", "max_cycles": MAX_CYCLES}
+    venv = marl_social.vector_env(2, asynchronous=False, **kwargs)
+    obs, _ = venv.reset(seed=seed)
+    single = AutopilotGymEnv(["robot_0"], **kwargs)
+    for i in range(2):
+        own, _ = single.reset(seed=seed + i)
+        assert np.array_equal(obs[i], own)
+    # a copy's actions reach its own env: same actions, same next observation
+    action = np.array([[0.5, 0.0], [-1.0, 0.01]])
+    obs, reward, *_ = venv.step(action)
+    own, own_reward, *_ = single.step(action[1])
+    assert np.array_equal(obs[1], own)
+    assert reward[1] == own_reward
+
+
+def test_episodes_end_by_truncation_at_max_cycles_and_the_copy_resets_itself():
+    venv = marl_social.vector_env(2, asynchronous=False, scenario="long_road", n_vehicles=3,
+                                  max_cycles=MAX_CYCLES)
+    obs0, _ = venv.reset(seed=5)
+    zero = np.zeros((2, 2))
+    for step in range(1, MAX_CYCLES + 1):
+        _, _, term, trunc, _ = venv.step(zero + [0.0, 0.0])
+        if term.any():
+            pytest.skip("a copy collided before max_cycles")  # not this test's claim
+        assert trunc.all() == (step == MAX_CYCLES)
+    obs, reward, term, trunc, _ = venv.step(zero)  # next-step autoreset: a fresh episode
+    assert not trunc.any() and not term.any()
+    assert np.all(reward == 0.0)
+    assert not np.array_equal(obs, obs0)  # the next episode draws a new seed
+
+
+def test_several_controlled_agents_get_dict_spaces_and_summed_rewards():
+    env = AutopilotGymEnv(["robot_0", "human_0"], scenario="occluded_crosswalk",
+                          max_cycles=MAX_CYCLES)
+    obs, info = env.reset(seed=2)
+    assert set(obs) == {"robot_0", "human_0"} == set(info)
+    pz = marl_social.autopilot(marl_social.parallel_env(scenario="occluded_crosswalk",
+                                                        max_cycles=MAX_CYCLES),
+                               controlled=["robot_0", "human_0"])
+    pz_obs, _ = pz.reset(seed=env._last_episode_seed)
+    assert all(np.array_equal(obs[a], pz_obs[a]) for a in obs)
+    actions = {"robot_0": np.array([0.3, 0.0]), "human_0": np.array([-0.2, 0.0])}
+    _, reward, *_ = env.step(actions)
+    _, pz_rewards, *_ = pz.step(actions)
+    assert reward == pytest.approx(sum(pz_rewards.values()), rel=0, abs=1e-12)
+    with pytest.raises(ValueError, match="human_0"):
+        env.step({"robot_0": np.zeros(2)})
+
+
+@pytest.mark.parametrize("bad", [0, -1, 1.5, True])
+def test_bad_copy_count_is_a_value_error(bad):
+    with pytest.raises(ValueError, match="n must be a positive integer"):
+        marl_social.vector_env(bad)
+
+
+def test_unknown_controlled_agent_is_named_before_any_worker_starts():
+    with pytest.raises(ValueError, match="robot_7"):
+        marl_social.vector_env(2, controlled=["robot_7"])
