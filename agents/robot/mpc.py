@@ -87,6 +87,9 @@ class MpcConfig:
         curvature_window_m: a route vertex this close to a step's guessed position bounds it [m].
         position_tolerance_m: a stay-behind bound may give way by up to this much, but no more
             than braking at half the limit needs (tracking noise on a bound it waits at) [m].
+        comfort_decel_mps2: braking beyond this is penalized by w_comfort (soft bound) [m/s^2].
+        w_comfort: weight on the braking beyond comfort_decel_mps2, squared
+            [1 / (m/s^2)^2 / s].
     """
 
     plan_dt_s: float = 0.25
@@ -109,6 +112,8 @@ class MpcConfig:
     pass_margin_s: float = 2.5
     curvature_window_m: float = 5.0
     position_tolerance_m: float = 0.5
+    comfort_decel_mps2: float = 2.5
+    w_comfort: float = 100.0
 
     def __post_init__(self):
         if not self.horizon_s > self.trunk_s >= self.plan_dt_s > 0.0:
@@ -184,7 +189,7 @@ class ContingencyMpc:
         c = self.config
         make = lambda: ContingencyQp(
             n_branches, c.n_steps, c.n_trunk, c.plan_dt_s, DT_S,
-            QpWeights(c.w_speed, c.w_accel, c.w_jerk), c.headway_s())
+            QpWeights(c.w_speed, c.w_accel, c.w_jerk, c.w_comfort), c.headway_s())
         if for_modes:
             if self._mode_qp is None:
                 self._mode_qp = make()
@@ -320,7 +325,7 @@ class ContingencyMpc:
         v_max_b = np.broadcast_to(v_max, s_low.shape)
         return qp.solve(weights, v0, prev, v_ref, v_max_b, s_low, s_up,
                         -veh.brake_max_mps2, veh.accel_max_mps2,
-                        jerk_max or self.config.jerk_max_mps3)
+                        jerk_max or self.config.jerk_max_mps3, self.config.comfort_decel_mps2)
 
     def _choose_modes(self, objects: list[PathObject], bounds: tuple, v_cap: float,
                       pass_pedestrians: bool) -> tuple:
