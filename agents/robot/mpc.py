@@ -87,6 +87,7 @@ class MpcConfig:
         curvature_window_m: a route vertex this close to a step's guessed position bounds it [m].
         position_tolerance_m: a stay-behind bound may give way by up to this much, but no more
             than braking at half the limit needs (tracking noise on a bound it waits at) [m].
+        rest_mps: below this speed the robot is at rest: it may always stay where it is [m/s].
         comfort_decel_mps2: braking beyond this is penalized by w_comfort (soft bound) [m/s^2].
         w_comfort: weight on the braking beyond comfort_decel_mps2, squared
             [1 / (m/s^2)^2 / s].
@@ -112,6 +113,7 @@ class MpcConfig:
     pass_margin_s: float = 2.5
     curvature_window_m: float = 5.0
     position_tolerance_m: float = 0.5
+    rest_mps: float = 0.3
     comfort_decel_mps2: float = 2.5
     w_comfort: float = 100.0
 
@@ -315,7 +317,12 @@ class ContingencyMpc:
         v_start = np.concatenate([[v0], v_brake[:-1]])
         s_brake = np.cumsum(0.5 * (v_start + v_brake) * c.plan_dt_s)
         reach = s_brake + self._headway * v_brake + 0.1  # 10 cm of room: not a single point
-        s_up = np.maximum(s_up, np.minimum(reach, s_up + c.position_tolerance_m))
+        if v0 > c.rest_mps:
+            s_up = np.maximum(s_up, np.minimum(reach, s_up + c.position_tolerance_m))
+        else:
+            # at rest the robot can always stay where it stands (it cannot back up): noise that
+            # moves a bound it waits at behind it, by any amount, does not make it infeasible
+            s_up = np.maximum(s_up, reach)
         return s_low, np.maximum(s_up, 0.0)
 
     def _solve(self, qp: ContingencyQp, weights: np.ndarray, s_low: np.ndarray,
