@@ -187,6 +187,11 @@ class ContingencyMpc:
         self._curvature: tuple[Route, tuple[np.ndarray, np.ndarray]] | None = None
         self._headway = config.headway_s()
 
+    def reset(self) -> None:
+        """Forget the QPs (their warm starts and step sizes): a new episode, bit-identical."""
+        self._qps.clear()
+        self._mode_qp = None
+
     def _qp(self, n_branches: int, for_modes: bool = False) -> ContingencyQp:
         c = self.config
         make = lambda: ContingencyQp(
@@ -213,7 +218,7 @@ class ContingencyMpc:
 
     def plan(self, route: Route, s0: float, v0: float, prev_accel: float, v_ref_mps: float,
              speed_limit_mps: float, scene: ScenePrediction, beliefs: np.ndarray,
-             static_boxes: np.ndarray | None = None) -> MpcResult:
+             static_boxes: np.ndarray | None = None, stop_at_m: float = np.inf) -> MpcResult:
         """One MPC solve.
 
         Args:
@@ -226,6 +231,8 @@ class ContingencyMpc:
             scene: L hypotheses of the others at config.plan_times_s.
             beliefs: (L,) probability of each hypothesis.
             static_boxes: (S, 4) bounding boxes [xmin, ymin, xmax, ymax] of static polygons [m].
+            stop_at_m: the arc length the robot's centre must stay behind (a stop line not yet
+                stopped at, agents/robot/stop.py; inf: none) [m].
         """
         c, veh = self.config, self.vehicle
         beliefs = np.asarray(beliefs, dtype=np.float64)
@@ -241,6 +248,7 @@ class ContingencyMpc:
         prev_accel = max(prev_accel, -v0 / DT_S)
         wall = static_limit(route, static_boxes, s0, veh.length_m, veh.width_m,
                             c.lateral_margin_m) - c.min_gap_m - 0.5 * veh.length_m - s0
+        wall = min(wall, stop_at_m - s0)
         per_hyp = objects_on_path(route, scene, s0, veh.length_m, veh.width_m,
                                   c.lateral_margin_m, c.pedestrian_margin_m,
                                   c.pedestrian_clearance_m)
@@ -372,7 +380,8 @@ class ContingencyMpc:
 
 def plan(config: MpcConfig, vehicle: VehicleParams, route: Route, s0: float, v0: float,
          prev_accel: float, v_ref_mps: float, speed_limit_mps: float, scene: ScenePrediction,
-         beliefs: np.ndarray, static_boxes: np.ndarray | None = None) -> MpcResult:
+         beliefs: np.ndarray, static_boxes: np.ndarray | None = None,
+         stop_at_m: float = np.inf) -> MpcResult:
     """One MPC solve with a fresh ContingencyMpc (ContingencyMpc.plan for the arguments).
 
     Args:
@@ -387,6 +396,8 @@ def plan(config: MpcConfig, vehicle: VehicleParams, route: Route, s0: float, v0:
         scene: L hypotheses of the others at config.plan_times_s.
         beliefs: (L,) probability of each hypothesis.
         static_boxes: (S, 4) bounding boxes of the static polygons [m].
+        stop_at_m: the arc length the robot's centre must stay behind (inf: none) [m].
     """
     return ContingencyMpc(config, vehicle).plan(route, s0, v0, prev_accel, v_ref_mps,
-                                                speed_limit_mps, scene, beliefs, static_boxes)
+                                                speed_limit_mps, scene, beliefs, static_boxes,
+                                                stop_at_m)

@@ -32,6 +32,7 @@ import numpy as np
 from marl_social.agents.params import RobotModelParams, parse_planner_params
 from marl_social.agents.robot.curb import CurbConfig, CurbPedestrians
 from marl_social.agents.robot.mpc import ContingencyMpc, MpcConfig, MpcResult
+from marl_social.agents.robot.stop import StopSignConfig, StopSigns
 from marl_social.perception.belief import BeliefConfig, PedestrianBelief
 from marl_social.perception.tracking import TrackSet
 
@@ -148,12 +149,15 @@ class RobotPlanner:
         params: the robot's model of the humans (default: parsed from spec.planner).
         curb_config: the robot's model of pedestrians waiting at a crosswalk (agents/robot/
             curb.py; default CurbConfig()).
+        stop_config: when it counts as having stopped at a stop sign (agents/robot/stop.py;
+            default StopSignConfig()).
     """
 
     def __init__(self, spec: AgentSpec, layout: ObservationLayout, road_map: RoadMap,
                  agent_names: list[str], planner: str | RobotVariant = "social",
                  mpc_config: MpcConfig | None = None, belief_config: BeliefConfig | None = None,
-                 params: RobotModelParams | None = None, curb_config: CurbConfig | None = None):
+                 params: RobotModelParams | None = None, curb_config: CurbConfig | None = None,
+                 stop_config: StopSignConfig | None = None):
         self.variant = _variant(planner)
         self.needs_truth = self.variant.needs_truth
         self.name = spec.name
@@ -178,14 +182,17 @@ class RobotPlanner:
             self.route, road_map.crosswalks, curb_config or CurbConfig(), veh.length_m,
             self.mpc.pedestrian_gap_m,
             0.5 * veh.width_m + self.mpc.pedestrian_clearance_m)
+        self.stop_signs = StopSigns(self.route, road_map, veh.length_m, stop_config)
         self._static_boxes = np.array(
             [[*p.min(axis=0), *p.max(axis=0)] for p in road_map.static_polygons]).reshape(-1, 4)
         self.reset()
 
     def reset(self, seed: int | None = None) -> None:
-        """Start a new episode: a fresh belief; `seed` is unused (the MPC is deterministic)."""
+        """Start a new episode: fresh belief, QPs, stop-sign and curb state (`seed`: unused)."""
         self.belief.reset()
+        self.solver.reset()
         self.curb.reset()
+        self.stop_signs.reset()
         self.prev_accel = 0.0
         self.last_result: MpcResult | None = None
         self.weights = None
@@ -254,9 +261,10 @@ class RobotPlanner:
         if len(step_xy):
             scene, weights = self._with_step_off(scene, weights, step_xy, step_heading)
         self.weights = weights
+        stop_at = self.stop_signs.update(s0, v, DT_S)
         result = self.solver.plan(self.route, s0, v, self.prev_accel, self.v_ref(),
                                   self.road_map.speed_limit_mps, scene, weights,
-                                  self._static_boxes)
+                                  self._static_boxes, stop_at)
         self.last_result = result
         self.prev_accel = result.accel_mps2
         steer = pure_pursuit(self.route, x, y, psi, v, s0, self.spec.vehicle.wheelbase_m)
