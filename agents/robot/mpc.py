@@ -7,7 +7,7 @@ Alsterda & Gerdes, "Contingency MPC for automated vehicles" (ACC 2019): along it
 `trunk_s` is shared by every branch (non-anticipativity: it is what is executed before the next
 observation). The expected cost
 
-    J = sum_l b_l dt sum_k [w_v (v - v_ref)^2 + w_a a^2 + w_j jerk^2]
+    J = sum_l b_l dt sum_k [w_v (v - v_ref)^2 + w_a a^2 + w_j jerk^2 + w_c c^2]
 
 is minimized subject to every branch's constraints (agents/robot/qp.py): speed in [0, v_max]
 with v_max from the speed limit and the route's curvature (v^2 kappa <= a_lat), the vehicle's
@@ -21,6 +21,15 @@ the jerk bound (a constraint that appeared suddenly), the jerk bound gives way f
 (MpcResult.jerk_relaxed); only if no plan is feasible even then does the robot brake as hard as
 it can, flagged in MpcResult.feasible.
 
+Comfort (Alsterda & Gerdes): every branch may brake harder than `comfort_decel_mps2` only at the
+price w_c c^2, c the deceleration beyond it (a soft bound, so that feasibility is that of the
+vehicle's limits). A likely contingency that would need hard braking therefore slows the shared
+trunk early: the branch "the pedestrian on the curb steps off now" (agents/robot/curb.py), or a
+hidden pedestrian the belief gives weight to, is met with a comfortable stop if it comes true.
+The robot also stays behind the stop line of a stop sign it has not yet stopped at
+(agents/robot/stop.py, `stop_at_m`); at rest it may always stay where it stands (noise that
+moves a bound behind it does not make it infeasible).
+
 Weights (SI, per second of plan), tuned on the paper's scenario over its wide randomization:
 w_v = 1 / (m/s)^2 (1 m/s too slow for a second costs 1), w_a = 10 / (m/s^2)^2 (braking at
 2 m/s^2 costs 40 per second: a stop spreads its deceleration over the distance available,
@@ -29,6 +38,9 @@ jerk bound 15 m/s^3 is the brake actuator's; the time headway 1 s is ramped in o
 already short stays feasible) and grows to 1.5 s on the last step (room to stop beyond the
 horizon). Pedestrians have the right of way: one walking towards the robot's path is in its
 way from the next lane on, and the robot passes in front of one only if it cannot stop.
+Comfort: 2.5 m/s^2 (the executed braking, which replans every 0.1 s, stays within 3 m/s^2)
+with w_c = 100 / (m/s^2)^2: 1 m/s^2 beyond it for a second, in a branch of weight 0.2, costs 20,
+as much as driving 2 m/s slower for 5 s.
 """
 
 from __future__ import annotations
@@ -41,12 +53,12 @@ from marl_social.agents.robot.corridor import (
     BEHIND,
     PAST,
     PathObject,
+    StaticBoxes,
     curvature_speed_bound,
     mode_bounds,
     objects_on_path,
     past_reachable,
     route_curvature,
-    static_limit,
 )
 from marl_social.agents.robot.qp import ContingencyQp, QpSolution, QpWeights
 
@@ -185,6 +197,8 @@ class ContingencyMpc:
         self._qps: dict[int, ContingencyQp] = {}
         self._mode_qp: ContingencyQp | None = None
         self._curvature: tuple[Route, tuple[np.ndarray, np.ndarray]] | None = None
+        # the static boxes projected on the route, per (route, boxes array): they do not move
+        self._static: tuple[Route, np.ndarray | None, StaticBoxes] | None = None
         self._headway = config.headway_s()
 
     def reset(self) -> None:
@@ -246,8 +260,12 @@ class ContingencyMpc:
         v_ref = min(v_ref_mps, v_cap)
         # a braking command larger than the speed left is realized only in part (v >= 0)
         prev_accel = max(prev_accel, -v0 / DT_S)
-        wall = static_limit(route, static_boxes, s0, veh.length_m, veh.width_m,
-                            c.lateral_margin_m) - c.min_gap_m - 0.5 * veh.length_m - s0
+        if (self._static is None or self._static[0] is not route
+                or self._static[1] is not static_boxes):
+            self._static = (route, static_boxes, StaticBoxes.project(
+                route, static_boxes, veh.width_m, c.lateral_margin_m))
+        wall = (self._static[2].limit(s0, veh.length_m) - c.min_gap_m - 0.5 * veh.length_m
+                - s0)
         wall = min(wall, stop_at_m - s0)
         per_hyp = objects_on_path(route, scene, s0, veh.length_m, veh.width_m,
                                   c.lateral_margin_m, c.pedestrian_margin_m,
