@@ -128,19 +128,20 @@ class ContingencyQp:
         """Triples (row, col, coefficient, branch) of P; duplicates are summed in Px."""
         w, dt = self.weights, self.dt_s
         first = dt / self.first_dt_s ** 2  # the first change happens within one simulator step
-        rows, cols, coef, branch = [], [], [], []
+        rows, cols, coef, branch, comfort = [], [], [], [], []
 
-        def add(i, j, c, l):
+        def add(i, j, c, l, is_comfort=False):
             rows.append(min(i, j))
             cols.append(max(i, j))
             coef.append(c)
             branch.append(l)
+            comfort.append(is_comfort)
 
         for l in range(self.n_branches):
             for k in range(self.n_steps):
                 add(self._v_idx[l, k], self._v_idx[l, k], 2.0 * w.speed * dt, l)
                 add(self._s_idx[l, k], self._s_idx[l, k], 0.0, l)  # keeps P's pattern full-rank
-                add(self._c_idx[l, k], self._c_idx[l, k], 2.0 * w.comfort * dt, l)
+                add(self._c_idx[l, k], self._c_idx[l, k], 2.0 * w.comfort * dt, l, True)
                 a = self._a_idx[l, k]
                 add(a, a, 2.0 * w.accel * dt + 2.0 * w.jerk * (first if k == 0 else 1.0 / dt), l)
                 if k >= 1:
@@ -152,9 +153,13 @@ class ContingencyQp:
         unique, self._p_slot = np.unique(key, return_inverse=True)
         self._p_rows, self._p_cols = unique % self.n_vars, unique // self.n_vars
         self._p_coef, self._p_branch = np.array(coef), np.array(branch)
+        self._p_comfort = np.array(comfort)
 
-    def _p_values(self, weights: np.ndarray) -> np.ndarray:
-        return np.bincount(self._p_slot, weights=self._p_coef * weights[self._p_branch],
+    def _p_values(self, weights: np.ndarray, comfort: np.ndarray | None = None) -> np.ndarray:
+        factor = weights[self._p_branch]
+        if comfort is not None:
+            factor = np.where(self._p_comfort, factor * comfort[self._p_branch], factor)
+        return np.bincount(self._p_slot, weights=self._p_coef * factor,
                            minlength=len(self._p_rows))
 
     def _p_matrix(self, weights: np.ndarray) -> sp.csc_matrix:
@@ -242,7 +247,8 @@ class ContingencyQp:
     def solve(self, weights: np.ndarray, v0: float, prev_accel: float, v_ref_mps: float,
               v_max: np.ndarray, s_low: np.ndarray, s_up: np.ndarray, accel_min: float,
               accel_max: float, jerk_max: float,
-              comfort_decel: float | None = None) -> QpSolution:
+              comfort_decel: float | None = None,
+              comfort: np.ndarray | None = None) -> QpSolution:
         """Solve for the current state and bounds.
 
         Args:
@@ -258,13 +264,14 @@ class ContingencyQp:
             jerk_max: largest |jerk| [m/s^3].
             comfort_decel: the comfortable deceleration (positive) beyond which braking is
                 penalized by the comfort weight (None: not penalized) [m/s^2].
+            comfort: (L,) factor of each branch's comfort weight (None: 1, every branch).
         """
         weights = np.asarray(weights, dtype=np.float64)
         lower, upper = self._bounds(v0, prev_accel, v_max, s_low, s_up, accel_min, accel_max,
                                     jerk_max, comfort_decel)
         if np.any(lower > upper + 1e-9):
             return self._failed()
-        self._solver.update(Px=self._p_values(weights),
+        self._solver.update(Px=self._p_values(weights, comfort),
                             q=self._q_vector(weights, v_ref_mps, prev_accel), l=lower, u=upper)
         res = self._solver.solve(raise_error=False)
         for _ in range(3):  # a cold start may need more iterations: go on from where it stopped
