@@ -85,7 +85,7 @@ def test_the_trunk_slows_early_so_that_the_step_off_branch_brakes_comfortably():
     out = {}
     for w_comfort in (0.0, MpcConfig().w_comfort):
         config = MpcConfig(w_comfort=w_comfort)
-        out[w_comfort] = plan(config, VEHICLE, ROUTE, 80.0, 11.5, 0.0, 11.5, 13.9, scene,
+        out[w_comfort] = plan(config, VEHICLE, ROUTE, 75.0, 11.5, 0.0, 11.5, 13.9, scene,
                               np.array([0.8, 0.2]), contingent=np.array([False, True]))
     soft, hard = out[MpcConfig().w_comfort], out[0.0]
     assert soft.feasible and hard.feasible
