@@ -72,7 +72,11 @@ def load_spec(name_or_path: str | os.PathLike, validate: bool = True) -> StudySp
         raise ValueError(f"{path}: not a UTF-8 text (TOML) file") from None
     except IsADirectoryError:
         raise ValueError(f"{path}: is a directory, not a TOML spec file") from None
-    spec = parse_spec(data, source=str(path), default_name=path.stem)
+    source = str(path)
+    if path.resolve() == builtin_specs().get(path.stem, Path()).resolve():
+        # a built-in spec by its place in the package, not by this machine's install path
+        source = f"marl_social/studies/specs/{path.name}"
+    spec = parse_spec(data, source=source, default_name=path.stem)
     if validate:
         expand(spec)
     return spec

@@ -405,3 +405,10 @@ def test_cli(tiny, reference, capsys):
                          "--no-plots"]) == 0
     assert (reference.parent / "summary.md").exists()
     assert (reference.parent / "summary.csv").exists()
+
+
+def test_a_built_in_spec_is_recorded_without_this_machines_path():
+    from marl_social.studies.runs import load_spec
+
+    source = load_spec("rationality", validate=False).source
+    assert source == "marl_social/studies/specs/rationality.toml"
