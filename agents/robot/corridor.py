@@ -79,44 +79,101 @@ def objects_on_path(route: Route, scene: ScenePrediction, s0: float, robot_lengt
         L lists of PathObject.
     """
     n_hyp, n_obj = scene.mask.shape
-    if n_obj == 0:
+    if n_obj == 0 or not scene.mask.any():
         return [[] for _ in range(n_hyp)]
-    length = np.broadcast_to(scene.length_m[..., None], scene.heading.shape)
-    width = np.broadcast_to(scene.width_m[..., None], scene.heading.shape)
-    corners = _corners(scene.xy, scene.heading, length, width)  # (L, M, N, 4, 2)
-    s, lateral, _ = route.project(corners)
-    s_rear, s_front = s.min(axis=-1), s.max(axis=-1)  # (L, M, N)
+    # project each distinct prediction once: an object predicted alike in every hypothesis
+    # (a tracked one) from the first, the others only where they are present
+    shared = (np.all(scene.xy == scene.xy[:1], axis=(0, 2, 3))
+              & np.all(scene.heading == scene.heading[:1], axis=(0, 2))
+              & np.all(scene.length_m == scene.length_m[:1], axis=0)
+              & np.all(scene.width_m == scene.width_m[:1], axis=0)
+              & np.all(scene.is_pedestrian == scene.is_pedestrian[:1], axis=0))  # (M,)
+    use = scene.mask & ~shared[None]
+    use[0] |= shared & scene.mask.any(axis=0)
+    src_l, src_m = np.nonzero(use)  # (P,) the projected (hypothesis, object) pairs
+    pair = np.full((n_hyp, n_obj), -1)
+    pair[src_l, src_m] = np.arange(len(src_l))
+    pair = np.where(shared[None], pair[:1], pair)  # shared objects: the first hypothesis' pair
+    xy, heading = scene.xy[src_l, src_m], scene.heading[src_l, src_m]  # (P, N, 2), (P, N)
+    is_ped = scene.is_pedestrian[src_l, src_m]
+    length = np.broadcast_to(scene.length_m[src_l, src_m][:, None], heading.shape)
+    width = np.broadcast_to(scene.width_m[src_l, src_m][:, None], heading.shape)
+    s, lateral, _ = route.project(_corners(xy, heading, length, width))  # (P, N, 4)
+    s_rear, s_front = s.min(axis=-1), s.max(axis=-1)  # (P, N)
     clearance = lateral_margin_m if pedestrian_clearance_m is None else pedestrian_clearance_m
-    half = 0.5 * robot_width_m + np.where(scene.is_pedestrian, clearance,
-                                          lateral_margin_m)[..., None]  # (L, M, 1)
+    half = 0.5 * robot_width_m + np.where(is_ped, clearance, lateral_margin_m)[:, None]
     overlap = (lateral.min(axis=-1) <= half) & (lateral.max(axis=-1) >= -half)
     if pedestrian_margin_m is not None:
         # a pedestrian heading for the corridor is in the way from further out (it has the
         # right of way on the carriageway); one standing or walking away is not
         wide = 0.5 * robot_width_m + pedestrian_margin_m
-        centre = np.abs(lateral.mean(axis=-1))  # (L, M, N)
+        centre = np.abs(lateral.mean(axis=-1))  # (P, N)
         closing = np.diff(centre, axis=-1, prepend=centre[..., :1] + 1.0) < -1e-3
         closing[..., 0] = closing[..., 1] if centre.shape[-1] > 1 else closing[..., 0]
         near = (lateral.min(axis=-1) <= wide) & (lateral.max(axis=-1) >= -wide)
-        overlap |= near & closing & scene.is_pedestrian[..., None]
+        overlap |= near & closing & is_ped[:, None]
     # an object whose projection is clamped at the route's ends is not on the path
-    inside = (s_front > 0.0) & (s_rear < route.length_m)
-    occupied = overlap & inside & scene.mask[..., None]
+    occupied = overlap & (s_front > 0.0) & (s_rear < route.length_m)  # (P, N)
     # beside or behind the robot now (its rear short of the robot's front): not the robot's to
     # yield to; a car alongside that drifts into the corridor in its prediction is one
-    behind_robot = s_rear[..., 0] < s0 + 0.5 * robot_length_m  # (L, M)
+    relevant = occupied.any(axis=-1) & (s_rear[:, 0] >= s0 + 0.5 * robot_length_m)  # (P,)
+    objects = [None] * len(src_l)
+    for i in np.flatnonzero(relevant):
+        ks = np.flatnonzero(occupied[i])
+        objects[i] = PathObject(occupied[i], s_rear[i], s_front[i], int(ks[0]), int(ks[-1]),
+                                bool(is_ped[i]))
     out: list[list[PathObject]] = []
     for l in range(n_hyp):
-        objs = []
-        for m in range(n_obj):
-            occ = occupied[l, m]
-            if behind_robot[l, m] or not occ.any():
-                continue
-            ks = np.flatnonzero(occ)
-            objs.append(PathObject(occ, s_rear[l, m], s_front[l, m], int(ks[0]), int(ks[-1]),
-                                   bool(scene.is_pedestrian[l, m])))
-        out.append(objs)
+        idx = pair[l][scene.mask[l]]
+        out.append([objects[i] for i in idx if objects[i] is not None])
     return out
+
+
+@dataclass(frozen=True)
+class StaticBoxes:
+    """Static boxes projected on a route once (they do not move): `static_limit` per step.
+
+    Attributes:
+        s_min: (S,) smallest arc length of each box's outline points [m].
+        s_max: (S,) largest [m].
+        in_corridor: (S,) bool, the box reaches into the corridor laterally (and lies along
+            the route, not beyond its ends).
+    """
+
+    s_min: np.ndarray
+    s_max: np.ndarray
+    in_corridor: np.ndarray
+
+    @classmethod
+    def project(cls, route: Route, boxes: np.ndarray | None, robot_width_m: float,
+                lateral_margin_m: float) -> StaticBoxes:
+        """Project (S, 4) boxes [xmin, ymin, xmax, ymax] [m] (or None) onto `route`.
+
+        Args:
+            route: the robot's route.
+            boxes: (S, 4) the static polygons' bounding boxes [m], or None.
+            robot_width_m: the robot's width [m].
+            lateral_margin_m: clearance added to each side of the robot's width [m].
+        """
+        if boxes is None or len(boxes) == 0:
+            return cls(np.zeros(0), np.zeros(0), np.zeros(0, bool))
+        x0, y0, x1, y1 = (boxes[:, i] for i in range(4))
+        xm, ym = 0.5 * (x0 + x1), 0.5 * (y0 + y1)
+        pts = np.stack([np.stack([x0, y0], -1), np.stack([x1, y0], -1),
+                        np.stack([x1, y1], -1), np.stack([x0, y1], -1),
+                        np.stack([xm, y0], -1), np.stack([xm, y1], -1),
+                        np.stack([x0, ym], -1), np.stack([x1, ym], -1)], axis=1)  # (S, 8, 2)
+        s, lateral, _ = route.project(pts)
+        half = 0.5 * robot_width_m + lateral_margin_m
+        s_min, s_max = s.min(axis=-1), s.max(axis=-1)
+        inside = ((lateral.min(axis=-1) <= half) & (lateral.max(axis=-1) >= -half)
+                  & (s_min < route.length_m) & (s_max > 0.0))
+        return cls(s_min, s_max, inside)
+
+    def limit(self, s0: float, robot_length_m: float) -> float:
+        """Arc length of the nearest box ahead of the robot at s0 [m] in its corridor (inf)."""
+        ahead = self.in_corridor & (self.s_max >= s0 - 0.5 * robot_length_m)
+        return float(self.s_min[ahead].min()) if ahead.any() else np.inf
 
 
 def static_limit(route: Route, boxes: np.ndarray | None, s0: float, robot_length_m: float,
@@ -131,19 +188,8 @@ def static_limit(route: Route, boxes: np.ndarray | None, s0: float, robot_length
         robot_width_m: the robot's width [m].
         lateral_margin_m: clearance added to each side of the robot's width [m].
     """
-    if boxes is None or len(boxes) == 0:
-        return np.inf
-    x0, y0, x1, y1 = (boxes[:, i] for i in range(4))
-    xm, ym = 0.5 * (x0 + x1), 0.5 * (y0 + y1)
-    pts = np.stack([np.stack([x0, y0], -1), np.stack([x1, y0], -1), np.stack([x1, y1], -1),
-                    np.stack([x0, y1], -1), np.stack([xm, y0], -1), np.stack([xm, y1], -1),
-                    np.stack([x0, ym], -1), np.stack([x1, ym], -1)], axis=1)  # (S, 8, 2)
-    s, lateral, _ = route.project(pts)
-    half = 0.5 * robot_width_m + lateral_margin_m
-    on_path = ((lateral.min(axis=-1) <= half) & (lateral.max(axis=-1) >= -half)
-               & (s.max(axis=-1) >= s0 - 0.5 * robot_length_m)
-               & (s.min(axis=-1) < route.length_m) & (s.max(axis=-1) > 0.0))
-    return float(s.min(axis=-1)[on_path].min()) if on_path.any() else np.inf
+    return StaticBoxes.project(route, boxes, robot_width_m, lateral_margin_m).limit(
+        s0, robot_length_m)
 
 
 def route_curvature(route: Route) -> tuple[np.ndarray, np.ndarray]:

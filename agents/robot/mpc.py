@@ -7,7 +7,7 @@ Alsterda & Gerdes, "Contingency MPC for automated vehicles" (ACC 2019): along it
 `trunk_s` is shared by every branch (non-anticipativity: it is what is executed before the next
 observation). The expected cost
 
-    J = sum_l b_l dt sum_k [w_v (v - v_ref)^2 + w_a a^2 + w_j jerk^2]
+    J = sum_l b_l dt sum_k [w_v (v - v_ref)^2 + w_a a^2 + w_j jerk^2 + w_c c^2]
 
 is minimized subject to every branch's constraints (agents/robot/qp.py): speed in [0, v_max]
 with v_max from the speed limit and the route's curvature (v^2 kappa <= a_lat), the vehicle's
@@ -21,6 +21,15 @@ the jerk bound (a constraint that appeared suddenly), the jerk bound gives way f
 (MpcResult.jerk_relaxed); only if no plan is feasible even then does the robot brake as hard as
 it can, flagged in MpcResult.feasible.
 
+Comfort (Alsterda & Gerdes): every branch may brake harder than `comfort_decel_mps2` only at the
+price w_c c^2, c the deceleration beyond it (a soft bound, so that feasibility is that of the
+vehicle's limits). A likely contingency that would need hard braking therefore slows the shared
+trunk early: the branch "the pedestrian on the curb steps off now" (agents/robot/curb.py), or a
+hidden pedestrian the belief gives weight to, is met with a comfortable stop if it comes true.
+The robot also stays behind the stop line of a stop sign it has not yet stopped at
+(agents/robot/stop.py, `stop_at_m`); at rest it may always stay where it stands (noise that
+moves a bound behind it does not make it infeasible).
+
 Weights (SI, per second of plan), tuned on the paper's scenario over its wide randomization:
 w_v = 1 / (m/s)^2 (1 m/s too slow for a second costs 1), w_a = 10 / (m/s^2)^2 (braking at
 2 m/s^2 costs 40 per second: a stop spreads its deceleration over the distance available,
@@ -29,6 +38,9 @@ jerk bound 15 m/s^3 is the brake actuator's; the time headway 1 s is ramped in o
 already short stays feasible) and grows to 1.5 s on the last step (room to stop beyond the
 horizon). Pedestrians have the right of way: one walking towards the robot's path is in its
 way from the next lane on, and the robot passes in front of one only if it cannot stop.
+Comfort: 2.5 m/s^2 (the executed braking, which replans every 0.1 s, stays within 3 m/s^2)
+with w_c = 100 / (m/s^2)^2: 1 m/s^2 beyond it for a second, in a branch of weight 0.2, costs 20,
+as much as driving 2 m/s slower for 5 s.
 """
 
 from __future__ import annotations
@@ -41,12 +53,12 @@ from marl_social.agents.robot.corridor import (
     BEHIND,
     PAST,
     PathObject,
+    StaticBoxes,
     curvature_speed_bound,
     mode_bounds,
     objects_on_path,
     past_reachable,
     route_curvature,
-    static_limit,
 )
 from marl_social.agents.robot.qp import ContingencyQp, QpSolution, QpWeights
 
@@ -87,6 +99,10 @@ class MpcConfig:
         curvature_window_m: a route vertex this close to a step's guessed position bounds it [m].
         position_tolerance_m: a stay-behind bound may give way by up to this much, but no more
             than braking at half the limit needs (tracking noise on a bound it waits at) [m].
+        rest_mps: below this speed the robot is at rest: it may always stay where it is [m/s].
+        comfort_decel_mps2: braking beyond this is penalized by w_comfort (soft bound) [m/s^2].
+        w_comfort: weight on the braking beyond comfort_decel_mps2, squared
+            [1 / (m/s^2)^2 / s].
     """
 
     plan_dt_s: float = 0.25
@@ -109,6 +125,9 @@ class MpcConfig:
     pass_margin_s: float = 2.5
     curvature_window_m: float = 5.0
     position_tolerance_m: float = 0.5
+    rest_mps: float = 0.3
+    comfort_decel_mps2: float = 2.5
+    w_comfort: float = 100.0
 
     def __post_init__(self):
         if not self.horizon_s > self.trunk_s >= self.plan_dt_s > 0.0:
@@ -178,13 +197,20 @@ class ContingencyMpc:
         self._qps: dict[int, ContingencyQp] = {}
         self._mode_qp: ContingencyQp | None = None
         self._curvature: tuple[Route, tuple[np.ndarray, np.ndarray]] | None = None
+        # the static boxes projected on the route, per (route, boxes array): they do not move
+        self._static: tuple[Route, np.ndarray | None, StaticBoxes] | None = None
         self._headway = config.headway_s()
+
+    def reset(self) -> None:
+        """Forget the QPs (their warm starts and step sizes): a new episode, bit-identical."""
+        self._qps.clear()
+        self._mode_qp = None
 
     def _qp(self, n_branches: int, for_modes: bool = False) -> ContingencyQp:
         c = self.config
         make = lambda: ContingencyQp(
             n_branches, c.n_steps, c.n_trunk, c.plan_dt_s, DT_S,
-            QpWeights(c.w_speed, c.w_accel, c.w_jerk), c.headway_s())
+            QpWeights(c.w_speed, c.w_accel, c.w_jerk, c.w_comfort), c.headway_s())
         if for_modes:
             if self._mode_qp is None:
                 self._mode_qp = make()
@@ -206,7 +232,7 @@ class ContingencyMpc:
 
     def plan(self, route: Route, s0: float, v0: float, prev_accel: float, v_ref_mps: float,
              speed_limit_mps: float, scene: ScenePrediction, beliefs: np.ndarray,
-             static_boxes: np.ndarray | None = None) -> MpcResult:
+             static_boxes: np.ndarray | None = None, stop_at_m: float = np.inf) -> MpcResult:
         """One MPC solve.
 
         Args:
@@ -219,6 +245,8 @@ class ContingencyMpc:
             scene: L hypotheses of the others at config.plan_times_s.
             beliefs: (L,) probability of each hypothesis.
             static_boxes: (S, 4) bounding boxes [xmin, ymin, xmax, ymax] of static polygons [m].
+            stop_at_m: the arc length the robot's centre must stay behind (a stop line not yet
+                stopped at, agents/robot/stop.py; inf: none) [m].
         """
         c, veh = self.config, self.vehicle
         beliefs = np.asarray(beliefs, dtype=np.float64)
@@ -232,8 +260,13 @@ class ContingencyMpc:
         v_ref = min(v_ref_mps, v_cap)
         # a braking command larger than the speed left is realized only in part (v >= 0)
         prev_accel = max(prev_accel, -v0 / DT_S)
-        wall = static_limit(route, static_boxes, s0, veh.length_m, veh.width_m,
-                            c.lateral_margin_m) - c.min_gap_m - 0.5 * veh.length_m - s0
+        if (self._static is None or self._static[0] is not route
+                or self._static[1] is not static_boxes):
+            self._static = (route, static_boxes, StaticBoxes.project(
+                route, static_boxes, veh.width_m, c.lateral_margin_m))
+        wall = (self._static[2].limit(s0, veh.length_m) - c.min_gap_m - 0.5 * veh.length_m
+                - s0)
+        wall = min(wall, stop_at_m - s0)
         per_hyp = objects_on_path(route, scene, s0, veh.length_m, veh.width_m,
                                   c.lateral_margin_m, c.pedestrian_margin_m,
                                   c.pedestrian_clearance_m)
@@ -310,7 +343,12 @@ class ContingencyMpc:
         v_start = np.concatenate([[v0], v_brake[:-1]])
         s_brake = np.cumsum(0.5 * (v_start + v_brake) * c.plan_dt_s)
         reach = s_brake + self._headway * v_brake + 0.1  # 10 cm of room: not a single point
-        s_up = np.maximum(s_up, np.minimum(reach, s_up + c.position_tolerance_m))
+        if v0 > c.rest_mps:
+            s_up = np.maximum(s_up, np.minimum(reach, s_up + c.position_tolerance_m))
+        else:
+            # at rest the robot can always stay where it stands (it cannot back up): noise that
+            # moves a bound it waits at behind it, by any amount, does not make it infeasible
+            s_up = np.maximum(s_up, reach)
         return s_low, np.maximum(s_up, 0.0)
 
     def _solve(self, qp: ContingencyQp, weights: np.ndarray, s_low: np.ndarray,
@@ -320,7 +358,7 @@ class ContingencyMpc:
         v_max_b = np.broadcast_to(v_max, s_low.shape)
         return qp.solve(weights, v0, prev, v_ref, v_max_b, s_low, s_up,
                         -veh.brake_max_mps2, veh.accel_max_mps2,
-                        jerk_max or self.config.jerk_max_mps3)
+                        jerk_max or self.config.jerk_max_mps3, self.config.comfort_decel_mps2)
 
     def _choose_modes(self, objects: list[PathObject], bounds: tuple, v_cap: float,
                       pass_pedestrians: bool) -> tuple:
@@ -360,7 +398,8 @@ class ContingencyMpc:
 
 def plan(config: MpcConfig, vehicle: VehicleParams, route: Route, s0: float, v0: float,
          prev_accel: float, v_ref_mps: float, speed_limit_mps: float, scene: ScenePrediction,
-         beliefs: np.ndarray, static_boxes: np.ndarray | None = None) -> MpcResult:
+         beliefs: np.ndarray, static_boxes: np.ndarray | None = None,
+         stop_at_m: float = np.inf) -> MpcResult:
     """One MPC solve with a fresh ContingencyMpc (ContingencyMpc.plan for the arguments).
 
     Args:
@@ -375,6 +414,8 @@ def plan(config: MpcConfig, vehicle: VehicleParams, route: Route, s0: float, v0:
         scene: L hypotheses of the others at config.plan_times_s.
         beliefs: (L,) probability of each hypothesis.
         static_boxes: (S, 4) bounding boxes of the static polygons [m].
+        stop_at_m: the arc length the robot's centre must stay behind (inf: none) [m].
     """
     return ContingencyMpc(config, vehicle).plan(route, s0, v0, prev_accel, v_ref_mps,
-                                                speed_limit_mps, scene, beliefs, static_boxes)
+                                                speed_limit_mps, scene, beliefs, static_boxes,
+                                                stop_at_m)

@@ -30,13 +30,16 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 from marl_social.agents.params import RobotModelParams, parse_planner_params
+from marl_social.agents.robot.curb import CurbConfig, CurbPedestrians
 from marl_social.agents.robot.mpc import ContingencyMpc, MpcConfig, MpcResult
+from marl_social.agents.robot.stop import StopSignConfig, StopSigns
 from marl_social.perception.belief import BeliefConfig, PedestrianBelief
 from marl_social.perception.tracking import TrackSet
 
 from marl_social.models.candidates import ScenePrediction
 from marl_social.models.steering import pure_pursuit
 from marl_social.sim.agent_spec import AgentSpec
+from marl_social.sim.dynamics import DT_S
 from marl_social.sim.observation import ObservationLayout
 from marl_social.sim.road_map import RoadMap
 
@@ -144,12 +147,17 @@ class RobotPlanner:
         mpc_config: overrides the MPC configuration from the spec.
         belief_config: overrides the belief configuration from the spec.
         params: the robot's model of the humans (default: parsed from spec.planner).
+        curb_config: the robot's model of pedestrians waiting at a crosswalk (agents/robot/
+            curb.py; default CurbConfig()).
+        stop_config: when it counts as having stopped at a stop sign (agents/robot/stop.py;
+            default StopSignConfig()).
     """
 
     def __init__(self, spec: AgentSpec, layout: ObservationLayout, road_map: RoadMap,
                  agent_names: list[str], planner: str | RobotVariant = "social",
                  mpc_config: MpcConfig | None = None, belief_config: BeliefConfig | None = None,
-                 params: RobotModelParams | None = None):
+                 params: RobotModelParams | None = None, curb_config: CurbConfig | None = None,
+                 stop_config: StopSignConfig | None = None):
         self.variant = _variant(planner)
         self.needs_truth = self.variant.needs_truth
         self.name = spec.name
@@ -169,13 +177,22 @@ class RobotPlanner:
         )
         self._times = self.mpc.plan_times_s
         self._truth: TrackSet | None = None
+        veh = spec.vehicle
+        self.curb = CurbPedestrians(
+            self.route, road_map.crosswalks, curb_config or CurbConfig(), veh.length_m,
+            self.mpc.pedestrian_gap_m,
+            0.5 * veh.width_m + self.mpc.pedestrian_clearance_m)
+        self.stop_signs = StopSigns(self.route, road_map, veh.length_m, stop_config)
         self._static_boxes = np.array(
             [[*p.min(axis=0), *p.max(axis=0)] for p in road_map.static_polygons]).reshape(-1, 4)
         self.reset()
 
     def reset(self, seed: int | None = None) -> None:
-        """Start a new episode: a fresh belief; `seed` is unused (the MPC is deterministic)."""
+        """Start a new episode: fresh belief, QPs, stop-sign and curb state (`seed`: unused)."""
         self.belief.reset()
+        self.solver.reset()
+        self.curb.reset()
+        self.stop_signs.reset()
         self.prev_accel = 0.0
         self.last_result: MpcResult | None = None
         self.weights = None
@@ -238,16 +255,44 @@ class RobotPlanner:
             self.belief.update(obs)  # own tracks (+ negative / social information by variant)
             tracks = self.belief.tracker.tracks()
         weights = self.hypothesis_weights()
-        self.weights = weights
         scene = self._scene(tracks)
         s0, _ = self.route.project_point(x, y)
+        step_xy, step_heading = self.curb.step_off(tracks, s0, v, DT_S, self._times)
+        if len(step_xy):
+            scene, weights = self._with_step_off(scene, weights, step_xy, step_heading)
+        self.weights = weights
+        stop_at = self.stop_signs.update(s0, v, DT_S)
         result = self.solver.plan(self.route, s0, v, self.prev_accel, self.v_ref(),
                                   self.road_map.speed_limit_mps, scene, weights,
-                                  self._static_boxes)
+                                  self._static_boxes, stop_at)
         self.last_result = result
         self.prev_accel = result.accel_mps2
         steer = pure_pursuit(self.route, x, y, psi, v, s0, self.spec.vehicle.wheelbase_m)
         return np.array([result.accel_mps2, steer], dtype=np.float32)
+
+    def _with_step_off(self, scene: ScenePrediction, weights: np.ndarray, xy: np.ndarray,
+                       heading: np.ndarray) -> tuple[ScenePrediction, np.ndarray]:
+        """The scene (L + 1 hypotheses) and weights (L + 1,) with the "steps off now" branch.
+
+        The K pedestrians of xy (K, T, 2) and heading (K,) step off in the last hypothesis
+        (the tracked objects, no hidden pedestrian), with probability CurbConfig.p_step_off;
+        the L others, in which they keep waiting, share the rest.
+        """
+        n_hyp, n_k = scene.mask.shape[0], len(xy)
+        for k in range(n_k):
+            scene = scene.with_extra(np.broadcast_to(xy[k], (n_hyp,) + xy[k].shape),
+                                     np.full((n_hyp, xy.shape[1]), heading[k]),
+                                     np.full(n_hyp, 0.6), np.full(n_hyp, 0.6),
+                                     np.ones(n_hyp, bool), np.zeros(n_hyp, bool))
+        mask = scene.mask[:1].copy()
+        mask[0, -n_k - 1] = False  # no hidden pedestrian
+        mask[0, -n_k:] = True
+        fields = [np.concatenate([a, a[:1]]) for a in
+                  (scene.xy, scene.heading, scene.length_m, scene.width_m, scene.radius_m,
+                   scene.is_pedestrian)]
+        scene = ScenePrediction(*fields, np.concatenate([scene.mask, mask]))
+        p = self.curb.config.p_step_off
+        return scene, np.concatenate([(1.0 - p) * weights, [p]])
 
     def _scene(self, tracks: TrackSet) -> ScenePrediction:
         """One scene per hypothesis: the tracked objects plus that hypothesis' pedestrian."""

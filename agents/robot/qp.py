@@ -17,7 +17,10 @@ Rows (l <= A x <= u), per branch:
   from 0 so that a gap already short now stays feasible; on the last step the terminal headway
   makes room for a stop beyond the horizon);
 * jerk: |a[k] - a[k-1]| <= j_max dt (the first step against the previous command, over one
-  simulator step); acceleration: -brake_max <= a <= accel_max.
+  simulator step); acceleration: -brake_max <= a <= accel_max;
+* comfort (soft): a[k] + c[k] >= -comfort_decel with a slack c[k] >= 0 per acceleration
+  variable, penalized by w_c c^2 (braking beyond the comfortable deceleration is allowed, at a
+  price; Alsterda & Gerdes' comfortable contingency branch).
 
 Cost (0.5 x'Px + q'x) = sum_l b_l dt sum_k [w_v (v - v_ref)^2 + w_a a^2 + w_j ((a_k - a_{k-1})
 / dt_k)^2], dt_k = dt except for the first change (from the previous command, made within one
@@ -45,11 +48,14 @@ class QpWeights:
         speed: w_v on (v - v_ref)^2 [1 / (m/s)^2 / s].
         accel: w_a on a^2 [1 / (m/s^2)^2 / s].
         jerk: w_j on jerk^2 [1 / (m/s^3)^2 / s].
+        comfort: w_c on the braking beyond the comfortable deceleration, squared
+            [1 / (m/s^2)^2 / s].
     """
 
     speed: float
     accel: float
     jerk: float
+    comfort: float = 0.0
 
 
 @dataclass(frozen=True)
@@ -96,11 +102,13 @@ class ContingencyQp:
         self._a_off = n_trunk
         self._v_off = n_trunk + n_branches * n_b
         self._s_off = self._v_off + n_branches * n_steps
-        self.n_vars = self._s_off + n_branches * n_steps
+        self._c_off = self._s_off + n_branches * n_steps
+        self.n_vars = self._c_off + self._v_off  # one comfort slack per acceleration variable
         self._a_idx = np.array([[k if k < n_trunk else n_trunk + l * n_b + k - n_trunk
                                  for k in range(n_steps)] for l in range(n_branches)])
         self._v_idx = self._v_off + np.arange(n_branches * n_steps).reshape(n_branches, n_steps)
         self._s_idx = self._s_off + np.arange(n_branches * n_steps).reshape(n_branches, n_steps)
+        self._c_idx = self._c_off + self._a_idx
         self._build_cost_pattern()
         self._build_constraints(np.asarray(headway_s, dtype=np.float64))
         self._solver = osqp.OSQP()
@@ -132,6 +140,7 @@ class ContingencyQp:
             for k in range(self.n_steps):
                 add(self._v_idx[l, k], self._v_idx[l, k], 2.0 * w.speed * dt, l)
                 add(self._s_idx[l, k], self._s_idx[l, k], 0.0, l)  # keeps P's pattern full-rank
+                add(self._c_idx[l, k], self._c_idx[l, k], 2.0 * w.comfort * dt, l)
                 a = self._a_idx[l, k]
                 add(a, a, 2.0 * w.accel * dt + 2.0 * w.jerk * (first if k == 0 else 1.0 / dt), l)
                 if k >= 1:
@@ -197,17 +206,21 @@ class ContingencyQp:
             for k in range(self.n_trunk, N):
                 jerk_rows.append(row([(self._a_idx[l, k], 1.0), (self._a_idx[l, k - 1], -1.0)]))
         accel_rows = [row([(j, 1.0)]) for j in range(self._v_off)]
+        comfort_rows = [row([(j, 1.0), (self._c_off + j, 1.0)]) for j in range(self._v_off)]
+        slack_rows = [row([(self._c_off + j, 1.0)]) for j in range(self._v_off)]
         self._a_matrix = sp.csc_matrix((vals, (rows, cols)), shape=(n_rows, self.n_vars))
         self._rows = {"dyn_v": dyn_v, "dyn_s": dyn_s, "speed": speed, "low": low, "up": up,
-                      "jerk": np.array(jerk_rows), "accel": np.array(accel_rows)}
+                      "jerk": np.array(jerk_rows), "accel": np.array(accel_rows),
+                      "comfort": np.array(comfort_rows), "slack": np.array(slack_rows)}
         lower, upper = np.full(n_rows, -_INF), np.full(n_rows, _INF)
         lower[dyn_v] = upper[dyn_v] = 0.0
         lower[dyn_s] = upper[dyn_s] = 0.0
+        lower[self._rows["slack"]] = 0.0
         self._lower_template, self._upper_template = lower, upper
 
     def _bounds(self, v0: float, prev_accel: float, v_max: np.ndarray, s_low: np.ndarray,
-                s_up: np.ndarray, accel_min: float, accel_max: float,
-                jerk_max: float) -> tuple[np.ndarray, np.ndarray]:
+                s_up: np.ndarray, accel_min: float, accel_max: float, jerk_max: float,
+                comfort_decel: float | None) -> tuple[np.ndarray, np.ndarray]:
         r, dt = self._rows, self.dt_s
         lower, upper = self._lower_template.copy(), self._upper_template.copy()
         lower[r["dyn_v"][:, 0]] = upper[r["dyn_v"][:, 0]] = v0
@@ -221,13 +234,15 @@ class ContingencyQp:
         lower[first] = prev_accel - jerk_max * self.first_dt_s
         upper[first] = prev_accel + jerk_max * self.first_dt_s
         lower[r["accel"]], upper[r["accel"]] = accel_min, accel_max
+        lower[r["comfort"]] = -_INF if comfort_decel is None else -comfort_decel
         return lower, upper
 
     # -- solve --------------------------------------------------------------------------------
 
     def solve(self, weights: np.ndarray, v0: float, prev_accel: float, v_ref_mps: float,
               v_max: np.ndarray, s_low: np.ndarray, s_up: np.ndarray, accel_min: float,
-              accel_max: float, jerk_max: float) -> QpSolution:
+              accel_max: float, jerk_max: float,
+              comfort_decel: float | None = None) -> QpSolution:
         """Solve for the current state and bounds.
 
         Args:
@@ -241,10 +256,12 @@ class ContingencyQp:
             accel_min: most negative acceleration [m/s^2].
             accel_max: largest acceleration [m/s^2].
             jerk_max: largest |jerk| [m/s^3].
+            comfort_decel: the comfortable deceleration (positive) beyond which braking is
+                penalized by the comfort weight (None: not penalized) [m/s^2].
         """
         weights = np.asarray(weights, dtype=np.float64)
         lower, upper = self._bounds(v0, prev_accel, v_max, s_low, s_up, accel_min, accel_max,
-                                    jerk_max)
+                                    jerk_max, comfort_decel)
         if np.any(lower > upper + 1e-9):
             return self._failed()
         self._solver.update(Px=self._p_values(weights),

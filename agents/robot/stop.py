@@ -1,0 +1,119 @@
+"""Stop signs on the robot's route: stop at the line, wait at rest, then go.
+
+Every stop line of kind "stop_sign" that the robot's route crosses (RoadMap.stop_lines; one
+with a lane index counts only where the route runs the way that lane does) is, in turn, a wall
+for the robot's front bumper at the line, until the robot has come to rest there: slower than
+`rest_mps` with its front within `near_m` of the line (either side) for `hold_s`. Then the line
+is cleared and the robot goes; what else it plans for (tracked objects, hidden-pedestrian
+hypotheses, pedestrians at a crosswalk) still holds, in the MPC. A line the robot's front has
+passed by more than `near_m` without stopping (it could not stop: it started too close) is
+behind it: the robot does not stop in the middle of the junction.
+
+Lines of kind "signal" are not handled here: a signal's state is not part of the static map
+(a traffic-light controller will say when the robot may go); they are ignored.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from marl_social.sim.road_map import RoadMap, Route
+
+
+@dataclass(frozen=True)
+class StopSignConfig:
+    """When the robot counts as having stopped at a stop line.
+
+    Attributes:
+        near_m: its front bumper within this of the line (either side) [m].
+        rest_mps: slower than this [m/s].
+        hold_s: for at least this long [s].
+    """
+
+    near_m: float = 1.5
+    rest_mps: float = 0.1
+    hold_s: float = 0.5
+
+    def __post_init__(self):
+        if min(self.near_m, self.rest_mps, self.hold_s) <= 0.0:
+            raise ValueError("StopSignConfig: near_m, rest_mps and hold_s must be > 0")
+
+
+def stop_sign_arc_lengths(route: Route, road_map: RoadMap) -> np.ndarray:
+    """(C,) ascending arc lengths [m] at which `route` crosses a stop-sign line it must obey.
+
+    A line with a lane index counts where the route's direction agrees with that lane's (the
+    lane's centreline heading at its point nearest the crossing); one without (-1) everywhere
+    the route crosses it.
+    """
+    out = []
+    for line in road_map.stop_lines:
+        if line.kind != "stop_sign":
+            continue  # signals: not in the static map's hands (module docstring)
+        crossings = route.segment_crossings(line.segment)
+        if line.lane >= 0 and len(crossings):  # RoadMap checked the index
+            lane = Route(road_map.lanes[line.lane].centerline, f"lane {line.lane}")
+            xy, heading = route.point_at(crossings)
+            _, _, lane_heading = lane.project(xy)
+            crossings = crossings[np.cos(heading - lane_heading) > 0.0]
+        out.extend(crossings.tolist())
+    return np.unique(np.asarray(out, dtype=np.float64))
+
+
+class StopSigns:
+    """The robot's stop-sign state along its route (module docstring).
+
+    Args:
+        route: the robot's route.
+        road_map: the static map (its stop_lines and lanes).
+        robot_length_m: the robot's length [m] (the constraint is on its front bumper).
+        config: when the robot counts as stopped.
+    """
+
+    def __init__(self, route: Route, road_map: RoadMap, robot_length_m: float,
+                 config: StopSignConfig | None = None):
+        self.config = config or StopSignConfig()
+        self.lines_m = stop_sign_arc_lengths(route, road_map)
+        self._half = 0.5 * robot_length_m
+        self.reset()
+
+    def reset(self) -> None:
+        """A new episode: every line ahead is still to be stopped at."""
+        self.next_line: int | None = None  # index into lines_m, set on the first update
+        self.rest_s = 0.0
+
+    def update(self, s0: float, v0: float, dt_s: float) -> float:
+        """Count the time at rest; the arc length the robot's centre must stay behind [m].
+
+        Called once per planning step.
+
+        Args:
+            s0: the robot's arc length along its route (footprint centre) [m].
+            v0: its speed [m/s].
+            dt_s: time since the last call [s].
+
+        Returns:
+            The line's arc length minus half the robot's length [m]; inf if no line is due.
+        """
+        c = self.config
+        front = s0 + self._half
+        if self.next_line is None:  # lines behind the front at the start are not due
+            self.next_line = int(np.searchsorted(self.lines_m, front - c.near_m))
+        while (self.next_line < len(self.lines_m)
+               and front > self.lines_m[self.next_line] + c.near_m):
+            self.next_line += 1  # passed without stopping (it could not)
+            self.rest_s = 0.0
+        if self.next_line >= len(self.lines_m):
+            return np.inf
+        line = self.lines_m[self.next_line]
+        if v0 < c.rest_mps and abs(line - front) <= c.near_m:
+            self.rest_s += dt_s
+        else:
+            self.rest_s = 0.0
+        if self.rest_s >= c.hold_s:  # stopped: go (the next line, if any, is further on)
+            self.next_line += 1
+            self.rest_s = 0.0
+            return self.update(s0, v0, 0.0) if self.next_line < len(self.lines_m) else np.inf
+        return float(line - self._half)
