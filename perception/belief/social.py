@@ -39,6 +39,12 @@ Modelling choices of `SocialLikelihood`:
   simulator-step units) is then added for each v_traffic. That gives exactly
   `driver_q_values(DriverModel(v_desired_mps=v))` for every (l, v) from a single rollout
   (tests/perception/belief/test_social.py checks the equality).
+* The human keeps the right of way like the simulated drivers (models/driver.RoadRules): in a
+  conflict zone its route yields at, a car on one of the zone's priority lanes -- tracked, or
+  the hypothesised one -- that claims the zone adds the conflict cost
+  (`SocialLikelihood.yield_zones`). A left-turner waiting before the lane it crosses is then
+  explained by a hypothesised car coming along that lane. Stop lines are left out: the robot
+  cannot know whether a human has already stopped at one.
 """
 
 from __future__ import annotations
@@ -65,6 +71,7 @@ from marl_social.sim.agent_spec import VehicleParams
 from marl_social.sim.dynamics import DT_S
 from marl_social.sim.observation import EGO_INDEX, DecodedObservation
 from marl_social.sim.road_map import RoadMap, Route
+from marl_social.sim.route_rules import priority_mask, route_conflicts
 
 SIGMA_MIN_MPS2 = 1e-3  # the observation noise on a_obs is at least this [m/s^2]
 OUTLIER_PROB_MAX = 1.0 - 1e-12  # rho stays below 1 (some weight on the model)
@@ -214,6 +221,7 @@ class SocialLikelihood:
         self._beta_prior = np.full(len(self._beta_grid), 1.0 / max(len(self._beta_grid), 1))
         self._empty_scene: ScenePrediction | None = None
         self._empty_hyp_scene: ScenePrediction | None = None
+        self._conflicts: dict[str, tuple] = {}  # route name -> its yield conflicts
         self.reset()
 
     def reset(self) -> None:
@@ -335,13 +343,49 @@ class SocialLikelihood:
         scene = self.hypothesis_scene(others, viewer)
         ev = evaluate_candidates(self._candidates, self._theta_no_speed, 0.0, self.model.vehicle,
                                  route, s0, v0, prev_accel, scene, self.road_map.crosswalks,
-                                 geometry=True)
+                                 geometry=True, yield_zones=self.yield_zones(route, s0, scene),
+                                 yield_margin_s=self.model.yield_margin_s)
         base = collision_free_totals(ev)  # (L, A, C), predicted collisions excluded
         scale = self._candidates.plan_dt_s / DT_S
         v_ref = self.traffic_grid_mps
         speed = (self.config.theta_hat.speed * scale
                  * ((ev.v[None] - v_ref[:, None, None, None]) ** 2).sum(axis=-1))  # (V, A, C)
         return (base[:, None] + speed[None]).min(axis=-1)
+
+    def yield_zones(self, route: Route, s0: float, scene: ScenePrediction) -> tuple:
+        """The right of way the robot assumes a human on `route` at s0 [m] keeps (RoadRules).
+
+        The conflict zones its route passes where it yields (sim/route_rules.route_conflicts)
+        and that it has not yet left, each (polygon (V, 2) [m], priority (L, M) bool): the
+        scene's cars travelling along one of the zone's priority lanes at the first predicted
+        step (`priority_mask`) -- a hypothesised car on such a lane only in its hypothesis.
+        The human's Q* then holds the conflict cost of entering the zone while one of them
+        claims it (models/driver.RoadRules, `evaluate_candidates`' yield_zones): a human
+        waiting at the zone for a car the robot cannot see is evidence for that car.
+
+        Args:
+            route: the human's route (its lane and onward, paths.LanePaths).
+            s0: its arc length along the route [m].
+            scene: the L scenes the human is modelled against (`hypothesis_scene`).
+        """
+        conflicts = self._conflicts.get(route.name)
+        if conflicts is None:
+            conflicts = tuple(c for c in route_conflicts(route, self.road_map) if c.yields)
+            self._conflicts[route.name] = conflicts
+        if not conflicts or not scene.mask.any():
+            return ()
+        half = 0.5 * self.model.vehicle.length_m
+        cars = scene.mask & ~scene.is_pedestrian  # (L, M)
+        xy, heading = scene.xy[:, :, 0].reshape(-1, 2), scene.heading[:, :, 0].reshape(-1)
+        zones = []
+        for conflict in conflicts:
+            if s0 - half > conflict.s_exit_m:  # already through it
+                continue
+            has_way = priority_mask(conflict.zone, self.road_map, xy, heading)
+            has_way = has_way.reshape(cars.shape) & cars
+            if has_way.any():
+                zones.append((conflict.zone.polygon, has_way))
+        return tuple(zones)
 
     def _executed(self, v0: float) -> np.ndarray:
         """(A,) accelerations the candidate first actions execute as at speed v0 [m/s^2]."""

@@ -5,15 +5,18 @@ from __future__ import annotations
 import numpy as np
 
 from marl_social.evaluation import reproduce_intersection as rep
+from marl_social.evaluation.run import RANDOMIZATIONS
 
 
 def test_randomization_covers_the_ranges_and_is_seeded():
     draws = [rep.randomized_overrides(s) for s in range(200)]
     assert rep.randomized_overrides(3) == rep.randomized_overrides(3)
-    for key, (lo, hi) in rep.RANDOMIZATION.items():
+    for key, (lo, hi) in RANDOMIZATIONS["t_intersection"].items():
         values = np.array([d[key] for d in draws])
         assert values.min() >= lo and values.max() <= hi
         assert values.max() - values.min() > 0.8 * (hi - lo)  # spread over the range
+    n_humans = [d["n_humans"] for d in draws]
+    assert all(isinstance(n, int) for n in n_humans) and set(n_humans) == {1, 2, 3}
 
 
 def test_table_row_for_a_near_car():
