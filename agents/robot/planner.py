@@ -13,6 +13,14 @@
   and the autopilot), with no hidden hypotheses. It knows where everybody is, not what they
   will decide.
 
+Every planner's scenes are its tracked objects (the oracle: the truth) in every branch plus,
+per hypothesis, that hypothesis' hidden agent (a pedestrian, or a car on its lane; the belief's
+`hypothesis_objects`). At conflict zones where the robot yields, a car with the right of way
+predicted there claims the zone in its branch (agents/robot/right_of_way.py): the robot waits
+or clears the zone well before the car arrives. So the oracle gives way to the hidden car it
+knows of from the start, the conservative planner to every hidden car it cannot rule out, the
+aggressive one only to a car it sees, and the social one to those its belief holds.
+
 All but the oracle act on the robot's own observation and the static map only. Each planner is
 one `RobotVariant` (data, in `ROBOT_VARIANTS`); agents/registry.py registers them by name.
 

@@ -185,7 +185,11 @@ def format_table(rows: list[dict]) -> str:
 
 
 def write_figures(out: Path, seed: int = 0) -> list[Path]:
-    """The FIGURES as PNGs in `out`; panel (c) shows who sees V3 (1) or not (0)."""
+    """The FIGURES as PNGs in `out`.
+
+    Panel (c) shows who sees V3 (1) or not (0), and the robot's belief in a hidden car
+    (trace extra "p_vehicle"; 1 while it sees one) for a belief-based planner.
+    """
     from marl_social.evaluation.run import run_episode
     from marl_social.viz.figures import plot_episode
 
@@ -198,8 +202,10 @@ def write_figures(out: Path, seed: int = 0) -> list[Path]:
         seen = {f"{observer} sees V3 ({tr.names[hidden]})":
                 tr.visible[:, tr.index(observer), hidden].astype(float)
                 for observer in ("robot_0", "human_0") if observer in tr.names}
+        if "p_vehicle" in tr.extras:
+            seen["robot_0's belief in a hidden car"] = tr.extras["p_vehicle"]
         paths.append(plot_episode(
             res.road_map, tr.names, tr.roles, tr.times_s, tr.states, tr.active, tr.visible,
             out / f"{stem}.png", title=f"T-intersection: {planner} planner, V3 {variant}",
-            beliefs=seen))
+            beliefs=seen, belief_title="who sees the hidden car V3, the robot's belief in it"))
     return paths

@@ -16,6 +16,7 @@ for V3 tells the social robot V3 is there before the robot sees it.
 from __future__ import annotations
 
 import multiprocessing as mp
+import os
 
 import numpy as np
 import pytest
@@ -24,7 +25,7 @@ from marl_social.evaluation.reproduce_intersection import claim_episode
 
 pytestmark = pytest.mark.slow  # 50-seed claims: minutes; `pytest -m "not slow"` skips them
 
-N_SEEDS = 50
+N_SEEDS = int(os.environ.get("MARL_CLAIM_SEEDS", "50"))
 CASES = [("social", "none"), ("oracle", "none"), ("conservative", "none"),
          ("social", "near"), ("oracle", "near"), ("aggressive", "near")]
 # the robot has cleared the junction within 10 s when nothing comes; with V3 near it goes
