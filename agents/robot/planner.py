@@ -227,8 +227,9 @@ class RobotPlanner:
     def hypothesis_weights(self) -> np.ndarray:
         """(L,) the weights the MPC plans with, by the variant's HypothesisWeighting.
 
-        The belief for `social`, every live present hypothesis for `conservative`, only "none"
-        for `aggressive` and `oracle`.
+        The belief for `social`, every live present hypothesis for `conservative` (a hidden
+        car's: every one not ruled out by its sensors), only "none" for `aggressive` and
+        `oracle`.
         """
         hyps = self.belief.hypotheses
         none = np.array([not h.present for h in hyps])
@@ -239,6 +240,11 @@ class RobotPlanner:
         if weighting is HypothesisWeighting.BELIEF:
             return b
         present_live = ~none & (b >= self.mpc.epsilon)
+        # a hidden car is one of many small progress and speed bins, each below epsilon: the
+        # conservative robot keeps every one its sensors have not ruled out (its belief, from
+        # its own sensors only, still at least epsilon times its prior)
+        vehicle = np.array([h.kind == "vehicle" for h in hyps])
+        present_live |= vehicle & (b >= self.mpc.epsilon * self.belief.prior)
         if not present_live.any():
             return none.astype(np.float64)
         return present_live / present_live.sum()

@@ -43,8 +43,10 @@ Modelling choices of `SocialLikelihood`:
   conflict zone its route yields at, a car on one of the zone's priority lanes -- tracked, or
   the hypothesised one -- that claims the zone adds the conflict cost
   (`SocialLikelihood.yield_zones`). A left-turner waiting before the lane it crosses is then
-  explained by a hypothesised car coming along that lane. Stop lines are left out: the robot
-  cannot know whether a human has already stopped at one.
+  explained by a hypothesised car coming along that lane. It also keeps to the curve speed of
+  its path's bends (HUMAN_CURVE_LAT_ACCEL_MPS2; `rule_abiding_totals`), so slowing for a turn
+  is not read as giving way. Stop lines are left out: the robot cannot know whether a human
+  has already stopped at one.
 """
 
 from __future__ import annotations
@@ -63,18 +65,20 @@ from marl_social.perception.tracking import TrackSet
 from marl_social.models.boltzmann import boltzmann
 from marl_social.models.candidates import (
     ScenePrediction,
-    collision_free_totals,
     evaluate_candidates,
 )
-from marl_social.models.driver import DriverModel
+from marl_social.models.driver import DriverModel, RoadRules, rule_abiding_totals
 from marl_social.sim.agent_spec import VehicleParams
 from marl_social.sim.dynamics import DT_S
 from marl_social.sim.observation import EGO_INDEX, DecodedObservation
 from marl_social.sim.road_map import RoadMap, Route
-from marl_social.sim.route_rules import priority_mask, route_conflicts
+from marl_social.sim.route_rules import CurveSpeed, priority_mask, route_conflicts
 
 SIGMA_MIN_MPS2 = 1e-3  # the observation noise on a_obs is at least this [m/s^2]
 OUTLIER_PROB_MAX = 1.0 - 1e-12  # rho stays below 1 (some weight on the model)
+# the lateral acceleration the robot assumes a human accepts in a bend (a generic driver's;
+# a human slowing for its turn is then not read as giving way to a hidden car) [m/s^2]
+HUMAN_CURVE_LAT_ACCEL_MPS2 = 2.5
 OUTLIER_MARGIN_SIGMAS = 3.0  # the outlier density spans the actions' range +- this many sigma
 _EGO_XY = [EGO_INDEX["x"], EGO_INDEX["y"]]
 _EGO_COS_SIN = [EGO_INDEX["cos_psi"], EGO_INDEX["sin_psi"]]
@@ -222,6 +226,7 @@ class SocialLikelihood:
         self._empty_scene: ScenePrediction | None = None
         self._empty_hyp_scene: ScenePrediction | None = None
         self._conflicts: dict[str, tuple] = {}  # route name -> its yield conflicts
+        self._curves: dict[str, CurveSpeed | None] = {}  # route name -> its curve speed
         self.reset()
 
     def reset(self) -> None:
@@ -341,16 +346,27 @@ class SocialLikelihood:
             xy, heading = route.point_at(s0)
             viewer = (xy, float(heading))
         scene = self.hypothesis_scene(others, viewer)
+        rules = RoadRules(None, self.yield_zones(route, s0, scene), self._curve_speed(route))
         ev = evaluate_candidates(self._candidates, self._theta_no_speed, 0.0, self.model.vehicle,
                                  route, s0, v0, prev_accel, scene, self.road_map.crosswalks,
-                                 geometry=True, yield_zones=self.yield_zones(route, s0, scene),
-                                 yield_margin_s=self.model.yield_margin_s)
-        base = collision_free_totals(ev)  # (L, A, C), predicted collisions excluded
+                                 geometry=True, yield_zones=rules.yield_zones,
+                                 yield_margin_s=self.model.yield_margin_s,
+                                 curve_speed=rules.curve_speed)
+        # (L, A, C): predicted collisions and plans too fast for its bends excluded
+        base = rule_abiding_totals(ev, self.model, s0, rules)
         scale = self._candidates.plan_dt_s / DT_S
         v_ref = self.traffic_grid_mps
         speed = (self.config.theta_hat.speed * scale
                  * ((ev.v[None] - v_ref[:, None, None, None]) ** 2).sum(axis=-1))  # (V, A, C)
         return (base[:, None] + speed[None]).min(axis=-1)
+
+    def _curve_speed(self, route: Route) -> CurveSpeed | None:
+        """The curve speed the robot assumes a human keeps on `route` (None: straight)."""
+        if route.name not in self._curves:
+            curve = CurveSpeed(route, HUMAN_CURVE_LAT_ACCEL_MPS2,
+                               0.5 * self.model.vehicle.length_m)
+            self._curves[route.name] = None if curve.is_straight else curve
+        return self._curves[route.name]
 
     def yield_zones(self, route: Route, s0: float, scene: ScenePrediction) -> tuple:
         """The right of way the robot assumes a human on `route` at s0 [m] keeps (RoadRules).
