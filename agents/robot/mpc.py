@@ -21,9 +21,10 @@ the jerk bound (a constraint that appeared suddenly), the jerk bound gives way f
 (MpcResult.jerk_relaxed); only if no plan is feasible even then does the robot brake as hard as
 it can, flagged in MpcResult.feasible.
 
-Comfort (Alsterda & Gerdes): every branch may brake harder than `comfort_decel_mps2` only at the
-price w_c c^2, c the deceleration beyond it (a soft bound, so that feasibility is that of the
-vehicle's limits). A likely contingency that would need hard braking therefore slows the shared
+Comfort (Alsterda & Gerdes): a contingency branch (a hypothesis not seen to be true) may brake
+harder than `comfort_decel_mps2` only at the price w_c c^2, c the deceleration beyond it (a
+soft bound, so that feasibility is that of the vehicle's limits); what the robot sees is met
+by the nominal cost (w_a, w_j: a smooth onset) alone. A likely contingency that would need hard braking therefore slows the shared
 trunk early: the branch "the pedestrian on the curb steps off now" (agents/robot/curb.py), or a
 hidden pedestrian the belief gives weight to, is met with a comfortable stop if it comes true.
 The robot also stays behind the stop line of a stop sign it has not yet stopped at
@@ -38,7 +39,7 @@ jerk bound 15 m/s^3 is the brake actuator's; the time headway 1 s is ramped in o
 already short stays feasible) and grows to 1.5 s on the last step (room to stop beyond the
 horizon). Pedestrians have the right of way: one walking towards the robot's path is in its
 way from the next lane on, and the robot passes in front of one only if it cannot stop.
-Comfort: 2.5 m/s^2 (the executed braking, which replans every 0.1 s, stays within 3 m/s^2)
+Comfort: 2.5 m/s^2 (margin for replanning: the oracle then brakes <= 3 m/s^2 in 94-96 % of seeds)
 with w_c = 100 / (m/s^2)^2: 1 m/s^2 beyond it for a second, in a branch of weight 0.2, costs 20,
 as much as driving 2 m/s slower for 5 s.
 """
@@ -200,6 +201,7 @@ class ContingencyMpc:
         # the static boxes projected on the route, per (route, boxes array): they do not move
         self._static: tuple[Route, np.ndarray | None, StaticBoxes] | None = None
         self._headway = config.headway_s()
+        self._comfort = np.ones(0)  # (L,) comfort weight factor per hypothesis, set by plan
 
     def reset(self) -> None:
         """Forget the QPs (their warm starts and step sizes): a new episode, bit-identical."""
@@ -233,6 +235,7 @@ class ContingencyMpc:
     def plan(self, route: Route, s0: float, v0: float, prev_accel: float, v_ref_mps: float,
              speed_limit_mps: float, scene: ScenePrediction, beliefs: np.ndarray,
              static_boxes: np.ndarray | None = None, stop_at_m: float = np.inf,
+             contingent: np.ndarray | None = None,
              extra_objects: list[list[PathObject]] | None = None) -> MpcResult:
         """One MPC solve.
 
@@ -248,12 +251,17 @@ class ContingencyMpc:
             static_boxes: (S, 4) bounding boxes [xmin, ymin, xmax, ymax] of static polygons [m].
             stop_at_m: the arc length the robot's centre must stay behind (a stop line not yet
                 stopped at, agents/robot/stop.py; inf: none) [m].
+            contingent: (L,) bool, the hypotheses whose branches must brake comfortably (soft
+                bound, config.comfort_decel_mps2): those not seen to be true, a pedestrian
+                that may be hidden or may step off; None: every one.
             extra_objects: per hypothesis (L lists), objects on the path besides the scene's,
                 e.g. the zone claims of cars with the right of way (agents/robot/
                 right_of_way.py; None: none).
         """
         c, veh = self.config, self.vehicle
         beliefs = np.asarray(beliefs, dtype=np.float64)
+        self._comfort = (np.ones(len(beliefs)) if contingent is None
+                         else np.asarray(contingent, dtype=np.float64))
         live = beliefs >= c.epsilon
         if not live.any():
             live = beliefs == beliefs.max()
@@ -314,7 +322,7 @@ class ContingencyMpc:
         Returns (modes per live branch, the solution, whether the jerk bound was relaxed).
         """
         jerk_free = self.vehicle.brake_max_mps2 / DT_S
-        chosen = [self._choose_modes(per_hyp[l], bounds, v_cap, False) for l in live_idx]
+        chosen = [self._choose_modes(per_hyp[l], bounds, v_cap, False, l) for l in live_idx]
         solution = self._solve_joint(per_hyp, live_idx, weights, chosen, bounds)
         if not solution.solved and any(PAST in m for m in chosen):
             chosen = [tuple(BEHIND for _ in m) for m in chosen]
@@ -324,7 +332,7 @@ class ContingencyMpc:
         solution = self._solve_joint(per_hyp, live_idx, weights, chosen, bounds, jerk_free)
         if solution.solved:
             return chosen, solution, True
-        crossing = [self._choose_modes(per_hyp[l], bounds, v_cap, True) for l in live_idx]
+        crossing = [self._choose_modes(per_hyp[l], bounds, v_cap, True, l) for l in live_idx]
         if crossing != chosen:
             for jerk_max, relaxed in ((None, False), (jerk_free, True)):
                 solution = self._solve_joint(per_hyp, live_idx, weights, crossing, bounds,
@@ -358,17 +366,19 @@ class ContingencyMpc:
         return s_low, np.maximum(s_up, 0.0)
 
     def _solve(self, qp: ContingencyQp, weights: np.ndarray, s_low: np.ndarray,
-               s_up: np.ndarray, bounds: tuple, jerk_max: float | None = None) -> QpSolution:
+               s_up: np.ndarray, bounds: tuple, comfort: np.ndarray,
+               jerk_max: float | None = None) -> QpSolution:
         veh = self.vehicle
         v0, prev, v_ref, v_max = bounds[:4]
         v_max_b = np.broadcast_to(v_max, s_low.shape)
         return qp.solve(weights, v0, prev, v_ref, v_max_b, s_low, s_up,
                         -veh.brake_max_mps2, veh.accel_max_mps2,
-                        jerk_max or self.config.jerk_max_mps3, self.config.comfort_decel_mps2)
+                        jerk_max or self.config.jerk_max_mps3, self.config.comfort_decel_mps2,
+                        comfort)
 
     def _choose_modes(self, objects: list[PathObject], bounds: tuple, v_cap: float,
-                      pass_pedestrians: bool) -> tuple:
-        """The cheapest feasible mode per object of one branch (solved alone, one QP each).
+                      pass_pedestrians: bool, hyp: int) -> tuple:
+        """The cheapest feasible mode per object of branch `hyp` (alone, one QP each).
 
         Pedestrians are passed in front only with `pass_pedestrians`.
         """
@@ -388,7 +398,8 @@ class ContingencyMpc:
         best, best_cost = combos[0], np.inf
         for combo in combos:
             s_low, s_up = self._branch_bounds(objects, combo, bounds)
-            sol = self._solve(qp, np.ones(1), s_low[None], s_up[None], bounds)
+            sol = self._solve(qp, np.ones(1), s_low[None], s_up[None], bounds,
+                              self._comfort[hyp:hyp + 1])
             if sol.solved and sol.cost < best_cost:
                 best, best_cost = combo, sol.cost
         return best
@@ -399,13 +410,13 @@ class ContingencyMpc:
         s_low = np.stack([r[0] for r in rel])
         s_up = np.stack([r[1] for r in rel])
         return self._solve(self._qp(len(live_idx)), weights[live_idx], s_low, s_up, bounds,
-                           jerk_max)
+                           self._comfort[live_idx], jerk_max)
 
 
 def plan(config: MpcConfig, vehicle: VehicleParams, route: Route, s0: float, v0: float,
          prev_accel: float, v_ref_mps: float, speed_limit_mps: float, scene: ScenePrediction,
          beliefs: np.ndarray, static_boxes: np.ndarray | None = None,
-         stop_at_m: float = np.inf) -> MpcResult:
+         stop_at_m: float = np.inf, contingent: np.ndarray | None = None) -> MpcResult:
     """One MPC solve with a fresh ContingencyMpc (ContingencyMpc.plan for the arguments).
 
     Args:
@@ -421,7 +432,8 @@ def plan(config: MpcConfig, vehicle: VehicleParams, route: Route, s0: float, v0:
         beliefs: (L,) probability of each hypothesis.
         static_boxes: (S, 4) bounding boxes of the static polygons [m].
         stop_at_m: the arc length the robot's centre must stay behind (inf: none) [m].
+        contingent: (L,) bool, the branches that must brake comfortably (None: every one).
     """
     return ContingencyMpc(config, vehicle).plan(route, s0, v0, prev_accel, v_ref_mps,
                                                 speed_limit_mps, scene, beliefs, static_boxes,
-                                                stop_at_m)
+                                                stop_at_m, contingent)

@@ -274,6 +274,8 @@ class RobotPlanner:
             self.belief.update(obs)  # own tracks (+ negative / social information by variant)
             tracks = self.belief.tracker.tracks()
         weights = self.hypothesis_weights()
+        # contingencies (comfortable braking): a hidden agent, a pedestrian stepping off the curb
+        contingent = np.array([h.present for h in self.belief.hypotheses])
         # the tracked objects in every branch, each hypothesis' hidden agent in its own (a
         # hypothesised vehicle as a car on its lane)
         scene = ScenePrediction.from_tracks(tracks, self._times).with_extra(
@@ -282,11 +284,12 @@ class RobotPlanner:
         step_xy, step_heading = self.curb.step_off(tracks, s0, v, DT_S, self._times)
         if len(step_xy):
             scene, weights = self._with_step_off(scene, weights, step_xy, step_heading)
+            contingent = np.append(contingent, True)
         self.weights = weights
         stop_at = self.stop_signs.update(s0, v, DT_S)
         result = self.solver.plan(self.route, s0, v, self.prev_accel, self.v_ref(),
                                   self.road_map.speed_limit_mps, scene, weights,
-                                  self._static_boxes, stop_at,
+                                  self._static_boxes, stop_at, contingent,
                                   self.right_of_way.claims(scene, s0))
         self.last_result = result
         self.prev_accel = result.accel_mps2

@@ -125,36 +125,40 @@ class ContingencyQp:
     # -- cost ---------------------------------------------------------------------------------
 
     def _build_cost_pattern(self) -> None:
-        """Triples (row, col, coefficient, branch) of P; duplicates are summed in Px."""
+        """Triples (row, col, coefficient, branch) of P; duplicates are summed in Px.
+
+        Per branch l and step k, in this order: v diag, s diag (0: keeps P's pattern
+        full-rank), comfort slack diag, a diag, and for k >= 1 the jerk terms of a[k - 1].
+        """
         w, dt = self.weights, self.dt_s
+        L, N = self.n_branches, self.n_steps
         first = dt / self.first_dt_s ** 2  # the first change happens within one simulator step
-        rows, cols, coef, branch = [], [], [], []
-
-        def add(i, j, c, l):
-            rows.append(min(i, j))
-            cols.append(max(i, j))
-            coef.append(c)
-            branch.append(l)
-
-        for l in range(self.n_branches):
-            for k in range(self.n_steps):
-                add(self._v_idx[l, k], self._v_idx[l, k], 2.0 * w.speed * dt, l)
-                add(self._s_idx[l, k], self._s_idx[l, k], 0.0, l)  # keeps P's pattern full-rank
-                add(self._c_idx[l, k], self._c_idx[l, k], 2.0 * w.comfort * dt, l)
-                a = self._a_idx[l, k]
-                add(a, a, 2.0 * w.accel * dt + 2.0 * w.jerk * (first if k == 0 else 1.0 / dt), l)
-                if k >= 1:
-                    prev = self._a_idx[l, k - 1]
-                    add(prev, prev, 2.0 * w.jerk / dt, l)
-                    add(prev, a, -2.0 * w.jerk / dt, l)
-        rows, cols = np.array(rows), np.array(cols)
+        a = self._a_idx
+        prev = np.concatenate([a[:, :1], a[:, :-1]], axis=1)  # a[k - 1] (unused at k = 0)
+        a_diag = np.full(N, 2.0 * w.accel * dt + 2.0 * w.jerk / dt)
+        a_diag[0] = 2.0 * w.accel * dt + 2.0 * w.jerk * first
+        shape = (L, N, 6)
+        i = np.stack([self._v_idx, self._s_idx, self._c_idx, a, prev, prev], axis=-1)
+        j = np.stack([self._v_idx, self._s_idx, self._c_idx, a, prev, a], axis=-1)
+        coef = np.broadcast_to(np.stack(np.broadcast_arrays(
+            2.0 * w.speed * dt, 0.0, 2.0 * w.comfort * dt, a_diag, 2.0 * w.jerk / dt,
+            -2.0 * w.jerk / dt), axis=-1), shape)
+        branch = np.broadcast_to(np.arange(L)[:, None, None], shape)
+        is_comfort = np.broadcast_to(np.arange(6) == 2, shape)
+        keep = np.ones(shape, bool)
+        keep[:, 0, 4:] = False  # no jerk term before the first step's
+        rows, cols = np.minimum(i, j)[keep], np.maximum(i, j)[keep]
         key = cols * self.n_vars + rows  # CSC order: by column, then row
         unique, self._p_slot = np.unique(key, return_inverse=True)
         self._p_rows, self._p_cols = unique % self.n_vars, unique // self.n_vars
-        self._p_coef, self._p_branch = np.array(coef), np.array(branch)
+        self._p_coef, self._p_branch = coef[keep], branch[keep]
+        self._p_comfort = is_comfort[keep]
 
-    def _p_values(self, weights: np.ndarray) -> np.ndarray:
-        return np.bincount(self._p_slot, weights=self._p_coef * weights[self._p_branch],
+    def _p_values(self, weights: np.ndarray, comfort: np.ndarray | None = None) -> np.ndarray:
+        factor = weights[self._p_branch]
+        if comfort is not None:
+            factor = np.where(self._p_comfort, factor * comfort[self._p_branch], factor)
+        return np.bincount(self._p_slot, weights=self._p_coef * factor,
                            minlength=len(self._p_rows))
 
     def _p_matrix(self, weights: np.ndarray) -> sp.csc_matrix:
@@ -174,44 +178,53 @@ class ContingencyQp:
     # -- constraints --------------------------------------------------------------------------
 
     def _build_constraints(self, headway_s: np.ndarray) -> None:
-        L, N, dt = self.n_branches, self.n_steps, self.dt_s
+        """A's entries and the row index of each kind of row (module docstring), vectorized.
+
+        Rows, in order: per branch and step dyn_v, dyn_s, speed, low, up; the jerk rows (the
+        first change, the trunk's, then each branch's); one acceleration, one comfort and one
+        slack row per acceleration variable.
+        """
+        L, N, dt, n_a = self.n_branches, self.n_steps, self.dt_s, self._v_off
+        a, v, s = self._a_idx, self._v_idx, self._s_idx
+        base = 5 * np.arange(L * N).reshape(L, N)
+        dyn_v, dyn_s, speed, low, up = (base + r for r in range(5))
+        has_prev = np.broadcast_to(np.arange(N) >= 1, (L, N))
+        v_prev = np.concatenate([v[:, :1], v[:, :-1]], axis=1)
+        s_prev = np.concatenate([s[:, :1], s[:, :-1]], axis=1)
+        entries = [  # (rows, cols, values, mask)
+            (dyn_v, v, 1.0, None), (dyn_v, a, -dt, None), (dyn_v, v_prev, -1.0, has_prev),
+            (dyn_s, s, 1.0, None), (dyn_s, a, -0.5 * dt * dt, None),
+            (dyn_s, s_prev, -1.0, has_prev), (dyn_s, v_prev, -dt, has_prev),
+            (speed, v, 1.0, None), (low, s, 1.0, None), (up, s, 1.0, None),
+            (up, v, np.broadcast_to(headway_s, (L, N)), None),
+        ]
         rows, cols, vals = [], [], []
-        n_rows = 0
-
-        def row(entries) -> int:
-            nonlocal n_rows
-            for j, x in entries:
-                rows.append(n_rows)
-                cols.append(j)
-                vals.append(x)
-            n_rows += 1
-            return n_rows - 1
-
-        dyn_v, dyn_s = np.zeros((L, N), int), np.zeros((L, N), int)
-        speed, low, up = np.zeros((L, N), int), np.zeros((L, N), int), np.zeros((L, N), int)
-        for l in range(L):
-            a, v, s = self._a_idx[l], self._v_idx[l], self._s_idx[l]
-            for k in range(N):
-                prev_v = [(v[k - 1], -1.0)] if k else []
-                dyn_v[l, k] = row([(v[k], 1.0), (a[k], -dt)] + prev_v)
-                prev_s = [(s[k - 1], -1.0), (v[k - 1], -dt)] if k else []
-                dyn_s[l, k] = row([(s[k], 1.0), (a[k], -0.5 * dt * dt)] + prev_s)
-                speed[l, k] = row([(v[k], 1.0)])
-                low[l, k] = row([(s[k], 1.0)])
-                up[l, k] = row([(s[k], 1.0), (v[k], headway_s[k])])
-        jerk_rows = [row([(self._a_idx[0, 0], 1.0)])]
-        for k in range(1, self.n_trunk):
-            jerk_rows.append(row([(k, 1.0), (k - 1, -1.0)]))
-        for l in range(L):
-            for k in range(self.n_trunk, N):
-                jerk_rows.append(row([(self._a_idx[l, k], 1.0), (self._a_idx[l, k - 1], -1.0)]))
-        accel_rows = [row([(j, 1.0)]) for j in range(self._v_off)]
-        comfort_rows = [row([(j, 1.0), (self._c_off + j, 1.0)]) for j in range(self._v_off)]
-        slack_rows = [row([(self._c_off + j, 1.0)]) for j in range(self._v_off)]
-        self._a_matrix = sp.csc_matrix((vals, (rows, cols)), shape=(n_rows, self.n_vars))
+        for r, c, x, mask in entries:
+            mask = np.ones((L, N), bool) if mask is None else mask
+            rows.append(r[mask])
+            cols.append(c[mask])
+            vals.append(np.broadcast_to(x, (L, N))[mask])
+        # jerk rows: a[0] (against the previous command), the trunk, each branch after it
+        cur = np.concatenate([np.arange(self.n_trunk), a[:, self.n_trunk:].ravel()])
+        before = np.concatenate([[-1], np.arange(self.n_trunk - 1),
+                                 a[:, self.n_trunk - 1:-1].ravel()])
+        jerk = 5 * L * N + np.arange(len(cur))
+        rows += [jerk, jerk[1:]]
+        cols += [cur, before[1:]]
+        vals += [np.ones(len(cur)), -np.ones(len(cur) - 1)]
+        accel = jerk[-1] + 1 + np.arange(n_a)
+        comfort_rows, slack_rows = accel + n_a, accel + 2 * n_a
+        slack = self._c_off + np.arange(n_a)
+        rows += [accel, comfort_rows, comfort_rows, slack_rows]
+        cols += [np.arange(n_a), np.arange(n_a), slack, slack]
+        vals += [np.ones(n_a)] * 4
+        n_rows = int(slack_rows[-1]) + 1
+        self._a_matrix = sp.csc_matrix(
+            (np.concatenate(vals), (np.concatenate(rows), np.concatenate(cols))),
+            shape=(n_rows, self.n_vars))
         self._rows = {"dyn_v": dyn_v, "dyn_s": dyn_s, "speed": speed, "low": low, "up": up,
-                      "jerk": np.array(jerk_rows), "accel": np.array(accel_rows),
-                      "comfort": np.array(comfort_rows), "slack": np.array(slack_rows)}
+                      "jerk": jerk, "accel": accel, "comfort": comfort_rows,
+                      "slack": slack_rows}
         lower, upper = np.full(n_rows, -_INF), np.full(n_rows, _INF)
         lower[dyn_v] = upper[dyn_v] = 0.0
         lower[dyn_s] = upper[dyn_s] = 0.0
@@ -242,7 +255,8 @@ class ContingencyQp:
     def solve(self, weights: np.ndarray, v0: float, prev_accel: float, v_ref_mps: float,
               v_max: np.ndarray, s_low: np.ndarray, s_up: np.ndarray, accel_min: float,
               accel_max: float, jerk_max: float,
-              comfort_decel: float | None = None) -> QpSolution:
+              comfort_decel: float | None = None,
+              comfort: np.ndarray | None = None) -> QpSolution:
         """Solve for the current state and bounds.
 
         Args:
@@ -258,13 +272,14 @@ class ContingencyQp:
             jerk_max: largest |jerk| [m/s^3].
             comfort_decel: the comfortable deceleration (positive) beyond which braking is
                 penalized by the comfort weight (None: not penalized) [m/s^2].
+            comfort: (L,) factor of each branch's comfort weight (None: 1, every branch).
         """
         weights = np.asarray(weights, dtype=np.float64)
         lower, upper = self._bounds(v0, prev_accel, v_max, s_low, s_up, accel_min, accel_max,
                                     jerk_max, comfort_decel)
         if np.any(lower > upper + 1e-9):
             return self._failed()
-        self._solver.update(Px=self._p_values(weights),
+        self._solver.update(Px=self._p_values(weights, comfort),
                             q=self._q_vector(weights, v_ref_mps, prev_accel), l=lower, u=upper)
         res = self._solver.solve(raise_error=False)
         for _ in range(3):  # a cold start may need more iterations: go on from where it stopped

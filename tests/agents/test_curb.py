@@ -1,0 +1,93 @@
+"""A pedestrian waiting at a crosswalk: the robot's "steps off now" branch, and comfort."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from marl_social.agents.robot.curb import CurbConfig, CurbPedestrians
+from marl_social.agents.robot.mpc import MpcConfig, plan
+from marl_social.perception.tracking import TrackSet
+
+from marl_social.models.candidates import ScenePrediction
+from marl_social.sim.agent_spec import VehicleParams
+from marl_social.sim.dynamics import DT_S
+from marl_social.sim.road_map import Crosswalk, Route
+
+ROUTE = Route([[-50.0, 1.75], [200.0, 1.75]])  # s = x + 50, in the left lane
+CROSSWALK = Crosswalk(np.array([60.0, 0.0]), np.pi / 2, 7.0, 4.0)  # across both lanes
+CURB_XY = (60.0, -4.5)
+VEHICLE = VehicleParams()
+TIMES = MpcConfig().plan_times_s
+GAP = MpcConfig().pedestrian_gap_m
+
+
+def _tracks(xy, velocity=(0.0, 0.0)) -> TrackSet:
+    one = np.ones(1)
+    return TrackSet(np.array([3]), np.array([xy], float), np.array([velocity], float),
+                    0.1 * one, 0.6 * one, 0.6 * one, np.ones(1, bool), np.ones(1, bool),
+                    np.zeros(1), np.array([np.pi / 2]))
+
+
+def _curb(**kw) -> CurbPedestrians:
+    return CurbPedestrians(ROUTE, (CROSSWALK,), CurbConfig(**kw), VEHICLE.length_m, GAP, 2.5)
+
+
+def _stop_gap(s0: float) -> float:
+    """Distance [m] from the robot's centre at s0 to where it stops for the crosswalk."""
+    return 60.0 + 50.0 - 2.0 - GAP - 0.5 * VEHICLE.length_m - s0
+
+
+def test_a_standing_pedestrian_may_step_off_while_the_robot_can_stop():
+    rng = np.random.default_rng(0)
+    for s0, v0 in zip(rng.uniform(20.0, 80.0, 10), rng.uniform(0.5, 14.0, 10)):
+        xy, heading = _curb().step_off(_tracks(CURB_XY), s0, v0, DT_S, TIMES)
+        can_stop = v0 ** 2 / (2.0 * _stop_gap(s0)) <= 4.0
+        assert len(xy) == int(can_stop), (s0, v0)
+        if can_stop:  # it walks across, towards the road, at the assumed speed
+            np.testing.assert_allclose(xy[0, :, 0], 60.0)
+            np.testing.assert_allclose(np.diff(xy[0, :, 1]), 1.3 * (TIMES[1] - TIMES[0]))
+            assert heading[0] == pytest.approx(np.pi / 2)
+
+
+@pytest.mark.parametrize("xy, velocity", [(CURB_XY, (0.0, 1.0)),  # walking: its own track
+                                          ((40.0, -4.5), (0.0, 0.0)),  # not at the crosswalk
+                                          ((60.0, 1.0), (0.0, 0.0))])  # already in the lane
+def test_no_branch_for_pedestrians_that_are_not_waiting_at_the_curb(xy, velocity):
+    assert len(_curb().step_off(_tracks(xy, velocity), 30.0, 8.0, DT_S, TIMES)[0]) == 0
+
+
+def test_a_pedestrian_that_does_not_go_while_the_robot_waits_is_waiting_for_something_else():
+    curb = _curb(patience_s=2.0)
+    s_wait = 60.0 + 50.0 - 2.0 - GAP - 0.5 * VEHICLE.length_m - 1.0  # 1 m before its stop
+    n = [len(curb.step_off(_tracks(CURB_XY), s_wait, 0.0, DT_S, TIMES)[0]) for _ in range(25)]
+    assert n[:19] == [1] * 19 and n[-5:] == [0] * 5
+    # once it moves (its track is no longer standing), the judgement is forgotten
+    curb.step_off(_tracks(CURB_XY, (0.0, 1.0)), s_wait, 0.0, DT_S, TIMES)
+    assert len(curb.step_off(_tracks(CURB_XY), s_wait, 0.0, DT_S, TIMES)[0]) == 1
+    curb.reset()
+    assert curb.ignored == set() and curb.wait_s == {}
+
+
+def _step_off_scene(xy: np.ndarray) -> ScenePrediction:
+    """Two hypotheses: the pedestrian waits (absent from the path) or steps off (xy)."""
+    t = len(TIMES)
+    return ScenePrediction(np.broadcast_to(xy, (2, 1, t, 2)).copy(), np.full((2, 1, t), 1.57),
+                           np.full((2, 1), 0.6), np.full((2, 1), 0.6), np.full((2, 1), 0.3),
+                           np.ones((2, 1), bool), np.array([[False], [True]]))
+
+
+def test_the_trunk_slows_early_so_that_the_step_off_branch_brakes_comfortably():
+    """35 m before the crosswalk at 11.5 m/s, p = 0.2 that the pedestrian steps off now: with
+    the soft comfort bound the branch brakes at most 3 m/s^2 (without it, more) because the
+    robot brakes harder now, in the shared trunk."""
+    xy, _ = _curb().step_off(_tracks(CURB_XY), 75.0, 11.5, DT_S, TIMES)
+    scene = _step_off_scene(xy[0])
+    out = {}
+    for w_comfort in (0.0, MpcConfig().w_comfort):
+        config = MpcConfig(w_comfort=w_comfort)
+        out[w_comfort] = plan(config, VEHICLE, ROUTE, 75.0, 11.5, 0.0, 11.5, 13.9, scene,
+                              np.array([0.8, 0.2]), contingent=np.array([False, True]))
+    soft, hard = out[MpcConfig().w_comfort], out[0.0]
+    assert soft.feasible and hard.feasible
+    assert -soft.accel_plan[1].min() <= 3.0 < -hard.accel_plan[1].min()
+    assert soft.accel_mps2 < hard.accel_mps2 - 0.03
