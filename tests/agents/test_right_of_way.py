@@ -99,7 +99,7 @@ def test_the_mpc_waits_at_the_line_for_a_car_with_the_right_of_way(layout, x0):
     mpc = ContingencyMpc(MpcConfig(), CAR)
     claims = row.claims(scene, s0)
     result = mpc.plan(route, s0, 0.0, 0.0, 11.0, road_map.speed_limit_mps, scene, np.ones(1),
-                      None, np.inf, claims)
+                      None, np.inf, extra_objects=claims)
     assert result.feasible
     obj = claims[0][0]
     front = s0 + result.progress_plan[0] + 0.5 * CAR.length_m
