@@ -235,7 +235,8 @@ class ContingencyMpc:
     def plan(self, route: Route, s0: float, v0: float, prev_accel: float, v_ref_mps: float,
              speed_limit_mps: float, scene: ScenePrediction, beliefs: np.ndarray,
              static_boxes: np.ndarray | None = None, stop_at_m: float = np.inf,
-             contingent: np.ndarray | None = None) -> MpcResult:
+             contingent: np.ndarray | None = None,
+             extra_objects: list[list[PathObject]] | None = None) -> MpcResult:
         """One MPC solve.
 
         Args:
@@ -253,6 +254,9 @@ class ContingencyMpc:
             contingent: (L,) bool, the hypotheses whose branches must brake comfortably (soft
                 bound, config.comfort_decel_mps2): those not seen to be true, a pedestrian
                 that may be hidden or may step off; None: every one.
+            extra_objects: per hypothesis (L lists), objects on the path besides the scene's,
+                e.g. the zone claims of cars with the right of way (agents/robot/
+                right_of_way.py; None: none).
         """
         c, veh = self.config, self.vehicle
         beliefs = np.asarray(beliefs, dtype=np.float64)
@@ -278,6 +282,8 @@ class ContingencyMpc:
         per_hyp = objects_on_path(route, scene, s0, veh.length_m, veh.width_m,
                                   c.lateral_margin_m, c.pedestrian_margin_m,
                                   c.pedestrian_clearance_m)
+        if extra_objects is not None:
+            per_hyp = [objs + list(more) for objs, more in zip(per_hyp, extra_objects)]
         live_idx = np.flatnonzero(live)
         margin = round(c.pass_margin_s / c.plan_dt_s)
         # the curvature bound needs the positions, which the plan decides: guess them (constant

@@ -13,6 +13,14 @@
   and the autopilot), with no hidden hypotheses. It knows where everybody is, not what they
   will decide.
 
+Every planner's scenes are its tracked objects (the oracle: the truth) in every branch plus,
+per hypothesis, that hypothesis' hidden agent (a pedestrian, or a car on its lane; the belief's
+`hypothesis_objects`). At conflict zones where the robot yields, a car with the right of way
+predicted there claims the zone in its branch (agents/robot/right_of_way.py): the robot waits
+or clears the zone well before the car arrives. So the oracle gives way to the hidden car it
+knows of from the start, the conservative planner to every hidden car it cannot rule out, the
+aggressive one only to a car it sees, and the social one to those its belief holds.
+
 All but the oracle act on the robot's own observation and the static map only. Each planner is
 one `RobotVariant` (data, in `ROBOT_VARIANTS`); agents/registry.py registers them by name.
 
@@ -32,6 +40,7 @@ import numpy as np
 from marl_social.agents.params import RobotModelParams, parse_planner_params
 from marl_social.agents.robot.curb import CurbConfig, CurbPedestrians
 from marl_social.agents.robot.mpc import ContingencyMpc, MpcConfig, MpcResult
+from marl_social.agents.robot.right_of_way import RightOfWay, RightOfWayConfig
 from marl_social.agents.robot.stop import StopSignConfig, StopSigns
 from marl_social.perception.belief import BeliefConfig, PedestrianBelief
 from marl_social.perception.tracking import TrackSet
@@ -151,13 +160,16 @@ class RobotPlanner:
             curb.py; default CurbConfig()).
         stop_config: when it counts as having stopped at a stop sign (agents/robot/stop.py;
             default StopSignConfig()).
+        right_of_way_config: when a car with the right of way claims a conflict zone the
+            robot yields at (agents/robot/right_of_way.py; default RightOfWayConfig()).
     """
 
     def __init__(self, spec: AgentSpec, layout: ObservationLayout, road_map: RoadMap,
                  agent_names: list[str], planner: str | RobotVariant = "social",
                  mpc_config: MpcConfig | None = None, belief_config: BeliefConfig | None = None,
                  params: RobotModelParams | None = None, curb_config: CurbConfig | None = None,
-                 stop_config: StopSignConfig | None = None):
+                 stop_config: StopSignConfig | None = None,
+                 right_of_way_config: RightOfWayConfig | None = None):
         self.variant = _variant(planner)
         self.needs_truth = self.variant.needs_truth
         self.name = spec.name
@@ -183,6 +195,7 @@ class RobotPlanner:
             self.mpc.pedestrian_gap_m,
             0.5 * veh.width_m + self.mpc.pedestrian_clearance_m)
         self.stop_signs = StopSigns(self.route, road_map, veh.length_m, stop_config)
+        self.right_of_way = RightOfWay(self.route, road_map, veh.length_m, right_of_way_config)
         self._static_boxes = np.array(
             [[*p.min(axis=0), *p.max(axis=0)] for p in road_map.static_polygons]).reshape(-1, 4)
         self.reset()
@@ -214,8 +227,9 @@ class RobotPlanner:
     def hypothesis_weights(self) -> np.ndarray:
         """(L,) the weights the MPC plans with, by the variant's HypothesisWeighting.
 
-        The belief for `social`, every live present hypothesis for `conservative`, only "none"
-        for `aggressive` and `oracle`.
+        The belief for `social`, every live present hypothesis for `conservative` (a hidden
+        car's: every one not ruled out by its sensors), only "none" for `aggressive` and
+        `oracle`.
         """
         hyps = self.belief.hypotheses
         none = np.array([not h.present for h in hyps])
@@ -226,6 +240,11 @@ class RobotPlanner:
         if weighting is HypothesisWeighting.BELIEF:
             return b
         present_live = ~none & (b >= self.mpc.epsilon)
+        # a hidden car is one of many small progress and speed bins, each below epsilon: the
+        # conservative robot keeps every one its sensors have not ruled out (its belief, from
+        # its own sensors only, still at least epsilon times its prior)
+        vehicle = np.array([h.kind == "vehicle" for h in hyps])
+        present_live |= vehicle & (b >= self.mpc.epsilon * self.belief.prior)
         if not present_live.any():
             return none.astype(np.float64)
         return present_live / present_live.sum()
@@ -255,9 +274,12 @@ class RobotPlanner:
             self.belief.update(obs)  # own tracks (+ negative / social information by variant)
             tracks = self.belief.tracker.tracks()
         weights = self.hypothesis_weights()
-        # contingencies (comfortable braking): a hidden pedestrian, one stepping off the curb
+        # contingencies (comfortable braking): a hidden agent, a pedestrian stepping off the curb
         contingent = np.array([h.present for h in self.belief.hypotheses])
-        scene = self._scene(tracks)
+        # the tracked objects in every branch, each hypothesis' hidden agent in its own (a
+        # hypothesised vehicle as a car on its lane)
+        scene = ScenePrediction.from_tracks(tracks, self._times).with_extra(
+            *self.belief.hypothesis_objects(self._times))
         s0, _ = self.route.project_point(x, y)
         step_xy, step_heading = self.curb.step_off(tracks, s0, v, DT_S, self._times)
         if len(step_xy):
@@ -267,7 +289,8 @@ class RobotPlanner:
         stop_at = self.stop_signs.update(s0, v, DT_S)
         result = self.solver.plan(self.route, s0, v, self.prev_accel, self.v_ref(),
                                   self.road_map.speed_limit_mps, scene, weights,
-                                  self._static_boxes, stop_at, contingent)
+                                  self._static_boxes, stop_at, contingent,
+                                  self.right_of_way.claims(scene, s0))
         self.last_result = result
         self.prev_accel = result.accel_mps2
         steer = pure_pursuit(self.route, x, y, psi, v, s0, self.spec.vehicle.wheelbase_m)
@@ -296,18 +319,3 @@ class RobotPlanner:
         scene = ScenePrediction(*fields, np.concatenate([scene.mask, mask]))
         p = self.curb.config.p_step_off
         return scene, np.concatenate([(1.0 - p) * weights, [p]])
-
-    def _scene(self, tracks: TrackSet) -> ScenePrediction:
-        """One scene per hypothesis: the tracked objects plus that hypothesis' pedestrian."""
-        base = ScenePrediction.from_tracks(tracks, self._times)
-        hyps = self.belief.hypotheses
-        n_t = len(self._times)
-        xy = np.zeros((len(hyps), n_t, 2))
-        heading = np.zeros((len(hyps), n_t))
-        for i, h in enumerate(hyps):
-            if h.present:
-                xy[i] = h.predict_xy(self._times)
-                heading[i] = math.atan2(h.walk_dir[1], h.walk_dir[0])
-        present = np.array([h.present for h in hyps])
-        diameter = np.full(len(hyps), 0.6)
-        return base.with_extra(xy, heading, diameter, diameter, np.ones(len(hyps), bool), present)

@@ -5,8 +5,8 @@ left-turner) for the social planner with V3 near and far, the aggressive planner
 (it should not pull out) and the conservative planner with V3 far (it need not wait).
 
 Table: every robot planner x hidden_vehicle variant over N seeds of `randomized_overrides`
-(the left-turners' start, speed and rationality, V3's speed and start distance, the gap between
-the parked cars): collision, yield and hard-brake rates of the robot, its mean time to pass its
+(run.RANDOMIZATIONS["t_intersection"]: the left-turners' number, start, speed and rationality,
+V3's speed and start distance, the gap between the parked cars): collision, yield and hard-brake rates of the robot, its mean time to pass its
 conflict zone and mean speed, the mean hardest braking it forced on a human, and how often the
 first left-turner let V3 pass before turning.
 """
@@ -28,26 +28,17 @@ FIGURES = (
     ("t_conservative_far", "conservative", "far"),
 )
 MAX_CYCLES = 150  # 15 s: every planner that goes has left the junction by then
-# the whole plausible range of each randomized knob (SI units, see TIntersectionParams)
-RANDOMIZATION: dict[str, tuple[float, float]] = {
-    "human_start_m": (6.0, 20.0),
-    "human_speed_mps": (3.0, 8.0),
-    "human_beta": (2.0, 30.0),
-    "hidden_speed_mps": (9.0, 13.0),
-    "hidden_near_m": (30.0, 45.0),
-    "hidden_far_m": (110.0, 160.0),
-    "parked_gap_m": (0.5, 2.0),
-}
 
 
 def randomized_overrides(seed: int) -> dict:
-    """Overrides of one randomized episode.
+    """Overrides of one randomized episode: run.randomized_overrides(seed, "t_intersection").
 
-    Each knob of RANDOMIZATION uniform over its range, in that order, from a generator seeded
-    with 30_000 + `seed`.
+    V3's speed and start distances, the left-turners' start, speed, rationality and number,
+    the gap between the parked cars (run.RANDOMIZATIONS["t_intersection"]).
     """
-    rng = np.random.default_rng(30_000 + seed)
-    return {key: float(rng.uniform(lo, hi)) for key, (lo, hi) in RANDOMIZATION.items()}
+    from marl_social.evaluation.run import randomized_overrides as draw
+
+    return draw(seed, SCENARIO)
 
 
 def first_left_turner_waited(result, hidden: str) -> float:
@@ -73,6 +64,51 @@ def first_left_turner_waited(result, hidden: str) -> float:
     if not len(car):
         return 0.0
     return float(len(turner) == 0 or turner[0] > car[-1])
+
+
+def hidden_vehicle_timings(result) -> dict:
+    """When the robot first sees V3, and when its belief in a hidden vehicle first exceeds 0.9.
+
+    Args:
+        result: an EpisodeResult of the t_intersection scenario (V3 is the last human).
+
+    Returns:
+        robot_first_sees_v3_s: the first time V3 is visible to the robot (nan: never) [s];
+        belief_09_s: the first time the trace extra "p_vehicle" (the robot's belief in a
+            hidden vehicle; 1 once it sees one) exceeds 0.9 (nan: never, or no belief) [s].
+    """
+    trace = result.trace
+    times = np.asarray(trace.times_s)
+    hidden = trace.index(f"human_{trace.roles.count('human') - 1}")
+    seen = np.flatnonzero(trace.visible[:, trace.index("robot_0"), hidden])
+    p = trace.extras.get("p_vehicle")
+    high = np.flatnonzero(np.nan_to_num(p, nan=0.0) > 0.9) if p is not None else []
+    return {"robot_first_sees_v3_s": float(times[seen[0]]) if len(seen) else float("nan"),
+            "belief_09_s": float(times[high[0]]) if len(high) else float("nan")}
+
+
+def claim_episode(job: tuple) -> tuple:
+    """One episode for the claims tests: (planner, variant, seed, summary, error).
+
+    The summary: the episode's metrics, human_0_waited and hidden_vehicle_timings.
+
+    Args:
+        job: (planner, variant, seed, max_cycles); the episode runs with
+            randomized_overrides(seed).
+    """
+    from marl_social.evaluation.run import run_episode
+
+    planner, variant, seed, max_cycles = job
+    try:
+        res = run_episode(SCENARIO, seed=seed, robot_planner=planner, hidden_vehicle=variant,
+                          max_cycles=max_cycles, **randomized_overrides(seed))
+        summary = dict(res.metrics)
+        hidden = f"human_{res.trace.roles.count('human') - 1}"  # V3 is the last human
+        summary["human_0_waited"] = first_left_turner_waited(res, hidden)
+        summary.update(hidden_vehicle_timings(res))
+        return planner, variant, seed, summary, None
+    except Exception as err:  # noqa: BLE001  (reported by the caller)
+        return planner, variant, seed, None, f"{type(err).__name__}: {err}"
 
 
 def _one(job):
@@ -149,7 +185,11 @@ def format_table(rows: list[dict]) -> str:
 
 
 def write_figures(out: Path, seed: int = 0) -> list[Path]:
-    """The FIGURES as PNGs in `out`; panel (c) shows who sees V3 (1) or not (0)."""
+    """The FIGURES as PNGs in `out`.
+
+    Panel (c) shows who sees V3 (1) or not (0), and the robot's belief in a hidden car
+    (trace extra "p_vehicle"; 1 while it sees one) for a belief-based planner.
+    """
     from marl_social.evaluation.run import run_episode
     from marl_social.viz.figures import plot_episode
 
@@ -162,8 +202,10 @@ def write_figures(out: Path, seed: int = 0) -> list[Path]:
         seen = {f"{observer} sees V3 ({tr.names[hidden]})":
                 tr.visible[:, tr.index(observer), hidden].astype(float)
                 for observer in ("robot_0", "human_0") if observer in tr.names}
+        if "p_vehicle" in tr.extras:
+            seen["robot_0's belief in a hidden car"] = tr.extras["p_vehicle"]
         paths.append(plot_episode(
             res.road_map, tr.names, tr.roles, tr.times_s, tr.states, tr.active, tr.visible,
             out / f"{stem}.png", title=f"T-intersection: {planner} planner, V3 {variant}",
-            beliefs=seen))
+            beliefs=seen, belief_title="who sees the hidden car V3, the robot's belief in it"))
     return paths

@@ -27,7 +27,8 @@ class EpisodeResult:
         metrics: dict of floats / bools (marl_social/metrics/).
         trace: the Trace, with extras "mpc_infeasible" (1.0 where the robot's MPC found no
             feasible plan and braked as hard as it can) for an MPC robot, and "p_pedestrian",
-            "perceived" and "p_<hypothesis>" for a belief-based robot.
+            "p_vehicle" (belief in a hidden vehicle, `p_hidden("vehicle")`), "perceived" and
+            "p_<hypothesis>" for a belief-based robot.
         road_map: the episode's static map.
         specs: {agent: AgentSpec}, every agent's own parameters, incl. its true cost weights
             and rationality.
@@ -62,6 +63,7 @@ class _RecordingRobot:
         belief = getattr(self.policy, "belief", None)
         if belief is not None and not self.policy.needs_truth:
             self.extras.setdefault("p_pedestrian", []).append(float(belief.p_pedestrian))
+            self.extras.setdefault("p_vehicle", []).append(float(belief.p_hidden("vehicle")))
             self.extras.setdefault("perceived", []).append(float(belief.perceived))
             for h, p in zip(belief.hypotheses, belief.probabilities):
                 self.extras.setdefault(f"p_{h.name}", []).append(float(p))
@@ -113,6 +115,7 @@ def run_episode(scenario: str = "occluded_crosswalk", seed: int = 0, render: boo
 
 
 RANDOMIZATIONS: dict[str, dict[str, tuple[float, float]]] = {
+    # the occluded crosswalk (occluded_crosswalk, paper Fig. 2):
     # the whole plausible range: slow to brisk walkers, hesitant to prompt starts, a human
     # close or far ahead, slow or fast, erratic or near-rational
     "wide": {
@@ -130,15 +133,33 @@ RANDOMIZATIONS: dict[str, dict[str, tuple[float, float]]] = {
         "human_speed_mps": (10.5, 12.5),
         "human_beta": (3.0, 20.0),
     },
+    # the T-intersection (t_intersection, paper Fig. 1 b) over its whole plausible range: the
+    # hidden car V3 slow to brisk, starting near (the left-turners must wait for it) or far
+    # (they need not); one to three left-turners, starting close to or far from their turn,
+    # slow or prompt, erratic or near-rational; narrow to wide gaps between the parked cars
+    "t_intersection": {
+        "hidden_speed_mps": (9.0, 14.0),
+        "hidden_near_m": (30.0, 45.0),
+        "hidden_far_m": (110.0, 160.0),
+        "human_start_m": (6.0, 20.0),
+        "human_speed_mps": (3.0, 8.0),
+        "human_beta": (2.0, 30.0),
+        "parked_gap_m": (0.5, 2.0),
+        "n_humans": (1, 3),
+    },
 }
+INTEGER_KNOBS = frozenset({"n_humans"})  # drawn uniformly from the integers lo..hi
 
 
 def randomized_overrides(seed: int, preset: str = "paper") -> dict:
-    """A randomization of the paper's scenario ("wide": `reproduce` and the claims tests).
+    """A randomization of a scenario ("wide": `reproduce` and the claims tests).
 
-    Pedestrian timing [s] and speed [m/s], the human's lead [m] and speed [m/s], and its
-    rationality, each uniform over the preset's range (RANDOMIZATIONS), drawn in that order
-    from a generator seeded with 10_000 + `seed`.
+    Each knob uniform over the preset's range (RANDOMIZATIONS; the integers of INTEGER_KNOBS
+    uniform over lo..hi), drawn in that order from a generator seeded with 10_000 + `seed`.
+    The occluded crosswalk's presets: pedestrian timing [s] and speed [m/s], the human's lead
+    [m] and speed [m/s], and its rationality. "t_intersection": V3's speed [m/s] and start
+    distances [m], the left-turners' start [m], speed [m/s], rationality and number, the gap
+    between the parked cars [m].
 
     Args:
         seed: the episode's seed.
@@ -153,7 +174,9 @@ def randomized_overrides(seed: int, preset: str = "paper") -> dict:
         raise ValueError(f"randomization preset {preset!r}: must be one of "
                          f"{tuple(RANDOMIZATIONS)}")
     rng = np.random.default_rng(10_000 + seed)
-    return {key: float(rng.uniform(lo, hi)) for key, (lo, hi) in RANDOMIZATIONS[preset].items()}
+    return {key: (int(rng.integers(lo, hi + 1)) if key in INTEGER_KNOBS
+                  else float(rng.uniform(lo, hi)))
+            for key, (lo, hi) in RANDOMIZATIONS[preset].items()}
 
 
 def interaction_timings(result: EpisodeResult, robot: str = "robot_0", human: str = "human_0",

@@ -128,7 +128,10 @@ class TIntersectionParams(ScenarioParams):
     robot_half_fov_deg: float = 110.0
     robot_pos_noise_m: float = 0.05
     robot_beta_hat: float = 0.3
-    robot_epsilon: float = 0.02
+    # above one arrival bin's long-run belief (hidden cars arriving at 0.05/s dwell about 1 s
+    # in a 10 m bin, split over 2 speed bins: ~0.025): with 0.02 the robot would wait forever
+    # for cars arriving where nothing can tell it about them
+    robot_epsilon: float = 0.05
     speed_limit_mps: float = 13.9
 
     def __post_init__(self):

@@ -91,7 +91,8 @@ def _snapshot_indices(times_s: np.ndarray, every_s: float) -> np.ndarray:
 def plot_episode(road_map: RoadMap, names: Sequence[str], roles: Sequence[str], times_s,
                  states, active, visible, path, title: str = "",
                  beliefs: Mapping[str, np.ndarray] | None = None,
-                 lengths_m=None, widths_m=None, snapshot_every_s: float = 1.0) -> Path:
+                 lengths_m=None, widths_m=None, snapshot_every_s: float = 1.0,
+                 belief_title: str = "probability of the pedestrian perceived") -> Path:
     """Paper-style episode figure (like Figs. 3-6 of Sun et al. 2019), saved as PNG.
 
     Panels: (a) snapshots every `snapshot_every_s` on the map, older ones fainter (robot red
@@ -115,6 +116,7 @@ def plot_episode(road_map: RoadMap, names: Sequence[str], roles: Sequence[str], 
         lengths_m: optional (n,) footprint lengths [m]; default 4.5 m cars.
         widths_m: optional (n,) footprint widths [m]; default 1.8 m cars.
         snapshot_every_s: time between snapshots in panel (a) [s].
+        belief_title: the title of panel (c) (after "(c) "), e.g. what `beliefs` are about.
 
     Returns:
         The path written.
@@ -158,7 +160,7 @@ def plot_episode(road_map: RoadMap, names: Sequence[str], roles: Sequence[str], 
     _fit_equal_aspect(ax_map, (x0, x1, ey0, ey1), fig_w, fig_h)
     _draw_legend(ax_map, episode.roles)
     _draw_speeds(ax_v, episode, snaps)
-    _draw_perception(ax_p, episode, beliefs)
+    _draw_perception(ax_p, episode, beliefs, belief_title)
     ax_v.set_xlim(episode.times_s[0],
                   episode.times_s[-1] if t_len > 1 else episode.times_s[0] + 1.0)
 
@@ -314,13 +316,15 @@ def _draw_speeds(ax, episode: _Episode, snaps: np.ndarray) -> None:
         ax.set_ylim(0.0, 1.15 * top)
 
 
-def _draw_perception(ax, episode: _Episode, beliefs: dict[str, np.ndarray]) -> None:
+def _draw_perception(ax, episode: _Episode, beliefs: dict[str, np.ndarray],
+                     title: str = "probability of the pedestrian perceived") -> None:
     """Panel (c): 1 while a robot (solid) or human driver (dashed) sees a pedestrian, else 0.
 
     Args:
         ax: the panel's Axes (shares its time axis with panel (b)).
         episode: the episode.
         beliefs: {label: (T,) values in [0, 1]} drawn as extra curves.
+        title: the panel's title (after "(c) ").
     """
     names, times_s, active, visible = (episode.names, episode.times_s, episode.active,
                                        episode.visible)
@@ -345,7 +349,7 @@ def _draw_perception(ax, episode: _Episode, beliefs: dict[str, np.ndarray]) -> N
     ax.set_ylim(-0.05, 1.1)
     ax.set_ylabel("perceived prob.", fontsize=9)
     ax.set_xlabel("time [s]", fontsize=9)
-    ax.set_title("(c) probability of the pedestrian perceived", fontsize=10, loc="left")
+    ax.set_title(f"(c) {title}", fontsize=10, loc="left")
     ax.grid(alpha=0.3)
     ax.tick_params(labelsize=8)
     if peds or beliefs:

@@ -39,6 +39,14 @@ Modelling choices of `SocialLikelihood`:
   simulator-step units) is then added for each v_traffic. That gives exactly
   `driver_q_values(DriverModel(v_desired_mps=v))` for every (l, v) from a single rollout
   (tests/perception/belief/test_social.py checks the equality).
+* The human keeps the right of way like the simulated drivers (models/driver.RoadRules): in a
+  conflict zone its route yields at, a car on one of the zone's priority lanes -- tracked, or
+  the hypothesised one -- that claims the zone adds the conflict cost
+  (`SocialLikelihood.yield_zones`). A left-turner waiting before the lane it crosses is then
+  explained by a hypothesised car coming along that lane. It also keeps to the curve speed of
+  its path's bends (HUMAN_CURVE_LAT_ACCEL_MPS2; `rule_abiding_totals`), so slowing for a turn
+  is not read as giving way. Stop lines are left out: the robot cannot know whether a human
+  has already stopped at one.
 """
 
 from __future__ import annotations
@@ -57,17 +65,20 @@ from marl_social.perception.tracking import TrackSet
 from marl_social.models.boltzmann import boltzmann
 from marl_social.models.candidates import (
     ScenePrediction,
-    collision_free_totals,
     evaluate_candidates,
 )
-from marl_social.models.driver import DriverModel
+from marl_social.models.driver import DriverModel, RoadRules, rule_abiding_totals
 from marl_social.sim.agent_spec import VehicleParams
 from marl_social.sim.dynamics import DT_S
 from marl_social.sim.observation import EGO_INDEX, DecodedObservation
 from marl_social.sim.road_map import RoadMap, Route
+from marl_social.sim.route_rules import CurveSpeed, priority_mask, route_conflicts
 
 SIGMA_MIN_MPS2 = 1e-3  # the observation noise on a_obs is at least this [m/s^2]
 OUTLIER_PROB_MAX = 1.0 - 1e-12  # rho stays below 1 (some weight on the model)
+# the lateral acceleration the robot assumes a human accepts in a bend (a generic driver's;
+# a human slowing for its turn is then not read as giving way to a hidden car) [m/s^2]
+HUMAN_CURVE_LAT_ACCEL_MPS2 = 2.5
 OUTLIER_MARGIN_SIGMAS = 3.0  # the outlier density spans the actions' range +- this many sigma
 _EGO_XY = [EGO_INDEX["x"], EGO_INDEX["y"]]
 _EGO_COS_SIN = [EGO_INDEX["cos_psi"], EGO_INDEX["sin_psi"]]
@@ -214,6 +225,8 @@ class SocialLikelihood:
         self._beta_prior = np.full(len(self._beta_grid), 1.0 / max(len(self._beta_grid), 1))
         self._empty_scene: ScenePrediction | None = None
         self._empty_hyp_scene: ScenePrediction | None = None
+        self._conflicts: dict[str, tuple] = {}  # route name -> its yield conflicts
+        self._curves: dict[str, CurveSpeed | None] = {}  # route name -> its curve speed
         self.reset()
 
     def reset(self) -> None:
@@ -333,15 +346,62 @@ class SocialLikelihood:
             xy, heading = route.point_at(s0)
             viewer = (xy, float(heading))
         scene = self.hypothesis_scene(others, viewer)
+        rules = RoadRules(None, self.yield_zones(route, s0, scene), self._curve_speed(route))
         ev = evaluate_candidates(self._candidates, self._theta_no_speed, 0.0, self.model.vehicle,
                                  route, s0, v0, prev_accel, scene, self.road_map.crosswalks,
-                                 geometry=True)
-        base = collision_free_totals(ev)  # (L, A, C), predicted collisions excluded
+                                 geometry=True, yield_zones=rules.yield_zones,
+                                 yield_margin_s=self.model.yield_margin_s,
+                                 curve_speed=rules.curve_speed)
+        # (L, A, C): predicted collisions and plans too fast for its bends excluded
+        base = rule_abiding_totals(ev, self.model, s0, rules)
         scale = self._candidates.plan_dt_s / DT_S
         v_ref = self.traffic_grid_mps
         speed = (self.config.theta_hat.speed * scale
                  * ((ev.v[None] - v_ref[:, None, None, None]) ** 2).sum(axis=-1))  # (V, A, C)
         return (base[:, None] + speed[None]).min(axis=-1)
+
+    def _curve_speed(self, route: Route) -> CurveSpeed | None:
+        """The curve speed the robot assumes a human keeps on `route` (None: straight)."""
+        if route.name not in self._curves:
+            curve = CurveSpeed(route, HUMAN_CURVE_LAT_ACCEL_MPS2,
+                               0.5 * self.model.vehicle.length_m)
+            self._curves[route.name] = None if curve.is_straight else curve
+        return self._curves[route.name]
+
+    def yield_zones(self, route: Route, s0: float, scene: ScenePrediction) -> tuple:
+        """The right of way the robot assumes a human on `route` at s0 [m] keeps (RoadRules).
+
+        The conflict zones its route passes where it yields (sim/route_rules.route_conflicts)
+        and that it has not yet left, each (polygon (V, 2) [m], priority (L, M) bool): the
+        scene's cars travelling along one of the zone's priority lanes at the first predicted
+        step (`priority_mask`) -- a hypothesised car on such a lane only in its hypothesis.
+        The human's Q* then holds the conflict cost of entering the zone while one of them
+        claims it (models/driver.RoadRules, `evaluate_candidates`' yield_zones): a human
+        waiting at the zone for a car the robot cannot see is evidence for that car.
+
+        Args:
+            route: the human's route (its lane and onward, paths.LanePaths).
+            s0: its arc length along the route [m].
+            scene: the L scenes the human is modelled against (`hypothesis_scene`).
+        """
+        conflicts = self._conflicts.get(route.name)
+        if conflicts is None:
+            conflicts = tuple(c for c in route_conflicts(route, self.road_map) if c.yields)
+            self._conflicts[route.name] = conflicts
+        if not conflicts or not scene.mask.any():
+            return ()
+        half = 0.5 * self.model.vehicle.length_m
+        cars = scene.mask & ~scene.is_pedestrian  # (L, M)
+        xy, heading = scene.xy[:, :, 0].reshape(-1, 2), scene.heading[:, :, 0].reshape(-1)
+        zones = []
+        for conflict in conflicts:
+            if s0 - half > conflict.s_exit_m:  # already through it
+                continue
+            has_way = priority_mask(conflict.zone, self.road_map, xy, heading)
+            has_way = has_way.reshape(cars.shape) & cars
+            if has_way.any():
+                zones.append((conflict.zone.polygon, has_way))
+        return tuple(zones)
 
     def _executed(self, v0: float) -> np.ndarray:
         """(A,) accelerations the candidate first actions execute as at speed v0 [m/s^2]."""

@@ -1,0 +1,121 @@
+"""Right of way at conflict zones: the robot keeps out of a zone it yields at while a car comes.
+
+The robot's route passes conflict zones of the map (sim/route_rules.route_conflicts); where it
+yields (its route enters the zone on none of the zone's priority lanes), a car with the right of
+way there (a predicted object travelling along one of the zone's priority lanes now,
+route_rules.priority_mask) claims the whole stretch [s_enter_m, s_exit_m] of the robot's route
+through the zone for the plan steps in which it is predicted in the zone (its centre within
+half its length of the zone's outline).
+
+Each claim is one corridor object (agents/robot/corridor.PathObject) of the branch whose scene
+predicts that car: a tracked car in every branch, a hypothesised hidden car
+(perception/belief, `hypothesis_objects`) only in its own hypothesis' branch. The MPC then,
+per branch, either keeps the robot's front `min_gap_m` short of the zone while it is claimed
+("behind": it waits until the car has passed), or has the robot's rear out of the zone
+`pass_margin_s` (2.5 s) before the claim starts ("past": the margin covers the 2 s within
+which a car reaching the zone means the robot did not give way, metrics/physical.yielded).
+So the contingency MPC gives way to every car it believes may come, weighed by its belief, and
+pulls out only where it can clear the zone well before the car arrives.
+
+A zone the robot's front has entered by more than `committed_m` is not claimed against it any
+more: it is committed and clears the zone (stopping inside would block the car with the right
+of way).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from marl_social.agents.robot.corridor import PathObject
+
+from marl_social.models.candidates import ScenePrediction
+from marl_social.sim.road_map import RoadMap, Route
+from marl_social.sim.route_rules import RouteConflict, priority_mask, route_conflicts
+
+
+@dataclass(frozen=True)
+class RightOfWayConfig:
+    """When a zone is no longer claimed against the robot.
+
+    Attributes:
+        committed_m: the robot's front this far into the zone (past s_enter_m) is committed:
+            the zone is no longer claimed against it [m], >= 0.
+    """
+
+    committed_m: float = 0.0
+
+    def __post_init__(self):
+        if not self.committed_m >= 0.0:
+            raise ValueError(f"RightOfWayConfig.committed_m must be >= 0, got {self.committed_m}")
+
+
+class RightOfWay:
+    """The zones on the robot's route where it yields, and the claims on them (module docstring).
+
+    Args:
+        route: the robot's route.
+        road_map: the static map the robot may know (its conflict zones and lanes).
+        robot_length_m: the robot's length [m] (the claims bound its front and rear).
+        config: when a car claims a zone (default RightOfWayConfig()).
+    """
+
+    def __init__(self, route: Route, road_map: RoadMap, robot_length_m: float,
+                 config: RightOfWayConfig | None = None):
+        self.config = config or RightOfWayConfig()
+        self.road_map = road_map
+        self.conflicts: tuple[RouteConflict, ...] = tuple(
+            c for c in route_conflicts(route, road_map) if c.yields)
+        self._half = 0.5 * robot_length_m
+
+    def claims(self, scene: ScenePrediction, s0: float) -> list[list[PathObject]]:
+        """Per hypothesis of `scene`, the zone claims of the cars with the right of way.
+
+        Args:
+            scene: the predicted objects (L hypotheses, M objects, N plan steps).
+            s0: the robot's arc length along its route (footprint centre) [m].
+
+        Returns:
+            L lists of PathObject (one per claiming car and zone; s_rear_m = the zone's
+            s_enter_m, s_front_m = its s_exit_m along the robot's route).
+        """
+        n_hyp, n_obj = scene.mask.shape
+        out: list[list[PathObject]] = [[] for _ in range(n_hyp)]
+        if n_obj == 0 or not self.conflicts:
+            return out
+        n_t = scene.xy.shape[2]
+        vehicle = scene.mask & ~scene.is_pedestrian  # (L, M)
+        if not vehicle.any():
+            return out
+        front = s0 + self._half
+        for conflict in self.conflicts:
+            if front > conflict.s_enter_m + self.config.committed_m:
+                continue  # committed: it clears this zone
+            zone = conflict.zone
+            src_l, src_m = np.nonzero(vehicle)
+            xy0 = scene.xy[src_l, src_m, 0]  # (P, 2) the first predicted pose
+            has_way = priority_mask(zone, self.road_map, xy0, scene.heading[src_l, src_m, 0])
+            if not has_way.any():
+                continue
+            src_l, src_m = src_l[has_way], src_m[has_way]
+            # in the zone: its footprint's centre within half its length of the outline
+            margin = 0.5 * scene.length_m[src_l, src_m]  # (P,)
+            xy = scene.xy[src_l, src_m]  # (P, N, 2)
+            claimed = _inside(zone, xy, margin)  # (P, N)
+            s_rear = np.full(n_t, conflict.s_enter_m)
+            s_front = np.full(n_t, conflict.s_exit_m)
+            for l, row in zip(src_l.tolist(), claimed):
+                if row.any():
+                    ks = np.flatnonzero(row)
+                    out[l].append(PathObject(row, s_rear, s_front, int(ks[0]), int(ks[-1])))
+        return out
+
+
+def _inside(zone, xy: np.ndarray, margin_m: np.ndarray) -> np.ndarray:
+    """(P, N) bool: points xy (P, N, 2) [m] inside `zone` grown by margin_m (P,) [m]."""
+    a = zone.polygon
+    edge = np.roll(a, -1, axis=0) - a  # (V, 2)
+    length = np.linalg.norm(edge, axis=1)
+    rel = xy[..., None, :] - a  # (P, N, V, 2)
+    cross = (edge[:, 0] * rel[..., 1] - edge[:, 1] * rel[..., 0]) / length
+    return np.all(cross >= -margin_m[:, None, None], axis=-1)

@@ -1,0 +1,117 @@
+"""The robot's claims at the T-intersection (paper Fig. 1 b) over 50 randomized seeds.
+
+The randomization is run.RANDOMIZATIONS["t_intersection"] (reproduce_intersection.
+randomized_overrides): V3's speed 9-14 m/s, its start 30-45 m ("near") or 110-160 m ("far")
+west of the stem, one to three left-turners starting 6-20 m before their turn at 3-8 m/s, every
+human's rationality beta 2-30, the gap between the parked cars 0.5-2 m. Episodes are computed
+once per module, on two processes.
+
+The claims: with no hidden car the social robot is about as fast as the oracle and much faster
+than the conservative robot (which waits for every car it cannot rule out); with V3 near, the
+social robot, like the oracle, never collides and never forces V3 to brake hard, while the
+aggressive robot (what it cannot see is absent) does in most seeds; and a left-turner that waits
+for V3 tells the social robot V3 is there before the robot sees it.
+"""
+
+from __future__ import annotations
+
+import multiprocessing as mp
+import os
+
+import numpy as np
+import pytest
+
+from marl_social.evaluation.reproduce_intersection import claim_episode
+
+pytestmark = pytest.mark.slow  # 50-seed claims: minutes; `pytest -m "not slow"` skips them
+
+N_SEEDS = int(os.environ.get("MARL_CLAIM_SEEDS", "50"))
+CASES = [("social", "none"), ("oracle", "none"), ("conservative", "none"),
+         ("social", "near"), ("oracle", "near"), ("aggressive", "near")]
+# the robot has cleared the junction within 10 s when nothing comes; with V3 near it goes
+# after V3 has passed (V3 reaches the junction within 5 s)
+HORIZON = {"none": 120, "near": 150}
+HARD_BRAKE_MPS2 = 3.0  # braking forced on V3 beyond this is hard [m/s^2]
+BELIEF_HIGH = 0.9  # the belief in a hidden car counts as high above this
+
+
+@pytest.fixture(scope="module")
+def runs() -> dict:
+    jobs = [(p, v, s, HORIZON[v]) for p, v in CASES for s in range(N_SEEDS)]
+    with mp.get_context("spawn").Pool(2) as pool:
+        results = pool.map(claim_episode, jobs, chunksize=4)
+    out = {case: [] for case in CASES}
+    for planner, variant, _seed, summary, error in results:
+        assert error is None, error
+        out[(planner, variant)].append(summary)
+    for case, summaries in out.items():  # the measured numbers, shown with `pytest -rA`
+        t = [m["time_to_pass_s"] for m in summaries]
+        print(case, f"time to pass {np.nanmean(t):.2f} s ({np.isnan(t).sum()} never),",
+              f"collisions {sum(m['robot_collision'] for m in summaries)},",
+              f"forced braking max {max(m['others_max_decel_mps2'] for m in summaries):.2f}")
+    return out
+
+
+def _values(runs, case, key) -> np.ndarray:
+    return np.array([m[key] for m in runs[case]], dtype=np.float64)
+
+
+def _time_to_pass(runs, case) -> np.ndarray:
+    """(N_SEEDS,) time to pass [s]; a robot that never passed counts as the episode's length."""
+    t = _values(runs, case, "time_to_pass_s")
+    return np.where(np.isfinite(t), t, HORIZON[case[1]] * 0.1)
+
+
+def test_social_is_nearly_as_fast_as_the_oracle_without_hidden_car(runs):
+    """Within 10 % of the oracle's mean time to clear the junction."""
+    social = _values(runs, ("social", "none"), "time_to_pass_s")
+    oracle = _values(runs, ("oracle", "none"), "time_to_pass_s")
+    assert np.all(np.isfinite(social)) and np.all(np.isfinite(oracle))
+    assert np.mean(social) <= 1.10 * np.mean(oracle), (np.mean(social), np.mean(oracle))
+
+
+def test_social_is_much_faster_than_the_conservative_robot_without_hidden_car(runs):
+    """At least 25 % sooner than the conservative robot on average."""
+    social = _time_to_pass(runs, ("social", "none"))
+    conservative = _time_to_pass(runs, ("conservative", "none"))
+    assert np.mean(social) <= 0.75 * np.mean(conservative), (np.mean(social),
+                                                             np.mean(conservative))
+
+
+@pytest.mark.parametrize("planner", ["social", "oracle"])
+def test_robot_gives_way_to_a_near_hidden_car(runs, planner):
+    """Never a collision, never forcing V3 (or a left-turner) to brake harder than 3 m/s^2."""
+    case = (planner, "near")
+    assert len(runs[case]) == N_SEEDS
+    assert _values(runs, case, "robot_collision").sum() == 0
+    forced = _values(runs, case, "others_max_decel_mps2")
+    assert np.all(forced <= HARD_BRAKE_MPS2), np.sort(forced)
+
+
+@pytest.mark.xfail(strict=False, reason=(
+    "measured 0 % of 25 wide seeds (0-24): the aggressive robot must first stop at the stop "
+    "sign and sees V3 through the gaps between the parked cars 1.4-3 s into the episode, "
+    "about a second before V3 reaches the junction; with the zone claims it then waits, so it "
+    "neither collides nor forces braking counted by others_max_decel_mps2 (which counts the "
+    "robot only when its centre is on V3's path)"))
+def test_aggressive_robot_pulls_out_in_front_of_a_near_hidden_car(runs):
+    """What it does not see is absent: it collides or forces hard braking in most seeds."""
+    case = ("aggressive", "near")
+    bad = (_values(runs, case, "robot_collision").astype(bool)
+           | (_values(runs, case, "others_max_decel_mps2") > HARD_BRAKE_MPS2))
+    assert np.mean(bad) > 0.5, np.mean(bad)
+
+
+@pytest.mark.xfail(strict=False, reason=(
+    "measured 80 % of the seeds where human_0 let V3 pass, of 25 wide seeds (0-24): where "
+    "the robot sees V3 early (1.4-1.8 s, wide gaps between the parked cars) the belief "
+    "reaches 0.9 a tenth of a second after, not before"))
+def test_a_waiting_left_turner_tells_the_social_robot_of_the_hidden_car(runs):
+    """In >= 90 % of the near seeds where the first left-turner lets V3 pass, the robot's belief
+    in a hidden car exceeds 0.9 before it first sees V3."""
+    case = ("social", "near")
+    waited = [m for m in runs[case] if m["human_0_waited"] == 1.0]
+    assert len(waited) >= 10
+    early = [m["belief_09_s"] < np.nan_to_num(m["robot_first_sees_v3_s"], nan=np.inf)
+             for m in waited]
+    assert np.mean(early) >= 0.9, np.mean(early)
