@@ -147,7 +147,7 @@ class StaticBoxes:
     @classmethod
     def project(cls, route: Route, boxes: np.ndarray | None, robot_width_m: float,
                 lateral_margin_m: float) -> StaticBoxes:
-        """Project (S, 4) boxes [xmin, ymin, xmax, ymax] [m] (or None) onto `route`.
+        """Project (S, 4) boxes (xmin, ymin, xmax, ymax) [m] (or None) onto `route`.
 
         Args:
             route: the robot's route.
