@@ -48,10 +48,22 @@ def run_episodes(jobs, workers: int = 2, max_cycles: int = 200, progress: bool =
     job order.
     """
     jobs = [(*job[:3], max_cycles, dict(job[3]) if len(job) > 3 else {}) for job in jobs]
+    return map_jobs(_one, jobs, workers, progress)
+
+
+def map_jobs(function, jobs: list, workers: int, progress: bool = True) -> list:
+    """function(job) for every job, in order: on a spawn pool of `workers` processes if > 1.
+
+    Args:
+        function: a picklable module-level function of one job.
+        jobs: the jobs (picklable).
+        workers: processes (1: in this process).
+        progress: show a tqdm progress bar.
+    """
     if workers > 1:
         with mp.get_context("spawn").Pool(workers) as pool:
-            return list(_progress(pool.imap(_one, jobs), len(jobs), progress))
-    return list(_progress(map(_one, jobs), len(jobs), progress))
+            return list(_progress(pool.imap(function, jobs), len(jobs), progress))
+    return list(_progress(map(function, jobs), len(jobs), progress))
 
 
 def run_table(n_seeds: int, workers: int = 2, planners=PAPER_PLANNERS, variants=VARIANTS,

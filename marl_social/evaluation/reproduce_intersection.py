@@ -13,10 +13,11 @@ first left-turner let V3 pass before turning.
 
 from __future__ import annotations
 
-import multiprocessing as mp
 from pathlib import Path
 
 import numpy as np
+
+from marl_social.evaluation.reproduce import map_jobs
 
 SCENARIO = "t_intersection"
 PLANNERS = ("social", "aggressive", "conservative", "oracle")
@@ -130,11 +131,7 @@ def run_table(n_seeds: int, workers: int = 2, planners=PLANNERS, variants=VARIAN
               progress: bool = True) -> list[dict]:
     """One row per (planner, variant): rates and means over n_seeds randomized episodes."""
     jobs = [(p, v, s) for p in planners for v in variants for s in range(n_seeds)]
-    if workers > 1:
-        with mp.get_context("spawn").Pool(workers) as pool:
-            results = list(_progress(pool.imap(_one, jobs), len(jobs), progress))
-    else:
-        results = list(_progress(map(_one, jobs), len(jobs), progress))
+    results = map_jobs(_one, jobs, workers, progress)
     rows = []
     for p in planners:
         for v in variants:
@@ -155,14 +152,6 @@ def run_table(n_seeds: int, workers: int = 2, planners=PLANNERS, variants=VARIAN
                 })
             rows.append(row)
     return rows
-
-
-def _progress(iterable, total, enabled):
-    if not enabled:
-        return iterable
-    from tqdm import tqdm
-
-    return tqdm(iterable, total=total, desc="episodes")
 
 
 def format_table(rows: list[dict]) -> str:
