@@ -138,14 +138,42 @@ def circle_gap(ego_circles, ego_circle_r, other_circles, other_circle_r,
 
     Returns:
         (..., M) smallest circle-to-circle gap per other agent, clipped at 0 [m] (with clip).
+
+    Footprints from footprint.covering_circles have equal radii within a footprint, and a
+    pedestrian's circles coincide; then the gap is the smallest centre distance minus the two
+    radii, and repeated circles are compared once -- the same floating-point result as the
+    pairwise minimum (subtracting a constant and the square root are monotone), for a
+    fraction of the work.
     """
-    ex, ey = ego_circles[..., None, :, None, 0], ego_circles[..., None, :, None, 1]
-    ox, oy = other_circles[..., :, None, :, 0], other_circles[..., :, None, :, 1]
-    dx, dy = ex - ox, ey - oy
-    dist = np.sqrt(dx * dx + dy * dy)
-    gap = dist - ego_circle_r[..., None, :, None] - other_circle_r[..., :, None, :]
-    gap = gap.min(axis=(-1, -2))
+    ego_circles, other_circles = np.asarray(ego_circles), np.asarray(other_circles)
+    ego_circle_r, other_circle_r = np.asarray(ego_circle_r), np.asarray(other_circle_r)
+    if _constant_last_axis(ego_circle_r) and _constant_last_axis(other_circle_r):
+        ego_circles = _distinct_circles(ego_circles)
+        other_circles = _distinct_circles(other_circles)
+        dx = ego_circles[..., None, :, None, 0] - other_circles[..., :, None, :, 0]
+        dy = ego_circles[..., None, :, None, 1] - other_circles[..., :, None, :, 1]
+        dist = np.sqrt((dx * dx + dy * dy).min(axis=(-1, -2)))
+        gap = dist - ego_circle_r[..., None, 0] - other_circle_r[..., 0]
+    else:
+        dx = ego_circles[..., None, :, None, 0] - other_circles[..., :, None, :, 0]
+        dy = ego_circles[..., None, :, None, 1] - other_circles[..., :, None, :, 1]
+        dist = np.sqrt(dx * dx + dy * dy)
+        gap = dist - ego_circle_r[..., None, :, None] - other_circle_r[..., :, None, :]
+        gap = gap.min(axis=(-1, -2))
     return np.maximum(gap, 0.0) if clip else gap
+
+
+def _constant_last_axis(values: np.ndarray) -> bool:
+    """Whether every (..., C) row of `values` holds one value."""
+    return values.shape[-1] <= 1 or bool(np.all(values[..., 1:] == values[..., :1]))
+
+
+def _distinct_circles(circles: np.ndarray) -> np.ndarray:
+    """(..., C, 2) circle centres, or (..., 1, 2) when every footprint's circles coincide."""
+    circles = np.asarray(circles)
+    if circles.shape[-2] > 1 and np.all(circles[..., 1:, :] == circles[..., :1, :]):
+        return circles[..., :1, :]
+    return circles
 
 
 def _feature_terms(*, lateral_m, speed_mps, v_ref_mps, accel_mps2, prev_accel_mps2,
