@@ -26,6 +26,10 @@ from marl_social.sim.observation import SLOT_INDEX, DecodedObservation
 
 MOVING_MPS = 1.0  # below this tracked speed the heading is the measured box heading [m/s]
 MIN_NOISE_STD = 1e-3  # measurement noise stds are at least this [m, m/s]
+# covariance steps shared by trackers of one model (Tracker._covariance_step), per model; a
+# table is emptied when it reaches this many entries
+_MAX_COVARIANCE_STEPS = 4096
+_COVARIANCE_STEPS: dict[tuple, dict] = {}
 # slot columns of the measured state [x m, y m, vx m/s, vy m/s]
 _MEASURED_STATE = [SLOT_INDEX["x"], SLOT_INDEX["y"], SLOT_INDEX["vx"], SLOT_INDEX["vy"]]
 
@@ -130,6 +134,8 @@ class Tracker:
         self._Q = Q_discrete_white_noise(dim=2, dt=dt_s, var=accel_noise_mps2 ** 2, block_size=2,
                                          order_by_dim=False)
         self._F = np.array([[1, 0, dt_s, 0], [0, 1, 0, dt_s], [0, 0, 1, 0], [0, 0, 0, 1.0]])
+        model = (self._F.tobytes(), self._Q.tobytes(), self._R.tobytes())
+        self._steps = _COVARIANCE_STEPS.setdefault(model, {})
         self.reset()
 
     def reset(self) -> None:
@@ -153,24 +159,23 @@ class Tracker:
         for row in objects:
             oid = round(row[SLOT_INDEX["id"]])
             measured[oid] = row
-        previous = {}
         for oid in list(self._filters):
-            previous[oid] = self._filters[oid][1]
-            self._filters[oid] = kf_predict(*self._filters[oid], self._F, self._Q)
-            if oid not in measured:
-                self._unseen[oid] += self.dt_s
-                self._dv_cov[oid] = self._velocity_change_cov(previous[oid], None)
-                if self._unseen[oid] > self.timeout_s:
-                    del self._filters[oid], self._attrs[oid], self._unseen[oid]
-                    del self._dv_cov[oid]
-        for oid, row in measured.items():
-            z = row[_MEASURED_STATE].astype(np.float64)
-            if oid in self._filters:
-                p_pred = self._filters[oid][1]
-                self._filters[oid] = kf_update(*self._filters[oid], z, self._R, self._H)
-                self._dv_cov[oid] = self._velocity_change_cov(previous[oid], p_pred)
+            x, p_prev = self._filters[oid]
+            x_pred = dot(self._F, x) + dot(1, 0)  # kf_predict's state, bit for bit
+            gain, p_next, dv_cov = self._covariance_step(p_prev, oid in measured)
+            if oid in measured:
+                z = measured[oid][_MEASURED_STATE].astype(np.float64)
+                x_pred = x_pred + dot(gain, z - dot(self._H, x_pred))  # kf_update's state
             else:
-                self._filters[oid] = (z, self._R.copy())
+                self._unseen[oid] += self.dt_s
+            self._filters[oid] = (x_pred, p_next)
+            self._dv_cov[oid] = dv_cov
+            if self._unseen[oid] > self.timeout_s:
+                del self._filters[oid], self._attrs[oid], self._unseen[oid]
+                del self._dv_cov[oid]
+        for oid, row in measured.items():
+            if oid not in self._filters:
+                self._filters[oid] = (row[_MEASURED_STATE].astype(np.float64), self._R.copy())
                 self._dv_cov[oid] = 2.0 * self._R[2:, 2:]
             self._attrs[oid] = (float(row[SLOT_INDEX["length"]]), float(row[SLOT_INDEX["width"]]),
                                 bool(row[SLOT_INDEX["is_pedestrian"]] > 0.5),
@@ -179,6 +184,39 @@ class Tracker:
             self._unseen[oid] = 0.0
         self._seen_now = set(measured)
         return self.tracks()
+
+    def _covariance_step(self, p_prev: np.ndarray, measured: bool) -> tuple:
+        """One step of a track's covariance, which does not depend on the measured values.
+
+        With a fixed model (F, Q, R, H = I) the covariance sequence of a track depends only on
+        whether it was measured at each step, so the steps are computed once per distinct
+        covariance (by kf_predict / kf_update, bit for bit) and shared by every track and
+        every tracker with the same model.
+
+        Args:
+            p_prev: (4, 4) covariance before the step.
+            measured: whether the track is measured in this step.
+
+        Returns:
+            the Kalman gain (4, 4) (None when not measured), the covariance after the step
+            (4, 4) and the velocity-change error covariance (2, 2) (`_velocity_change_cov`).
+        """
+        key = (p_prev.tobytes(), measured)
+        step = self._steps.get(key)
+        if step is None:
+            zero = np.zeros(4)
+            _, p_pred = kf_predict(zero, p_prev, self._F, self._Q)
+            if measured:
+                s_inv = np.linalg.inv(dot(dot(self._H, p_pred), self._H.T) + self._R)
+                gain = dot(dot(p_pred, self._H.T), s_inv)
+                _, p_next = kf_update(zero, p_pred, zero, self._R, self._H)
+                step = (gain, p_next, self._velocity_change_cov(p_prev, p_pred))
+            else:
+                step = (None, p_pred, self._velocity_change_cov(p_prev, None))
+            if len(self._steps) >= _MAX_COVARIANCE_STEPS:
+                self._steps.clear()
+            self._steps[key] = step
+        return step
 
     def _velocity_change_cov(self, p_prev: np.ndarray, p_pred: np.ndarray | None) -> np.ndarray:
         """(2, 2) error covariance of the tracked velocity change over the last step [m^2/s^2].
