@@ -143,11 +143,12 @@ def circle_gap(ego_circles, ego_circle_r, other_circles, other_circle_r,
     pedestrian's circles coincide; then the gap is the smallest centre distance minus the two
     radii, and repeated circles are compared once -- the same floating-point result as the
     pairwise minimum (subtracting a constant and the square root are monotone), for a
-    fraction of the work.
+    fraction of the work. Circle centres may also be derivative-carrying arrays
+    (marl_social.agents.irl.jets.Jet); those take the pairwise way.
     """
-    ego_circles, other_circles = np.asarray(ego_circles), np.asarray(other_circles)
     ego_circle_r, other_circle_r = np.asarray(ego_circle_r), np.asarray(other_circle_r)
-    if _constant_last_axis(ego_circle_r) and _constant_last_axis(other_circle_r):
+    arrays = isinstance(ego_circles, np.ndarray) and isinstance(other_circles, np.ndarray)
+    if arrays and _constant_last_axis(ego_circle_r) and _constant_last_axis(other_circle_r):
         ego_circles = _distinct_circles(ego_circles)
         other_circles = _distinct_circles(other_circles)
         dx = ego_circles[..., None, :, None, 0] - other_circles[..., :, None, :, 0]
@@ -170,7 +171,6 @@ def _constant_last_axis(values: np.ndarray) -> bool:
 
 def _distinct_circles(circles: np.ndarray) -> np.ndarray:
     """(..., C, 2) circle centres, or (..., 1, 2) when every footprint's circles coincide."""
-    circles = np.asarray(circles)
     if circles.shape[-2] > 1 and np.all(circles[..., 1:, :] == circles[..., :1, :]):
         return circles[..., :1, :]
     return circles

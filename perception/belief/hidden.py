@@ -132,6 +132,7 @@ class HiddenAgentBelief:
             config.vehicle_progress_step_m, config.vehicle_upstream_s)
         self._present = np.array([h.present for h in self.hypotheses])
         self._kinds = np.array([h.kind for h in self.hypotheses])
+        self._objects_at: tuple | None = None  # (time grid, hypotheses) -> hypothesis_objects
         self.transition = motion_transition(self.hypotheses, DT_S, config.hazards_per_s())
         self.prior = self._prior()
         self.tracker = tracker or Tracker(pos_noise_m=config.track_pos_noise_m,
@@ -298,7 +299,15 @@ class HiddenAgentBelief:
         hypothesised vehicle has a car's footprint and heading along its lane and is not a
         pedestrian.
         """
-        return hypothesis_objects(self.hypotheses, times_s)
+        times = np.asarray(times_s, dtype=np.float64)
+        key = (times.tobytes(), len(self.hypotheses))
+        cached = self._objects_at
+        if cached is None or cached[0] != key or cached[1] is not self.hypotheses:
+            objects = hypothesis_objects(self.hypotheses, times)
+            for array in objects:  # shared by every call at this time grid
+                array.setflags(write=False)
+            self._objects_at = cached = (key, self.hypotheses, objects)
+        return cached[2]
 
     def match_pedestrians(self, xy, velocity) -> np.ndarray:
         """(L,) bool: hypotheses matching the seen pedestrians (OwnSensors).
