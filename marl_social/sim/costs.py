@@ -151,10 +151,16 @@ def circle_gap(ego_circles, ego_circle_r, other_circles, other_circle_r,
     if arrays and _constant_last_axis(ego_circle_r) and _constant_last_axis(other_circle_r):
         ego_circles = _distinct_circles(ego_circles)
         other_circles = _distinct_circles(other_circles)
-        dx = ego_circles[..., None, :, None, 0] - other_circles[..., :, None, :, 0]
-        dy = ego_circles[..., None, :, None, 1] - other_circles[..., :, None, :, 1]
-        dist = np.sqrt((dx * dx + dy * dy).min(axis=(-1, -2)))
-        gap = dist - ego_circle_r[..., None, 0] - other_circle_r[..., 0]
+        # smallest squared distance over the few circle pairs, one pair at a time: no
+        # (..., M, C, C) array and no reduction over tiny trailing axes
+        nearest = None
+        for i in range(ego_circles.shape[-2]):
+            ex, ey = ego_circles[..., None, i, 0], ego_circles[..., None, i, 1]
+            for j in range(other_circles.shape[-2]):
+                dx, dy = ex - other_circles[..., j, 0], ey - other_circles[..., j, 1]
+                d2 = dx * dx + dy * dy
+                nearest = d2 if nearest is None else np.minimum(nearest, d2)
+        gap = np.sqrt(nearest) - ego_circle_r[..., None, 0] - other_circle_r[..., 0]
     else:
         dx = ego_circles[..., None, :, None, 0] - other_circles[..., :, None, :, 0]
         dy = ego_circles[..., None, :, None, 1] - other_circles[..., :, None, :, 1]
