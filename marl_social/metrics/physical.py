@@ -27,7 +27,7 @@ FORCING_LOOKAHEAD_S = 3.0  # the robot is "in the way" of a human within this ti
 FORCING_MARGIN_M = 10.0  # ... plus this distance [m]
 IN_PATH_HALF_WIDTH_M = 2.5  # ... and this close to its path (half a lane + half a car) [m]
 IN_LANE_HALF_WIDTH_M = 1.75  # ... or its front this close to the path (inside the lane) [m]
-FORCING_PREDICT_S = 1.0  # ... now or at its current velocity this long ahead [s]
+FORCING_PREDICT_S = 1.0  # ... now or this long later, at its current speed [s]
 NAN = float("nan")
 
 
@@ -300,8 +300,9 @@ def others_max_decel(trace: Trace, road_map: RoadMap, robot: str) -> float:
     A human's braking in a step counts as forced by the robot when, at the start of that
     step, the robot is in the human's way (`_robot_in_path_distance`: its centre on the
     human's route, or its front in the human's lane now or FORCING_PREDICT_S later), ahead
-    closer than FORCING_LOOKAHEAD_S at the human's speed plus FORCING_MARGIN_M, and nearer along the route than any other agent's centre there (a car
-    queued behind another brakes for that one). Both must be active.
+    closer than FORCING_LOOKAHEAD_S at the human's speed plus FORCING_MARGIN_M, and nearer
+    along the route than any other agent's centre there (a car queued behind another brakes
+    for that one). Both must be active.
     """
     if not len(trace.accel_mps2):
         return 0.0
