@@ -78,8 +78,8 @@ def test_social_is_much_faster_than_the_conservative_robot_without_hidden_car(ru
     length). From the stop line its sensor sees 8-11 m of the eastbound lane past the parked
     cars, 12-18 m with its front at the lane's edge, while a car at the speed limit it cannot
     rule out may reach the zone from 55 m (the hidden-vehicle bins) and clearing the zone from
-    a standstill takes it about 6 s: the most upstream bins (36-50 m west of the stem) stay
-    unseen and so never ruled out.
+    a standstill takes it about 6 s: the three most upstream progress bins (16-50 m west of
+    the stem) stay unseen, at their prior, and so are never ruled out.
     """
     social = _time_to_pass(runs, ("social", "none"))
     conservative = _time_to_pass(runs, ("conservative", "none"))
