@@ -26,6 +26,8 @@ YIELD_WINDOW_S = 2.0  # a right-of-way agent in the zone within this of the robo
 FORCING_LOOKAHEAD_S = 3.0  # the robot is "in the way" of a human within this time ahead [s]
 FORCING_MARGIN_M = 10.0  # ... plus this distance [m]
 IN_PATH_HALF_WIDTH_M = 2.5  # ... and this close to its path (half a lane + half a car) [m]
+IN_LANE_HALF_WIDTH_M = 1.75  # ... or its front this close to the path (inside the lane) [m]
+FORCING_PREDICT_S = 1.0  # ... now or this long later, at its current speed [s]
 NAN = float("nan")
 
 
@@ -235,19 +237,60 @@ def time_to_pass(trace: Trace, road_map: RoadMap, robot: str) -> float:
     return float(max(times))  # nan if any zone was never passed
 
 
-def _in_path_distance(route: Route, xy_self: np.ndarray, xy_other: np.ndarray) -> np.ndarray:
+def _in_path_distance(route: Route, xy_self: np.ndarray, xy_other: np.ndarray,
+                      half_width_m: float = IN_PATH_HALF_WIDTH_M) -> np.ndarray:
     """(T+1,) how far ahead along `route` another agent is [m], inf where not on the path.
 
     Args:
         route: the human's route.
         xy_self: (T+1, 2) the human's positions [m].
-        xy_other: (T+1, 2) the other agent's positions [m].
+        xy_other: (T+1, 2) the other agent's positions (or one point of it) [m].
+        half_width_m: on the path: within this of the route [m].
     """
     s_self, _, _ = route.project(xy_self)
     s_other, lateral, _ = route.project(xy_other)
     ahead = s_other - s_self
-    on_path = (ahead > 0.0) & (np.abs(lateral) <= IN_PATH_HALF_WIDTH_M)
+    on_path = (ahead > 0.0) & (np.abs(lateral) <= half_width_m)
     return np.where(on_path, ahead, np.inf)
+
+
+def _robot_in_path_distance(trace: Trace, road_map: RoadMap, r: int, route: Route,
+                            xy_self: np.ndarray, v_self: np.ndarray) -> np.ndarray:
+    """(T+1,) how far ahead along a human's `route` the robot is in its way [m] (inf: not).
+
+    In its way: the robot's centre within IN_PATH_HALF_WIDTH_M of the route, or its front
+    (a bounding radius ahead of its centre along its own route) inside the lane
+    (IN_LANE_HALF_WIDTH_M), now or FORCING_PREDICT_S later, both at their current speeds
+    along their routes (a robot rolling out of a side road into the lane ahead of the human is
+    in its way before its centre is on it; one standing short of the lane is not).
+
+    Args:
+        trace: the episode's trace.
+        road_map: the map (the robot's route; without one, its heading stands for it).
+        r: the robot's trace index.
+        route: the human's route.
+        xy_self: (T+1, 2) the human's positions [m].
+        v_self: (T+1,) the human's speeds [m/s].
+    """
+    s_self, _, _ = route.project(xy_self)
+    self_later = route.point_at(s_self + np.maximum(v_self, 0.0) * FORCING_PREDICT_S)[0]
+    xy, v = trace.states[:, r, :2], np.maximum(trace.states[:, r, 3], 0.0)
+    reach = trace.bounding_radius_m[r]
+    own = road_map.routes.get(trace.names[r])
+    if own is not None:
+        s, _, _ = own.project(xy)
+        front = own.point_at(s + reach)[0]
+        ahead = own.point_at(s + reach + v * FORCING_PREDICT_S)[0]
+    else:
+        heading = trace.states[:, r, 2]
+        direction = np.column_stack([np.cos(heading), np.sin(heading)])
+        front = xy + reach * direction
+        ahead = front + (v * FORCING_PREDICT_S)[:, None] * direction
+    return np.minimum.reduce([
+        _in_path_distance(route, xy_self, xy),
+        _in_path_distance(route, xy_self, front, IN_LANE_HALF_WIDTH_M),
+        _in_path_distance(route, self_later, ahead, IN_LANE_HALF_WIDTH_M),
+    ])
 
 
 @register_metric("others_max_decel_mps2", group="episode")
@@ -255,10 +298,11 @@ def others_max_decel(trace: Trace, road_map: RoadMap, robot: str) -> float:
     """Hardest braking the robot forced on a human driver [m/s^2] (>= 0; 0 if none).
 
     A human's braking in a step counts as forced by the robot when, at the start of that
-    step, the robot is in the human's way: its centre lies ahead on the human's route (within
-    IN_PATH_HALF_WIDTH_M of it), closer than FORCING_LOOKAHEAD_S at the human's speed plus
-    FORCING_MARGIN_M, and nearer along the route than any other agent there (a car queued
-    behind another brakes for that one). Both must be active.
+    step, the robot is in the human's way (`_robot_in_path_distance`: its centre on the
+    human's route, or its front in the human's lane now or FORCING_PREDICT_S later), ahead
+    closer than FORCING_LOOKAHEAD_S at the human's speed plus FORCING_MARGIN_M, and nearer
+    along the route than any other agent's centre there (a car queued behind another brakes
+    for that one). Both must be active.
     """
     if not len(trace.accel_mps2):
         return 0.0
@@ -272,7 +316,10 @@ def others_max_decel(trace: Trace, road_map: RoadMap, robot: str) -> float:
         reach = trace.states[:, h, 3] * FORCING_LOOKAHEAD_S + FORCING_MARGIN_M
         dist = {j: np.where(trace.active[:, j],
                             _in_path_distance(route, xy_h, trace.states[:, j, :2]), np.inf)
-                for j in range(len(trace.names)) if j != h}
+                for j in range(len(trace.names)) if j not in (h, r)}
+        robot_ahead = _robot_in_path_distance(trace, road_map, r, route, xy_h,
+                                              trace.states[:, h, 3])
+        dist[r] = np.where(trace.active[:, r], robot_ahead, np.inf)
         nearest_other = np.min([d for j, d in dist.items() if j != r], axis=0, initial=np.inf)
         forced = ((dist[r] <= reach) & (dist[r] < nearest_other)
                   & trace.active[:, h] & trace.active[:, r])[:-1]

@@ -83,6 +83,9 @@ class BeliefConfig:
         vehicle_hazard_per_s: rate at which hidden vehicles arrive at those lanes' entry bins, and
             at which hypothesised ones vanish [1/s] (a main road's sparse traffic: with the
             defaults the prior puts about 0.2 on a hidden vehicle, spread over all such lanes).
+        vehicle_negligible_mass: a hidden-vehicle hypothesis with less predicted belief is left
+            out of the humans' modelled scenes (its social likelihood is that of "none"; it
+            saves the humans' Q-values under hypotheses the robot's own sensors ruled out).
     """
 
     walk_speeds_mps: tuple = (0.9, 1.6)
@@ -112,6 +115,7 @@ class BeliefConfig:
     vehicle_progress_step_m: float = 10.0
     vehicle_upstream_s: float = 4.0
     vehicle_hazard_per_s: float = 0.05
+    vehicle_negligible_mass: float = 1e-3
 
     def __post_init__(self):
         """Reject probabilities outside [0, 1], negative betas and non-positive noise/floor."""
@@ -132,9 +136,10 @@ class BeliefConfig:
             raise ValueError("BeliefConfig.vehicle_speed_fractions must be a non-empty sequence "
                              f"of positive fractions, got {self.vehicle_speed_fractions!r}")
         if not (self.vehicle_progress_step_m > 0 and self.vehicle_upstream_s >= 0
-                and self.vehicle_hazard_per_s >= 0):
+                and self.vehicle_hazard_per_s >= 0 and 0 <= self.vehicle_negligible_mass < 1):
             raise ValueError("BeliefConfig: need vehicle_progress_step_m > 0, "
-                             "vehicle_upstream_s >= 0, vehicle_hazard_per_s >= 0")
+                             "vehicle_upstream_s >= 0, vehicle_hazard_per_s >= 0, "
+                             "vehicle_negligible_mass in [0, 1)")
 
     def hazards_per_s(self) -> dict:
         """{kind: arrival and vanishing rate [1/s]} of the hidden agents (motion_transition)."""

@@ -330,7 +330,8 @@ class HiddenAgentBelief:
         return self.social.hypothesis_scene(others, viewer)
 
     def human_q_values(self, route: Route, s0: float, v0: float, prev_accel: float,
-                       others: ScenePrediction | None = None) -> np.ndarray:
+                       others: ScenePrediction | None = None,
+                       negligible: np.ndarray | None = None) -> np.ndarray:
         """(L, V, A) Q*_H(x_l, v, u) of a human, one rollout (SocialLikelihood).
 
         Args:
@@ -339,8 +340,9 @@ class HiddenAgentBelief:
             v0: its along-route speed [m/s].
             prev_accel: its previous acceleration [m/s^2].
             others: one-hypothesis scene of the other objects the human reacts to.
+            negligible: (L,) bool, hypotheses left out of the human's scene (None: none).
         """
-        return self.social.human_q_values(route, s0, v0, prev_accel, others)
+        return self.social.human_q_values(route, s0, v0, prev_accel, others, negligible)
 
     def beta_beliefs(self) -> dict:
         """{human name: (B,) rationality belief} of the humans tracked now (social+beta only)."""

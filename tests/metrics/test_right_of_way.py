@@ -127,3 +127,28 @@ def test_merging_behind_the_car_is_giving_way_cutting_in_front_is_not():
     assert others_max_decel(behind, rm, "robot_0") == 0.0
     ahead = _trace(rm, _robot_s(rm, 0.5), _car_s(rm, 1.5))
     assert not yielded(ahead, rm, "robot_0")
+
+
+def _braking_car(rm, arrive_s: float, brake_from_s: float, decel_mps2: float) -> np.ndarray:
+    """The eastbound car of _car_s braking at decel_mps2 from brake_from_s on (down to rest)."""
+    t = np.arange(N_STEPS + 1) * DT_S
+    dt = np.clip(t - brake_from_s, 0.0, 11.0 / decel_mps2)
+    return _car_s(rm, arrive_s) - 11.0 * np.maximum(t - brake_from_s, 0.0) + (
+        11.0 * dt - 0.5 * decel_mps2 * dt ** 2)
+
+
+def test_robot_rolling_out_towards_the_lane_forces_the_braking():
+    """The robot rolls out of the stem at 2 m/s, its front not yet in the eastbound lane, while
+    the car brakes at 5 m/s^2: forced (the robot will be in the lane within a second). Stopped
+    with its front 1.5 m short of the lane, the same braking is not forced."""
+    rm = _road_map()
+    t = np.arange(N_STEPS + 1) * DT_S
+    stop_s = _robot_s(rm, 100.0)[0]  # front 0.5 m behind the stop line, 2.5 m short of the lane
+    rolling = stop_s + 2.0 * np.clip(t - 1.0, 0.0, 0.75)  # front 1.5 m short of the lane at 1.75 s
+    braking = _braking_car(rm, 3.0, 1.5, 5.0)
+    trace = _trace(rm, rolling, braking)
+    trace.states[:, 0, 3] = np.where((t >= 1.0) & (t < 1.75), 2.0, 0.0)  # rolls, then stands
+    assert others_max_decel(trace, rm, "robot_0") == pytest.approx(5.0, rel=0.05)
+    standing = _trace(rm, rolling, _braking_car(rm, 3.0, 2.0, 5.0))
+    standing.states[:, 0, 3] = np.where((t >= 1.0) & (t < 1.75), 2.0, 0.0)
+    assert others_max_decel(standing, rm, "robot_0") == 0.0

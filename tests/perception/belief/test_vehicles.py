@@ -306,6 +306,25 @@ def test_a_hypothesised_vehicle_the_human_cannot_see_does_not_change_its_q_value
     np.testing.assert_array_equal(q_away, np.broadcast_to(q_away[:1], q_away.shape))
 
 
+def test_negligible_vehicle_hypotheses_are_left_out_of_the_humans_scene():
+    """A hypothesis marked negligible gets the Q-values of "none" (the human is modelled as not
+    reacting to it); the others keep theirs, computed once per distinct scene."""
+    belief = _belief(CrossingWorld())
+    lane = Route(LANE_POINTS["west"])
+    s0 = LANE_POINTS["west"][0][0] - 75.0  # x = 75, looking west at the crossing
+    q = belief.human_q_values(lane, s0, 10.0, 0.0)
+    differs = np.any(q != q[:1], axis=(1, 2))
+    assert differs.sum() >= 2  # some hypothesised cars make the human wait
+    rng = np.random.default_rng(3)
+    negligible = differs & (rng.random(len(q)) < 0.5)
+    negligible[np.flatnonzero(differs)[0]] = True
+    negligible[np.flatnonzero(differs)[-1]] = False
+    q_pruned = belief.human_q_values(lane, s0, 10.0, 0.0, negligible=negligible)
+    np.testing.assert_array_equal(q_pruned[negligible], np.broadcast_to(
+        q[:1], q_pruned[negligible].shape))
+    np.testing.assert_allclose(q_pruned[~negligible], q[~negligible], rtol=1e-12)
+
+
 def test_planner_objects_are_cars_for_vehicle_hypotheses_and_unchanged_for_pedestrians():
     """hypothesis_objects: a hypothesised vehicle is a 4.5 x 1.8 m car heading north along its
     lane, not a pedestrian; on the paper's map the objects are the pedestrians the robot
