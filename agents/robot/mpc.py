@@ -356,12 +356,14 @@ class ContingencyMpc:
         v_brake = np.maximum(v0 - 0.5 * veh.brake_max_mps2 * c.plan_times_s, 0.0)
         v_start = np.concatenate([[v0], v_brake[:-1]])
         s_brake = np.cumsum(0.5 * (v_start + v_brake) * c.plan_dt_s)
-        reach = s_brake + self._headway * v_brake + 0.1  # 10 cm of room: not a single point
+        reach = s_brake + self._headway * v_brake
         if v0 > c.rest_mps:
-            s_up = np.maximum(s_up, np.minimum(reach, s_up + c.position_tolerance_m))
+            # 10 cm of room: the feasible set is not a single point (slow for OSQP)
+            s_up = np.maximum(s_up, np.minimum(reach + 0.1, s_up + c.position_tolerance_m))
         else:
             # at rest the robot can always stay where it stands (it cannot back up): noise that
-            # moves a bound it waits at behind it, by any amount, does not make it infeasible
+            # moves a bound it waits at behind it, by any amount, does not make it infeasible;
+            # no room beyond that: room relative to where it stands would let it creep on
             s_up = np.maximum(s_up, reach)
         return s_low, np.maximum(s_up, 0.0)
 
