@@ -43,6 +43,7 @@ from marl_social.agents.robot.mpc import ContingencyMpc, MpcConfig, MpcResult
 from marl_social.agents.robot.right_of_way import RightOfWay, RightOfWayConfig
 from marl_social.agents.robot.stop import StopSignConfig, StopSigns
 from marl_social.perception.belief import BeliefConfig, PedestrianBelief
+from marl_social.perception.belief.hypotheses import pedestrians_in_regions
 from marl_social.perception.tracking import TrackSet
 
 from marl_social.models.candidates import ScenePrediction
@@ -188,6 +189,8 @@ class RobotPlanner:
             use_own_sensors=self.variant.use_own_sensors,
         )
         self._times = self.mpc.plan_times_s
+        # each hypothesis' hidden agent at the plan times: fixed, computed once
+        self._hypothesis_objects = self.belief.hypothesis_objects(self._times)
         self._truth: TrackSet | None = None
         veh = spec.vehicle
         self.curb = CurbPedestrians(
@@ -278,9 +281,18 @@ class RobotPlanner:
         contingent = np.array([h.present for h in self.belief.hypotheses])
         # the tracked objects in every branch, each hypothesis' hidden agent in its own (a
         # hypothesised vehicle as a car on its lane)
-        scene = ScenePrediction.from_tracks(tracks, self._times).with_extra(
-            *self.belief.hypothesis_objects(self._times))
         s0, _ = self.route.project_point(x, y)
+        # a pedestrian walking up to the curb in front of a robot that can no longer stop
+        # comfortably waits there (gap acceptance, agents/robot/curb.py)
+        tracks = self.curb.hold_at_curb(tracks, s0, v)
+        # a hidden pedestrian where the robot tracks one is that pedestrian, in the tracks
+        # already: the tracked one is predicted, not a second, hypothesised copy
+        # (also one it does not see this step, out of its view as it drives past: the tracker
+        # keeps it where it was last seen, moving at its last velocity)
+        *hidden, present = self._hypothesis_objects
+        present = present & ~pedestrians_in_regions(self.belief.hypotheses,
+                                                    tracks.xy[tracks.is_pedestrian])
+        scene = ScenePrediction.from_tracks(tracks, self._times).with_extra(*hidden, present)
         step_xy, step_heading = self.curb.step_off(tracks, s0, v, DT_S, self._times)
         if len(step_xy):
             scene, weights = self._with_step_off(scene, weights, step_xy, step_heading)
