@@ -15,11 +15,12 @@ braking at most `yield_decel_mps2`; for a car closer or faster than that, it kee
 branch). A pedestrian that stays on the curb while the robot stands at rest in front of the
 crosswalk for `patience_s` is waiting for something else: the robot stops assuming it may step
 off (for that track, until it moves or is no longer tracked), and goes. The same gap acceptance
-holds a pedestrian still on the sidewalk, walking up to the curb, in front of a car that can no
-longer stop braking at most `yield_decel_mps2` (`hold_at_curb`): it is predicted to wait at the
-curb, not to walk on into the car's path at its current velocity (a hesitant pedestrian inching
-towards the curb would otherwise appear in the robot's way at the last moment, calling for an
-emergency stop it does not need); once on the crosswalk it is predicted from its track again.
+holds a pedestrian still on the sidewalk, walking up to the curb, in front of a car whose
+front can no longer stop before the crosswalk braking at most `yield_decel_mps2`
+(`hold_at_curb`): it is predicted to wait at the curb, not to walk on into the car's path at its
+current velocity (a hesitant pedestrian inching towards the curb would otherwise appear in the
+robot's way at the last moment, calling for an emergency stop it does not need); once on the
+crosswalk it is predicted from its track again.
 
 Probability 0.2: a pedestrian standing at a crosswalk is there to cross, but most of the
 planning steps before it goes it is still waiting (the robot plans every 0.1 s, a pedestrian
@@ -114,20 +115,20 @@ class CurbPedestrians:
     def _gaps(self, s0: float) -> list[tuple[Crosswalk, float]]:
         """The crossings whose far edge is still ahead of the robot's rear.
 
-        Each as (crosswalk, distance [m] from the robot's centre at s0 [m] to where it stops for
-        it, < 0 once past that point).
+        Each as (crosswalk, distance [m] from the robot's front, its centre at s0 [m], to the
+        crosswalk's near edge, < 0 once on it): where a pedestrian expects it to stop.
         """
-        return [(self.crosswalks[i], s_near - self._stop_offset - s0)
-                for (i, s_near), s_far in zip(self._crossings, self._far)
-                if s_far > s0 - 0.5 * self._length]
+        half = 0.5 * self._length
+        return [(self.crosswalks[i], s_near - half - s0)
+                for (i, s_near), s_far in zip(self._crossings, self._far) if s_far > s0 - half]
 
     def hold_at_curb(self, tracks: TrackSet, s0: float, v0: float) -> TrackSet:
         """The tracks, with pedestrians that will wait at the curb for the robot held still.
 
         A pedestrian on the sidewalk within `curb_reach_m` of a crosswalk on the robot's route,
-        walking towards it, waits at the curb (zero velocity) if the robot can no longer stop
-        before that crosswalk braking at most `yield_decel_mps2`, or is past the point where it
-        would stop for it (module docstring).
+        walking towards it, waits at the curb (zero velocity) if the robot's front can no
+        longer stop before that crosswalk braking at most `yield_decel_mps2`, or is on it
+        (the pedestrian's own gap acceptance, agents/pedestrian.py; module docstring).
 
         Args:
             tracks: the robot's tracks (the truth for the oracle), k of them.

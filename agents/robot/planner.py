@@ -43,7 +43,6 @@ from marl_social.agents.robot.mpc import ContingencyMpc, MpcConfig, MpcResult
 from marl_social.agents.robot.right_of_way import RightOfWay, RightOfWayConfig
 from marl_social.agents.robot.stop import StopSignConfig, StopSigns
 from marl_social.perception.belief import BeliefConfig, PedestrianBelief
-from marl_social.perception.belief.hypotheses import pedestrians_in_regions
 from marl_social.perception.tracking import TrackSet
 
 from marl_social.models.candidates import ScenePrediction
@@ -55,6 +54,7 @@ from marl_social.sim.road_map import RoadMap
 
 BETA_GRID_HAT = (0.03, 0.1, 0.3, 1.0, 3.0)  # social+beta: rationality grid (log-spaced)
 CONSERVATIVE_WALK_SPEED_MPS = 1.3  # conservative: its hypothesised pedestrians' speed [m/s]
+TRACKED_REACH_M = 3.0  # a pedestrian tracked this close to a crosswalk is its pedestrian [m]
 
 
 class HypothesisWeighting(enum.Enum):
@@ -191,6 +191,8 @@ class RobotPlanner:
         self._times = self.mpc.plan_times_s
         # each hypothesis' hidden agent at the plan times: fixed, computed once
         self._hypothesis_objects = self.belief.hypothesis_objects(self._times)
+        self._hypothesis_crosswalk = np.array(
+            [h.crosswalk_index if h.kind == "pedestrian" else -1 for h in self.belief.hypotheses])
         self._truth: TrackSet | None = None
         veh = spec.vehicle
         self.curb = CurbPedestrians(
@@ -285,13 +287,12 @@ class RobotPlanner:
         # a pedestrian walking up to the curb in front of a robot that can no longer stop
         # comfortably waits there (gap acceptance, agents/robot/curb.py)
         tracks = self.curb.hold_at_curb(tracks, s0, v)
-        # a hidden pedestrian where the robot tracks one is that pedestrian, in the tracks
-        # already: the tracked one is predicted, not a second, hypothesised copy
-        # (also one it does not see this step, out of its view as it drives past: the tracker
-        # keeps it where it was last seen, moving at its last velocity)
+        # the pedestrian hypotheses of a crosswalk at which the robot tracks a pedestrian are
+        # about that pedestrian (the belief holds at most one hidden agent): the tracked one is
+        # predicted, not a hypothesised copy (also while the robot does not see it, out of its
+        # view as it drives past: the tracker keeps it where it was last seen)
         *hidden, present = self._hypothesis_objects
-        present = present & ~pedestrians_in_regions(self.belief.hypotheses,
-                                                    tracks.xy[tracks.is_pedestrian])
+        present = present & ~self._tracked_crosswalks(tracks)
         scene = ScenePrediction.from_tracks(tracks, self._times).with_extra(*hidden, present)
         step_xy, step_heading = self.curb.step_off(tracks, s0, v, DT_S, self._times)
         if len(step_xy):
@@ -307,6 +308,19 @@ class RobotPlanner:
         self.prev_accel = result.accel_mps2
         steer = pure_pursuit(self.route, x, y, psi, v, s0, self.spec.vehicle.wheelbase_m)
         return np.array([result.accel_mps2, steer], dtype=np.float32)
+
+    def _tracked_crosswalks(self, tracks: TrackSet) -> np.ndarray:
+        """(L,) bool: pedestrian hypotheses of a crosswalk with a tracked pedestrian near it.
+
+        Near: within TRACKED_REACH_M of the crosswalk.
+
+        Args:
+            tracks: the robot's tracks.
+        """
+        ped_xy = tracks.xy[tracks.is_pedestrian]
+        near = [i for i, cw in enumerate(self.road_map.crosswalks)
+                if len(ped_xy) and cw.contains(ped_xy, TRACKED_REACH_M).any()]
+        return np.isin(self._hypothesis_crosswalk, near) & (self._hypothesis_crosswalk >= 0)
 
     def _with_step_off(self, scene: ScenePrediction, weights: np.ndarray, xy: np.ndarray,
                        heading: np.ndarray) -> tuple[ScenePrediction, np.ndarray]:

@@ -229,30 +229,16 @@ class Hypothesis:
             return False
         if self.kind == "vehicle":
             return self._matches_vehicle(xy, velocity)
-        along, _ = self.corridor_coords(xy)
+        along, across = self.corridor_coords(xy)
         v_along = np.asarray(velocity, dtype=np.float64) @ self.walk_dir
+        lo, hi = self._along_range()
         road_end = self.walk_length_m - self.curb_offset_m
-        inside = self.in_region(xy)
+        inside = ((np.abs(across) <= self.half_width_m + MATCH_MARGIN_M)
+                  & (along >= lo - MATCH_MARGIN_M) & (along <= min(hi + MATCH_MARGIN_M, road_end)))
         on_road = (along >= self.curb_offset_m) & (along <= road_end)
         crossing = (on_road & (v_along > -walking_speed_min_mps)) | (
             v_along >= walking_speed_min_mps)
         return bool(np.any(inside & crossing))
-
-    def in_region(self, xy) -> np.ndarray:
-        """(n,) bool: points (n, 2) [m] in a pedestrian hypothesis' region (+- MATCH_MARGIN_M).
-
-        Where a pedestrian the robot sees is taken for this hypothesis' agent, whatever its
-        velocity (`matches` adds the velocity); up to the road's far end. All False for "none"
-        and vehicles.
-        """
-        xy = np.asarray(xy, dtype=np.float64).reshape(-1, 2)
-        if not self.present or self.kind != "pedestrian":
-            return np.zeros(len(xy), dtype=bool)
-        along, across = self.corridor_coords(xy)
-        lo, hi = self._along_range()
-        road_end = self.walk_length_m - self.curb_offset_m
-        return ((np.abs(across) <= self.half_width_m + MATCH_MARGIN_M)
-                & (along >= lo - MATCH_MARGIN_M) & (along <= min(hi + MATCH_MARGIN_M, road_end)))
 
     def _matches_vehicle(self, xy, velocity) -> bool:
         """`matches` for a vehicle: on the lane, in the bin, along it, in the speed bin."""
@@ -266,37 +252,6 @@ class Hypothesis:
         along = v_along >= speed * math.cos(VEHICLE_MATCH_HEADING_RAD)
         lo_v, hi_v = self.speed_range_mps
         return bool(np.any(inside & along & (v_along >= lo_v) & (v_along < hi_v)))
-
-
-def pedestrians_in_regions(hypotheses: list[Hypothesis], xy) -> np.ndarray:
-    """(L,) bool: pedestrian hypotheses with one of the points xy (n, 2) [m] in their region.
-
-    `Hypothesis.in_region` for all L hypotheses and n points at once (False for "none" and
-    vehicles).
-
-    Args:
-        hypotheses: the L hypotheses.
-        xy: (n, 2) points, e.g. the pedestrians the robot tracks [m].
-    """
-    xy = np.asarray(xy, dtype=np.float64).reshape(-1, 2)
-    ped = np.array([h.present and h.kind == "pedestrian" for h in hypotheses], dtype=bool)
-    out = np.zeros(len(hypotheses), dtype=bool)
-    if not len(xy) or not ped.any():
-        return out
-    hs = [h for h, p in zip(hypotheses, ped) if p]
-    start = np.array([h.start_xy for h in hs])  # (P, 2)
-    walk = np.array([h.walk_dir for h in hs])  # (P, 2)
-    span = np.array([h._along_range() for h in hs])  # (P, 2)
-    road_end = np.array([h.walk_length_m - h.curb_offset_m for h in hs])
-    half = np.array([h.half_width_m for h in hs])
-    rel = xy[None] - start[:, None]  # (P, n, 2)
-    along = np.einsum("pnd,pd->pn", rel, walk)
-    across = rel[..., 1] * walk[:, None, 0] - rel[..., 0] * walk[:, None, 1]
-    inside = ((np.abs(across) <= (half + MATCH_MARGIN_M)[:, None])
-              & (along >= (span[:, 0] - MATCH_MARGIN_M)[:, None])
-              & (along <= np.minimum(span[:, 1] + MATCH_MARGIN_M, road_end)[:, None]))
-    out[ped] = inside.any(axis=1)
-    return out
 
 
 def _side_name(road_map: RoadMap, crosswalk: Crosswalk, entry: np.ndarray) -> str:

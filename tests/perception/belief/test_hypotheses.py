@@ -82,22 +82,3 @@ def test_hypotheses_progress_along_their_paths():
                                           for i in np.flatnonzero(born[1:]) + 1)
     longrun = stationary_distribution(with_hazard)
     assert 0.0 < longrun[1:].sum() < 0.5
-
-
-def test_pedestrians_in_regions_is_each_hypothesis_region_at_once():
-    """The vectorized region test agrees with Hypothesis.in_region for random points around
-    the crosswalk; a point at a hypothesis' own position now is in its region."""
-    from marl_social.perception.belief.hypotheses import pedestrians_in_regions
-
-    hyps, _ = _binned()
-    rng = np.random.default_rng(0)
-    for _ in range(20):
-        xy = np.column_stack([rng.uniform(CROSSWALK_X_M - 4.0, CROSSWALK_X_M + 4.0, 3),
-                              rng.uniform(-8.0, 8.0, 3)])
-        expected = np.array([bool(h.in_region(xy).any()) for h in hyps])
-        np.testing.assert_array_equal(pedestrians_in_regions(hyps, xy), expected)
-    for i, h in enumerate(hyps):
-        if h.present:
-            here = h.predict_xy(np.array([0.0]))
-            assert pedestrians_in_regions(hyps, here)[i], h.name
-    assert not pedestrians_in_regions(hyps, np.zeros((0, 2))).any()
