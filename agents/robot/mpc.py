@@ -47,7 +47,7 @@ as much as driving 2 m/s slower for 5 s.
 from __future__ import annotations
 
 import itertools
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 from marl_social.agents.robot.corridor import (
@@ -284,6 +284,8 @@ class ContingencyMpc:
         wall = (self._static[2].limit(s0, veh.length_m) - c.min_gap_m - 0.5 * veh.length_m
                 - s0)
         wall = min(wall, stop_at_m - s0)
+        # only the live branches' objects are planned for: the others are not projected
+        scene = replace(scene, mask=scene.mask & live[:, None])
         per_hyp = objects_on_path(route, scene, s0, veh.length_m, veh.width_m,
                                   c.lateral_margin_m, c.pedestrian_margin_m,
                                   c.pedestrian_clearance_m)
