@@ -39,7 +39,7 @@ jerk bound 15 m/s^3 is the brake actuator's; the time headway 1 s is ramped in o
 already short stays feasible) and grows to 1.5 s on the last step (room to stop beyond the
 horizon). Pedestrians have the right of way: one walking towards the robot's path is in its
 way from the next lane on, and the robot passes in front of one only if it cannot stop.
-Comfort: 2.5 m/s^2 (margin for replanning: the oracle then brakes <= 3 m/s^2 in 94-96 % of seeds)
+Comfort: 2.5 m/s^2 (margin for replanning: the oracle then brakes <= 3 m/s^2 in 86-96 % of seeds)
 with w_c = 100 / (m/s^2)^2: 1 m/s^2 beyond it for a second, in a branch of weight 0.2, costs 20,
 as much as driving 2 m/s slower for 5 s.
 """
