@@ -14,7 +14,13 @@ real ones behave): it steps off only in front of a car that can still stop befor
 braking at most `yield_decel_mps2`; for a car closer or faster than that, it keeps waiting (no
 branch). A pedestrian that stays on the curb while the robot stands at rest in front of the
 crosswalk for `patience_s` is waiting for something else: the robot stops assuming it may step
-off (for that track, until it moves or is no longer tracked), and goes.
+off (for that track, until it moves or is no longer tracked), and goes. The same gap acceptance
+holds a pedestrian still on the sidewalk, walking up to the curb, in front of a car whose
+front can no longer stop before the crosswalk braking at most `yield_decel_mps2`
+(`hold_at_curb`): it is predicted to wait at the curb, not to walk on into the car's path at its
+current velocity (a hesitant pedestrian inching towards the curb would otherwise appear in the
+robot's way at the last moment, calling for an emergency stop it does not need); once on the
+crosswalk it is predicted from its track again.
 
 Probability 0.2: a pedestrian standing at a crosswalk is there to cross, but most of the
 planning steps before it goes it is still waiting (the robot plans every 0.1 s, a pedestrian
@@ -23,7 +29,7 @@ waits seconds); it is a weight in the expected cost, the branch's constraints ho
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 from marl_social.perception.tracking import TrackSet
@@ -95,6 +101,9 @@ class CurbPedestrians:
         self.route, self.crosswalks, self.config = route, crosswalks, config
         self._crossings = _crossings(route, crosswalks)
         self._stop_offset = gap_m + 0.5 * robot_length_m
+        self._length = robot_length_m
+        self._far = [float(route.project(crosswalks[i].polygon())[0].max())
+                     for i, _ in self._crossings]
         self._corridor_half = corridor_half_m
         self.reset()
 
@@ -102,6 +111,46 @@ class CurbPedestrians:
         """A new episode: no waiting time, no pedestrian judged to wait for something else."""
         self.wait_s: dict[int, float] = {}  # track id -> time the robot stood in front of it
         self.ignored: set[int] = set()
+
+    def _gaps(self, s0: float) -> list[tuple[Crosswalk, float]]:
+        """The crossings whose far edge is still ahead of the robot's rear.
+
+        Each as (crosswalk, distance [m] from the robot's front, its centre at s0 [m], to the
+        crosswalk's near edge, < 0 once on it): where a pedestrian expects it to stop.
+        """
+        half = 0.5 * self._length
+        return [(self.crosswalks[i], s_near - half - s0)
+                for (i, s_near), s_far in zip(self._crossings, self._far) if s_far > s0 - half]
+
+    def hold_at_curb(self, tracks: TrackSet, s0: float, v0: float) -> TrackSet:
+        """The tracks, with pedestrians that will wait at the curb for the robot held still.
+
+        A pedestrian on the sidewalk within `curb_reach_m` of a crosswalk on the robot's route,
+        walking towards it, waits at the curb (zero velocity) if the robot's front can no
+        longer stop before that crosswalk braking at most `yield_decel_mps2`, or is on it
+        (the pedestrian's own gap acceptance, agents/pedestrian.py; module docstring).
+
+        Args:
+            tracks: the robot's tracks (the truth for the oracle), k of them.
+            s0: the robot's arc length (footprint centre) [m].
+            v0: its speed [m/s].
+
+        Returns:
+            the TrackSet with the held pedestrians' velocity (k, 2) set to zero.
+        """
+        c = self.config
+        if len(tracks) == 0 or not tracks.is_pedestrian.any():
+            return tracks
+        hold = np.zeros(len(tracks), dtype=bool)
+        for cw, gap in self._gaps(s0):
+            if v0 * v0 <= 2.0 * c.yield_decel_mps2 * gap:
+                continue  # it can still stop: the pedestrian may go (step_off, its own track)
+            on_sidewalk = cw.contains(tracks.xy, c.curb_reach_m) & ~cw.contains(tracks.xy)
+            approaching = np.einsum("kd,kd->k", cw.center - tracks.xy, tracks.velocity) > 0.0
+            hold |= tracks.is_pedestrian & on_sidewalk & approaching
+        if not hold.any():
+            return tracks
+        return replace(tracks, velocity=np.where(hold[:, None], 0.0, tracks.velocity))
 
     def step_off(self, tracks: TrackSet, s0: float, v0: float, dt_s: float,
                  times_s: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

@@ -54,6 +54,7 @@ from marl_social.sim.road_map import RoadMap
 
 BETA_GRID_HAT = (0.03, 0.1, 0.3, 1.0, 3.0)  # social+beta: rationality grid (log-spaced)
 CONSERVATIVE_WALK_SPEED_MPS = 1.3  # conservative: its hypothesised pedestrians' speed [m/s]
+TRACKED_REACH_M = 3.0  # a pedestrian tracked this close to a crosswalk is its pedestrian [m]
 
 
 class HypothesisWeighting(enum.Enum):
@@ -188,6 +189,10 @@ class RobotPlanner:
             use_own_sensors=self.variant.use_own_sensors,
         )
         self._times = self.mpc.plan_times_s
+        # each hypothesis' hidden agent at the plan times: fixed, computed once
+        self._hypothesis_objects = self.belief.hypothesis_objects(self._times)
+        self._hypothesis_crosswalk = np.array(
+            [h.crosswalk_index if h.kind == "pedestrian" else -1 for h in self.belief.hypotheses])
         self._truth: TrackSet | None = None
         veh = spec.vehicle
         self.curb = CurbPedestrians(
@@ -278,9 +283,17 @@ class RobotPlanner:
         contingent = np.array([h.present for h in self.belief.hypotheses])
         # the tracked objects in every branch, each hypothesis' hidden agent in its own (a
         # hypothesised vehicle as a car on its lane)
-        scene = ScenePrediction.from_tracks(tracks, self._times).with_extra(
-            *self.belief.hypothesis_objects(self._times))
         s0, _ = self.route.project_point(x, y)
+        # a pedestrian walking up to the curb in front of a robot that can no longer stop
+        # comfortably waits there (gap acceptance, agents/robot/curb.py)
+        tracks = self.curb.hold_at_curb(tracks, s0, v)
+        # the pedestrian hypotheses of a crosswalk at which the robot tracks a pedestrian are
+        # about that pedestrian (the belief holds at most one hidden agent): the tracked one is
+        # predicted, not a hypothesised copy (also while the robot does not see it, out of its
+        # view as it drives past: the tracker keeps it where it was last seen)
+        *hidden, present = self._hypothesis_objects
+        present = present & ~self._tracked_crosswalks(tracks)
+        scene = ScenePrediction.from_tracks(tracks, self._times).with_extra(*hidden, present)
         step_xy, step_heading = self.curb.step_off(tracks, s0, v, DT_S, self._times)
         if len(step_xy):
             scene, weights = self._with_step_off(scene, weights, step_xy, step_heading)
@@ -295,6 +308,19 @@ class RobotPlanner:
         self.prev_accel = result.accel_mps2
         steer = pure_pursuit(self.route, x, y, psi, v, s0, self.spec.vehicle.wheelbase_m)
         return np.array([result.accel_mps2, steer], dtype=np.float32)
+
+    def _tracked_crosswalks(self, tracks: TrackSet) -> np.ndarray:
+        """(L,) bool: pedestrian hypotheses of a crosswalk with a tracked pedestrian near it.
+
+        Near: within TRACKED_REACH_M of the crosswalk.
+
+        Args:
+            tracks: the robot's tracks.
+        """
+        ped_xy = tracks.xy[tracks.is_pedestrian]
+        near = [i for i, cw in enumerate(self.road_map.crosswalks)
+                if len(ped_xy) and cw.contains(ped_xy, TRACKED_REACH_M).any()]
+        return np.isin(self._hypothesis_crosswalk, near) & (self._hypothesis_crosswalk >= 0)
 
     def _with_step_off(self, scene: ScenePrediction, weights: np.ndarray, xy: np.ndarray,
                        heading: np.ndarray) -> tuple[ScenePrediction, np.ndarray]:

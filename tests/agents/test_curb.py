@@ -91,3 +91,27 @@ def test_the_trunk_slows_early_so_that_the_step_off_branch_brakes_comfortably():
     assert soft.feasible and hard.feasible
     assert -soft.accel_plan[1].min() <= 3.0 < -hard.accel_plan[1].min()
     assert soft.accel_mps2 < hard.accel_mps2 - 0.03
+
+
+def test_a_pedestrian_walking_up_to_the_curb_waits_for_a_robot_that_cannot_stop():
+    """Gap acceptance: on the sidewalk, walking towards the road, it is held at the curb (zero
+    velocity) exactly when the robot's front can no longer stop before the crosswalk at 4 m/s^2
+    (or is on it); otherwise, on the crosswalk or walking away, its own track is kept."""
+    rng = np.random.default_rng(1)
+    for s0, v0, y, speed in zip(rng.uniform(20.0, 112.0, 40), rng.uniform(0.5, 14.0, 40),
+                                rng.uniform(-5.4, -3.6, 40), rng.uniform(0.3, 2.0, 40)):
+        tracks = _tracks((60.0, y), (0.0, speed))
+        held = _curb().hold_at_curb(tracks, s0, v0)
+        front_gap = 60.0 + 50.0 - 2.0 - 0.5 * VEHICLE.length_m - s0  # to the crosswalk
+        cannot_stop = v0 ** 2 > 2.0 * 4.0 * front_gap
+        assert np.all(held.velocity == 0.0) == cannot_stop, (s0, v0)
+        if not cannot_stop:
+            np.testing.assert_array_equal(held.velocity, tracks.velocity)
+    for xy, velocity in [((60.0, -2.0), (0.0, 1.0)),  # on the crosswalk already
+                         ((60.0, -4.5), (0.0, -1.0))]:  # walking away from the road
+        tracks = _tracks(xy, velocity)
+        np.testing.assert_array_equal(_curb().hold_at_curb(tracks, 100.0, 12.0).velocity,
+                                      tracks.velocity)
+    past = _tracks((60.0, -4.5), (0.0, 1.0))  # the robot has passed the crosswalk
+    np.testing.assert_array_equal(_curb().hold_at_curb(past, 130.0, 12.0).velocity,
+                                  past.velocity)

@@ -9,7 +9,7 @@ from marl_social.agents.robot.mpc import ContingencyMpc, MpcConfig, plan
 
 from marl_social.models.candidates import ScenePrediction
 from marl_social.sim.agent_spec import VehicleParams
-from marl_social.sim.dynamics import bicycle_step
+from marl_social.sim.dynamics import DT_S, bicycle_step
 from marl_social.sim.road_map import Route
 
 ROUTE = Route([[-50.0, 1.75], [200.0, 1.75]])  # s = x + 50
@@ -287,3 +287,40 @@ def test_qp_is_built_once_per_number_of_branches_and_reused():
     first = mpc._qps[2]
     mpc.plan(ROUTE, 33.0, 11.5, 0.0, 11.5, 13.9, _scene([False, True]), np.array([0.7, 0.3]))
     assert mpc._qps[2] is first and set(mpc._qps) == {2}
+
+
+def _standing(xy: np.ndarray) -> ScenePrediction:
+    """One hypothesis: a pedestrian standing at xy (2,) for the whole horizon."""
+    scene = _scene([True])
+    scene.xy[:] = xy
+    return scene
+
+
+@pytest.mark.parametrize("seed", range(3))
+def test_robot_waiting_behind_a_standing_pedestrian_stays_at_rest(seed):
+    """A pedestrian stands in the robot's lane for 20 s, its tracked position noisy (5 cm):
+    closed loop through the vehicle model, replanning every simulator step, the robot stops
+    behind it with the pedestrian gap and, once at rest, stays at rest where it stopped (no
+    creeping towards it; the noise alone may move it by a few cm)."""
+    rng = np.random.default_rng(seed)
+    ped_x = CROSSWALK_X + rng.uniform(-2.0, 2.0)
+    mpc = ContingencyMpc(CONFIG, VEHICLE)
+    state = np.array([[rng.uniform(5.0, 20.0), 1.75, 0.0, rng.uniform(4.0, 10.0)]])
+    prev, speeds, fronts = 0.0, [], []
+    for _ in range(round(20.0 / DT_S)):
+        ped = np.array([ped_x, 1.75 + rng.uniform(-0.5, 0.5)]) + rng.normal(0.0, 0.05, 2)
+        s0, v0 = float(state[0, 0]) + 50.0, float(state[0, 3])
+        res = mpc.plan(ROUTE, s0, v0, prev, 11.5, 13.9, _standing(ped), np.array([1.0]))
+        assert res.feasible
+        prev = res.accel_mps2
+        state = bicycle_step(state, np.array([[prev, 0.0]]), np.array([VEHICLE.wheelbase_m]),
+                             np.array([VEHICLE.speed_max_mps]))
+        speeds.append(state[0, 3])
+        fronts.append(state[0, 0] + 0.5 * VEHICLE.length_m)
+    speeds, fronts = np.array(speeds), np.array(fronts)
+    rest = int(np.argmax(speeds < 0.05))
+    assert speeds[rest] < 0.05 and rest * DT_S <= 15.0, rest  # it comes to rest
+    assert np.all(speeds[rest:] < 0.05), speeds[rest:].max()
+    assert np.ptp(fronts[rest:]) < 0.15, np.ptp(fronts[rest:])
+    # behind the pedestrian's near edge (0.3 m) by the gap, up to the position noise
+    assert fronts.max() <= ped_x - 0.3 - CONFIG.pedestrian_gap_m + 0.25, (fronts.max(), ped_x)

@@ -81,10 +81,11 @@ def test_social_planner_never_collides_and_always_yields(runs):
 
 
 @pytest.mark.xfail(strict=False, reason=(
-    "measured 28 of 31 warned seeds = 90 % <= 4 m/s^2 on seeds 0-49 with the comfortable "
-    "contingency branches, but 21 of 28 = 75 % on seeds 50-99 (3 emergency stops at 8 for a "
-    "pedestrian inching off the curb while the belief held 'none', 4 at 4.4-4.9 where the "
-    "belief rose only as the robot saw the pedestrian 18-20 m before its stop): not a claim yet"))
+    "measured 30 of 31 warned seeds = 97 % <= 4 m/s^2 on seeds 0-49, but 24 of 28 = 86 % on "
+    "seeds 50-99 and 25 of 28 = 89 % on seeds 100-149 (the misses, 4.4-5.1 m/s^2 and one "
+    "emergency stop, are seeds where the belief rises only as the robot sees the pedestrian "
+    "15-20 m before its stop, or a slow pedestrian's predicted path closes in on the stopping "
+    "robot): not a claim yet"))
 def test_social_planner_decelerates_gently_when_the_human_warns_it(runs):
     """Where the human brakes >= 0.5 s before the robot sees the pedestrian: max deceleration
     <= 4 m/s^2 in >= 90 % of those seeds."""
@@ -96,7 +97,11 @@ def test_social_planner_decelerates_gently_when_the_human_warns_it(runs):
 
 def test_social_planner_brakes_without_jerks_when_the_human_warns_it(runs):
     """Where the human brakes >= 0.5 s before the robot sees the pedestrian: max jerk
-    <= 10 m/s^3 in >= 90 % of those seeds."""
+    <= 10 m/s^3 in >= 90 % of those seeds.
+
+    Measured 30 of 31 = 97 % on these seeds (0-49); on seeds the test does not use, 25 of 28 =
+    89 % on 50-99 and on 100-149: at the threshold, not above it.
+    """
     warned = _warned(runs, ("social", "crossing"))
     assert len(warned) >= 10
     jerk = np.array([m["max_jerk_mps3"] for m in warned])
@@ -113,11 +118,11 @@ def test_social_planner_moves_again_promptly(runs):
 
 
 @pytest.mark.xfail(strict=False, reason=(
-    "measured 47 of 50 = 94 % <= 3 m/s^2 on seeds 0-49 (max 3.2; 70 % before the waiting "
-    "pedestrian became a 'steps off now' contingency) and 48 of 50 = 96 % on seeds 50-99: once "
-    "the pedestrian does step off it is seen, and what the robot sees is braked for with the "
-    "nominal cost, without the comfort bound of the contingency branches (with it in every "
-    "branch: 100 %, but the social robot's onsets exceed 10 m/s^3 in 4 of 31 warned seeds)"))
+    "measured 47 of 50 = 94 % <= 3 m/s^2 on seeds 0-49 (max 3.2), 48 of 50 = 96 % on seeds "
+    "50-99, 43 of 50 = 86 % on seeds 100-149 (max 3.3): once a waiting pedestrian does step off "
+    "it is seen, and what the robot sees is braked for with the nominal cost, without the "
+    "comfort bound of the contingency branches (with it in every branch: 100 %, but the social "
+    "robot's onsets exceed 10 m/s^3 in 4 of 31 warned seeds)"))
 def test_oracle_brakes_gently(runs):
     """Knowing the pedestrian from the start, it brakes no harder than 3 m/s^2 in >= 95 %."""
     decel = _values(runs, ("oracle", "crossing"), "max_decel_mps2")
