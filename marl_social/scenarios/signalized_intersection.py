@@ -57,6 +57,10 @@ JUNCTION_EAST_X_M = LANE_WIDTH_M  # [m]
 JUNCTION_SOUTH_Y_M = -2.0 * LANE_WIDTH_M  # [m]
 JUNCTION_NORTH_Y_M = LANE_WIDTH_M  # [m]
 ROAD_END_M = 160.0  # every road runs this far from the junction's centre [m]
+STOP_SETBACK_M = 2.5  # stop lines lie this far before the junction box (room for a crosswalk) [m]
+LEFT_LINE_Y_M = JUNCTION_NORTH_Y_M + STOP_SETBACK_M  # the left-turners' stop line [m]
+ROBOT_LINE_Y_M = JUNCTION_SOUTH_Y_M - STOP_SETBACK_M  # the robot's stop line [m]
+CROSS_LINE_X_M = JUNCTION_WEST_X_M - STOP_SETBACK_M  # the cross traffic's stop line [m]
 # -- turning paths
 LEFT_TURN_RADIUS_M = JUNCTION_NORTH_Y_M - EASTBOUND_INNER_Y_M  # southbound -> eastbound [m]
 RIGHT_TURN_RADIUS_M = 5.0  # the robot's turn, northbound -> eastbound curb lane [m]
@@ -92,7 +96,7 @@ class SignalizedIntersectionParams(ScenarioParams):
         yellow_s: every yellow phase's duration [s].
         all_red_s: every all-red clearance phase's duration [s].
         n_humans: left-turners (0-3); human_0's front starts human_start_m behind its stop
-            line, the next ones HUMAN_SPACING_M apart behind it.
+            line (every stop line lies STOP_SETBACK_M before the junction box), the next ones HUMAN_SPACING_M apart behind it.
         human_start_m: [m]; human_speed_mps, human_desired_speed_mps: initial and cruise speed
             of the left-turners [m/s].
         n_cross: cross cars (0-2) in the eastbound curb lane; V3's front starts cross_start_m
@@ -120,7 +124,7 @@ class SignalizedIntersectionParams(ScenarioParams):
     yellow_s: float = 3.5
     all_red_s: float = 1.5
     n_humans: int = 2
-    human_start_m: float = 1.5
+    human_start_m: float = 4.0
     human_speed_mps: float = 0.0
     human_desired_speed_mps: float = 10.0
     n_cross: int = 2
@@ -133,8 +137,8 @@ class SignalizedIntersectionParams(ScenarioParams):
     human_sensor_range_m: float = 80.0
     human_half_fov_deg: float = 60.0
     human_pos_noise_m: float = 0.05
-    robot_start_back_m: float = 10.0
-    robot_speed_mps: float = 4.0
+    robot_start_back_m: float = 0.5
+    robot_speed_mps: float = 0.0
     robot_desired_speed_mps: float = 10.0
     robot_sensor_range_m: float = 80.0
     robot_half_fov_deg: float = 110.0
@@ -161,9 +165,9 @@ class SignalizedIntersectionParams(ScenarioParams):
                     f"must be in [0, {duration:g}) s (the {self.phase} phase's duration)")
         self._check(0 <= self.n_humans <= MAX_HUMANS, "n_humans", f"must be in [0, {MAX_HUMANS}]")
         self._check(0 <= self.n_cross <= MAX_CROSS, "n_cross", f"must be in [0, {MAX_CROSS}]")
-        room = ROAD_END_M - JUNCTION_NORTH_Y_M - HUMAN_SPACING_M * MAX_HUMANS - 10.0
+        room = ROAD_END_M - LEFT_LINE_Y_M - HUMAN_SPACING_M * MAX_HUMANS - 10.0
         self._check_range("human_start_m", 0.0, room, "m")
-        cross_room = ROAD_END_M + JUNCTION_WEST_X_M - 10.0
+        cross_room = ROAD_END_M + CROSS_LINE_X_M - 10.0
         self._check_range("cross_start_m", 0.0, cross_room, "m")
         self._check_range("cross_gap_m", VehicleParams().length_m + 1.0, cross_room, "m")
         self._check(self.cross_start_m + (MAX_CROSS - 1) * self.cross_gap_m <= cross_room,
@@ -182,7 +186,7 @@ class SignalizedIntersectionParams(ScenarioParams):
         for name in ("human_pos_noise_m", "robot_pos_noise_m"):
             self._check_range(name, 0.0, MAX_POS_NOISE_M, "m")
         self._check_range("robot_start_back_m", 0.0,
-                          ROAD_END_M + JUNCTION_SOUTH_Y_M - 10.0, "m")
+                          ROAD_END_M + ROBOT_LINE_Y_M - 10.0, "m")
         self._check_range("speed_limit_mps", 0.0, MAX_SPEED_LIMIT_MPS, "m/s", low_open=True)
 
 
@@ -285,11 +289,11 @@ class SignalizedIntersection(Scenario):
     def _stop_lines() -> tuple[StopLine, ...]:
         """Signal stop lines: the left-turners', the robot's, the cross traffic's (head order)."""
         return (
-            StopLine(np.array([[-LANE_WIDTH_M, JUNCTION_NORTH_Y_M], [0.0, JUNCTION_NORTH_Y_M]]),
+            StopLine(np.array([[-LANE_WIDTH_M, LEFT_LINE_Y_M], [0.0, LEFT_LINE_Y_M]]),
                      "signal", lane=LEFT_ONLY),
-            StopLine(np.array([[0.0, JUNCTION_SOUTH_Y_M], [LANE_WIDTH_M, JUNCTION_SOUTH_Y_M]]),
+            StopLine(np.array([[0.0, ROBOT_LINE_Y_M], [LANE_WIDTH_M, ROBOT_LINE_Y_M]]),
                      "signal", lane=NORTHBOUND),
-            StopLine(np.array([[JUNCTION_WEST_X_M, JUNCTION_SOUTH_Y_M], [JUNCTION_WEST_X_M, 0.0]]),
+            StopLine(np.array([[CROSS_LINE_X_M, JUNCTION_SOUTH_Y_M], [CROSS_LINE_X_M, 0.0]]),
                      "signal", lane=EASTBOUND_CURB),
         )
 
@@ -310,7 +314,7 @@ class SignalizedIntersection(Scenario):
         """The robot in the northbound lane, its front robot_start_back_m before its line."""
         p: SignalizedIntersectionParams = self.params
         vehicle = VehicleParams()
-        y = JUNCTION_SOUTH_Y_M - p.robot_start_back_m - 0.5 * vehicle.length_m
+        y = ROBOT_LINE_Y_M - p.robot_start_back_m - 0.5 * vehicle.length_m
         spec = AgentSpec(
             "robot_0", "vehicle", "robot",
             np.array([NORTHBOUND_X_M, y, 0.5 * math.pi, p.robot_speed_mps]),
@@ -330,7 +334,7 @@ class SignalizedIntersection(Scenario):
         out = []
         for k in range(p.n_humans):
             name = f"human_{k}"
-            y = JUNCTION_NORTH_Y_M + p.human_start_m + half + HUMAN_SPACING_M * k
+            y = LEFT_LINE_Y_M + p.human_start_m + half + HUMAN_SPACING_M * k
             spec = self._human_spec(name, [SOUTHBOUND_LEFT_X_M, y, -0.5 * math.pi,
                                            p.human_speed_mps], p.human_desired_speed_mps, blind)
             out.append((spec, Route(self.left_turn_path(), name)))
@@ -343,7 +347,7 @@ class SignalizedIntersection(Scenario):
         out = []
         for k in range(p.n_cross):
             name = f"human_{p.n_humans + k}"
-            x = JUNCTION_WEST_X_M - p.cross_start_m - half - p.cross_gap_m * k
+            x = CROSS_LINE_X_M - p.cross_start_m - half - p.cross_gap_m * k
             spec = self._human_spec(name, [x, EASTBOUND_CURB_Y_M, 0.0, p.cross_speed_mps],
                                     p.cross_speed_mps)
             out.append((spec, Route(self.cross_path(), name)))
