@@ -15,7 +15,8 @@ along their lane path at their current speed (`path_prediction`: a left-turner i
 through its turn, not straight across the junction). Branch weights are the products of the pattern and hypothesis weights; the right-of-way
 claims (agents/robot/right_of_way.py) then follow each branch's predictions: a car predicted to
 stop at its line claims no conflict zone beyond it. A pattern other than the most likely one is
-a contingency (the MPC's comfort rule).
+a contingency (the MPC's comfort rule). A hypothesised car within TRACK_MATCH_M of a tracked
+car is the tracked car (the hidden-agent belief holds the bin where it sees one): it is left out.
 """
 
 from __future__ import annotations
@@ -28,6 +29,10 @@ from marl_social.perception.tracking import TrackSet
 from marl_social.models.candidates import ScenePrediction
 from marl_social.sim.road_map import RoadMap
 from marl_social.sim.signal_rules import route_signal_lines
+
+# a hypothesised car whose position now is this close to a tracked car's is that car (the belief
+# holds the bin where it sees a car; the track predicts it better than the bin's speed) [m]
+TRACK_MATCH_M = 6.0
 
 
 def stopping_prediction(car: SignalledCar, times_s: np.ndarray, brake_max_mps2: float
@@ -118,6 +123,23 @@ class PhaseBranches:
         return ScenePrediction(xy, heading, scene.length_m, scene.width_m, scene.radius_m,
                                scene.is_pedestrian, scene.mask)
 
+    @staticmethod
+    def _without_tracked_duplicates(scene: ScenePrediction, tracks: TrackSet) -> ScenePrediction:
+        """The scene without hypothesised cars that are a tracked car (module docstring)."""
+        n = len(tracks)
+        cars = ~tracks.is_pedestrian
+        if scene.mask.shape[1] <= n or not cars.any():
+            return scene
+        first = scene.xy[:, n:, 0]  # (L, E, 2) the hypothesised objects now
+        gap = np.linalg.norm(first[:, :, None, :] - tracks.xy[cars][None, None], axis=-1)
+        same = (gap.min(axis=-1) < TRACK_MATCH_M) & ~scene.is_pedestrian[:, n:]
+        if not same.any():
+            return scene
+        mask = scene.mask.copy()
+        mask[:, n:] &= ~same
+        return ScenePrediction(scene.xy, scene.heading, scene.length_m, scene.width_m,
+                               scene.radius_m, scene.is_pedestrian, mask)
+
     def _hidden_cars(self, scene: ScenePrediction, n_tracks: int, weights: np.ndarray,
                      times_s: np.ndarray) -> list[tuple[int, SignalledCar]]:
         """(hypothesis, car) of every hypothesised car with a signal line ahead on its lane path.
@@ -180,7 +202,8 @@ class PhaseBranches:
                 stops.
             times_s: (T,) the scene's prediction times [s].
         """
-        scene = self._along_paths(scene, tracks, times_s)
+        scene = self._without_tracked_duplicates(self._along_paths(scene, tracks, times_s),
+                                                 tracks)
         if phase_weights is not None and not np.any(np.asarray(phase_weights) > 0.0):
             return scene, weights, contingent  # no phase in which a car stops
         entries = [(None, c) for c in signalled_cars(self.lane_paths, self.road_map, tracks)]

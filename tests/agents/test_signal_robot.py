@@ -78,3 +78,42 @@ def test_stops_per_phase_follows_the_heads():
     near = SignalledCar(0, route, 0.0, 14.0, 10.0, 2, 4.5)  # 7.75 m at 14 m/s: cannot
     np.testing.assert_array_equal(stops_per_phase(states, far), states[:, 2] != GREEN)
     np.testing.assert_array_equal(stops_per_phase(states, near), states[:, 2] == RED)
+
+
+def test_phase_branches_split_by_pattern_and_stop_the_cars_at_their_lines():
+    """A cross car before its line and a hypothesised car that is that same car: the scene
+    splits into "stops" and "drives on" by the phase belief (weights multiply), the stopping
+    car ends at its line, and the duplicate of the tracked car is left out."""
+    from marl_social.agents.robot.phase_branches import PhaseBranches
+    from marl_social.perception.belief.paths import LanePaths
+    from marl_social.perception.tracking import TrackSet
+
+    from marl_social.models.candidates import ScenePrediction
+
+    layout = SignalizedIntersection().build(np.random.default_rng(0))
+    rm = layout.road_map
+    states = rm.signal_plan.head_states(rm.signal_heads)
+    branches = PhaseBranches(rm, LanePaths(rm), states, 8.0)
+    y = -5.25
+    tracks = TrackSet(ids=np.array([3]), xy=np.array([[-40.0, y]]),
+                      velocity=np.array([[10.0, 0.0]]), pos_std_m=np.zeros(1),
+                      length_m=np.array([4.5]), width_m=np.array([1.8]),
+                      is_pedestrian=np.zeros(1, bool), seen=np.ones(1, bool),
+                      age_unseen_s=np.zeros(1), heading_rad=np.zeros(1))
+    times = np.arange(1, 25) * 0.25
+    scene = ScenePrediction.from_tracks(tracks, times)
+    dup = np.array([-39.0, y]) + np.array([12.0, 0.0]) * times[:, None]  # the same car
+    scene = scene.with_extra(dup[None], np.zeros((1, len(times))), np.full(1, 4.5),
+                             np.full(1, 1.8), np.zeros(1, bool), np.ones(1, bool))
+    phase = np.zeros(len(states))
+    red, green = (int(np.flatnonzero(states[:, 2] == s)[0]) for s in (RED, GREEN))
+    phase[red], phase[green] = 0.7, 0.3
+    out, weights, contingent = branches.expand(scene, np.ones(1), np.zeros(1, bool), tracks,
+                                               phase, times)
+    assert out.mask.shape == (2, 2) and not out.mask[:, 1].any()  # duplicate left out
+    np.testing.assert_allclose(sorted(weights), [0.3, 0.7])
+    stop = int(np.argmax(weights))
+    assert contingent.tolist() == [k != stop for k in range(2)]
+    line_x = -9.5
+    assert out.xy[stop, 0, -1, 0] + 2.25 <= line_x + 1e-6  # at rest at its line
+    assert out.xy[1 - stop, 0, -1, 0] > line_x + 20.0  # drives on

@@ -45,8 +45,15 @@ def runs() -> dict:
         t = [m["turn_s"] for m in summaries]
         print(case, f"turns at {np.nanmean(t):.2f} s ({np.isnan(t).sum()} never),",
               f"collisions {sum(m['collision'] for m in summaries)},",
-              f"forced braking max {max(m['others_max_decel_mps2'] for m in summaries):.2f}")
+              f"forced braking max {max(m['others_max_decel_mps2'] for m in summaries):.2f},",
+              f"collision or forced braking > {FORCED_BRAKE_MPS2:g} m/s^2 in",
+              f"{np.mean([_bad(m) for m in summaries]):.0%}")
     return out
+
+
+def _bad(summary) -> bool:
+    """The robot collided or forced a human to brake harder than FORCED_BRAKE_MPS2."""
+    return bool(summary["collision"]) or summary["others_max_decel_mps2"] > FORCED_BRAKE_MPS2
 
 
 def _turn_s(runs, case) -> np.ndarray:
@@ -82,6 +89,5 @@ def test_social_never_forces_the_cross_traffic_to_brake_hard(runs):
                    "must first come to rest at its red line; where the cross traffic reaches the "
                    "junction before it is ready it sees the cars in the junction and waits")
 def test_aggressive_collides_or_forces_hard_braking_in_most_cross_green_seeds(runs):
-    bad = [m["collision"] or m["others_max_decel_mps2"] > FORCED_BRAKE_MPS2
-           for m in runs[("aggressive", "cross_green")]]
+    bad = [_bad(m) for m in runs[("aggressive", "cross_green")]]
     assert np.mean(bad) > 0.5, np.mean(bad)
