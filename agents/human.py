@@ -26,7 +26,14 @@ The road's rules come from the static map along the human's own route
   lanes (sim/costs.py), so it waits for oncoming traffic it sees and goes when the gap is
   large enough for its plans (gap acceptance emerges from Q*); traffic it does not see does
   not hold it back;
-* bends: its plans keep the speed at or below sqrt(CURVE_LAT_ACCEL_MPS2 / curvature).
+* bends: its plans keep the speed at or below sqrt(CURVE_LAT_ACCEL_MPS2 / curvature);
+* traffic signals (sim/signal_rules.py): at the next signal line of its route it has not
+  passed, it stops on red, and on yellow if it can at a comfortable deceleration
+  (COMFORTABLE_DECEL_MPS2), else goes on (the dilemma zone); once it has chosen to go on
+  yellow it keeps going through that line even if the head turns red. It knows a head's state
+  only from its observation: a head it cannot see now (occluded, behind it, outside its view)
+  it takes to show the state it last saw, and red if it has never seen it (it assumes it must
+  stop).
 
 On a straight route without stop lines or conflict zones nothing of this applies and the
 decision is exactly the one without rules.
@@ -60,6 +67,8 @@ from marl_social.sim.route_rules import (
     route_conflicts,
     stop_line_positions,
 )
+from marl_social.sim.signal_rules import must_stop, route_signal_lines
+from marl_social.sim.signals import RED, YELLOW
 
 STOPPED_SPEED_MPS = 0.1  # at or below this speed a driver is at rest [m/s]
 # at rest with its front within this of a stop line, it has served it [m]: its plans cannot
@@ -98,8 +107,10 @@ class BoltzmannDriver(BoltzmannPolicy):
                                      if c.yields)
         curve = CurveSpeed(self.route, CURVE_LAT_ACCEL_MPS2, 0.5 * spec.vehicle.length_m)
         self.curve_speed = None if curve.is_straight else curve
+        # (S,) [m] and (S,) head index of the signal lines on its route
+        self.signal_lines_s, self.signal_line_heads = route_signal_lines(self.route, road_map)
         self._has_rules = bool(len(self.stop_lines_s) or self.yield_conflicts
-                               or self.curve_speed is not None)
+                               or self.curve_speed is not None or len(self.signal_lines_s))
         self.record_decisions = False
         self.reset()
 
@@ -107,6 +118,8 @@ class BoltzmannDriver(BoltzmannPolicy):
         """Forget the previous acceleration, the served stop lines and the recorded decisions."""
         self.prev_accel = 0.0
         self.stops_served = 0  # stop lines of its route it has come to rest at
+        self.signals_seen: dict[int, int] = {}  # head index -> the state it last saw
+        self._go_on_yellow: set[int] = set()  # signal lines it chose to pass on yellow
         self.decisions = []  # with record_decisions: (features, allowed, chosen index) per step
         self._pending_features = None
         self._tracks = None
@@ -135,6 +148,9 @@ class BoltzmannDriver(BoltzmannPolicy):
             self.stops_served += 1
         stop = (float(self.stop_lines_s[self.stops_served])
                 if self.stops_served < len(self.stop_lines_s) else None)
+        signal_stop = self.signal_stop_m(front, v)
+        if signal_stop is not None:
+            stop = signal_stop if stop is None else min(stop, signal_stop)
         zones = []
         tracks = self._tracks
         if tracks is not None and len(tracks):
@@ -147,8 +163,31 @@ class BoltzmannDriver(BoltzmannPolicy):
                     zones.append((conflict.zone.polygon, priority[None]))
         return RoadRules(stop, tuple(zones), self.curve_speed)
 
+    def signal_stop_m(self, front_m: float, v: float) -> float | None:
+        """The signal line its front must stay behind now [m]; None: none (module docstring).
+
+        Args:
+            front_m: its front bumper's arc length along its route [m].
+            v: its speed [m/s].
+        """
+        ahead = np.flatnonzero(self.signal_lines_s > front_m)
+        if not len(ahead):
+            return None
+        k = int(ahead[0])
+        if k in self._go_on_yellow:
+            return None
+        line = float(self.signal_lines_s[k])
+        state = self.signals_seen.get(int(self.signal_line_heads[k]), RED)
+        if not must_stop(state, v, line - front_m):
+            if state == YELLOW:
+                self._go_on_yellow.add(k)
+            return None
+        return line
+
     def q_values(self, decoded: Measurements, scene: ScenePrediction) -> np.ndarray:
         """(A,) Q* of each first acceleration (eq. 11) along the driver's route."""
+        if len(self.signal_lines_s):
+            self.signals_seen.update(decoded.signal_states())
         x, y = float(decoded.ego[0]), float(decoded.ego[1])
         v = float(decoded.ego[4])
         s0, _ = self.route.project_point(x, y)

@@ -28,6 +28,15 @@ The robot's model of the humans and its tail threshold come from its own spec's 
 parameters (the robot's private knowledge; scenario knobs robot_theta_hat, robot_beta_hat,
 robot_epsilon): "theta_hat" (cost weights, e.g. learned by agents/irl/), "beta_hat",
 "epsilon" (agents/params.RobotModelParams).
+
+At a signalized junction (a map with a signal plan) every planner obeys its own head as it reads
+it (agents/robot/signal_stop.py: right turn on red after stopping) and keeps a belief over the
+signal phase (perception/belief/phase.py; from its own head, and for ``social`` also from the
+humans' behaviour). The MPC's branches then split by what the signalled traffic does
+(agents/robot/phase_branches.py): ``social`` weighs "stops at its line" against "drives on" by
+its phase belief, ``oracle`` by the true phase (``observe_truth``'s signal_phase),
+``aggressive`` assumes the favourable phase (every signalled car stops at its line) and
+``conservative`` that none does (it waits for the cross traffic to stop or pass).
 """
 
 from __future__ import annotations
@@ -40,9 +49,12 @@ import numpy as np
 from marl_social.agents.params import RobotModelParams, parse_planner_params
 from marl_social.agents.robot.curb import CurbConfig, CurbPedestrians
 from marl_social.agents.robot.mpc import ContingencyMpc, MpcConfig, MpcResult
+from marl_social.agents.robot.phase_branches import PhaseBranches
 from marl_social.agents.robot.right_of_way import RightOfWay, RightOfWayConfig
+from marl_social.agents.robot.signal_stop import SignalStops
 from marl_social.agents.robot.stop import StopSignConfig, StopSigns
 from marl_social.perception.belief import BeliefConfig, PedestrianBelief
+from marl_social.perception.belief.phase import SignalPhaseBelief
 from marl_social.perception.tracking import TrackSet
 
 from marl_social.models.candidates import ScenePrediction
@@ -201,6 +213,16 @@ class RobotPlanner:
             0.5 * veh.width_m + self.mpc.pedestrian_clearance_m)
         self.stop_signs = StopSigns(self.route, road_map, veh.length_m, stop_config)
         self.right_of_way = RightOfWay(self.route, road_map, veh.length_m, right_of_way_config)
+        self.signal_stops = SignalStops(self.route, road_map, veh.length_m, stop_config)
+        self.phase_belief = None
+        if road_map.signal_plan is not None:
+            self.phase_belief = SignalPhaseBelief(road_map, spec.name, self.belief.social,
+                                                  self.belief.config,
+                                                  use_social=self.variant.use_social)
+            self.phase_branches = PhaseBranches(road_map, self.belief.social.lane_paths,
+                                                self.phase_belief.head_states,
+                                                veh.brake_max_mps2, self.mpc.epsilon)
+        self._true_phase: int | None = None
         self._static_boxes = np.array(
             [[*p.min(axis=0), *p.max(axis=0)] for p in road_map.static_polygons]).reshape(-1, 4)
         self.reset()
@@ -211,15 +233,20 @@ class RobotPlanner:
         self.solver.reset()
         self.curb.reset()
         self.stop_signs.reset()
+        self.signal_stops.reset()
+        if self.phase_belief is not None:
+            self.phase_belief.reset()
         self.prev_accel = 0.0
         self.last_result: MpcResult | None = None
         self.weights = None
 
-    def observe_truth(self, tracks: TrackSet) -> None:
+    def observe_truth(self, tracks: TrackSet, signal_phase: int | None = None) -> None:
         """Give the planner the true current state of every other agent (oracle only).
 
         Args:
             tracks: the true state of every other active agent (envs/policies.truth_tracks).
+            signal_phase: the signal plan's running phase (envs/policies.truth_signal_phase;
+                None: no signals).
 
         Raises:
             RuntimeError: the planner does not have `needs_truth`.
@@ -228,6 +255,7 @@ class RobotPlanner:
             raise RuntimeError(f"robot {self.name}: only a planner with needs_truth (the oracle) "
                                "may read the true state")
         self._truth = tracks
+        self._true_phase = signal_phase
 
     def hypothesis_weights(self) -> np.ndarray:
         """(L,) the weights the MPC plans with, by the variant's HypothesisWeighting.
@@ -294,12 +322,16 @@ class RobotPlanner:
         *hidden, present = self._hypothesis_objects
         present = present & ~self._tracked_crosswalks(tracks)
         scene = ScenePrediction.from_tracks(tracks, self._times).with_extra(*hidden, present)
+        if self.phase_belief is not None:
+            scene, weights, contingent = self._phase_branches(decoded, tracks, scene, weights,
+                                                              contingent)
         step_xy, step_heading = self.curb.step_off(tracks, s0, v, DT_S, self._times)
         if len(step_xy):
             scene, weights = self._with_step_off(scene, weights, step_xy, step_heading)
             contingent = np.append(contingent, True)
         self.weights = weights
-        stop_at = self.stop_signs.update(s0, v, DT_S)
+        stop_at = min(self.stop_signs.update(s0, v, DT_S),
+                      self.signal_stops.update(s0, v, DT_S, decoded.signal_states()))
         result = self.solver.plan(self.route, s0, v, self.prev_accel, self.v_ref(),
                                   self.road_map.speed_limit_mps, scene, weights,
                                   self._static_boxes, stop_at, contingent,
@@ -321,6 +353,27 @@ class RobotPlanner:
         near = [i for i, cw in enumerate(self.road_map.crosswalks)
                 if len(ped_xy) and cw.contains(ped_xy, TRACKED_REACH_M).any()]
         return np.isin(self._hypothesis_crosswalk, near) & (self._hypothesis_crosswalk >= 0)
+
+    def _phase_branches(self, decoded, tracks: TrackSet, scene: ScenePrediction,
+                        weights: np.ndarray, contingent: np.ndarray) -> tuple:
+        """Update the phase belief; the scene, weights and contingent flags per phase pattern.
+
+        The phase weights by planner: the belief (social), the true phase (oracle), every
+        signalled car stopping (aggressive), none (conservative: the tracks' prediction).
+        """
+        belief = self.phase_belief
+        if self.needs_truth:
+            if self._true_phase is not None:
+                belief.set_phase(self._true_phase)
+            phase_weights = belief.probabilities
+        else:
+            phase_weights = belief.update(decoded, tracks, self.v_ref())
+        if self.variant.weighting is HypothesisWeighting.PRESENT_LIVE:
+            phase_weights = np.zeros_like(phase_weights)  # no signalled car stops
+        elif self.variant.weighting is HypothesisWeighting.NONE_ONLY and not self.needs_truth:
+            phase_weights = None  # the favourable phase: every signalled car stops
+        return self.phase_branches.expand(scene, weights, contingent, tracks, phase_weights,
+                                          self._times)
 
     def _with_step_off(self, scene: ScenePrediction, weights: np.ndarray, xy: np.ndarray,
                        heading: np.ndarray) -> tuple[ScenePrediction, np.ndarray]:

@@ -9,8 +9,8 @@ hypotheses, pedestrians at a crosswalk) still holds, in the MPC. A line the robo
 passed by more than `near_m` without stopping (it could not stop: it started too close) is
 behind it: the robot does not stop in the middle of the junction.
 
-Lines of kind "signal" are not handled here: a signal's state is not part of the static map
-(a traffic-light controller will say when the robot may go); they are ignored.
+Lines of kind "signal" are not handled here: a signal's state is not part of the static map;
+agents/robot/signal_stop.py obeys them by the head the robot reads.
 """
 
 from __future__ import annotations

@@ -106,9 +106,10 @@ def _add_reproduce(sub) -> None:
     rep.add_argument("--seeds", type=int, default=20, help="randomized seeds per table cell")
     rep.add_argument("--workers", type=int, default=2, help="parallel processes")
     rep.add_argument("--scenario", default="occluded_crosswalk",
-                     type=choice("scenario", ("occluded_crosswalk", "t_intersection")),
-                     metavar="NAME", help="the paper's crosswalk (Figs. 3-6) or the "
-                     "T-intersection (Fig. 1 b)")
+                     type=choice("scenario", ("occluded_crosswalk", "t_intersection",
+                                              "signalized_intersection")),
+                     metavar="NAME", help="the paper's crosswalk (Figs. 3-6), the "
+                     "T-intersection (Fig. 1 b) or the signalized intersection (Fig. 1 c)")
     rep.add_argument("--set", action="append", default=[], metavar="KEY=VALUE",
                      help=SET_HELP + "; on top of each seed's randomization")
     rep.set_defaults(func=commands.reproduce)

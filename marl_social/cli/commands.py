@@ -88,11 +88,12 @@ TABLE_AXES = ("robot_planner", "pedestrian")  # what the reproduce table sweeps 
 
 def reproduce(args) -> int:
     """`marl-social reproduce`: the paper's figures and the table over randomized seeds."""
-    if args.scenario == "t_intersection":
+    if args.scenario in INTERSECTION_MODULES:
         return _reproduce_intersection(args)
     if args.scenario != "occluded_crosswalk":
         raise ValueError(f"--scenario {args.scenario}: reproduce knows occluded_crosswalk "
-                         "(Figs. 3-6) and t_intersection (Fig. 1 b)")
+                         "(Figs. 3-6), t_intersection (Fig. 1 b) and signalized_intersection "
+                         "(Fig. 1 c)")
     from marl_social.evaluation.reproduce import format_table, run_table, write_figures
 
     overrides = parse_overrides("occluded_crosswalk", args.set)
@@ -115,18 +116,24 @@ def reproduce(args) -> int:
     return 0
 
 
-def _reproduce_intersection(args) -> int:
-    """`marl-social reproduce --scenario t_intersection`: Fig. 1 (b) figures and its table."""
-    from marl_social.evaluation.reproduce_intersection import (
-        format_table,
-        run_table,
-        write_figures,
-    )
+# the reproduce module of each intersection scenario (figures, table, randomization)
+INTERSECTION_MODULES = {"t_intersection": "reproduce_intersection",
+                        "signalized_intersection": "reproduce_signal"}
 
+
+def _reproduce_intersection(args) -> int:
+    """`marl-social reproduce --scenario t_intersection | signalized_intersection`: Fig. 1 b / c."""
+    import importlib
+
+    module_name = INTERSECTION_MODULES[args.scenario]
+    module = importlib.import_module(f"marl_social.evaluation.{module_name}")
+    format_table, run_table, write_figures = (module.format_table, module.run_table,
+                                              module.write_figures)
     if args.set:
-        raise ValueError("--set: reproduce --scenario t_intersection sweeps its own "
-                         "randomization (evaluation/reproduce_intersection.py); run "
-                         "`marl-social demo --scenario t_intersection --set ...` for one episode")
+        raise ValueError(f"--set: reproduce --scenario {args.scenario} sweeps its own "
+                         f"randomization (evaluation/{module_name}.py); run "
+                         f"`marl-social demo --scenario {args.scenario} --set ...` for one "
+                         "episode")
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
     for path in write_figures(out):
@@ -136,7 +143,7 @@ def _reproduce_intersection(args) -> int:
     (out / "table.md").write_text(table + "\n")
     (out / "table.json").write_text(json.dumps(rows, indent=2))
     print(f"\n{args.seeds} randomized seeds per cell "
-          "(marl_social/evaluation/reproduce_intersection.randomized_overrides):\n")
+          f"(marl_social/evaluation/{module_name}.randomized_overrides):\n")
     print(table)
     return 0
 

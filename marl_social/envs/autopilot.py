@@ -10,7 +10,7 @@ from __future__ import annotations
 import numpy as np
 from pettingzoo import ParallelEnv
 
-from marl_social.envs.policies import policies, truth_tracks
+from marl_social.envs.policies import policies, truth_signal_phase, truth_tracks
 
 
 class AutopilotEnv(ParallelEnv):
@@ -81,7 +81,8 @@ class AutopilotEnv(ParallelEnv):
             if a not in self.controlled:
                 policy = self._autopilots[a]
                 if policy.needs_truth:
-                    policy.observe_truth(truth_tracks(self.env, a))
+                    policy.observe_truth(truth_tracks(self.env, a),
+                                         signal_phase=truth_signal_phase(self.env))
                 full[a] = policy(self._last_obs[a])
         if not self.agents:
             return {}, {}, {}, {}, {}

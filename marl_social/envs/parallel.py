@@ -94,7 +94,8 @@ class SocialDrivingEnv(ParallelEnv, EzPickle):
         self.road_map = template.road_map
         self.agent_specs = {s.name: s for s in template.agents}
         self.possible_agents = [s.name for s in template.agents]
-        self.obs_layout = ObservationLayout(template.params.n_slots, template.params.n_rays)
+        self.obs_layout = ObservationLayout(template.params.n_slots, template.params.n_rays,
+                                            len(template.road_map.signal_heads))
         self.limits = env_limits(template, self.max_cycles)
         self.state_space = state_space(self.limits, template.agents)
         obs_space = self.obs_layout.space(self.limits)
@@ -245,6 +246,7 @@ class SocialDrivingEnv(ParallelEnv, EzPickle):
             world.state[:, :2], world.state[:, 2], world.state[:, 3], world.sensor_range_m,
             world.sensor_half_angle_rad, world.is_pedestrian, world.length_m, world.width_m,
             meas, fov.depth_m,
+            signals=world.perceive_signals() if self.obs_layout.n_signals else None,
         )
         names = self.possible_agents
         observations, infos = {}, {}

@@ -80,3 +80,17 @@ def truth_tracks(env, observer: str) -> TrackSet:
         is_pedestrian=world.is_pedestrian[others], seen=np.ones(len(others), bool),
         age_unseen_s=np.zeros(len(others)), heading_rad=world.state[others, 2].copy(),
     )
+
+
+def truth_signal_phase(env) -> int | None:
+    """The signal plan's running phase (index into RoadMap.signal_plan.phases); None: no signals.
+
+    The privileged input of a planner with `needs_truth`, with `truth_tracks`.
+
+    Args:
+        env: a SocialDrivingEnv (or a wrapper of one).
+    """
+    world = getattr(env, "unwrapped", env).world
+    if world.signals is None:
+        return None
+    return int(world.signals.phase_at(world.time_s))

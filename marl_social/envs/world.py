@@ -14,6 +14,7 @@ import numpy as np
 
 from marl_social.perception.fov import FieldOfView, FovResult
 from marl_social.perception.sensors import Measurements, measure
+from marl_social.perception.signal_view import visible_heads
 from marl_social.scenarios.base import ScenarioLayout
 from marl_social.sim.costs import N_FEATURES, step_features
 from marl_social.sim.dynamics import (
@@ -56,6 +57,8 @@ class World:
             dv / dt after the speed limits [m/s^2] (pedestrians: |change of velocity| / dt).
         active: (n,) bool, still in the episode.
         time_s: simulated time [s].
+        signals: the signal controller's clock (None: no signals); `signal_states()` is what
+            the heads show now.
     """
 
     def __init__(self, layout: ScenarioLayout, reuse: World | None = None):
@@ -107,6 +110,10 @@ class World:
         self.prev_accel_mps2 = np.zeros(self.n)
         self.active = np.ones(self.n, dtype=bool)
         self.time_s = 0.0
+        self.signals = layout.signals
+        self.signal_heads = self.road_map.signal_heads
+        if self.signal_heads and self.signals is None:
+            raise ValueError("world: the map has signal heads but the layout no signal controller")
         self._progress = None
         self._kinds_key = None
         self._kinds = None
@@ -209,6 +216,19 @@ class World:
         meas = measure(fov.visible, self.state[:, :2], self.state[:, 2], self.state[:, 3],
                        self.pos_noise_m, self.vel_noise_mps, self.heading_noise_rad, rng)
         return fov, meas
+
+    def signal_states(self) -> np.ndarray:
+        """(H,) int8: the state each signal head shows now (sim/signals.py; empty: none)."""
+        if not self.signal_heads:
+            return np.zeros(0, dtype=np.int8)
+        return self.signals.head_states(self.time_s, self.signal_heads)
+
+    def perceive_signals(self) -> tuple[np.ndarray, np.ndarray]:
+        """Which heads every agent reads now, (n, H) bool, and their states (H,)."""
+        visible = visible_heads(self.mirror, self.signal_heads, self.state[:, :2],
+                                self.state[:, 2], self.sensor_range_m,
+                                self.sensor_half_angle_rad, self.active)
+        return visible, self.signal_states()
 
     def step_features(self) -> np.ndarray:
         """(n, N_FEATURES) each agent's cost features this step (sim/costs.py)."""

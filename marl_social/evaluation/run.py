@@ -12,7 +12,7 @@ import numpy as np
 
 from marl_social.agents.human import BoltzmannDriver
 from marl_social.envs.parallel import parallel_env
-from marl_social.envs.policies import policies, truth_tracks
+from marl_social.envs.policies import policies, truth_signal_phase, truth_tracks
 from marl_social.evaluation.rollout import record_episode
 from marl_social.metrics.episode import belief_metrics, episode_metrics
 from marl_social.sim.road_map import RoadMap
@@ -28,7 +28,8 @@ class EpisodeResult:
         trace: the Trace, with extras "mpc_infeasible" (1.0 where the robot's MPC found no
             feasible plan and braked as hard as it can) for an MPC robot, and "p_pedestrian",
             "p_vehicle" (belief in a hidden vehicle, `p_hidden("vehicle")`), "perceived" and
-            "p_<hypothesis>" for a belief-based robot.
+            "p_<hypothesis>" for a belief-based robot, and "phase_<phase>" (its belief in each
+            signal phase; the oracle: the true phase) at a signalized junction.
         road_map: the episode's static map.
         specs: {agent: AgentSpec}, every agent's own parameters, incl. its true cost weights
             and rationality.
@@ -55,7 +56,8 @@ class _RecordingRobot:
 
     def __call__(self, obs):
         if self.policy.needs_truth:
-            self.policy.observe_truth(truth_tracks(self.env, self.name))
+            self.policy.observe_truth(truth_tracks(self.env, self.name),
+                                      signal_phase=truth_signal_phase(self.env))
         action = self.policy(obs)
         result = getattr(self.policy, "last_result", None)
         if result is not None:
@@ -67,6 +69,10 @@ class _RecordingRobot:
             self.extras.setdefault("perceived", []).append(float(belief.perceived))
             for h, p in zip(belief.hypotheses, belief.probabilities):
                 self.extras.setdefault(f"p_{h.name}", []).append(float(p))
+        phase = getattr(self.policy, "phase_belief", None)
+        if phase is not None:
+            for name, p in zip(phase.phase_names, phase.probabilities):
+                self.extras.setdefault(f"phase_{name}", []).append(float(p))
         return action
 
 
@@ -147,8 +153,24 @@ RANDOMIZATIONS: dict[str, dict[str, tuple[float, float]]] = {
         "parked_gap_m": (0.5, 2.0),
         "n_humans": (1, 3),
     },
+    # the signalized intersection (signalized_intersection, paper Fig. 1 c) over its whole
+    # plausible range: one or two cross cars, close to or far from their line, slow to fast,
+    # short or long gaps; one to three left-turners a little or well behind their line, erratic
+    # or near-rational; the phase just begun or running for a while; the robot at its line or
+    # a few metres back
+    "signalized_intersection": {
+        "cross_speed_mps": (9.0, 14.0),
+        "cross_start_m": (30.0, 60.0),
+        "cross_gap_m": (12.0, 25.0),
+        "human_start_m": (2.0, 8.0),
+        "human_beta": (2.0, 30.0),
+        "phase_elapsed_s": (0.0, 2.0),
+        "robot_start_back_m": (0.0, 3.0),
+        "n_humans": (1, 3),
+        "n_cross": (1, 2),
+    },
 }
-INTEGER_KNOBS = frozenset({"n_humans"})  # drawn uniformly from the integers lo..hi
+INTEGER_KNOBS = frozenset({"n_humans", "n_cross"})  # drawn uniformly from the integers lo..hi
 
 
 def randomized_overrides(seed: int, preset: str = "paper") -> dict:
@@ -159,7 +181,9 @@ def randomized_overrides(seed: int, preset: str = "paper") -> dict:
     The occluded crosswalk's presets: pedestrian timing [s] and speed [m/s], the human's lead
     [m] and speed [m/s], and its rationality. "t_intersection": V3's speed [m/s] and start
     distances [m], the left-turners' start [m], speed [m/s], rationality and number, the gap
-    between the parked cars [m].
+    between the parked cars [m]. "signalized_intersection": the cross traffic's speed [m/s],
+    start and gap [m] and number, the left-turners' start [m], rationality and number, the
+    time spent in the phase [s], the robot's start [m].
 
     Args:
         seed: the episode's seed.

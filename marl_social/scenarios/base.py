@@ -19,6 +19,7 @@ import numpy as np
 from marl_social.agents.registry import ROBOT_PLANNERS
 from marl_social.sim.agent_spec import AgentSpec
 from marl_social.sim.road_map import RoadMap
+from marl_social.sim.signals import SignalController
 
 MAX_SLOTS = 64  # largest observation slot count K
 MAX_RAYS = 1024  # largest depth ray count per observation
@@ -179,11 +180,19 @@ def make_params(params_cls: type[ScenarioParams], overrides: dict) -> ScenarioPa
 
 @dataclass(frozen=True)
 class ScenarioLayout:
-    """What a scenario builds for one episode."""
+    """What a scenario builds for one episode.
+
+    Attributes:
+        road_map: the static map.
+        agents: every agent's spec.
+        params: the scenario's parameters.
+        signals: the signal controller's clock (the world's signal state; None: no signals).
+    """
 
     road_map: RoadMap
     agents: tuple[AgentSpec, ...]
     params: ScenarioParams
+    signals: SignalController | None = None
 
 
 class Scenario(ABC):

@@ -1,6 +1,7 @@
 """The one observation layout shared by all agents (a flat float32 vector).
 
-    [ ego (EGO_DIM) | K object slots (K * SLOT_DIM) | depth rays (n_rays) ]
+    [ ego (EGO_DIM) | K object slots (K * SLOT_DIM) | depth rays (n_rays)
+      | S signal slots (S * SIGNAL_DIM), only in a map with signal heads (S = their number) ]
 
 ego:   x, y [m], cos(psi), sin(psi), v [m/s], sensor range [m], sensor half-angle [rad],
        is_pedestrian (0/1). Ego state is the agent's own odometry: exact.
@@ -10,6 +11,10 @@ slot:  present (0/1), object id (agent index + 1; 0 = empty), x, y [m], vx, vy [
 rays:  distance to the first hit along each depth ray [m] (the visibility polygon); ray i points
        at heading + ray_angle(i), angles spread evenly over the agent's cone, edges included
        (`perception.fov.depth_ray_angles`).
+signal: present (0/1), head id (head index + 1; 0 = empty), red, yellow, green (one-hot) —
+       a signal head the agent reads now (perception/signal_view.py); slots are filled in head
+       order with the heads it sees, the rest are zero. A layout with n_signals = 0 (a map
+       without signals) has no signal block: its vectors are those of a layout without signals.
 
 Bounds (`ObservationLimits`, `ObservationLayout.space(limits)`): positions lie within the map's
 extent grown by how far any agent can travel in an episode (top speed x step x max steps) plus
@@ -20,7 +25,7 @@ footprint]; sensor ranges and ray depths in [0, longest sensor range]; half-angl
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 from gymnasium import spaces
@@ -29,7 +34,10 @@ EGO_FIELDS = ("x", "y", "cos_psi", "sin_psi", "v", "sensor_range", "sensor_half_
               "is_pedestrian")
 SLOT_FIELDS = ("present", "id", "x", "y", "vx", "vy", "cos_psi", "sin_psi", "length", "width",
                "is_pedestrian")
+SIGNAL_FIELDS = ("present", "id", "red", "yellow", "green")
 EGO_DIM = len(EGO_FIELDS)
+SIGNAL_DIM = len(SIGNAL_FIELDS)
+SIGNAL_INDEX = {name: i for i, name in enumerate(SIGNAL_FIELDS)}  # field -> column of a slot
 EGO_INDEX = {name: i for i, name in enumerate(EGO_FIELDS)}  # field name -> column of the ego block
 SLOT_INDEX = {name: i for i, name in enumerate(SLOT_FIELDS)}  # field name -> column of a slot
 OBS_BOUND = 1.0e5  # [m]; worlds larger than 100 km are out of scope
@@ -113,11 +121,18 @@ class DecodedObservation:
         ego: (EGO_DIM,) see EGO_FIELDS.
         slots: (K, SLOT_DIM) see SLOT_FIELDS.
         depth_m: (n_rays,) [m].
+        signals: (S, SIGNAL_DIM) see SIGNAL_FIELDS ((0, SIGNAL_DIM) without signals).
     """
 
     ego: np.ndarray
     slots: np.ndarray
     depth_m: np.ndarray
+    signals: np.ndarray = field(default_factory=lambda: np.zeros((0, SIGNAL_DIM)))
+
+    def signal_states(self) -> dict[int, int]:
+        """{head index: state (0 red, 1 yellow, 2 green)} of the heads seen now."""
+        seen = self.signals[self.signals[:, 0] > 0.5]
+        return {int(np.rint(row[1])) - 1: int(np.argmax(row[2:5])) for row in seen}
 
     @property
     def objects(self) -> np.ndarray:
@@ -127,13 +142,24 @@ class DecodedObservation:
 
 @dataclass(frozen=True)
 class ObservationLayout:
-    """Sizes of the shared layout: n_slots object slots K and n_rays depth rays."""
+    """Sizes of the shared layout: K object slots, depth rays and S signal slots.
+
+    Attributes:
+        n_slots: object slots K.
+        n_rays: depth rays.
+        n_signals: signal slots S (the map's signal heads; 0: no signal block).
+    """
 
     n_slots: int
     n_rays: int
+    n_signals: int = 0
 
     @property
     def size(self) -> int:
+        return EGO_DIM + self.n_slots * SLOT_DIM + self.n_rays + self.n_signals * SIGNAL_DIM
+
+    @property
+    def _rays_end(self) -> int:
         return EGO_DIM + self.n_slots * SLOT_DIM + self.n_rays
 
     def space(self, limits: ObservationLimits | None = None) -> spaces.Box:
@@ -149,8 +175,11 @@ class ObservationLayout:
         ego_b = np.array([ego[f] for f in EGO_FIELDS])  # (EGO_DIM, 2) low, high
         slot_b = np.array([slot[f] for f in SLOT_FIELDS])  # (SLOT_DIM, 2)
         ray_b = np.array([[0.0, limits.sensor_range_max_m]])
+        signal_b = np.array([[0.0, 1.0], [0.0, float(self.n_signals)], [0.0, 1.0], [0.0, 1.0],
+                             [0.0, 1.0]])  # (SIGNAL_DIM, 2)
         bounds = np.concatenate([ego_b, np.tile(slot_b, (self.n_slots, 1)),
-                                 np.repeat(ray_b, self.n_rays, axis=0)])  # (size, 2)
+                                 np.repeat(ray_b, self.n_rays, axis=0),
+                                 np.tile(signal_b, (self.n_signals, 1))])  # (size, 2)
         # float32 rounding is monotonic: a value within a limit stays within it in float32
         return spaces.Box(bounds[:, 0].astype(np.float32), bounds[:, 1].astype(np.float32),
                           dtype=np.float32)
@@ -164,12 +193,16 @@ class ObservationLayout:
             raise ValueError(f"observation: expected shape ({self.size},), got {obs.shape}")
         k0 = EGO_DIM
         k1 = k0 + self.n_slots * SLOT_DIM
-        return DecodedObservation(
-            obs[:k0], obs[k0:k1].reshape(self.n_slots, SLOT_DIM), obs[k1:]
-        )
+        k2 = self._rays_end
+        if self.n_signals == 0:
+            return DecodedObservation(obs[:k0], obs[k0:k1].reshape(self.n_slots, SLOT_DIM),
+                                      obs[k1:k2])
+        return DecodedObservation(obs[:k0], obs[k0:k1].reshape(self.n_slots, SLOT_DIM),
+                                  obs[k1:k2], obs[k2:].reshape(self.n_signals, SIGNAL_DIM))
 
     def encode(self, xy, heading, speed, sensor_range, sensor_half_angle, is_pedestrian,
-               length, width, measurements: Measurements, depth_m) -> np.ndarray:
+               length, width, measurements: Measurements, depth_m,
+               signals: tuple | None = None) -> np.ndarray:
         """Observation vectors of all n agents.
 
         Args:
@@ -183,6 +216,8 @@ class ObservationLayout:
             width: (n,) footprint widths [m].
             measurements: visible pairs, sorted by observer then distance.
             depth_m: (n, n_rays) depth ray distances [m].
+            signals: (visible (n, S) bool, states (S,) int) of the map's S signal heads, for a
+                layout with n_signals = S; None without signals.
 
         Returns:
             (n, size) float32.
@@ -211,5 +246,25 @@ class ObservationLayout:
                 n, self.n_slots, SLOT_DIM
             )
             slots[obs_i, rank] = slot
-        out[:, EGO_DIM + self.n_slots * SLOT_DIM:] = depth_m
+        out[:, EGO_DIM + self.n_slots * SLOT_DIM:self._rays_end] = depth_m
+        if self.n_signals:
+            if signals is None:
+                raise ValueError(f"observation: a layout with {self.n_signals} signal slots "
+                                 "needs the heads' visibility and states")
+            self._encode_signals(out, *signals)
         return out
+
+    def _encode_signals(self, out: np.ndarray, visible: np.ndarray, states: np.ndarray) -> None:
+        """Write the heads each agent sees into its signal slots, in head order."""
+        visible = np.asarray(visible, dtype=bool)
+        if visible.shape != (len(out), self.n_signals):
+            raise ValueError(f"observation: signal visibility must have shape "
+                             f"({len(out)}, {self.n_signals}), got {visible.shape}")
+        obs_i, head = np.nonzero(visible)
+        rank = np.cumsum(visible, axis=1)[obs_i, head] - 1  # slot of each seen head
+        slots = out[:, self._rays_end:].reshape(len(out), self.n_signals, SIGNAL_DIM)
+        row = np.zeros((len(head), SIGNAL_DIM))
+        row[:, 0] = 1.0
+        row[:, 1] = head + 1.0
+        row[np.arange(len(head)), 2 + np.asarray(states, dtype=np.int64)[head]] = 1.0
+        slots[obs_i, rank] = row

@@ -12,6 +12,8 @@ from dataclasses import dataclass, field, replace
 
 import numpy as np
 
+from marl_social.sim.signals import SignalHead, SignalPlan
+
 
 def _as_polyline(points, name: str) -> np.ndarray:
     """Validate a polyline given as (P, 2) points, P >= 2, finite, no zero-length segment."""
@@ -279,6 +281,10 @@ class RoadMap:
         extent: (xmin, xmax, ymin, ymax) of the area worth drawing [m].
         stop_lines: stop lines (stop signs, signalized approaches).
         conflict_zones: areas where lanes cross or merge, with their right of way.
+        signal_heads: the traffic signal heads (sim/signals.py), each controlling one stop line
+            of kind "signal".
+        signal_plan: the fixed-time cycle of their groups (None: no signals). Static, like
+            the rest of the map; where the controller is in the cycle is the world's state.
     """
 
     lanes: tuple[Lane, ...]
@@ -289,6 +295,8 @@ class RoadMap:
     extent: tuple[float, float, float, float] = (0.0, 100.0, -20.0, 20.0)
     stop_lines: tuple[StopLine, ...] = ()
     conflict_zones: tuple[ConflictZone, ...] = ()
+    signal_heads: tuple[SignalHead, ...] = ()
+    signal_plan: SignalPlan | None = None
 
     def __post_init__(self):
         polys = tuple(
@@ -304,6 +312,22 @@ class RoadMap:
             if bad:
                 raise ValueError(f"conflict zone {zone.name!r}: priority lanes {bad} are not "
                                  f"lane indices (the map has {len(self.lanes)} lanes)")
+        self._check_signals()
+
+    def _check_signals(self) -> None:
+        """Every head controls a signal stop line and shows a group of the plan."""
+        if self.signal_heads and self.signal_plan is None:
+            raise ValueError("road map: signal_heads need a signal_plan")
+        for head in self.signal_heads:
+            if not 0 <= head.stop_line < len(self.stop_lines):
+                raise ValueError(f"signal head {head.name!r}: stop_line {head.stop_line} is not "
+                                 f"a stop line index (the map has {len(self.stop_lines)})")
+            if self.stop_lines[head.stop_line].kind != "signal":
+                raise ValueError(f"signal head {head.name!r}: stop line {head.stop_line} is of "
+                                 f"kind {self.stop_lines[head.stop_line].kind!r}, not 'signal'")
+            if head.group not in self.signal_plan.groups:
+                raise ValueError(f"signal head {head.name!r}: group {head.group!r} is not one of "
+                                 f"the plan's {list(self.signal_plan.groups)}")
 
     def for_agent(self, name: str) -> RoadMap:
         """The map one agent's policy may know: the static map and only its own route.
