@@ -34,6 +34,7 @@ def record_episode(env, policies: dict, seed: int | None = None, render: bool = 
         trace.states.append(world.state.copy())
         trace.active.append(world.active.copy())
         trace.visible.append(base.last_fov.visible.copy())
+        trace.signal_states.append(world.signal_states())
         if render and (len(trace.times_s) - 1) % render_every == 0:
             trace.frames.append(env.render())
 

@@ -17,6 +17,7 @@ from marl_social.sim.costs import crosswalk_occupancy, zone_occupancy
 from marl_social.sim.dynamics import DT_S
 from marl_social.sim.road_map import RoadMap, Route
 from marl_social.sim.route_rules import RouteConflict, route_conflicts
+from marl_social.sim.signals import GREEN
 from marl_social.sim.trace import Trace
 
 HARD_BRAKE_MPS2 = 5.0  # braking harder than this counts as a hard brake [m/s^2]
@@ -302,7 +303,8 @@ def others_max_decel(trace: Trace, road_map: RoadMap, robot: str) -> float:
     human's route, or its front in the human's lane now or FORCING_PREDICT_S later), ahead
     closer than FORCING_LOOKAHEAD_S at the human's speed plus FORCING_MARGIN_M, and nearer
     along the route than any other agent's centre there (a car queued behind another brakes
-    for that one). Both must be active.
+    for that one) and than a signal stop line ahead of the human whose head shows red or
+    yellow (a car stopping for its light; `trace.signal_states`). Both must be active.
     """
     if not len(trace.accel_mps2):
         return 0.0
@@ -320,6 +322,7 @@ def others_max_decel(trace: Trace, road_map: RoadMap, robot: str) -> float:
         robot_ahead = _robot_in_path_distance(trace, road_map, r, route, xy_h,
                                               trace.states[:, h, 3])
         dist[r] = np.where(trace.active[:, r], robot_ahead, np.inf)
+        dist[-1] = _signal_line_distance(trace, road_map, route, xy_h)
         nearest_other = np.min([d for j, d in dist.items() if j != r], axis=0, initial=np.inf)
         forced = ((dist[r] <= reach) & (dist[r] < nearest_other)
                   & trace.active[:, h] & trace.active[:, r])[:-1]
@@ -327,6 +330,31 @@ def others_max_decel(trace: Trace, road_map: RoadMap, robot: str) -> float:
         if len(braking):
             worst = max(worst, float(braking.max()))
     return worst
+
+
+def _signal_line_distance(trace: Trace, road_map: RoadMap, route: Route,
+                          xy_self: np.ndarray) -> np.ndarray:
+    """(T+1,) distance ahead along `route` to the nearest red or yellow signal stop line [m].
+
+    inf where there is none (sim/signals.py heads, `trace.signal_states`).
+
+    Args:
+        trace: the episode's trace.
+        road_map: the map (its signal heads and stop lines).
+        route: the human's route.
+        xy_self: (T+1, 2) the human's positions [m].
+    """
+    out = np.full(len(xy_self), np.inf)
+    states = np.asarray(trace.signal_states)
+    if states.ndim != 2 or not states.shape[1] or len(states) != len(xy_self):
+        return out
+    s_self, _, _ = route.project(xy_self)
+    for k, head in enumerate(road_map.signal_heads):
+        for s_line in route.segment_crossings(road_map.stop_lines[head.stop_line].segment):
+            ahead = s_line - s_self
+            stopping = (states[:, k] != GREEN) & (ahead > 0.0)
+            out = np.where(stopping, np.minimum(out, ahead), out)
+    return out
 
 
 @register_metric("hard_brake", group="episode")

@@ -23,6 +23,8 @@ class Trace:
         collided: (T, n) bool.
         frames: rendered RGB frames, if requested.
         extras: free-form per-step series added by callers (e.g. beliefs), name -> (T+1,) array.
+        signal_states: (T+1, H) int8, the state each of the map's H signal heads showed
+            (sim/signals.py: RED 0, YELLOW 1, GREEN 2; H = 0 on a map without signals).
         bounding_radius_m: (n,) footprint bounding radii [m].
     """
 
@@ -39,6 +41,7 @@ class Trace:
     collided: list = field(default_factory=list)
     frames: list = field(default_factory=list)
     extras: dict = field(default_factory=dict)
+    signal_states: list = field(default_factory=list)
 
     def index(self, name: str) -> int:
         return self.names.index(name)
@@ -48,4 +51,7 @@ class Trace:
         for key in ("times_s", "states", "active", "visible", "actions", "accel_mps2",
                     "rewards", "collided"):
             setattr(self, key, np.asarray(getattr(self, key)))
+        n_heads = len(self.signal_states[0]) if len(self.signal_states) else 0
+        self.signal_states = np.asarray(self.signal_states, dtype=np.int8).reshape(
+            len(self.signal_states), n_heads)
         return self
