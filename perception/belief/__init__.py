@@ -8,12 +8,15 @@
 * paths.py: `LanePaths` (a tracked car's lane and the lane it continues into, from its track);
 * bayes.py: `bayes_step`, `markov_transition`, `TrafficSpeedBelief` (discrete Bayes, eq. 12);
 * own_sensors.py: `OwnSensors` (detections and negative information from depth rays);
-* social.py: `action_log_likelihood`, `SocialLikelihood` (the robot's model of a human, eq. 9-11);
+* action_model.py: `action_log_likelihood`, `bounded_log_likelihood` (a human's observed action
+  as evidence, eq. 9-10);
+* social.py: `SocialLikelihood` (the robot's model of a human, eq. 9-11);
 * config.py: `BeliefConfig`;
 * hidden.py: `HiddenAgentBelief` (alias `PedestrianBelief`), which combines them (the joint
   b(l, v) update).
 """
 
+from marl_social.perception.belief.action_model import action_log_likelihood
 from marl_social.perception.belief.bayes import (
     TrafficSpeedBelief,
     bayes_step,
@@ -36,7 +39,7 @@ from marl_social.perception.belief.hypotheses import (
     stationary_distribution,
 )
 from marl_social.perception.belief.own_sensors import OwnSensors
-from marl_social.perception.belief.social import SocialLikelihood, action_log_likelihood
+from marl_social.perception.belief.social import SocialLikelihood
 
 __all__ = [
     "PEDESTRIAN_DIAMETER_M",

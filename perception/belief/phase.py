@@ -34,14 +34,14 @@ import math
 from dataclasses import dataclass, replace
 
 import numpy as np
-from marl_social.perception.belief.bayes import bayes_step
-from marl_social.perception.belief.config import BeliefConfig
-from marl_social.perception.belief.paths import LanePaths
-from marl_social.perception.belief.social import (
-    SocialLikelihood,
+from marl_social.perception.belief.action_model import (
     action_log_likelihood,
     bounded_log_likelihood,
 )
+from marl_social.perception.belief.bayes import bayes_step
+from marl_social.perception.belief.config import BeliefConfig
+from marl_social.perception.belief.paths import LanePaths
+from marl_social.perception.belief.social import SocialLikelihood
 from marl_social.perception.tracking import TrackSet
 
 from marl_social.models.candidates import ScenePrediction, evaluate_candidates

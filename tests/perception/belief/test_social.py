@@ -162,7 +162,7 @@ def test_one_extreme_observation_moves_the_log_odds_by_at_most_the_bound():
     pedestrian by at most the bound compared with the same step without it."""
     import copy
 
-    from marl_social.perception.belief.social import bounded_log_likelihood
+    from marl_social.perception.belief.action_model import bounded_log_likelihood
 
     from marl_social.sim.observation import EGO_DIM, SLOT_DIM, SLOT_INDEX
 
