@@ -85,7 +85,7 @@ def test_social_never_forces_the_cross_traffic_to_brake_hard(runs):
     assert worst <= FORCED_BRAKE_MPS2, worst
 
 
-@pytest.mark.xfail(strict=False, reason="measured 48 % of 25 seeds (0-24): the aggressive robot "
+@pytest.mark.xfail(strict=False, reason="measured 48 % of 50 seeds (0-49): the aggressive robot "
                    "must first come to rest at its red line; where the cross traffic reaches the "
                    "junction before it is ready it sees the cars in the junction and waits")
 def test_aggressive_collides_or_forces_hard_braking_in_most_cross_green_seeds(runs):
