@@ -97,7 +97,8 @@ class SocialDrivingEnv(ParallelEnv, EzPickle):
         self.obs_layout = ObservationLayout(template.params.n_slots, template.params.n_rays,
                                             len(template.road_map.signal_heads))
         self.limits = env_limits(template, self.max_cycles)
-        self.state_space = state_space(self.limits, template.agents)
+        self.state_space = state_space(self.limits, template.agents,
+                                       len(template.road_map.signal_heads))
         obs_space = self.obs_layout.space(self.limits)
         self.observation_spaces = {a: obs_space for a in self.possible_agents}
         self.action_spaces = {s.name: _action_space(s) for s in template.agents}
@@ -297,11 +298,12 @@ class SocialDrivingEnv(ParallelEnv, EzPickle):
             self._renderer = None
 
     def state(self) -> np.ndarray:
-        """Every agent's true state: (n_agents * STATE_DIM,) float32 in `state_space`.
+        """The true state: (n_agents * STATE_DIM [+ signal block],) float32 in `state_space`.
 
         Per agent in `possible_agents` order: [x m, y m, cos(psi), sin(psi), v m/s, active];
-        agents no longer in the episode are all-zero rows (marl_social/envs/spaces.py). For
-        centralized critics; planners never receive it.
+        agents no longer in the episode are all-zero rows; on a map with signals, then every
+        head's state one-hot (marl_social/envs/spaces.py). For centralized critics; planners
+        never receive it.
 
         Raises:
             RuntimeError: called before reset().
@@ -310,7 +312,7 @@ class SocialDrivingEnv(ParallelEnv, EzPickle):
             raise RuntimeError("state() called before reset(): the env has no episode yet")
         live = np.zeros(self.world.n, dtype=bool)
         live[[self._index[a] for a in self.agents]] = True
-        return encode_state(self.world.state, live)
+        return encode_state(self.world.state, live, self.world.signal_states())
 
 
 def _action_space(spec) -> spaces.Box:

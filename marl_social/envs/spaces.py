@@ -5,8 +5,12 @@ still in the episode), STATE_DIM values per agent in `possible_agents` order:
 
     [ x [m], y [m], cos(psi), sin(psi), v [m/s], active (0/1) ] * n_agents
 
-It is every agent's true state, for centralized critics (CTDE); planners never receive it. An
-agent that has left the episode (terminated or truncated) has an all-zero row, active 0.
+followed, on a map with traffic signals, by every signal head's true state one-hot
+(SIGNAL_STATE_DIM values per head, in `RoadMap.signal_heads` order: red, yellow, green;
+sim/signals.py) -- the phase no agent may see unless its head is in view.
+
+It is the true state, for centralized critics (CTDE); planners never receive it. An agent that
+has left the episode (terminated or truncated) has an all-zero row, active 0.
 """
 
 from __future__ import annotations
@@ -20,6 +24,7 @@ from marl_social.sim.observation import OBS_BOUND, ObservationLimits
 STATE_FIELDS = ("x", "y", "cos_psi", "sin_psi", "v", "active")
 STATE_DIM = len(STATE_FIELDS)
 STATE_INDEX = {name: i for i, name in enumerate(STATE_FIELDS)}  # field -> column of a row
+SIGNAL_STATE_DIM = 3  # one-hot per signal head: red, yellow, green (sim/signals.py states 0-2)
 
 
 def _speed_max_mps(spec) -> float:
@@ -54,13 +59,14 @@ def env_limits(layout, max_cycles: int) -> ObservationLimits:
     )
 
 
-def state_space(limits: ObservationLimits, specs) -> spaces.Box:
-    """The (n_agents * STATE_DIM,) float32 Box of the global state.
+def state_space(limits: ObservationLimits, specs, n_signals: int = 0) -> spaces.Box:
+    """The (n_agents * STATE_DIM + n_signals * SIGNAL_STATE_DIM,) float32 Box of the state.
 
     Args:
         limits: the env's limits (positions: the map's extent grown by the agents' reach).
         specs: the agents' specs in `possible_agents` order (each row's speed bound is its own
             agent's top speed).
+        n_signals: the map's signal heads (each adds a one-hot block in [0, 1]).
     """
     x0, x1, y0, y1 = limits.extent_m
     grow = limits.reach_m
@@ -69,21 +75,28 @@ def state_space(limits: ObservationLimits, specs) -> spaces.Box:
     lows = np.tile(low, (len(specs), 1))  # (n, STATE_DIM)
     highs = np.tile(high, (len(specs), 1))
     highs[:, STATE_INDEX["v"]] = [_speed_max_mps(s) for s in specs]
-    return spaces.Box(lows.ravel().astype(np.float32), highs.ravel().astype(np.float32),
+    signal_bounds = np.zeros(n_signals * SIGNAL_STATE_DIM), np.ones(n_signals * SIGNAL_STATE_DIM)
+    return spaces.Box(np.concatenate([lows.ravel(), signal_bounds[0]]).astype(np.float32),
+                      np.concatenate([highs.ravel(), signal_bounds[1]]).astype(np.float32),
                       dtype=np.float32)
 
 
-def encode_state(state: np.ndarray, live: np.ndarray) -> np.ndarray:
+def encode_state(state: np.ndarray, live: np.ndarray,
+                 signal_states: np.ndarray | None = None) -> np.ndarray:
     """The global state vector.
 
     Args:
         state: (n, 4) true states [x m, y m, heading rad, speed m/s] in `possible_agents` order.
         live: (n,) bool, the agents still in the episode.
+        signal_states: (H,) int, the state every signal head shows (0 red, 1 yellow, 2 green;
+            None or empty: a map without signals).
 
     Returns:
-        (n * STATE_DIM,) float32; rows of agents not live are zero.
+        (n * STATE_DIM + H * SIGNAL_STATE_DIM,) float32; rows of agents not live are zero.
     """
     rows = np.column_stack([state[:, :2], np.cos(state[:, 2]), np.sin(state[:, 2]), state[:, 3],
                             np.ones(len(state))])
     rows[~live] = 0.0
-    return rows.astype(np.float32).ravel()
+    heads = np.zeros(0, dtype=np.int64) if signal_states is None else np.asarray(signal_states)
+    one_hot = np.eye(SIGNAL_STATE_DIM)[heads.astype(np.int64)].ravel()
+    return np.concatenate([rows.ravel(), one_hot]).astype(np.float32)

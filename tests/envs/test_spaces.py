@@ -110,3 +110,30 @@ def test_observations_and_states_stay_in_their_spaces(seed, scenario, scale):
         if not env.agents:
             break
         obs, *_ = env.step({a: scale * rng.uniform(-1, 1, 2) for a in env.agents})
+
+
+def test_the_state_carries_every_signal_heads_true_state_one_hot():
+    """A centralized critic sees the phase the robot may not: the signal block follows the rows."""
+    from marl_social.envs.spaces import SIGNAL_STATE_DIM
+    from marl_social.sim.signals import STATE_NAMES
+
+    env = marl_social.parallel_env(scenario="signalized_intersection", max_cycles=300)
+    env.reset(seed=0)
+    n, heads = len(env.possible_agents), len(env.world.signal_heads)
+    assert heads > 0
+    assert env.state_space.shape == (n * STATE_DIM + heads * SIGNAL_STATE_DIM,)
+    seen = set()
+    while env.agents:
+        block = env.state()[n * STATE_DIM:].reshape(heads, SIGNAL_STATE_DIM)
+        truth = env.world.signal_states()
+        np.testing.assert_array_equal(block.argmax(axis=1), truth)
+        np.testing.assert_array_equal(block.sum(axis=1), 1.0)
+        seen.update(STATE_NAMES[s] for s in truth)
+        env.step({a: np.zeros(2) for a in env.agents})
+    assert seen == set(STATE_NAMES)  # the plan cycles through red, yellow and green
+
+
+def test_a_map_without_signals_has_no_signal_block():
+    env = marl_social.parallel_env(scenario="occluded_crosswalk")
+    env.reset(seed=0)
+    assert env.state().shape == env.state_space.shape == (len(env.possible_agents) * STATE_DIM,)
