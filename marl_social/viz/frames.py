@@ -25,7 +25,7 @@ from matplotlib.figure import Figure
 
 from marl_social.sim.footprint import box_corners
 from marl_social.sim.road_map import RoadMap
-from marl_social.viz.road import draw_road_map
+from marl_social.viz.road import draw_road_map, signal_head_squares
 from marl_social.viz.style import (
     BACKGROUND_COLOR,
     BODY_EDGE_PT,
@@ -51,6 +51,8 @@ from marl_social.viz.style import (
     SEEN_EDGE_PT,
     SEEN_MARGIN_M,
     SEEN_MIN_MARGIN_PX,
+    SIGNAL_HEAD_EDGE_COLOR,
+    SIGNAL_STATE_COLORS,
     TILE_CACHE,
     TIME_FONT_PT,
     TIME_OFFSET_PX,
@@ -155,7 +157,10 @@ class Renderer:
         self._seen = PolyCollection([], facecolors="none", edgecolors=ROLE_COLORS["robot"],
                                     linewidths=SEEN_EDGE_PT, linestyles=[(0, SEEN_DASH_PT)],
                                     animated=True)
-        for coll in (self._fans, self._bodies, self._fronts, self._seen):
+        self._heads = PolyCollection(signal_head_squares(road_map),
+                                     edgecolors=SIGNAL_HEAD_EDGE_COLOR,
+                                     linewidths=BODY_EDGE_PT, animated=True)
+        for coll in (self._fans, self._bodies, self._fronts, self._seen, self._heads):
             self.ax.add_collection(coll)
         self._time_text = MonoText(TIME_FONT_PT, dpi)
         self._agents_key = None
@@ -346,6 +351,11 @@ class Renderer:
             self._fans.set_facecolor(self._fan_face[fan])
             self._fans.set_edgecolor(self._fan_edge[fan])
             self.ax.draw_artist(self._fans)
+
+        heads = getattr(world, "signal_states", None)
+        if self.road_map.signal_heads and heads is not None:  # each head in the colour it shows
+            self._heads.set_facecolor([SIGNAL_STATE_COLORS[k] for k in heads()])
+            self.ax.draw_artist(self._heads)
 
         order = np.concatenate([veh, ped])
         self._bodies.set_verts([corners[i] for i in veh] + [discs[i] for i in ped])

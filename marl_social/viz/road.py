@@ -1,4 +1,7 @@
-"""The static map drawn on a matplotlib Axes: road, lane markings, crosswalk stripes, houses.
+"""The static map drawn on a matplotlib Axes: road, markings, crosswalks, stop lines, houses.
+
+Signal heads are drawn as dark squares (`signal_head_squares`); their changing colour is the
+live frames' business (`frames.Renderer.draw` colours them with the world's signal states).
 
 Shared by the live frames (`frames.Renderer`, rasterised once into cached tiles) and the
 episode figure (`figures.plot_episode`, panel (a)). All coordinates are metres in the world
@@ -25,6 +28,10 @@ from marl_social.viz.style import (
     ROAD_COLOR,
     ROAD_EDGE_LINE_PT,
     ROAD_EDGE_WIDTH_PT,
+    SIGNAL_HEAD_EDGE_COLOR,
+    SIGNAL_HEAD_M,
+    SIGNAL_HEAD_OFF_COLOR,
+    STOP_LINE_PT,
 )
 
 POINT_IN_LANE_TOL_M = 0.05  # a point this close to a lane's outline is on the lane [m]
@@ -114,8 +121,15 @@ def crosswalk_stripes(crosswalk: Crosswalk) -> list[np.ndarray]:
     return stripes
 
 
+def signal_head_squares(road_map: RoadMap) -> list[np.ndarray]:
+    """(4, 2) squares [m] of side SIGNAL_HEAD_M centred on each signal head, map order."""
+    half = 0.5 * SIGNAL_HEAD_M
+    corners = np.array([[-half, -half], [half, -half], [half, half], [-half, half]])
+    return [head.position + corners for head in road_map.signal_heads]
+
+
 def draw_road_map(ax, road_map: RoadMap, line_scale: float = 1.0) -> None:
-    """Draw the static map (road, markings, crosswalks, houses) on a matplotlib Axes.
+    """Draw the static map (road, markings, crosswalks, stop lines, houses) on an Axes.
 
     Args:
         ax: the Axes (data units metres).
@@ -138,6 +152,15 @@ def draw_road_map(ax, road_map: RoadMap, line_scale: float = 1.0) -> None:
     if stripes:
         ax.add_collection(PolyCollection(stripes, facecolors=MARKING_COLOR, edgecolors="none",
                                          zorder=0.8))
+    if road_map.stop_lines:
+        ax.add_collection(LineCollection([line.segment for line in road_map.stop_lines],
+                                         colors=MARKING_COLOR,
+                                         linewidths=STOP_LINE_PT * line_scale, zorder=0.8))
+    if road_map.signal_heads:
+        ax.add_collection(PolyCollection(signal_head_squares(road_map),
+                                         facecolors=SIGNAL_HEAD_OFF_COLOR,
+                                         edgecolors=SIGNAL_HEAD_EDGE_COLOR,
+                                         linewidths=HOUSE_EDGE_PT * line_scale, zorder=0.95))
     if road_map.static_polygons:
         ax.add_collection(PolyCollection(list(road_map.static_polygons), facecolors=HOUSE_COLOR,
                                          edgecolors=HOUSE_EDGE_COLOR,

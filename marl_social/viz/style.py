@@ -33,6 +33,11 @@ ROAD_EDGE_WIDTH_PT = 0.5  # outline of the lane polygons, in the road colour [pt
 ROAD_EDGE_LINE_PT = 1.6  # solid line at the road's border [pt]
 LANE_DIVIDER_LINE_PT = 1.2  # dashed line between two lanes [pt]
 HOUSE_EDGE_PT = 0.8  # outline of houses and parked cars [pt]
+STOP_LINE_PT = 2.4  # stop lines (stop signs and signals) [pt]
+SIGNAL_HEAD_M = 1.2  # side of the square drawn at a signal head [m]
+SIGNAL_HEAD_EDGE_COLOR = "#111111"
+SIGNAL_HEAD_OFF_COLOR = "#3a3a3a"  # a head whose state is not drawn (static map) [colour]
+SIGNAL_STATE_COLORS = ("#e3211c", "#f5b800", "#19b33a")  # red, yellow, green (sim/signals.py)
 
 # -- live frames ------------------------------------------------------------------------------
 FRAME_WIDTH_PX = 1000  # default frame size [px]

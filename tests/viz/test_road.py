@@ -32,3 +32,22 @@ def test_lane_markings_split_road_edges_from_dividers():
     assert len(solid) == 2  # two lanes side by side: two road edges, one dashed divider
     assert len(dashed) > 1
     assert all(piece.shape[1] == 2 for piece in solid + dashed)
+
+
+def test_stop_lines_and_signal_heads_are_drawn_on_the_map():
+    from matplotlib.collections import LineCollection, PolyCollection
+    from matplotlib.figure import Figure
+
+    from marl_social.viz.road import draw_road_map, signal_head_squares
+
+    road_map = make_scenario("signalized_intersection").build(np.random.default_rng(0)).road_map
+    ax = Figure().add_subplot()
+    draw_road_map(ax, road_map)
+    lines = [np.asarray(seg) for c in ax.collections if isinstance(c, LineCollection)
+             for seg in c.get_segments()]
+    for stop in road_map.stop_lines:
+        assert any(seg.shape == (2, 2) and np.allclose(seg, stop.segment) for seg in lines)
+    squares = [np.asarray(p.vertices)[:4] for c in ax.collections
+               if isinstance(c, PolyCollection) for p in c.get_paths()]
+    for square in signal_head_squares(road_map):
+        assert any(np.allclose(v, square) for v in squares)
