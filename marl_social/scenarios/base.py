@@ -18,6 +18,7 @@ import numpy as np
 
 from marl_social.agents.registry import ROBOT_PLANNERS
 from marl_social.sim.agent_spec import AgentSpec
+from marl_social.sim.costs import CostWeights
 from marl_social.sim.road_map import RoadMap
 from marl_social.sim.signals import SignalController
 
@@ -25,6 +26,8 @@ MAX_SLOTS = 64  # largest observation slot count K
 MAX_RAYS = 1024  # largest depth ray count per observation
 MAX_COLLISION_PENALTY = 1e9  # largest collision penalty (finite: inf * False is NaN)
 FLOAT_MAX = float(np.finfo(np.float64).max)  # a Python float: compares exactly with any int
+# theta_R: the robot values comfort more than the default driver model (smooth, early braking)
+THETA_ROBOT = CostWeights(accel=0.5, jerk=0.5)
 
 
 @dataclass(frozen=True)

@@ -21,7 +21,7 @@ from pathlib import Path
 
 import numpy as np
 
-from marl_social.scenarios.base import Scenario, ScenarioLayout, ScenarioParams
+from marl_social.scenarios.base import THETA_ROBOT, Scenario, ScenarioLayout, ScenarioParams
 from marl_social.scenarios.roads import (
     LANE_WIDTH_M,
     road_extent,
@@ -45,8 +45,6 @@ BLIND_HALF_LENGTH_M = 6.0  # a blind human cannot see x within this of the cross
 PEDESTRIAN_OVERSHOOT_M = 1.0  # the pedestrian's route ends this far past the far curb [m]
 CROSSING_HEADING_RAD = math.pi / 2  # pedestrians cross the road towards +y [rad]
 PEDESTRIAN_VARIANTS = ("crossing", "waiting", "none")
-# theta_R: the robot values comfort more than the default driver model (smooth, early braking)
-THETA_ROBOT = CostWeights(accel=0.5, jerk=0.5)
 # the pedestrian: keeps to its path and speed, and strongly prefers to stay on the crosswalk
 THETA_PEDESTRIAN = CostWeights(tracking=1.0, speed=1.0, accel=0.01, jerk=0.0, safety=5.0,
                                crosswalk=1000.0)

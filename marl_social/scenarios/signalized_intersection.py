@@ -38,9 +38,10 @@ from dataclasses import dataclass
 import numpy as np
 
 from marl_social.scenarios.base import Scenario, ScenarioLayout, ScenarioParams
+from marl_social.scenarios.intersection_agents import human_spec, robot_spec
 from marl_social.scenarios.intersections import arc_points, box, polyline
 from marl_social.scenarios.roads import LANE_WIDTH_M
-from marl_social.sim.agent_spec import AgentSpec, SensorParams, VehicleParams
+from marl_social.sim.agent_spec import AgentSpec, VehicleParams
 from marl_social.sim.costs import CostWeights
 from marl_social.sim.road_map import ConflictZone, Lane, RoadMap, Route, StopLine
 from marl_social.sim.signals import SignalController, SignalHead, SignalPhase, SignalPlan
@@ -82,7 +83,6 @@ MAX_POS_NOISE_M = 10.0  # [m]
 MAX_SPEED_LIMIT_MPS = 50.0  # [m/s]
 MAX_PHASE_S = 120.0  # longest phase [s]
 EXTENT = (-60.0, 40.0, -40.0, 40.0)  # the area worth drawing [m]
-THETA_ROBOT = CostWeights(accel=0.5, jerk=0.5)  # the robot values comfort (as elsewhere)
 
 
 @dataclass(frozen=True)
@@ -298,31 +298,10 @@ class SignalizedIntersection(Scenario):
         )
 
     # -- agents ------------------------------------------------------------------------------
-    def _human_spec(self, name: str, state, v_desired_mps: float,
-                    blind: tuple = ()) -> AgentSpec:
-        p: SignalizedIntersectionParams = self.params
-        theta = CostWeights.from_any(p.human_theta) if p.human_theta else CostWeights()
-        return AgentSpec(
-            name, "vehicle", "human", np.asarray(state, dtype=np.float64),
-            sensor=SensorParams(p.human_sensor_range_m, math.radians(p.human_half_fov_deg),
-                                pos_noise_m=p.human_pos_noise_m, blind_regions=blind),
-            vehicle=VehicleParams(), v_desired_mps=v_desired_mps, cost_weights=theta,
-            planner={"beta": p.human_beta},
-        )
-
     def _robot(self) -> tuple[AgentSpec, Route]:
         """The robot in the northbound lane, its front robot_start_back_m before its line."""
-        p: SignalizedIntersectionParams = self.params
-        vehicle = VehicleParams()
-        y = ROBOT_LINE_Y_M - p.robot_start_back_m - 0.5 * vehicle.length_m
-        spec = AgentSpec(
-            "robot_0", "vehicle", "robot",
-            np.array([NORTHBOUND_X_M, y, 0.5 * math.pi, p.robot_speed_mps]),
-            sensor=SensorParams(p.robot_sensor_range_m, math.radians(p.robot_half_fov_deg),
-                                pos_noise_m=p.robot_pos_noise_m),
-            vehicle=vehicle, v_desired_mps=p.robot_desired_speed_mps, cost_weights=THETA_ROBOT,
-            planner={"beta_hat": p.robot_beta_hat, "epsilon": p.robot_epsilon},
-        )
+        p = self.params
+        spec = robot_spec(p, NORTHBOUND_X_M, ROBOT_LINE_Y_M - p.robot_start_back_m)
         return spec, Route(self.right_turn_path(), "robot_0")
 
     def _left_turners(self) -> list[tuple[AgentSpec, Route]]:
@@ -335,7 +314,7 @@ class SignalizedIntersection(Scenario):
         for k in range(p.n_humans):
             name = f"human_{k}"
             y = LEFT_LINE_Y_M + p.human_start_m + half + HUMAN_SPACING_M * k
-            spec = self._human_spec(name, [SOUTHBOUND_LEFT_X_M, y, -0.5 * math.pi,
+            spec = human_spec(p, name, [SOUTHBOUND_LEFT_X_M, y, -0.5 * math.pi,
                                            p.human_speed_mps], p.human_desired_speed_mps, blind)
             out.append((spec, Route(self.left_turn_path(), name)))
         return out
@@ -348,7 +327,7 @@ class SignalizedIntersection(Scenario):
         for k in range(p.n_cross):
             name = f"human_{p.n_humans + k}"
             x = CROSS_LINE_X_M - p.cross_start_m - half - p.cross_gap_m * k
-            spec = self._human_spec(name, [x, EASTBOUND_CURB_Y_M, 0.0, p.cross_speed_mps],
+            spec = human_spec(p, name, [x, EASTBOUND_CURB_Y_M, 0.0, p.cross_speed_mps],
                                     p.cross_speed_mps)
             out.append((spec, Route(self.cross_path(), name)))
         return out

@@ -31,9 +31,10 @@ from dataclasses import dataclass
 import numpy as np
 
 from marl_social.scenarios.base import Scenario, ScenarioLayout, ScenarioParams
+from marl_social.scenarios.intersection_agents import human_spec, robot_spec
 from marl_social.scenarios.intersections import arc_points, box, parked_row, polyline
 from marl_social.scenarios.roads import LANE_WIDTH_M
-from marl_social.sim.agent_spec import AgentSpec, SensorParams, VehicleParams
+from marl_social.sim.agent_spec import AgentSpec, VehicleParams
 from marl_social.sim.costs import CostWeights
 from marl_social.sim.road_map import ConflictZone, Lane, RoadMap, Route, StopLine
 
@@ -75,7 +76,6 @@ MAX_POS_NOISE_M = 10.0  # largest measurement noise std [m]
 MAX_SPEED_LIMIT_MPS = 50.0  # highest legal speed limit [m/s]
 MAX_PARKED_GAP_M = 20.0  # largest gap between parked cars [m]
 # theta_R: the robot values comfort more than the default driver model (as in the crosswalk)
-THETA_ROBOT = CostWeights(accel=0.5, jerk=0.5)
 
 
 @dataclass(frozen=True)
@@ -245,31 +245,10 @@ class TIntersection(Scenario):
                           self.params.parked_gap_m)
 
     # -- agents ------------------------------------------------------------------------------
-    def _human_spec(self, name: str, state, v_desired_mps: float,
-                    blind: tuple = ()) -> AgentSpec:
-        p: TIntersectionParams = self.params
-        theta = CostWeights.from_any(p.human_theta) if p.human_theta else CostWeights()
-        return AgentSpec(
-            name, "vehicle", "human", np.asarray(state, dtype=np.float64),
-            sensor=SensorParams(p.human_sensor_range_m, math.radians(p.human_half_fov_deg),
-                                pos_noise_m=p.human_pos_noise_m, blind_regions=blind),
-            vehicle=VehicleParams(), v_desired_mps=v_desired_mps, cost_weights=theta,
-            planner={"beta": p.human_beta},
-        )
-
     def _robot(self) -> tuple[AgentSpec, Route]:
         """The robot at the stem's stop line, its front robot_start_back_m behind it."""
-        p: TIntersectionParams = self.params
-        vehicle = VehicleParams()
-        y = STOP_LINE_Y_M - p.robot_start_back_m - 0.5 * vehicle.length_m
-        spec = AgentSpec(
-            "robot_0", "vehicle", "robot",
-            np.array([NORTHBOUND_X_M, y, 0.5 * math.pi, p.robot_speed_mps]),
-            sensor=SensorParams(p.robot_sensor_range_m, math.radians(p.robot_half_fov_deg),
-                                pos_noise_m=p.robot_pos_noise_m),
-            vehicle=vehicle, v_desired_mps=p.robot_desired_speed_mps, cost_weights=THETA_ROBOT,
-            planner={"beta_hat": p.robot_beta_hat, "epsilon": p.robot_epsilon},
-        )
+        p = self.params
+        spec = robot_spec(p, NORTHBOUND_X_M, STOP_LINE_Y_M - p.robot_start_back_m)
         return spec, Route(self.right_turn_path(), "robot_0")
 
     def _left_turners(self) -> list[tuple[AgentSpec, Route]]:
@@ -281,7 +260,7 @@ class TIntersection(Scenario):
         for k in range(p.n_humans):
             name = f"human_{k}"
             x = LEFT_TURN_START_X_M + p.human_start_m + HUMAN_SPACING_M * k
-            spec = self._human_spec(name, [x, LEFT_TURN_LANE_Y_M, math.pi, p.human_speed_mps],
+            spec = human_spec(p, name, [x, LEFT_TURN_LANE_Y_M, math.pi, p.human_speed_mps],
                                     p.human_desired_speed_mps, blind)
             out.append((spec, Route(self.left_turn_path(), name)))
         return out
@@ -293,7 +272,7 @@ class TIntersection(Scenario):
             return []
         name = f"human_{p.n_humans}"
         x = -(p.hidden_near_m if p.hidden_vehicle == "near" else p.hidden_far_m)
-        spec = self._human_spec(name, [x, EASTBOUND_Y_M, 0.0, p.hidden_speed_mps],
+        spec = human_spec(p, name, [x, EASTBOUND_Y_M, 0.0, p.hidden_speed_mps],
                                 p.hidden_speed_mps)
         route = Route([[MAIN_WEST_X_M, EASTBOUND_Y_M], [MAIN_EAST_X_M, EASTBOUND_Y_M]], name)
         return [(spec, route)]
