@@ -74,23 +74,41 @@ def run_table(n_seeds: int, workers: int = 2, planners=PAPER_PLANNERS, variants=
     """
     jobs = [(p, v, s, overrides or {}) for p in planners for v in variants for s in range(n_seeds)]
     results = run_episodes(jobs, workers, progress=progress)
+
+    def summarize(runs: list[dict]) -> dict:
+        return {
+            "collision_rate": float(np.mean([m["robot_collision"] for m in runs])),
+            "yield_rate": float(np.mean([m["yielded"] for m in runs])),
+            "hard_brake_rate": float(np.mean([m["hard_brake"] for m in runs])),
+            "time_to_pass_s": float(np.nanmean([m["time_to_pass_s"] for m in runs])),
+            "mean_speed_mps": float(np.mean([m["mean_speed_mps"] for m in runs])),
+        }
+
+    return table_rows(results, planners, variants, summarize)
+
+
+def table_rows(results: list[tuple], planners, variants, summarize) -> list[dict]:
+    """One table row per (planner, variant) of a table's episodes.
+
+    Args:
+        results: (planner, variant, seed, summary or None, error or None) per episode.
+        planners: the rows' planners, in order.
+        variants: the rows' variants, in order (inner loop).
+        summarize: runs (list of summaries, >= 1) -> the row's values (dict).
+
+    Returns:
+        dicts with "planner", "variant", "n" (episodes that ran), "errors" (their messages)
+        and, where n > 0, summarize's values.
+    """
     rows = []
     for p in planners:
         for v in variants:
-            runs = [m for pp, vv, _, m, err in results if pp == p and vv == v and m is not None]
-            errors = [err for pp, vv, _, m, err in results if pp == p and vv == v and err]
-            if not runs:
-                rows.append({"planner": p, "variant": v, "n": 0, "errors": errors})
-                continue
-            rows.append({
-                "planner": p, "variant": v, "n": len(runs),
-                "collision_rate": float(np.mean([m["robot_collision"] for m in runs])),
-                "yield_rate": float(np.mean([m["yielded"] for m in runs])),
-                "hard_brake_rate": float(np.mean([m["hard_brake"] for m in runs])),
-                "time_to_pass_s": float(np.nanmean([m["time_to_pass_s"] for m in runs])),
-                "mean_speed_mps": float(np.mean([m["mean_speed_mps"] for m in runs])),
-                "errors": errors,
-            })
+            runs = [m for pp, vv, _, m, _ in results if pp == p and vv == v and m is not None]
+            errors = [err for pp, vv, _, _, err in results if pp == p and vv == v and err]
+            row = {"planner": p, "variant": v, "n": len(runs), "errors": errors}
+            if runs:
+                row.update(summarize(runs))
+            rows.append(row)
     return rows
 
 

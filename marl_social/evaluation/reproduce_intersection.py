@@ -17,7 +17,7 @@ from pathlib import Path
 
 import numpy as np
 
-from marl_social.evaluation.reproduce import map_jobs
+from marl_social.evaluation.reproduce import map_jobs, table_rows
 
 SCENARIO = "t_intersection"
 PLANNERS = ("social", "aggressive", "conservative", "oracle")
@@ -112,45 +112,28 @@ def claim_episode(job: tuple) -> tuple:
         return planner, variant, seed, None, f"{type(err).__name__}: {err}"
 
 
-def _one(job):
-    from marl_social.evaluation.run import run_episode
-
-    planner, variant, seed = job
-    try:
-        res = run_episode(SCENARIO, seed=seed, robot_planner=planner, hidden_vehicle=variant,
-                          max_cycles=MAX_CYCLES, **randomized_overrides(seed))
-        summary = dict(res.metrics)
-        hidden = f"human_{res.trace.roles.count('human') - 1}"  # V3 is the last human
-        summary["human_0_waited"] = first_left_turner_waited(res, hidden)
-        return planner, variant, seed, summary, None
-    except Exception as err:  # noqa: BLE001  (a failed run is recorded, the table goes on)
-        return planner, variant, seed, None, f"{type(err).__name__}: {err}"
-
-
 def run_table(n_seeds: int, workers: int = 2, planners=PLANNERS, variants=VARIANTS,
               progress: bool = True) -> list[dict]:
     """One row per (planner, variant): rates and means over n_seeds randomized episodes."""
-    jobs = [(p, v, s) for p in planners for v in variants for s in range(n_seeds)]
-    results = map_jobs(_one, jobs, workers, progress)
-    rows = []
-    for p in planners:
-        for v in variants:
-            runs = [m for pp, vv, _, m, _ in results if pp == p and vv == v and m is not None]
-            errors = [err for pp, vv, _, _, err in results if pp == p and vv == v and err]
-            row = {"planner": p, "variant": v, "n": len(runs), "errors": errors}
-            if runs:
-                def mean(key, runs=runs):
-                    return float(np.nanmean([float(m[key]) for m in runs]))
+    jobs = [(p, v, s, MAX_CYCLES) for p in planners for v in variants for s in range(n_seeds)]
+    results = map_jobs(claim_episode, jobs, workers, progress)
 
-                row.update({
-                    "collision_rate": mean("robot_collision"), "yield_rate": mean("yielded"),
-                    "hard_brake_rate": mean("hard_brake"), "time_to_pass_s": mean("time_to_pass_s"),
-                    "mean_speed_mps": mean("mean_speed_mps"),
-                    "others_max_decel_mps2": mean("others_max_decel_mps2"),
-                    "human_0_waited_rate": (mean("human_0_waited") if v != "none"
-                                            else float("nan")),
-                })
-            rows.append(row)
+    def summarize(runs: list[dict]) -> dict:
+        def mean(key):
+            return float(np.nanmean([float(m[key]) for m in runs]))
+
+        return {
+            "collision_rate": mean("robot_collision"), "yield_rate": mean("yielded"),
+            "hard_brake_rate": mean("hard_brake"), "time_to_pass_s": mean("time_to_pass_s"),
+            "mean_speed_mps": mean("mean_speed_mps"),
+            "others_max_decel_mps2": mean("others_max_decel_mps2"),
+            "human_0_waited_rate": mean("human_0_waited"),
+        }
+
+    rows = table_rows(results, planners, variants, summarize)
+    for row in rows:  # without V3 there is nothing to let pass
+        if row["variant"] == "none" and row["n"]:
+            row["human_0_waited_rate"] = float("nan")
     return rows
 
 

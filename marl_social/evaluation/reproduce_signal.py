@@ -23,7 +23,7 @@ from pathlib import Path
 
 import numpy as np
 
-from marl_social.evaluation.reproduce import map_jobs
+from marl_social.evaluation.reproduce import map_jobs, table_rows
 from marl_social.sim.route_rules import route_conflicts
 from marl_social.sim.signal_rules import route_signal_lines
 
@@ -101,27 +101,22 @@ def run_table(n_seeds: int, workers: int = 2, planners=PLANNERS, variants=VARIAN
     """One row per (planner, variant): rates and means over n_seeds randomized episodes."""
     jobs = [(p, v, s, max_cycles) for p in planners for v in variants for s in range(n_seeds)]
     results = map_jobs(claim_episode, jobs, workers, progress)
-    rows = []
-    for p in planners:
-        for v in variants:
-            runs = [m for pp, vv, _, m, _ in results if pp == p and vv == v and m is not None]
-            errors = [err for pp, vv, _, _, err in results if pp == p and vv == v and err]
-            row = {"planner": p, "variant": v, "n": len(runs), "errors": errors}
-            if runs:
-                def mean(key, runs=runs):
-                    return _nanmean([float(m[key]) for m in runs])
 
-                forced = [float(m["others_max_decel_mps2"]) > FORCED_BRAKE_MPS2 for m in runs]
-                row.update({
-                    "collision_rate": mean("collision"), "forced_brake_rate": float(np.mean(forced)),
-                    "turn_s": mean("turn_s"),
-                    "never_turned": int(sum(not np.isfinite(m["turn_s"]) for m in runs)),
-                    "time_to_pass_s": mean("time_to_pass_s"),
-                    "mean_speed_mps": mean("mean_speed_mps"),
-                    "others_max_decel_mps2": mean("others_max_decel_mps2"),
-                })
-            rows.append(row)
-    return rows
+    def summarize(runs: list[dict]) -> dict:
+        def mean(key):
+            return _nanmean([float(m[key]) for m in runs])
+
+        forced = [float(m["others_max_decel_mps2"]) > FORCED_BRAKE_MPS2 for m in runs]
+        return {
+            "collision_rate": mean("collision"), "forced_brake_rate": float(np.mean(forced)),
+            "turn_s": mean("turn_s"),
+            "never_turned": int(sum(not np.isfinite(m["turn_s"]) for m in runs)),
+            "time_to_pass_s": mean("time_to_pass_s"),
+            "mean_speed_mps": mean("mean_speed_mps"),
+            "others_max_decel_mps2": mean("others_max_decel_mps2"),
+        }
+
+    return table_rows(results, planners, variants, summarize)
 
 
 def format_table(rows: list[dict]) -> str:
