@@ -108,6 +108,8 @@ class MpcConfig:
         comfort_decel_mps2: braking beyond this is penalized by w_comfort (soft bound) [m/s^2].
         w_comfort: weight on the braking beyond comfort_decel_mps2, squared
             [1 / (m/s^2)^2 / s].
+        w_pull_up: weight of the pull-up term on (s - line)^2 while the robot drives up to a
+            stop line it stands short of (`plan`'s pull_up_to_m) [1 / m^2 / s].
     """
 
     plan_dt_s: float = 0.25
@@ -134,6 +136,7 @@ class MpcConfig:
     standstill_s: float = 0.5
     comfort_decel_mps2: float = 2.5
     w_comfort: float = 100.0
+    w_pull_up: float = 30.0
 
     def __post_init__(self):
         if not self.horizon_s > self.trunk_s >= self.plan_dt_s > 0.0:
@@ -207,6 +210,7 @@ class ContingencyMpc:
         self._static: tuple[Route, np.ndarray | None, StaticBoxes] | None = None
         self._headway = config.headway_s()
         self._comfort = np.ones(0)  # (L,) comfort weight factor per hypothesis, set by plan
+        self._goal = (0.0, 0.0)  # the pull-up term (weight, progress to the line), set by plan
 
     def reset(self) -> None:
         """Forget the QPs (their warm starts and step sizes): a new episode, bit-identical."""
@@ -241,7 +245,8 @@ class ContingencyMpc:
              speed_limit_mps: float, scene: ScenePrediction, beliefs: np.ndarray,
              static_boxes: np.ndarray | None = None, stop_at_m: float = np.inf,
              contingent: np.ndarray | None = None,
-             extra_objects: list[list[PathObject]] | None = None) -> MpcResult:
+             extra_objects: list[list[PathObject]] | None = None,
+             pull_up_to_m: float = np.inf) -> MpcResult:
         """One MPC solve.
 
         Args:
@@ -262,8 +267,14 @@ class ContingencyMpc:
             extra_objects: per hypothesis (L lists), objects on the path besides the scene's,
                 e.g. the zone claims of cars with the right of way (agents/robot/
                 right_of_way.py; None: none).
+            pull_up_to_m: the arc length the robot's centre drives up to, drawn there by the
+                pull-up term w_pull_up (s - line)^2: a robot at rest short of the stop line it
+                must stop at pulls up to it within a couple of seconds instead of creeping (the
+                speed term alone values distance, not arriving sooner; inf: no such term) [m].
         """
         c, veh = self.config, self.vehicle
+        self._goal = ((c.w_pull_up, pull_up_to_m - s0) if np.isfinite(pull_up_to_m)
+                      else (0.0, 0.0))
         beliefs = np.asarray(beliefs, dtype=np.float64)
         self._comfort = (np.ones(len(beliefs)) if contingent is None
                          else np.asarray(contingent, dtype=np.float64))
@@ -389,7 +400,7 @@ class ContingencyMpc:
         return qp.solve(weights, v0, prev, v_ref, v_max_b, s_low, s_up,
                         -veh.brake_max_mps2, veh.accel_max_mps2,
                         jerk_max or self.config.jerk_max_mps3, self.config.comfort_decel_mps2,
-                        comfort)
+                        comfort, *self._goal)
 
     def _choose_modes(self, objects: list[PathObject], bounds: tuple, v_cap: float,
                       pass_pedestrians: bool, hyp: int) -> tuple:

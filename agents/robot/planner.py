@@ -52,7 +52,7 @@ from marl_social.agents.robot.mpc import ContingencyMpc, MpcConfig, MpcResult
 from marl_social.agents.robot.phase_branches import PhaseBranches
 from marl_social.agents.robot.right_of_way import RightOfWay, RightOfWayConfig
 from marl_social.agents.robot.signal_stop import SignalStops
-from marl_social.agents.robot.stop import StopSignConfig, StopSigns
+from marl_social.agents.robot.stop import StopSignConfig, StopSigns, pull_up_target
 from marl_social.perception.belief import BeliefConfig, PedestrianBelief
 from marl_social.perception.belief.phase import SignalPhaseBelief
 from marl_social.perception.tracking import TrackSet
@@ -335,7 +335,9 @@ class RobotPlanner:
         result = self.solver.plan(self.route, s0, v, self.prev_accel, self.v_ref(),
                                   self.road_map.speed_limit_mps, scene, weights,
                                   self._static_boxes, stop_at, contingent,
-                                  self.right_of_way.claims(scene, s0))
+                                  self.right_of_way.claims(scene, s0),
+                                  pull_up_target(stop_at, s0, v, 0.5 * self.spec.vehicle.length_m,
+                                                 self.stop_signs.config))
         self.last_result = result
         self.prev_accel = result.accel_mps2
         steer = pure_pursuit(self.route, x, y, psi, v, s0, self.spec.vehicle.wheelbase_m)

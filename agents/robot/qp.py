@@ -23,8 +23,11 @@ Rows (l <= A x <= u), per branch:
   price; Alsterda & Gerdes' comfortable contingency branch).
 
 Cost (0.5 x'Px + q'x) = sum_l b_l dt sum_k [w_v (v - v_ref)^2 + w_a a^2 + w_j ((a_k - a_{k-1})
-/ dt_k)^2], dt_k = dt except for the first change (from the previous command, made within one
-simulator step: first_dt_s). The sparsity of P and A depends only on (L, N, n_trunk); a new step updates P's values
+/ dt_k)^2 + w_g (s - goal)^2], dt_k = dt except for the first change (from the previous
+command, made within one simulator step: first_dt_s); the pull-up term w_g (s - goal)^2 (0
+unless asked for: a robot at rest short of its stop line drives up to it instead of creeping,
+agents/robot/mpc.py) gives arriving sooner a value, which the speed term alone does not (its
+gain grows with the distance covered, not with how soon). The sparsity of P and A depends only on (L, N, n_trunk); a new step updates P's values
 (the beliefs), q and the bounds, and OSQP warm-starts from the previous solution.
 """
 
@@ -127,8 +130,8 @@ class ContingencyQp:
     def _build_cost_pattern(self) -> None:
         """Triples (row, col, coefficient, branch) of P; duplicates are summed in Px.
 
-        Per branch l and step k, in this order: v diag, s diag (0: keeps P's pattern
-        full-rank), comfort slack diag, a diag, and for k >= 1 the jerk terms of a[k - 1].
+        Per branch l and step k, in this order: v diag, s diag (the pull-up term, times
+        its weight; 0 keeps P's pattern full-rank), comfort slack diag, a diag, and for k >= 1 the jerk terms of a[k - 1].
         """
         w, dt = self.weights, self.dt_s
         L, N = self.n_branches, self.n_steps
@@ -141,10 +144,11 @@ class ContingencyQp:
         i = np.stack([self._v_idx, self._s_idx, self._c_idx, a, prev, prev], axis=-1)
         j = np.stack([self._v_idx, self._s_idx, self._c_idx, a, prev, a], axis=-1)
         coef = np.broadcast_to(np.stack(np.broadcast_arrays(
-            2.0 * w.speed * dt, 0.0, 2.0 * w.comfort * dt, a_diag, 2.0 * w.jerk / dt,
+            2.0 * w.speed * dt, 2.0 * dt, 2.0 * w.comfort * dt, a_diag, 2.0 * w.jerk / dt,
             -2.0 * w.jerk / dt), axis=-1), shape)
         branch = np.broadcast_to(np.arange(L)[:, None, None], shape)
         is_comfort = np.broadcast_to(np.arange(6) == 2, shape)
+        is_progress = np.broadcast_to(np.arange(6) == 1, shape)
         keep = np.ones(shape, bool)
         keep[:, 0, 4:] = False  # no jerk term before the first step's
         rows, cols = np.minimum(i, j)[keep], np.maximum(i, j)[keep]
@@ -153,11 +157,15 @@ class ContingencyQp:
         self._p_rows, self._p_cols = unique % self.n_vars, unique // self.n_vars
         self._p_coef, self._p_branch = coef[keep], branch[keep]
         self._p_comfort = is_comfort[keep]
+        self._p_progress = is_progress[keep]
 
-    def _p_values(self, weights: np.ndarray, comfort: np.ndarray | None = None) -> np.ndarray:
+    def _p_values(self, weights: np.ndarray, comfort: np.ndarray | None = None,
+                  goal_weight: float = 0.0) -> np.ndarray:
         factor = weights[self._p_branch]
         if comfort is not None:
             factor = np.where(self._p_comfort, factor * comfort[self._p_branch], factor)
+        # the pull-up term's weight (0: no such term, its diagonal entries stay 0)
+        factor = np.where(self._p_progress, factor * goal_weight, factor)
         return np.bincount(self._p_slot, weights=self._p_coef * factor,
                            minlength=len(self._p_rows))
 
@@ -167,10 +175,13 @@ class ContingencyQp:
         return sp.csc_matrix((self._p_values(weights), self._p_rows, indptr),
                              shape=(self.n_vars, self.n_vars))
 
-    def _q_vector(self, weights: np.ndarray, v_ref_mps: float, prev_accel: float) -> np.ndarray:
+    def _q_vector(self, weights: np.ndarray, v_ref_mps: float, prev_accel: float,
+                  goal_weight: float = 0.0, goal_m: float = 0.0) -> np.ndarray:
         w, dt = self.weights, self.dt_s
         q = np.zeros(self.n_vars)
         q[self._v_idx] = -2.0 * w.speed * dt * v_ref_mps * weights[:, None]
+        if goal_weight > 0.0:
+            q[self._s_idx] = -2.0 * goal_weight * dt * goal_m * weights[:, None]
         first = dt / self.first_dt_s ** 2
         q[self._a_idx[0, 0]] = -2.0 * w.jerk * first * prev_accel  # the weights sum to one
         return q
@@ -256,7 +267,8 @@ class ContingencyQp:
               v_max: np.ndarray, s_low: np.ndarray, s_up: np.ndarray, accel_min: float,
               accel_max: float, jerk_max: float,
               comfort_decel: float | None = None,
-              comfort: np.ndarray | None = None) -> QpSolution:
+              comfort: np.ndarray | None = None, goal_weight: float = 0.0,
+              goal_m: float = 0.0) -> QpSolution:
         """Solve for the current state and bounds.
 
         Args:
@@ -273,14 +285,17 @@ class ContingencyQp:
             comfort_decel: the comfortable deceleration (positive) beyond which braking is
                 penalized by the comfort weight (None: not penalized) [m/s^2].
             comfort: (L,) factor of each branch's comfort weight (None: 1, every branch).
+            goal_weight: w_g of the pull-up term w_g (s - goal_m)^2 [1 / m^2 / s] (0: none).
+            goal_m: the progress the pull-up term draws the plan to [m].
         """
         weights = np.asarray(weights, dtype=np.float64)
         lower, upper = self._bounds(v0, prev_accel, v_max, s_low, s_up, accel_min, accel_max,
                                     jerk_max, comfort_decel)
         if np.any(lower > upper + 1e-9):
             return self._failed()
-        self._solver.update(Px=self._p_values(weights, comfort),
-                            q=self._q_vector(weights, v_ref_mps, prev_accel), l=lower, u=upper)
+        self._solver.update(Px=self._p_values(weights, comfort, goal_weight),
+                            q=self._q_vector(weights, v_ref_mps, prev_accel, goal_weight, goal_m),
+                            l=lower, u=upper)
         res = self._solver.solve(raise_error=False)
         for _ in range(3):  # a cold start may need more iterations: go on from where it stopped
             if res.info.status_val != osqp.SolverStatus.OSQP_MAX_ITER_REACHED:

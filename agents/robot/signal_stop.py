@@ -27,9 +27,11 @@ from marl_social.sim.signals import RED, YELLOW
 
 RIGHT_TURN_LOOKAHEAD_M = 25.0  # how far past the line a right turn counts [m]
 RIGHT_TURN_MIN_RAD = np.radians(45.0)  # heading change to the right that makes a right turn
-# within near_m of the line and at most this fast, the wall moves to its front: it stops where
-# it is (the plan's last creep towards the line would keep it above the rest speed) [m/s]
+# within near_m of the line and at most this fast, the wall moves to where braking at
+# SETTLE_DECEL_MPS2 brings its front: it comes to rest there (the plan's last creep towards
+# the line would keep it above the rest speed) [m/s]
 SETTLE_SPEED_MPS = 1.0
+SETTLE_DECEL_MPS2 = 1.0  # [m/s^2]
 
 
 def turns_right_after(route: Route, s_m: float) -> bool:
@@ -96,7 +98,8 @@ class SignalStops:
             return np.inf
         wall = line
         if abs(line - front) <= c.near_m and v0 <= SETTLE_SPEED_MPS:
-            wall = min(line, front)  # close and slow: it comes to rest where it is
+            # close and slow: it comes to rest where a gentle stop brings it
+            wall = min(line, front + v0 * v0 / (2.0 * SETTLE_DECEL_MPS2))
         if state == RED and self.right_on_red[k]:
             if v0 < c.rest_mps and abs(line - front) <= c.near_m:
                 self.rest_s += dt_s

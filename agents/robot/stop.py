@@ -30,15 +30,45 @@ class StopSignConfig:
         near_m: its front bumper within this of the line (either side) [m].
         rest_mps: slower than this [m/s].
         hold_s: for at least this long [s].
+        pull_up_m: a robot whose front stands more than near_m and at most this far short of
+            the line it must stop at drives up to it (`pull_up_target`) [m].
+        pull_up_speed_mps: ... while slower than this [m/s].
     """
 
     near_m: float = 1.5
     rest_mps: float = 0.1
     hold_s: float = 0.5
+    pull_up_m: float = 6.0
+    pull_up_speed_mps: float = 2.0
 
     def __post_init__(self):
         if min(self.near_m, self.rest_mps, self.hold_s) <= 0.0:
             raise ValueError("StopSignConfig: near_m, rest_mps and hold_s must be > 0")
+        if not (self.pull_up_m >= self.near_m and self.pull_up_speed_mps > 0.0):
+            raise ValueError("StopSignConfig: need pull_up_m >= near_m and pull_up_speed_mps > 0")
+
+
+def pull_up_target(stop_at_m: float, s0: float, v0: float, half_length_m: float,
+                   config: StopSignConfig) -> float:
+    """The arc length a slow robot short of its stop line drives up to (inf: none) [m].
+
+    A robot slower than config.pull_up_speed_mps whose front stands more than near_m and at
+    most pull_up_m short of the line it must stop at (stop_at_m: its centre's bound, from
+    StopSigns / SignalStops) pulls up to it (the MPC's pull-up term); within near_m it is at
+    the line already and may come to rest where it is.
+
+    Args:
+        stop_at_m: the arc length its centre must stay behind (inf: no line due) [m].
+        s0: its centre's arc length [m].
+        v0: its speed [m/s].
+        half_length_m: half its length [m].
+        config: the stop-line rule.
+    """
+    short_m = stop_at_m - s0  # its front's distance to the line [m] (the bound is the centre's)
+    if (np.isfinite(stop_at_m) and v0 < config.pull_up_speed_mps
+            and config.near_m < short_m <= config.pull_up_m):
+        return float(stop_at_m)
+    return np.inf
 
 
 def stop_sign_arc_lengths(route: Route, road_map: RoadMap) -> np.ndarray:
