@@ -152,5 +152,6 @@ def write_figures(out: Path, seed: int = 0) -> list[Path]:
         paths.append(plot_episode(
             res.road_map, tr.names, tr.roles, tr.times_s, tr.states, tr.active, tr.visible,
             out / f"{stem}.png", title=f"Signalized intersection: {planner} planner, {variant}",
-            beliefs=beliefs, belief_title="the robot's belief in the signal phase"))
+            beliefs=beliefs, belief_title="the robot's belief in the signal phase",
+            signal_states=tr.signal_states))
     return paths

@@ -31,6 +31,7 @@ from marl_social.viz.style import (
     FIGURE_WIDTH_IN,
     HUMAN_CURVE_COLOR,
     ROLE_COLORS,
+    SIGNAL_STATE_COLORS,
     role_colors,
 )
 
@@ -92,7 +93,8 @@ def plot_episode(road_map: RoadMap, names: Sequence[str], roles: Sequence[str], 
                  states, active, visible, path, title: str = "",
                  beliefs: Mapping[str, np.ndarray] | None = None,
                  lengths_m=None, widths_m=None, snapshot_every_s: float = 1.0,
-                 belief_title: str = "probability of the pedestrian perceived") -> Path:
+                 belief_title: str = "probability of the pedestrian perceived",
+                 signal_states=None) -> Path:
     """Paper-style episode figure (like Figs. 3-6 of Sun et al. 2019), saved as PNG.
 
     Panels: (a) snapshots every `snapshot_every_s` on the map, older ones fainter (robot red
@@ -117,6 +119,10 @@ def plot_episode(road_map: RoadMap, names: Sequence[str], roles: Sequence[str], 
         widths_m: optional (n,) footprint widths [m]; default 1.8 m cars.
         snapshot_every_s: time between snapshots in panel (a) [s].
         belief_title: the title of panel (c) (after "(c) "), e.g. what `beliefs` are about.
+        signal_states: optional (T, H) states (sim/signals RED, YELLOW, GREEN) of the map's H
+            signal heads (Trace.signal_states): panel (b) gets one strip per head in the
+            colour it shows over time, named by the head (what each driver could read, the
+            truth the robot infers).
 
     Returns:
         The path written.
@@ -160,6 +166,9 @@ def plot_episode(road_map: RoadMap, names: Sequence[str], roles: Sequence[str], 
     _fit_equal_aspect(ax_map, (x0, x1, ey0, ey1), fig_w, fig_h)
     _draw_legend(ax_map, episode.roles)
     _draw_speeds(ax_v, episode, snaps)
+    if signal_states is not None and road_map.signal_heads:
+        _draw_signal_strips(ax_v, episode.times_s, signal_states,
+                            [h.name for h in road_map.signal_heads])
     _draw_perception(ax_p, episode, beliefs, belief_title)
     ax_v.set_xlim(episode.times_s[0],
                   episode.times_s[-1] if t_len > 1 else episode.times_s[0] + 1.0)
@@ -314,6 +323,41 @@ def _draw_speeds(ax, episode: _Episode, snaps: np.ndarray) -> None:
         top = np.nanmax(np.where(active[:, vehicles], states[:, vehicles, 3], np.nan),
                         initial=1.0)
         ax.set_ylim(0.0, 1.15 * top)
+
+
+def _draw_signal_strips(ax, times_s: np.ndarray, signal_states, head_names: list[str]) -> None:
+    """One strip per signal head along the top of panel (b), coloured by its state over time.
+
+    Args:
+        ax: panel (b)'s Axes.
+        times_s: (T,) times [s].
+        signal_states: (T, H) head states (RED, YELLOW, GREEN: SIGNAL_STATE_COLORS' indices).
+        head_names: (H,) the heads' names.
+
+    Raises:
+        ValueError: signal_states not (T, H) or a state outside the colours.
+    """
+    states = np.asarray(signal_states)
+    if states.shape != (len(times_s), len(head_names)):
+        raise ValueError(f"plot_episode: signal_states has shape {states.shape}, expected "
+                         f"({len(times_s)}, {len(head_names)}) (steps, signal heads)")
+    if states.size and not np.isin(states, np.arange(len(SIGNAL_STATE_COLORS))).all():
+        raise ValueError("plot_episode: signal_states must hold 0 (red), 1 (yellow) or 2 (green)")
+    dt = float(np.median(np.diff(times_s))) if len(times_s) > 1 else 0.1
+    starts = np.concatenate([[0], np.flatnonzero(np.any(np.diff(states, axis=0) != 0,
+                                                        axis=1)) + 1])
+    x0, x1 = times_s[starts], np.append(times_s[starts[1:]], times_s[-1] + dt)
+    height = 0.05
+    bottom, top = ax.get_ylim()  # room above the speed curves for the strips
+    ax.set_ylim(bottom, bottom + (top - bottom) / (1.0 - len(head_names) * (height + 0.01)))
+    strip_axes = ax.get_xaxis_transform()  # x in seconds, y in axes fractions
+    for h, name in enumerate(head_names):
+        y0 = 0.97 - (h + 1) * (height + 0.01)
+        ax.broken_barh(list(zip(x0, x1 - x0)), (y0, height), transform=strip_axes,
+                       facecolors=[SIGNAL_STATE_COLORS[s] for s in states[starts, h]],
+                       edgecolor="none", zorder=1)
+        ax.text(times_s[0], y0 + 0.5 * height, f" {name} signal", transform=strip_axes,
+                fontsize=6.5, va="center", ha="left", color="white", zorder=2)
 
 
 def _draw_perception(ax, episode: _Episode, beliefs: dict[str, np.ndarray],

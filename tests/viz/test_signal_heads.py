@@ -38,3 +38,32 @@ def test_every_head_is_drawn_in_the_state_it_shows():
         if not env.agents:
             break
     assert len(shown) >= 2  # the colour follows the state, not a constant
+
+
+def test_paper_figure_shows_each_heads_state_over_time(tmp_path):
+    """plot_episode(signal_states=...) adds one strip per head in the colour it shows; the
+    left-turners' green arrow (then yellow) appears, a wrong shape is a clear error."""
+    import pytest
+    from matplotlib.image import imread
+
+    from marl_social.evaluation.run import run_episode
+    from marl_social.viz.figures import plot_episode
+
+    res = run_episode("signalized_intersection", seed=0, robot_planner="oracle",
+                      phase="protected_left", phase_elapsed_s=8.0, max_cycles=30)
+    tr = res.trace
+    args = (res.road_map, tr.names, tr.roles, tr.times_s, tr.states, tr.active, tr.visible)
+
+    def count(path, state):
+        img = imread(path)[..., :3]
+        return int(np.all(np.abs(img - to_rgb(SIGNAL_STATE_COLORS[state])) < 0.02,
+                          axis=-1).sum())
+
+    plain = plot_episode(*args, tmp_path / "plain.png")
+    strips = plot_episode(*args, tmp_path / "strips.png", signal_states=tr.signal_states)
+    states = np.asarray(tr.signal_states)
+    assert {0, 1, 2} <= set(states.ravel().tolist())  # red, yellow and green in this window
+    for state in (0, 1, 2):
+        assert count(strips, state) > count(plain, state) + 200, state
+    with pytest.raises(ValueError, match="signal_states"):
+        plot_episode(*args, tmp_path / "bad.png", signal_states=states[:, :2])
