@@ -176,8 +176,9 @@ class CurbPedestrians:
             return empty
         standing = tracks.is_pedestrian & (np.linalg.norm(tracks.velocity, axis=1)
                                            < c.standing_mps)
-        _, lateral, _ = self.route.project(tracks.xy)
-        standing &= np.abs(lateral) > self._corridor_half
+        if standing.any():  # only standing pedestrians are projected (most steps: none)
+            _, lateral, _ = self.route.project(tracks.xy[standing])
+            standing[standing] = np.abs(lateral) > self._corridor_half
         xy_out, heading_out, seen = [], [], set()
         for i, s_near in self._crossings:
             cw = self.crosswalks[i]

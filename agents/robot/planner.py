@@ -305,7 +305,7 @@ class RobotPlanner:
             tracks = self._truth
         else:
             self.belief.update(obs)  # own tracks (+ negative / social information by variant)
-            tracks = self.belief.tracker.tracks()
+            tracks = self.belief.tracks
         weights = self.hypothesis_weights()
         # contingencies (comfortable braking): a hidden agent, a pedestrian stepping off the curb
         contingent = np.array([h.present for h in self.belief.hypotheses])
@@ -352,8 +352,10 @@ class RobotPlanner:
             tracks: the robot's tracks.
         """
         ped_xy = tracks.xy[tracks.is_pedestrian]
+        if not len(ped_xy):
+            return np.zeros(len(self._hypothesis_crosswalk), dtype=bool)
         near = [i for i, cw in enumerate(self.road_map.crosswalks)
-                if len(ped_xy) and cw.contains(ped_xy, TRACKED_REACH_M).any()]
+                if cw.contains(ped_xy, TRACKED_REACH_M).any()]
         return np.isin(self._hypothesis_crosswalk, near) & (self._hypothesis_crosswalk >= 0)
 
     def _phase_branches(self, decoded, tracks: TrackSet, scene: ScenePrediction,

@@ -41,6 +41,14 @@ import scipy.sparse as sp
 
 _OK = (osqp.SolverStatus.OSQP_SOLVED, osqp.SolverStatus.OSQP_SOLVED_INACCURATE)
 _INF = 1e20  # OSQP's infinity
+# what a QP's layout needs, built once per (L, N, n_trunk, steps, weights, headway) and shared
+# by every ContingencyQp of that layout (read only: bounds are copied from the templates); a
+# new episode's QPs then only set up OSQP
+_STRUCTURE_FIELDS = ("_a_off", "_v_off", "_s_off", "_c_off", "n_vars", "_a_idx", "_v_idx",
+                     "_s_idx", "_c_idx", "_p_slot", "_p_rows", "_p_cols", "_p_coef",
+                     "_p_branch", "_p_comfort", "_a_matrix", "_rows", "_lower_template",
+                     "_upper_template", "_p_initial")
+_STRUCTURES: dict[tuple, dict] = {}
 
 
 @dataclass(frozen=True)
@@ -101,6 +109,28 @@ class ContingencyQp:
             raise ValueError("ContingencyQp: need L >= 1 and 1 <= n_trunk < n_steps")
         self.n_branches, self.n_steps, self.n_trunk = n_branches, n_steps, n_trunk
         self.dt_s, self.first_dt_s, self.weights = dt_s, first_dt_s, weights
+        headway_s = np.asarray(headway_s, dtype=np.float64)
+        key = (n_branches, n_steps, n_trunk, dt_s, first_dt_s, weights, headway_s.tobytes())
+        structure = _STRUCTURES.get(key)
+        if structure is None:
+            self._build_structure(headway_s)
+            structure = {name: getattr(self, name) for name in _STRUCTURE_FIELDS}
+            _STRUCTURES[key] = structure
+        self.__dict__.update(structure)
+        self._solver = osqp.OSQP()
+        # copies: OSQP keeps the arrays it is set up with and writes P's updates into them
+        self._solver.setup(self._p_initial.copy(), np.zeros(self.n_vars), self._a_matrix.copy(),
+                           self._lower_template.copy(), self._upper_template.copy(),
+                           verbose=False, eps_abs=tolerance, eps_rel=tolerance,
+                           max_iter=4000, polishing=True, warm_starting=True,
+                           check_termination=10,
+                           # a fixed rho-update interval: OSQP's default (0) times the setup
+                           # and adapts on wall-clock time, which breaks bit-identical episodes
+                           adaptive_rho_interval=25)
+
+    def _build_structure(self, headway_s: np.ndarray) -> None:
+        """The index maps, P's pattern, A and the bound templates (_STRUCTURE_FIELDS)."""
+        n_branches, n_steps, n_trunk = self.n_branches, self.n_steps, self.n_trunk
         n_b = n_steps - n_trunk
         self._a_off = n_trunk
         self._v_off = n_trunk + n_branches * n_b
@@ -113,17 +143,8 @@ class ContingencyQp:
         self._s_idx = self._s_off + np.arange(n_branches * n_steps).reshape(n_branches, n_steps)
         self._c_idx = self._c_off + self._a_idx
         self._build_cost_pattern()
-        self._build_constraints(np.asarray(headway_s, dtype=np.float64))
-        self._solver = osqp.OSQP()
-        self._solver.setup(self._p_matrix(np.full(n_branches, 1.0 / n_branches)),
-                           np.zeros(self.n_vars), self._a_matrix,
-                           self._lower_template.copy(), self._upper_template.copy(),
-                           verbose=False, eps_abs=tolerance, eps_rel=tolerance,
-                           max_iter=4000, polishing=True, warm_starting=True,
-                           check_termination=10,
-                           # a fixed rho-update interval: OSQP's default (0) times the setup
-                           # and adapts on wall-clock time, which breaks bit-identical episodes
-                           adaptive_rho_interval=25)
+        self._build_constraints(headway_s)
+        self._p_initial = self._p_matrix(np.full(n_branches, 1.0 / n_branches))
 
     # -- cost ---------------------------------------------------------------------------------
 

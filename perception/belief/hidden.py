@@ -111,6 +111,8 @@ class HiddenAgentBelief:
         last_likelihoods: this step's likelihoods (each scaled to max 1): "own" (L,), "social"
             (L,), "traffic" (V,), "visible_fraction" (L,), "detected" (L,) bool, "a_obs"
             {human name: observed acceleration [m/s^2]}.
+        tracks: the robot's tracks after the last update (tracker.tracks() then; the
+            planner reads them rather than building them again).
     """
 
     def __init__(self, road_map: RoadMap, layout: ObservationLayout, robot_name: str,
@@ -168,6 +170,7 @@ class HiddenAgentBelief:
         """Back to the prior (call at every episode start)."""
         self.probabilities = self.prior.copy()
         self.tracker.reset()
+        self.tracks = self.tracker.tracks()
         self.traffic.reset()
         self.social.reset()
         self.perceived = 0.0
@@ -234,6 +237,7 @@ class HiddenAgentBelief:
         decoded = self.layout.decode(obs)
         n, n_v = len(self.hypotheses), len(self.traffic.grid_mps)
         tracks = self.tracker.update(decoded)
+        self.tracks = tracks
         ll_own = np.zeros(n)
         visible = np.zeros(n)
         detected = np.zeros(n, dtype=bool)

@@ -289,6 +289,23 @@ def test_qp_is_built_once_per_number_of_branches_and_reused():
     assert mpc._qps[2] is first and set(mpc._qps) == {2}
 
 
+def test_a_new_mpc_plans_bit_identically_after_others_of_the_same_layout_have_solved():
+    """QP layouts are shared between MPCs (qp.py): solving one must not change another's."""
+
+    def episode(mpc):
+        plans = [mpc.plan(ROUTE, s0, v0, 0.0, 11.5, 13.9, _scene([False, True]),
+                          np.array([b, 1.0 - b])).accel_plan
+                 for s0, v0, b in ((30.0, 11.5, 0.7), (31.1, 11.0, 0.4), (32.1, 10.2, 0.9))]
+        return np.stack(plans)
+
+    first = episode(ContingencyMpc(CONFIG, VEHICLE))
+    # other weights and bounds for the same layout (the P values OSQP is updated with differ)
+    other = ContingencyMpc(CONFIG, VEHICLE)
+    other.plan(ROUTE, 20.0, 6.0, -1.0, 11.5, 13.9, _scene([True, True]), np.array([0.05, 0.95]))
+    again = episode(ContingencyMpc(CONFIG, VEHICLE))
+    assert np.array_equal(first, again)
+
+
 def _standing(xy: np.ndarray) -> ScenePrediction:
     """One hypothesis: a pedestrian standing at xy (2,) for the whole horizon."""
     scene = _scene([True])
