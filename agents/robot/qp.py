@@ -27,7 +27,8 @@ Cost (0.5 x'Px + q'x) = sum_l b_l dt sum_k [w_v (v - v_ref)^2 + w_a a^2 + w_j ((
 command, made within one simulator step: first_dt_s); the pull-up term w_g (s - goal)^2 (0
 unless asked for: a robot at rest short of its stop line drives up to it instead of creeping,
 agents/robot/mpc.py) gives arriving sooner a value, which the speed term alone does not (its
-gain grows with the distance covered, not with how soon). The sparsity of P and A depends only on (L, N, n_trunk); a new step updates P's values
+gain grows with the distance covered, not with how soon). The sparsity of P and A depends
+only on (L, N, n_trunk); a new step updates P's values
 (the beliefs), q and the bounds, and OSQP warm-starts from the previous solution.
 """
 
@@ -46,8 +47,8 @@ _INF = 1e20  # OSQP's infinity
 # new episode's QPs then only set up OSQP
 _STRUCTURE_FIELDS = ("_a_off", "_v_off", "_s_off", "_c_off", "n_vars", "_a_idx", "_v_idx",
                      "_s_idx", "_c_idx", "_p_slot", "_p_rows", "_p_cols", "_p_coef",
-                     "_p_branch", "_p_comfort", "_a_matrix", "_rows", "_lower_template",
-                     "_upper_template", "_p_initial")
+                     "_p_branch", "_p_comfort", "_p_progress", "_a_matrix", "_rows",
+                     "_lower_template", "_upper_template", "_p_initial")
 _STRUCTURES: dict[tuple, dict] = {}
 
 
@@ -152,7 +153,8 @@ class ContingencyQp:
         """Triples (row, col, coefficient, branch) of P; duplicates are summed in Px.
 
         Per branch l and step k, in this order: v diag, s diag (the pull-up term, times
-        its weight; 0 keeps P's pattern full-rank), comfort slack diag, a diag, and for k >= 1 the jerk terms of a[k - 1].
+        its weight; 0 keeps P's pattern full-rank), comfort slack diag, a diag, and for
+        k >= 1 the jerk terms of a[k - 1].
         """
         w, dt = self.weights, self.dt_s
         L, N = self.n_branches, self.n_steps
