@@ -16,7 +16,7 @@ from marl_social.perception.fov import FieldOfView, FovResult
 from marl_social.perception.sensors import Measurements, measure
 from marl_social.perception.signal_view import visible_heads
 from marl_social.scenarios.base import ScenarioLayout
-from marl_social.sim.costs import N_FEATURES, step_features
+from marl_social.sim.costs import N_FEATURES, pairwise_step_features
 from marl_social.sim.dynamics import (
     DT_S,
     bicycle_step,
@@ -117,6 +117,9 @@ class World:
         self._progress = None
         self._kinds_key = None
         self._kinds = None
+        self._pairs_key = None
+        self._pairs = None
+        self._kinds_differ = self.is_pedestrian[None, :] != self.is_pedestrian[:, None]
         geometry = (self.is_pedestrian, self.length_m, self.width_m,
                     self.road_map.static_polygons)
         if reuse is not None and reuse.mirror.matches(*geometry):  # same solids: no rebuild
@@ -234,16 +237,16 @@ class World:
         """(n, N_FEATURES) each agent's cost features this step (sim/costs.py)."""
         _, lateral = self.route_progress()
         xy, heading = self.state[:, :2], self.state[:, 2]
-        circles, circle_r = place_along(xy, heading, self._circle_along), self._circle_r
-        others = self.active[None, :] & ~np.eye(self.n, dtype=bool)
-        return step_features(
+        circles = place_along(xy, heading, self._circle_along)
+        key = self.active.tobytes()
+        if key != self._pairs_key:  # every active agent but itself is each agent's other
+            others = self.active[None, :] & ~np.eye(self.n, dtype=bool)
+            self._pairs_key, self._pairs = key, others
+        others = self._pairs
+        return pairwise_step_features(
             lateral_m=lateral, speed_mps=self.state[:, 3], v_ref_mps=self.v_desired_mps,
             accel_mps2=self.accel_mps2, prev_accel_mps2=self.prev_accel_mps2,
-            ego_xy=xy, ego_radius=self.bounding_radius_m, ego_is_ped=self.is_pedestrian,
-            ego_circles=circles, ego_circle_r=circle_r,
-            # (1, n, ...): every agent has the same others; the mask removes itself
-            other_xy=xy[None], other_radius=self.bounding_radius_m[None],
-            other_is_ped=self.is_pedestrian[None], other_circles=circles[None],
-            other_circle_r=circle_r[None], other_mask=others,
-            crosswalks=self.road_map.crosswalks,
+            xy=xy, radius=self.bounding_radius_m, is_ped=self.is_pedestrian,
+            circles=circles, circle_r=self._circle_r, other_mask=others,
+            crosswalks=self.road_map.crosswalks, kinds_differ=self._kinds_differ,
         )
