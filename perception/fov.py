@@ -186,16 +186,21 @@ class FieldOfView:
         d_end[:, 1] = np.sin(d_dir)
         d_end *= d_range
         d_end += xy[d_obs]
-        n_t = len(o1)
-        ray_obs = np.concatenate([o1, d_obs])
-        start = xy[ray_obs]
-        end = np.concatenate([points[t1, 0], d_end])
-        maybe = self._maybe_blocked(start, end, ray_obs, t1, xy, radii, static_near)
-        self._resolve_targets(start[:n_t], end[:n_t], o1, t1, maybe[:n_t], visible)
-        todo = np.flatnonzero(maybe[n_t:])
-        alpha = np.ones(len(d_obs))
-        alpha[todo] = self.mirror.first_hits(start[n_t + todo], d_end[todo], d_obs[todo])[1]
-        self._queries += len(todo)
+        if static_near.all():  # every ray goes to the narrow phase: no broad phase to run
+            self._query_targets(xy[o1], points[t1, 0], o1, t1, visible)
+            alpha = self.mirror.first_hits(xy[d_obs], d_end, d_obs)[1]
+            self._queries += len(d_obs)
+        else:
+            n_t = len(o1)
+            ray_obs = np.concatenate([o1, d_obs])
+            start = xy[ray_obs]
+            end = np.concatenate([points[t1, 0], d_end])
+            maybe = self._maybe_blocked(start, end, ray_obs, t1, xy, radii, static_near)
+            self._resolve_targets(start[:n_t], end[:n_t], o1, t1, maybe[:n_t], visible)
+            todo = np.flatnonzero(maybe[n_t:])
+            alpha = np.ones(len(d_obs))
+            alpha[todo] = self.mirror.first_hits(start[n_t + todo], d_end[todo], d_obs[todo])[1]
+            self._queries += len(todo)
         depth = np.zeros((n, self.n_rays))
         depth[active] = (alpha * d_range[:, 0]).reshape(-1, self.n_rays)
         # -- round 2: corner rays of targets in view whose centre was hidden
@@ -203,8 +208,11 @@ class FieldOfView:
         o2, t2, k2 = np.nonzero(sensed[:, :, 1:])
         if len(o2):
             start2, end2 = xy[o2], points[t2, k2 + 1]
-            maybe2 = self._maybe_blocked(start2, end2, o2, t2, xy, radii, static_near)
-            self._resolve_targets(start2, end2, o2, t2, maybe2, visible)
+            if static_near[o2].all():
+                self._query_targets(start2, end2, o2, t2, visible)
+            else:
+                maybe2 = self._maybe_blocked(start2, end2, o2, t2, xy, radii, static_near)
+                self._resolve_targets(start2, end2, o2, t2, maybe2, visible)
         for o, poly in self._blind:
             visible[o] &= ~_inside_convex(xy, poly)
         return FovResult(visible, depth, angles, self._queries)
@@ -263,6 +271,10 @@ class FieldOfView:
         clear = ~maybe
         visible[obs[clear], tgt[clear]] = True
         todo = np.flatnonzero(maybe & ~visible[obs, tgt])
-        seen, n_queries = self.mirror.hits_targets(start[todo], end[todo], obs[todo], tgt[todo])
-        visible[obs[todo[seen]], tgt[todo[seen]]] = True
+        self._query_targets(start[todo], end[todo], obs[todo], tgt[todo], visible)
+
+    def _query_targets(self, start, end, obs, tgt, visible) -> None:
+        """Narrow phase of target rays (R, 2)->(R, 2): mark visible[o, t] where a ray hits it."""
+        seen, n_queries = self.mirror.hits_targets(start, end, obs, tgt)
+        visible[obs[seen], tgt[seen]] = True
         self._queries += n_queries

@@ -33,6 +33,18 @@ def _prism(polygon: np.ndarray) -> fcl.Convex:
     return fcl.Convex(verts, v + 2, np.asarray(faces, dtype=np.int64))
 
 
+def _cp_vects(points: np.ndarray):
+    """(R, 2) points [m] as a chipmunk cpVect[R] array, copied in one memmove.
+
+    cpVect is two doubles, the layout of a C-contiguous (R, 2) float64 array; passing its
+    items to chipmunk skips the conversion of a Python sequence per call (~25 % of a ray).
+    """
+    points = np.ascontiguousarray(points, dtype=np.float64)
+    vects = ffi.new("cpVect[]", max(len(points), 1))
+    ffi.memmove(vects, points, points.nbytes)
+    return vects
+
+
 class GeometryMirror:
     """pymunk + fcl mirror of every agent footprint and static polygon.
 
@@ -209,11 +221,11 @@ class GeometryMirror:
         """
         query, space, info = lib.cpSpaceSegmentQueryFirst, self.space._space, self._query_info
         filters, label_of = self._cp_filters, self._cp_label
+        starts, ends = _cp_vects(start), _cp_vects(end)
         labels = [-1] * len(observer)
         alpha = [1.0] * len(observer)
-        for r, a, b, o in zip(range(len(observer)), np.asarray(start).tolist(),
-                              np.asarray(end).tolist(), np.asarray(observer).tolist()):
-            hit = query(space, a, b, 0.0, filters[o], info)
+        for r, o in enumerate(np.asarray(observer).tolist()):
+            hit = query(space, starts[r], ends[r], 0.0, filters[o], info)
             if hit:
                 labels[r] = label_of[hit]
                 alpha[r] = info.alpha
@@ -239,13 +251,13 @@ class GeometryMirror:
         filters, label_of = self._cp_filters, self._cp_label
         seen = [False] * len(observer)
         found, n_queries = None, 0
-        for r, a, b, o, t in zip(range(len(observer)), np.asarray(start).tolist(),
-                                 np.asarray(end).tolist(), np.asarray(observer).tolist(),
-                                 np.asarray(target).tolist()):
+        starts, ends = _cp_vects(start), _cp_vects(end)
+        for r, o, t in zip(range(len(observer)), np.asarray(observer).tolist(),
+                           np.asarray(target).tolist()):
             if found == (o, t):
                 continue
             n_queries += 1
-            hit = query(space, a, b, 0.0, filters[o], info)
+            hit = query(space, starts[r], ends[r], 0.0, filters[o], info)
             if hit and label_of[hit] == t:
                 seen[r] = True
                 found = (o, t)
