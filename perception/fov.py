@@ -242,7 +242,7 @@ class FieldOfView:
             return np.zeros(len(xy), dtype=bool)
         gap = np.maximum(np.maximum(self._box_min[None] - xy[:, None], xy[:, None]
                                     - self._box_max[None]), 0.0)  # (n, S, 2) [m]
-        return np.any(gap[..., 0] ** 2 + gap[..., 1] ** 2 <= (range_m ** 2)[:, None], axis=1)
+        return (gap[..., 0] ** 2 + gap[..., 1] ** 2 <= (range_m ** 2)[:, None]).any(axis=1)
 
     def _maybe_blocked(self, start, end, ray_obs, tgt, centres, radii, static_near
                        ) -> np.ndarray:

@@ -235,7 +235,7 @@ class SocialDrivingEnv(ParallelEnv, EzPickle):
         if arr.shape != (2,):
             raise ValueError(f"agent {agent!r}: action must have shape (2,), got {arr.shape}")
         arr = arr.astype(np.float64)
-        if not np.all(np.isfinite(arr)):
+        if not np.isfinite(arr).all():
             raise ValueError(f"agent {agent!r}: action {arr.tolist()} has NaN or inf")
         return arr
 
@@ -255,7 +255,7 @@ class SocialDrivingEnv(ParallelEnv, EzPickle):
             i = self._index[agent]
             observations[agent] = obs[i]
             infos[agent] = {
-                "visible": [names[j] for j in np.flatnonzero(fov.visible[i])],
+                "visible": [names[j] for j in fov.visible[i].nonzero()[0].tolist()],
                 "collision": bool(collided_with[agent]),
                 "collided_with": collided_with[agent],
                 "arrived": bool(arrived[i]),

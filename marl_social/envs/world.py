@@ -161,11 +161,12 @@ class World:
         if len(ped):
             before = self.state[ped]
             applied_ped = saturate_pedestrian_action(action[ped], ped_speed_max)
-            old_velocity = before[:, 3:4] * np.column_stack([np.cos(before[:, 2]),
-                                                            np.sin(before[:, 2])])
+            # |command - old velocity| / dt (what np.linalg.norm computes, without its wrapper)
+            dvx = applied_ped[:, 0] - before[:, 3] * np.cos(before[:, 2])
+            dvy = applied_ped[:, 1] - before[:, 3] * np.sin(before[:, 2])
             self.state[ped] = pedestrian_step(before, applied_ped)
             applied[ped] = applied_ped
-            self.accel_mps2[ped] = np.linalg.norm(applied_ped - old_velocity, axis=1) / DT_S
+            self.accel_mps2[ped] = np.sqrt(dvx * dvx + dvy * dvy) / DT_S
         self.last_applied_action = applied
         self.time_s += DT_S
         self.mirror.sync(self.state[:, :2], self.state[:, 2], self.active)

@@ -299,7 +299,7 @@ class GeometryMirror:
         gap = np.maximum(np.maximum(self._static_min - xy[:, None], xy[:, None] - self._static_max),
                          0.0)  # (n, S, 2) from each centre to each static box [m]
         d2 = gap[..., 0] ** 2 + gap[..., 1] ** 2
-        return bool(np.any(d2 <= np.where(r > 0, r * r, -1.0)[:, None]))
+        return bool((d2 <= np.where(r > 0, r * r, -1.0)[:, None]).any())
 
     def distance(self, label_a: int, label_b: int) -> float:
         """Exact fcl distance between two labelled solids [m] (0 when they overlap)."""

@@ -237,11 +237,17 @@ class ObservationLayout:
             rank = np.arange(len(m.observer)) - first
             keep = rank < self.n_slots
             obs_i, rank, tgt = m.observer[keep], rank[keep], m.target[keep]
-            slot = np.column_stack([
-                np.ones(len(tgt)), tgt + 1.0, m.xy[keep], m.velocity[keep],
-                np.cos(m.heading[keep]), np.sin(m.heading[keep]), length[tgt], width[tgt],
-                is_pedestrian[tgt].astype(np.float64),
-            ])
+            heading_k = m.heading[keep]
+            slot = np.empty((len(tgt), SLOT_DIM))  # SLOT_FIELDS, in float64 as measured
+            slot[:, 0] = 1.0
+            slot[:, 1] = tgt + 1.0
+            slot[:, 2:4] = m.xy[keep]
+            slot[:, 4:6] = m.velocity[keep]
+            slot[:, 6] = np.cos(heading_k)
+            slot[:, 7] = np.sin(heading_k)
+            slot[:, 8] = length[tgt]
+            slot[:, 9] = width[tgt]
+            slot[:, 10] = is_pedestrian[tgt]
             slots = out[:, EGO_DIM:EGO_DIM + self.n_slots * SLOT_DIM].reshape(
                 n, self.n_slots, SLOT_DIM
             )

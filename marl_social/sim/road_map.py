@@ -376,9 +376,11 @@ class RouteSet:
             Arc length s (n,) [m] and signed lateral offset (n,) [m] (left positive).
         """
         rel = xy[:, None, :] - self.seg_start  # (n, S, 2)
-        t = np.clip(np.einsum("nsk,nsk->ns", rel, self.seg_dir), 0.0, self.seg_len)
+        # clip as minimum(maximum()): np.clip's wrapper costs more than the arithmetic
+        t = np.minimum(np.maximum(np.einsum("nsk,nsk->ns", rel, self.seg_dir), 0.0),
+                       self.seg_len)
         closest = self.seg_start + t[..., None] * self.seg_dir
-        d2 = np.where(self.valid, np.sum((xy[:, None, :] - closest) ** 2, axis=-1), np.inf)
+        d2 = np.where(self.valid, ((xy[:, None, :] - closest) ** 2).sum(axis=-1), np.inf)
         k = np.argmin(d2, axis=1)
         rows = np.arange(len(xy))
         rel_k, dir_k = rel[rows, k], self.seg_dir[rows, k]
