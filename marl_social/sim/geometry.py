@@ -231,6 +231,34 @@ class GeometryMirror:
                 alpha[r] = info.alpha
         return np.array(labels, dtype=np.int64), np.array(alpha, dtype=np.float64)
 
+    def fan_alphas(self, origin: np.ndarray, observer: np.ndarray, end: np.ndarray
+                   ) -> np.ndarray:
+        """`first_hits` alphas of fans of rays: R rays from each observer's centre.
+
+        The same chipmunk queries in the same order as `first_hits` on the repeated starts,
+        with the per-observer start and filter looked up once per fan.
+
+        Args:
+            origin: (A, 2) the observers' centres [m].
+            observer: (A,) int, their labels (each fan ignores its observer's shape).
+            end: (A * R, 2) ray ends [m], observer by observer.
+
+        Returns:
+            (A * R,) alpha in [0, 1] along each ray (1.0 where nothing is hit).
+        """
+        query, space, info = lib.cpSpaceSegmentQueryFirst, self.space._space, self._query_info
+        filters = self._cp_filters
+        origins, ends = _cp_vects(origin), _cp_vects(end)
+        n_obs = len(observer)
+        per = len(end) // n_obs if n_obs else 0
+        alpha = [1.0] * len(end)
+        for k, o in enumerate(np.asarray(observer).tolist()):
+            start, ray_filter = origins[k], filters[o]
+            for r in range(k * per, (k + 1) * per):
+                if query(space, start, ends[r], 0.0, ray_filter, info):
+                    alpha[r] = info.alpha
+        return np.array(alpha, dtype=np.float64)
+
     def hits_targets(self, start: np.ndarray, end: np.ndarray, observer: np.ndarray,
                      target: np.ndarray) -> tuple[np.ndarray, int]:
         """Whether each segment's first hit is its target: rays from observers to targets.
