@@ -116,7 +116,7 @@ def run_env_benchmark(agent_counts=(3, 10, 30, 100), n_steps: int = 500, peer: b
     """The `marl-social bench env` job. Returns one row per configuration.
 
     The paper scenario's peer is highway-env with its 3 agents; with `vector`, a last row
-    compares vector_env(2) with one autopilot env (marl_social/bench/vector_bench.py).
+    compares vector_env on 2 processes with one autopilot env (marl_social/bench/vector_bench.py).
     """
     rows = []
     configs = [("paper scenario (occluded_crosswalk)", "occluded_crosswalk", 3, {})]
