@@ -201,7 +201,7 @@ class World:
 
     def deactivate(self, mask: np.ndarray) -> None:
         """Remove agents from the world and from its geometry mirrors."""
-        if np.any(mask & self.active):
+        if (mask & self.active).any():
             self.active &= ~mask
             self.mirror.sync(self.state[:, :2], self.state[:, 2], self.active)
 

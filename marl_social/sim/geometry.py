@@ -67,6 +67,8 @@ class GeometryMirror:
         self._geoms = []  # keep geometries alive: labels are keyed by id()
         self._in_space = np.zeros(self.n_agents, dtype=bool)
         self._off_diagonal = ~np.eye(self.n_agents, dtype=bool)
+        self._touch_key = None  # _bounds_may_touch's constants, per active set
+        self._touch = None
         self._ray_filters: list[pymunk.ShapeFilter] = []
         self._cp_filter_owners = []  # chipmunk cpShapeFilter structs, built once per agent
 
@@ -314,20 +316,29 @@ class GeometryMirror:
         return sorted(pairs)
 
     def _bounds_may_touch(self, xy, radius, active) -> bool:
-        r = np.where(active, radius, -1e9)
+        """Whether two active agents' bounding circles, or one and a static box, overlap.
+
+        Args:
+            xy: (n, 2) agent centres [m].
+            radius: (n,) bounding radii [m].
+            active: (n,) bool; inactive agents touch nothing.
+        """
+        key = active.tobytes() + radius.tobytes()
+        if key != self._touch_key:  # squared reaches, per pair and per agent, of this active set
+            pairs = self._off_diagonal & active[:, None] & active[None, :]
+            reach = radius[:, None] + radius
+            self._touch_key = key
+            self._touch = (pairs, reach * reach, np.where(active, radius * radius, -1.0)[:, None])
+        pairs, reach2, radius2 = self._touch
         dx = xy[:, 0:1] - xy[:, 0]
         dy = xy[:, 1:2] - xy[:, 1]
-        reach = r[:, None] + r
-        close = dx * dx + dy * dy <= reach * reach
-        close &= self._off_diagonal
-        if close.any():
+        if ((dx * dx + dy * dy <= reach2) & pairs).any():
             return True
         if not len(self._static_min):
             return False
         gap = np.maximum(np.maximum(self._static_min - xy[:, None], xy[:, None] - self._static_max),
                          0.0)  # (n, S, 2) from each centre to each static box [m]
-        d2 = gap[..., 0] ** 2 + gap[..., 1] ** 2
-        return bool((d2 <= np.where(r > 0, r * r, -1.0)[:, None]).any())
+        return bool((gap[..., 0] ** 2 + gap[..., 1] ** 2 <= radius2).any())
 
     def distance(self, label_a: int, label_b: int) -> float:
         """Exact fcl distance between two labelled solids [m] (0 when they overlap)."""
