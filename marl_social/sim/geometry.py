@@ -67,6 +67,7 @@ class GeometryMirror:
         self._geoms = []  # keep geometries alive: labels are keyed by id()
         self._in_space = np.zeros(self.n_agents, dtype=bool)
         self._off_diagonal = ~np.eye(self.n_agents, dtype=bool)
+        self._fcl_pose = None  # (xy, heading) the fcl objects have yet to move to
         self._touch_key = None  # _bounds_may_touch's constants, per active set
         self._touch = None
         self._ray_filters: list[pymunk.ShapeFilter] = []
@@ -151,14 +152,17 @@ class GeometryMirror:
     def sync(self, xy: np.ndarray, heading: np.ndarray, active: np.ndarray) -> None:
         """Move every active agent's pymunk body and fcl object to its pose; remove inactive ones.
 
+        The pymunk bodies move now (every step's rays need them); the fcl objects when fcl is
+        next asked (`contacts` past its bounding-circle check, `distance`): most steps nothing
+        can touch and fcl is never asked.
+
         Args:
             xy: (n, 2) agent centres [m].
             heading: (n,) agent headings [rad].
             active: (n,) bool, False for agents to remove.
         """
         space_ptr = self.space._space
-        half = 0.5 * np.asarray(heading, dtype=np.float64)
-        qw, qz = np.cos(half).tolist(), np.sin(half).tolist()
+        self._fcl_pose = (np.array(xy, dtype=np.float64), np.array(heading, dtype=np.float64))
         for i, (x, y), a, active_i in zip(range(self.n_agents), xy.tolist(),
                                           np.asarray(heading).tolist(), active.tolist()):
             if not active_i:
@@ -173,8 +177,21 @@ class GeometryMirror:
             lib.cpBodySetPosition(body_ptr, (x, y))
             lib.cpBodySetAngle(body_ptr, a)
             lib.cpSpaceReindexShapesForBody(space_ptr, body_ptr)
-            self._fcl_objects[i].setTransform(fcl.Transform([qw[i], 0.0, 0.0, qz[i]], [x, y, 0.0]))
+
+    def _sync_fcl(self) -> None:
+        """Move the fcl objects of the agents in the broad phase to the last synced poses."""
+        if self._fcl_pose is None:
+            return
+        xy, heading = self._fcl_pose
+        half = 0.5 * heading
+        qw, qz = np.cos(half).tolist(), np.sin(half).tolist()
+        for i, (x, y), registered in zip(range(self.n_agents), xy.tolist(),
+                                         self._registered.tolist()):
+            if registered:
+                self._fcl_objects[i].setTransform(
+                    fcl.Transform([qw[i], 0.0, 0.0, qz[i]], [x, y, 0.0]))
         self.manager.update()
+        self._fcl_pose = None
 
     def _deactivate(self, i: int) -> None:
         if self._in_space[i]:
@@ -302,6 +319,7 @@ class GeometryMirror:
         """
         if xy is not None and not self._bounds_may_touch(xy, bounding_radius, active):
             return []
+        self._sync_fcl()
         request = fcl.CollisionRequest(num_max_contacts=10_000, enable_contact=False)
         data = fcl.CollisionData(request=request)
         self.manager.collide(data, fcl.defaultCollisionCallback)
@@ -342,6 +360,7 @@ class GeometryMirror:
 
     def distance(self, label_a: int, label_b: int) -> float:
         """Exact fcl distance between two labelled solids [m] (0 when they overlap)."""
+        self._sync_fcl()
         result = fcl.DistanceResult()
         d = fcl.distance(
             self._fcl_objects[label_a], self._fcl_objects[label_b], fcl.DistanceRequest(), result
