@@ -21,6 +21,7 @@ Features per step (units):
 
 from __future__ import annotations
 
+import functools
 from dataclasses import dataclass
 
 import numpy as np
@@ -70,6 +71,12 @@ class CostWeights:
         return cls(*arr.tolist())
 
 
+@functools.lru_cache(maxsize=256)
+def _cos_sin(angle_rad: float) -> tuple:
+    """(np.cos(angle), np.sin(angle)) of a crosswalk's walk heading, computed once per angle."""
+    return np.cos(angle_rad), np.sin(angle_rad)
+
+
 def crosswalk_occupancy(xy, bounding_radius_m, crosswalk: Crosswalk) -> np.ndarray:
     """Smooth 0..1 indicator that a footprint is in the crosswalk rectangle.
 
@@ -90,7 +97,7 @@ def crosswalk_occupancy(xy, bounding_radius_m, crosswalk: Crosswalk) -> np.ndarr
     """
     xy = xy if getattr(xy, "is_jet", False) else np.asarray(xy, dtype=np.float64)
     rel = xy - crosswalk.center
-    c, s = np.cos(crosswalk.walk_heading_rad), np.sin(crosswalk.walk_heading_rad)
+    c, s = _cos_sin(crosswalk.walk_heading_rad)
     u = rel[..., 0] * c + rel[..., 1] * s
     w = -rel[..., 0] * s + rel[..., 1] * c
     depth = np.minimum(
@@ -172,12 +179,12 @@ def circle_gap(ego_circles, ego_circle_r, other_circles, other_circle_r,
 
 def _constant_last_axis(values: np.ndarray) -> bool:
     """Whether every (..., C) row of `values` holds one value."""
-    return values.shape[-1] <= 1 or bool(np.all(values[..., 1:] == values[..., :1]))
+    return values.shape[-1] <= 1 or bool((values[..., 1:] == values[..., :1]).all())
 
 
 def _distinct_circles(circles: np.ndarray) -> np.ndarray:
     """(..., C, 2) circle centres, or (..., 1, 2) when every footprint's circles coincide."""
-    if circles.shape[-2] > 1 and np.all(circles[..., 1:, :] == circles[..., :1, :]):
+    if circles.shape[-2] > 1 and (circles[..., 1:, :] == circles[..., :1, :]).all():
         return circles[..., :1, :]
     return circles
 
