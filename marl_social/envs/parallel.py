@@ -168,8 +168,7 @@ class SocialDrivingEnv(ParallelEnv, EzPickle):
                     collided_with[self.possible_agents[me]].append(
                         self.possible_agents[other] if other < world.n else "static"
                     )
-        live = np.array([self._index[a] for a in self.agents])
-        any_collision = bool(events.collided[live].any())
+        any_collision = bool((events.collided & world.active).any())  # active: self.agents
         if any_collision and self.scenario.params.terminate_on_collision:
             terminated = np.ones(world.n, dtype=bool)
         else:
