@@ -154,9 +154,9 @@ def vector_env(n: int, controlled=("robot_0",), asynchronous: bool = True, conte
             "forkserver"); None for the platform default.
         workers: worker processes (asynchronous only); None for min(n, CPU cores). With one
             worker per copy, a Gymnasium AsyncVectorEnv; with fewer, each worker steps a block
-            of copies and answers for the block at once (marl_social/envs/batched.py: on a
-            2-core machine, 8 copies on 2 workers step ~1.8x as fast as one copy, 2 copies
-            on 2 workers ~1.5x).
+            of copies and answers for the block at once (marl_social/envs/batched.py: less
+            waiting for the slowest copy and one round trip per worker; `marl-social bench env`
+            measures it).
         **env_kwargs: arguments of `marl_social.parallel_env` (scenario, max_cycles, overrides).
     """
     if isinstance(n, bool) or not isinstance(n, (int, np.integer)) or n < 1:
