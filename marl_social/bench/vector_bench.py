@@ -3,7 +3,7 @@
 The single-agent autopilot env (`AutopilotGymEnv`: the robot is the user's, every other agent
 runs its built-in planner) is stepped with seeded random robot actions, first alone in this
 process, then as n copies of a vector_env on 2 worker processes: 2 copies (one per process, a
-Gymnasium AsyncVectorEnv) and 8 copies (blocks of 4 per process, marl_social/envs/batched.py).
+Gymnasium AsyncVectorEnv) and 16 copies (blocks of 8 per process, marl_social/envs/batched.py).
 Every rate counts env steps (one copy advancing one step = one step) per wall-clock second,
 resets included.
 """
@@ -53,7 +53,7 @@ def vector_env_steps_per_s(n_envs: int, n_steps: int, seed: int = 0, workers: in
     return n_envs * n_steps / seconds
 
 
-def bench_vector(n_envs: int = 8, workers: int = 2, n_steps: int = 300, echo=print,
+def bench_vector(n_envs: int = 16, workers: int = 2, n_steps: int = 300, echo=print,
                  **env_kwargs) -> dict:
     """Single env vs vector_env steps/s on the paper scenario (or env_kwargs).
 

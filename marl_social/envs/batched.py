@@ -119,17 +119,25 @@ class BatchedVectorEnv(VectorEnv):
             self._pipes.append(parent)
             self._processes.append(process)
 
-    def _ask(self, messages) -> list:
-        """Send one message to every worker, then gather their answers in worker order."""
+    def _answers(self, messages):
+        """Send one message to every worker, then yield their answers in worker order.
+
+        The caller handles a worker's answer while the later workers are still busy. If one
+        failed, every answer is read (the pipes stay in step) and a RuntimeError raised.
+        """
         for pipe, message in zip(self._pipes, messages):
             pipe.send(message)
-        answers = []
-        for pipe in self._pipes:
+        for w, pipe in enumerate(self._pipes):
             ok, payload = pipe.recv()
             if not ok:
+                for later in self._pipes[w + 1:]:
+                    later.recv()
                 raise RuntimeError(f"batched vector env: a worker failed:\n{payload}")
-            answers.append(payload)
-        return answers
+            yield payload
+
+    def _ask(self, messages) -> list:
+        """Send one message to every worker; their answers in worker order."""
+        return list(self._answers(messages))
 
     def reset(self, *, seed=None, options=None):
         """Reset every copy; seed s seeds copy i with s + i (a list: one seed per copy)."""
@@ -152,16 +160,19 @@ class BatchedVectorEnv(VectorEnv):
     def step(self, actions):
         """Step every copy (a finished copy resets itself on its next step)."""
         per_copy = list(iterate(self.action_space, actions))
-        answers = self._ask([("step", [per_copy[i] for i in block]) for block in self._blocks])
-        results = [r for answer in answers for r in answer]
-        infos = {}
-        for i, result in enumerate(results):
-            infos = self._add_info(infos, result[4], i)
-        self._observations = concatenate(self.single_observation_space,
-                                         [r[0] for r in results], self._observations)
-        rewards = np.array([r[1] for r in results], dtype=np.float64)
-        terminations = np.array([r[2] for r in results], dtype=np.bool_)
-        truncations = np.array([r[3] for r in results], dtype=np.bool_)
+        answers = self._answers([("step", [per_copy[i] for i in block])
+                                 for block in self._blocks])
+        observations, infos = [], {}
+        rewards = np.zeros(self.num_envs, dtype=np.float64)
+        terminations = np.zeros(self.num_envs, dtype=np.bool_)
+        truncations = np.zeros(self.num_envs, dtype=np.bool_)
+        for block, answer in zip(self._blocks, answers):  # while the later workers still step
+            for i, (obs, reward, term, trunc, info) in zip(block, answer):
+                observations.append(obs)
+                rewards[i], terminations[i], truncations[i] = reward, term, trunc
+                infos = self._add_info(infos, info, i)
+        self._observations = concatenate(self.single_observation_space, observations,
+                                         self._observations)
         return copy.deepcopy(self._observations), rewards, terminations, truncations, infos
 
     def call(self, name: str, *args, **kwargs) -> tuple:
