@@ -176,14 +176,15 @@ class SocialDrivingEnv(ParallelEnv, EzPickle):
         truncated = self._cycles >= self.max_cycles
 
         observations, infos = self._observe(collided_with, events.arrived)
-        rewards = {a: float(reward[self._index[a]]) for a in self.agents}
-        terminations = {a: bool(terminated[self._index[a]]) for a in self.agents}
+        index, reward, terminated = self._index, reward.tolist(), terminated.tolist()
+        rewards = {a: reward[index[a]] for a in self.agents}
+        terminations = {a: terminated[index[a]] for a in self.agents}
         truncations = {a: truncated for a in self.agents}
 
         done = np.zeros(world.n, dtype=bool)
         for a in self.agents:
-            done[self._index[a]] = terminations[a] or truncations[a]
-        self.agents = [a for a in self.agents if not done[self._index[a]]]
+            done[index[a]] = terminations[a] or truncations[a]
+        self.agents = [a for a in self.agents if not (terminations[a] or truncated)]
         world.deactivate(done)
         if self.render_mode == "human":
             self.render()
@@ -249,15 +250,16 @@ class SocialDrivingEnv(ParallelEnv, EzPickle):
             signals=world.perceive_signals() if self.obs_layout.n_signals else None,
         )
         names = self.possible_agents
+        visible, arrived = fov.visible.tolist(), arrived.tolist()
         observations, infos = {}, {}
         for agent in self.agents:
             i = self._index[agent]
             observations[agent] = obs[i]
             infos[agent] = {
-                "visible": [names[j] for j in fov.visible[i].nonzero()[0].tolist()],
+                "visible": [name for name, seen in zip(names, visible[i]) if seen],
                 "collision": bool(collided_with[agent]),
                 "collided_with": collided_with[agent],
-                "arrived": bool(arrived[i]),
+                "arrived": arrived[i],
             }
         return observations, infos
 

@@ -102,6 +102,7 @@ class World:
         self.theta = np.array([s.cost_weights.as_array() for s in specs]).reshape(-1, N_FEATURES)
         self.routes = RouteSet([self.road_map.routes[name] for name in self.names])
         self.route_length_m = self.routes.length_m
+        self._arrive_at_m = self.route_length_m - ROUTE_END_MARGIN_M  # (n,) [m]
 
         self._circle_along, self._circle_r = circle_layout(self.length_m, self.width_m,
                                                            self.is_pedestrian)
@@ -145,7 +146,7 @@ class World:
             action: (n, 2) finite raw actions (vehicles [a m/s^2, delta rad], pedestrians
                 [vx, vy] m/s); rows of inactive agents are ignored. Out-of-range values saturate.
         """
-        applied = np.zeros_like(action)
+        applied = np.zeros(action.shape, dtype=action.dtype)  # np.zeros_like, no wrapper
         veh, ped, veh_params, ped_speed_max = self._active_kinds()
         self.prev_accel_mps2 = self.accel_mps2.copy()
         if len(veh):
@@ -179,7 +180,7 @@ class World:
                     collided[label] = True
         self._progress = None
         s, _ = self.route_progress()
-        arrived = self.active & (s >= self.route_length_m - ROUTE_END_MARGIN_M)
+        arrived = self.active & (s >= self._arrive_at_m)
         return StepEvents(collided, contacts, arrived, applied)
 
     def _active_kinds(self) -> tuple:
