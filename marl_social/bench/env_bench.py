@@ -153,7 +153,7 @@ def run_env_benchmark(agent_counts=(3, 10, 30, 100), n_steps: int = 500, peer: b
     if vector:
         from marl_social.bench.vector_bench import bench_vector
 
-        rows.append(bench_vector(echo=echo))
+        rows.append(bench_vector(n_steps=600, echo=echo))
     if profile:
         echo("\nprofile, paper scenario (top functions by own time):")
         echo(profile_env("occluded_crosswalk", 2000))
