@@ -20,6 +20,7 @@ Rays are answered in two phases, for all observers at once:
 from __future__ import annotations
 
 from dataclasses import dataclass
+from types import SimpleNamespace
 
 import numpy as np
 
@@ -158,9 +159,8 @@ class FieldOfView:
         """
         n = len(xy)
         self._queries = 0
-        radii = np.where(active, bounding_radius, -1.0)  # inactive agents never occlude
-        angles, d_obs, d_angle, d_range, pair_ok = self._active_layout(active, half_angle_rad,
-                                                                       range_m)
+        lay = self._active_layout(active, half_angle_rad, range_m)
+        d_obs = lay.d_obs
         # -- target sample points within range and cone: (observer, target, point)
         if self._local is None or len(self._local) != n:
             self._local = sample_point_layout(length, width, is_pedestrian)
@@ -169,72 +169,90 @@ class FieldOfView:
         dist2 = rel[..., 0] ** 2 + rel[..., 1] ** 2
         bearing = np.arctan2(rel[..., 1], rel[..., 0]) - heading[:, None, None]
         bearing = np.abs((bearing + np.pi) % (2 * np.pi) - np.pi)
-        sensed = (
-            (dist2 <= (range_m ** 2)[:, None, None])
-            & (bearing <= half_angle_rad[:, None, None])
-            & pair_ok
-        )
+        sensed = (dist2 <= lay.range2[:, None, None]) & (bearing <= lay.half) & lay.pair_ok
         # -- round 1: centre rays and depth rays. The rays of observers with a static polygon
         # in range go straight to the narrow phase (where buildings line the road most of
         # them end on one); the others' through one numpy broad phase.
-        static_near = self._statics_in_range(xy, range_m)  # (n,) bool
+        static_near = self._statics_in_range(xy, lay.range2)  # (n,) bool
         visible = np.zeros((n, n), dtype=bool)
         o1, t1 = np.nonzero(sensed[:, :, 0])
-        d_dir = heading[d_obs] + d_angle
+        d_dir = heading[d_obs] + lay.d_angle
         d_end = np.empty((len(d_obs), 2))
         d_end[:, 0] = np.cos(d_dir)
         d_end[:, 1] = np.sin(d_dir)
-        d_end *= d_range
+        d_end *= lay.d_range
         d_end += xy[d_obs]
-        n_t = len(o1)
-        ray_obs = np.concatenate([o1, d_obs])
-        start = xy[ray_obs]
-        end = np.concatenate([points[t1, 0], d_end])
-        maybe = self._maybe_blocked(start, end, ray_obs, t1, xy, radii, static_near)
-        self._resolve_targets(start[:n_t], end[:n_t], o1, t1, maybe[:n_t], visible)
-        todo = np.flatnonzero(maybe[n_t:])
-        alpha = np.ones(len(d_obs))
-        alpha[todo] = self.mirror.first_hits(start[n_t + todo], d_end[todo], d_obs[todo])[1]
-        self._queries += len(todo)
+        if static_near.all():  # every ray goes to the narrow phase: no broad phase to run
+            self._query_targets(xy[o1], points[t1, 0], o1, t1, visible)
+            alpha = self.mirror.fan_alphas(xy[lay.observers], lay.observers, d_end)
+            self._queries += len(d_obs)
+        else:
+            n_t = len(o1)
+            radii = np.where(active, bounding_radius, -1.0)  # inactive agents never occlude
+            ray_obs = np.concatenate([o1, d_obs])
+            start = xy[ray_obs]
+            end = np.concatenate([points[t1, 0], d_end])
+            maybe = self._maybe_blocked(start, end, ray_obs, t1, xy, radii, static_near)
+            self._resolve_targets(start[:n_t], end[:n_t], o1, t1, maybe[:n_t], visible)
+            todo = np.flatnonzero(maybe[n_t:])
+            alpha = np.ones(len(d_obs))
+            alpha[todo] = self.mirror.first_hits(start[n_t + todo], d_end[todo], d_obs[todo])[1]
+            self._queries += len(todo)
         depth = np.zeros((n, self.n_rays))
-        depth[active] = (alpha * d_range[:, 0]).reshape(-1, self.n_rays)
+        depth[active] = (alpha * lay.d_range[:, 0]).reshape(-1, self.n_rays)
         # -- round 2: corner rays of targets in view whose centre was hidden
         sensed[:, :, 1:] &= ~visible[..., None]
         o2, t2, k2 = np.nonzero(sensed[:, :, 1:])
         if len(o2):
             start2, end2 = xy[o2], points[t2, k2 + 1]
-            maybe2 = self._maybe_blocked(start2, end2, o2, t2, xy, radii, static_near)
-            self._resolve_targets(start2, end2, o2, t2, maybe2, visible)
+            if static_near[o2].all():
+                self._query_targets(start2, end2, o2, t2, visible)
+            else:
+                radii = np.where(active, bounding_radius, -1.0)
+                maybe2 = self._maybe_blocked(start2, end2, o2, t2, xy, radii, static_near)
+                self._resolve_targets(start2, end2, o2, t2, maybe2, visible)
         for o, poly in self._blind:
             visible[o] &= ~_inside_convex(xy, poly)
-        return FovResult(visible, depth, angles, self._queries)
+        return FovResult(visible, depth, lay.angles, self._queries)
 
-    def _active_layout(self, active, half_angle_rad, range_m) -> tuple:
+    def _active_layout(self, active, half_angle_rad, range_m) -> SimpleNamespace:
         """Constants of a set of active observers, rebuilt only when it changes.
 
         Returns:
-            ray angles (n, R) [rad], the observer (A * R,) int, relative angle (A * R,) [rad]
-            and length (A * R, 1) [m] of every active observer's depth ray, and the
-            (observer, target) pairs that can see each other (n, n, 1) bool.
+            a namespace: angles, the ray angles (n, R) [rad]; observers, the A active
+            observers (A,) int; d_obs, the observer (A * R,) int, d_angle, the relative angle
+            (A * R,) [rad] and d_range, the length (A * R, 1) [m] of every active observer's
+            depth ray; pair_ok, the (observer, target) pairs that can see each other
+            (n, n, 1) bool; range2, the squared ranges (n,) [m^2]; half, the half-angles
+            (n, 1, 1) [rad].
         """
         key = active.tobytes() + half_angle_rad.tobytes() + range_m.tobytes()
         if key != self._layout_key:
             angles = self.ray_angles(half_angle_rad)
-            d_obs = np.repeat(np.flatnonzero(active), self.n_rays)
+            observers = np.flatnonzero(active)
+            d_obs = np.repeat(observers, self.n_rays)
             pair_ok = active[:, None] & active[None, :]
             np.fill_diagonal(pair_ok, False)
             self._layout_key = key
-            self._layout = (angles, d_obs, angles[active].ravel(), range_m[d_obs, None],
-                            pair_ok[..., None])
+            self._layout = SimpleNamespace(
+                angles=angles, observers=observers, d_obs=d_obs,
+                d_angle=angles[active].ravel(), d_range=range_m[d_obs, None],
+                pair_ok=pair_ok[..., None], range2=range_m ** 2,
+                half=half_angle_rad[:, None, None])
         return self._layout
 
-    def _statics_in_range(self, xy, range_m) -> np.ndarray:
-        """(n,) bool: some static polygon's bounding box lies within each observer's range."""
+    def _statics_in_range(self, xy, range2) -> np.ndarray:
+        """(n,) bool: some static polygon's bounding box lies within each observer's range.
+
+        Args:
+            xy: (n, 2) observer positions [m].
+            range2: (n,) squared sensor ranges [m^2].
+        """
         if not len(self._box_min):
             return np.zeros(len(xy), dtype=bool)
         gap = np.maximum(np.maximum(self._box_min[None] - xy[:, None], xy[:, None]
                                     - self._box_max[None]), 0.0)  # (n, S, 2) [m]
-        return np.any(gap[..., 0] ** 2 + gap[..., 1] ** 2 <= (range_m ** 2)[:, None], axis=1)
+        return (gap[..., 0] ** 2 + gap[..., 1] ** 2 <= range2[:, None]).any(axis=1)
 
     def _maybe_blocked(self, start, end, ray_obs, tgt, centres, radii, static_near
                        ) -> np.ndarray:
@@ -263,6 +281,10 @@ class FieldOfView:
         clear = ~maybe
         visible[obs[clear], tgt[clear]] = True
         todo = np.flatnonzero(maybe & ~visible[obs, tgt])
-        seen, n_queries = self.mirror.hits_targets(start[todo], end[todo], obs[todo], tgt[todo])
-        visible[obs[todo[seen]], tgt[todo[seen]]] = True
+        self._query_targets(start[todo], end[todo], obs[todo], tgt[todo], visible)
+
+    def _query_targets(self, start, end, obs, tgt, visible) -> None:
+        """Narrow phase of target rays (R, 2)->(R, 2): mark visible[o, t] where a ray hits it."""
+        seen, n_queries = self.mirror.hits_targets(start, end, obs, tgt)
+        visible[obs[seen], tgt[seen]] = True
         self._queries += n_queries

@@ -30,11 +30,14 @@ def measure(visible, xy, heading, speed, pos_noise_m, vel_noise_mps, heading_noi
         Measurements, one row per visible pair, sorted by observer then true distance.
     """
     obs, tgt = np.nonzero(visible)
-    dist = np.linalg.norm(xy[tgt] - xy[obs], axis=1)
+    d = xy[tgt] - xy[obs]
+    dist = np.sqrt(d[:, 0] * d[:, 0] + d[:, 1] * d[:, 1])  # np.linalg.norm, without its wrapper
     order = np.lexsort((tgt, dist, obs))
     obs, tgt, dist = obs[order], tgt[order], dist[order]
     noise = rng.standard_normal((len(obs), 5))
-    true_vel = speed[:, None] * np.column_stack([np.cos(heading), np.sin(heading)])
+    true_vel = np.empty((len(speed), 2))
+    true_vel[:, 0] = speed * np.cos(heading)
+    true_vel[:, 1] = speed * np.sin(heading)
     m_xy = xy[tgt] + noise[:, 0:2] * pos_noise_m[obs, None]
     m_vel = true_vel[tgt] + noise[:, 2:4] * vel_noise_mps[obs, None]
     m_heading = heading[tgt] + noise[:, 4] * heading_noise_rad[obs]

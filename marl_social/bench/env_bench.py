@@ -116,7 +116,7 @@ def run_env_benchmark(agent_counts=(3, 10, 30, 100), n_steps: int = 500, peer: b
     """The `marl-social bench env` job. Returns one row per configuration.
 
     The paper scenario's peer is highway-env with its 3 agents; with `vector`, a last row
-    compares vector_env(2) with one autopilot env (marl_social/bench/vector_bench.py).
+    compares vector_env on 2 processes with one autopilot env (marl_social/bench/vector_bench.py).
     """
     rows = []
     configs = [("paper scenario (occluded_crosswalk)", "occluded_crosswalk", 3, {})]
@@ -153,7 +153,7 @@ def run_env_benchmark(agent_counts=(3, 10, 30, 100), n_steps: int = 500, peer: b
     if vector:
         from marl_social.bench.vector_bench import bench_vector
 
-        rows.append(bench_vector(echo=echo))
+        rows.append(bench_vector(n_steps=600, echo=echo))
     if profile:
         echo("\nprofile, paper scenario (top functions by own time):")
         echo(profile_env("occluded_crosswalk", 2000))

@@ -168,8 +168,7 @@ class SocialDrivingEnv(ParallelEnv, EzPickle):
                     collided_with[self.possible_agents[me]].append(
                         self.possible_agents[other] if other < world.n else "static"
                     )
-        live = np.array([self._index[a] for a in self.agents])
-        any_collision = bool(events.collided[live].any())
+        any_collision = bool((events.collided & world.active).any())  # active: self.agents
         if any_collision and self.scenario.params.terminate_on_collision:
             terminated = np.ones(world.n, dtype=bool)
         else:
@@ -177,14 +176,15 @@ class SocialDrivingEnv(ParallelEnv, EzPickle):
         truncated = self._cycles >= self.max_cycles
 
         observations, infos = self._observe(collided_with, events.arrived)
-        rewards = {a: float(reward[self._index[a]]) for a in self.agents}
-        terminations = {a: bool(terminated[self._index[a]]) for a in self.agents}
+        index, reward, terminated = self._index, reward.tolist(), terminated.tolist()
+        rewards = {a: reward[index[a]] for a in self.agents}
+        terminations = {a: terminated[index[a]] for a in self.agents}
         truncations = {a: truncated for a in self.agents}
 
         done = np.zeros(world.n, dtype=bool)
         for a in self.agents:
-            done[self._index[a]] = terminations[a] or truncations[a]
-        self.agents = [a for a in self.agents if not done[self._index[a]]]
+            done[index[a]] = terminations[a] or truncations[a]
+        self.agents = [a for a in self.agents if not (terminations[a] or truncated)]
         world.deactivate(done)
         if self.render_mode == "human":
             self.render()
@@ -235,7 +235,7 @@ class SocialDrivingEnv(ParallelEnv, EzPickle):
         if arr.shape != (2,):
             raise ValueError(f"agent {agent!r}: action must have shape (2,), got {arr.shape}")
         arr = arr.astype(np.float64)
-        if not np.all(np.isfinite(arr)):
+        if not np.isfinite(arr).all():
             raise ValueError(f"agent {agent!r}: action {arr.tolist()} has NaN or inf")
         return arr
 
@@ -250,15 +250,16 @@ class SocialDrivingEnv(ParallelEnv, EzPickle):
             signals=world.perceive_signals() if self.obs_layout.n_signals else None,
         )
         names = self.possible_agents
+        visible, arrived = fov.visible.tolist(), arrived.tolist()
         observations, infos = {}, {}
         for agent in self.agents:
             i = self._index[agent]
             observations[agent] = obs[i]
             infos[agent] = {
-                "visible": [names[j] for j in np.flatnonzero(fov.visible[i])],
+                "visible": [name for name, seen in zip(names, visible[i]) if seen],
                 "collision": bool(collided_with[agent]),
                 "collided_with": collided_with[agent],
-                "arrived": bool(arrived[i]),
+                "arrived": arrived[i],
             }
         return observations, infos
 

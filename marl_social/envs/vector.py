@@ -6,9 +6,11 @@
 
 Each copy is an `AutopilotGymEnv`: a single-agent Gymnasium view of
 `autopilot(parallel_env(...), controlled)`, in which every agent the user does not control is
-driven by its built-in planner. The copies run in a Gymnasium `AsyncVectorEnv` (one process
-each) or, with ``asynchronous=False``, a `SyncVectorEnv` in this process; finished copies reset
-themselves on the next step (Gymnasium's default next-step autoreset).
+driven by its built-in planner. The copies run in worker processes (by default one per CPU
+core: a Gymnasium `AsyncVectorEnv` when there is a process per copy, else a `BatchedVectorEnv`
+whose workers each step a block of copies, marl_social/envs/batched.py) or, with
+``asynchronous=False``, a `SyncVectorEnv` in this process; finished copies reset themselves on
+the next step (Gymnasium's default next-step autoreset).
 
 Determinism: ``reset(seed=s)`` seeds copy i with s + i; every later episode of a copy draws its
 seed from that copy's own seeded stream, so the same seed and actions give bit-identical
@@ -17,11 +19,15 @@ observations, rewards and flags whether the copies run in processes or not.
 
 from __future__ import annotations
 
+import functools
+import os
+
 import gymnasium
 import numpy as np
 from gymnasium import spaces
 
 from marl_social.envs.autopilot import autopilot
+from marl_social.envs.batched import BatchedVectorEnv
 from marl_social.envs.parallel import SocialDrivingEnv
 
 _SEED_BOUND = 2**31 - 1  # episode seeds drawn from a copy's stream lie in [0, _SEED_BOUND)
@@ -136,21 +142,35 @@ def _make(controlled, env_kwargs):
 
 
 def vector_env(n: int, controlled=("robot_0",), asynchronous: bool = True, context=None,
-               **env_kwargs) -> gymnasium.vector.VectorEnv:
+               workers: int | None = None, **env_kwargs) -> gymnasium.vector.VectorEnv:
     """N autopilot envs stepped together (see the module docstring).
 
     Args:
-        n: number of env copies (one worker process each when asynchronous).
+        n: number of env copies.
         controlled: names of the agents the user acts for.
-        asynchronous: True for a Gymnasium AsyncVectorEnv (processes), False for a
-            SyncVectorEnv (this process; same results).
-        context: multiprocessing start method of the AsyncVectorEnv ("fork", "spawn",
+        asynchronous: True to step the copies in worker processes, False for a
+            SyncVectorEnv in this process (same results).
+        context: multiprocessing start method of the workers ("fork", "spawn",
             "forkserver"); None for the platform default.
+        workers: worker processes (asynchronous only); None for min(n, CPU cores). With one
+            worker per copy, a Gymnasium AsyncVectorEnv; with fewer, each worker steps a block
+            of copies and answers for the block at once (marl_social/envs/batched.py: less
+            waiting for the slowest copy and one round trip per worker; `marl-social bench env`
+            measures it).
         **env_kwargs: arguments of `marl_social.parallel_env` (scenario, max_cycles, overrides).
     """
     if isinstance(n, bool) or not isinstance(n, (int, np.integer)) or n < 1:
         raise ValueError(f"vector_env: n must be a positive integer, got {n!r}")
+    if workers is None:
+        workers = min(int(n), os.cpu_count() or 1)
+    if isinstance(workers, bool) or not isinstance(workers, (int, np.integer)) \
+            or not 1 <= workers <= n:
+        raise ValueError(f"vector_env: workers must be an integer in [1, n={n}], got {workers!r}")
     controlled = [controlled] if isinstance(controlled, str) else list(controlled)
+    if asynchronous and workers < n:
+        return BatchedVectorEnv(int(n), int(workers),
+                                functools.partial(AutopilotGymEnv, controlled, **env_kwargs),
+                                context=context)
     AutopilotGymEnv(controlled, **env_kwargs).close()  # bad arguments fail here, not in a worker
     fns = [_make(controlled, env_kwargs) for _ in range(int(n))]
     if asynchronous:

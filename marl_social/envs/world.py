@@ -16,7 +16,7 @@ from marl_social.perception.fov import FieldOfView, FovResult
 from marl_social.perception.sensors import Measurements, measure
 from marl_social.perception.signal_view import visible_heads
 from marl_social.scenarios.base import ScenarioLayout
-from marl_social.sim.costs import N_FEATURES, step_features
+from marl_social.sim.costs import N_FEATURES, pairwise_step_features
 from marl_social.sim.dynamics import (
     DT_S,
     bicycle_step,
@@ -102,6 +102,7 @@ class World:
         self.theta = np.array([s.cost_weights.as_array() for s in specs]).reshape(-1, N_FEATURES)
         self.routes = RouteSet([self.road_map.routes[name] for name in self.names])
         self.route_length_m = self.routes.length_m
+        self._arrive_at_m = self.route_length_m - ROUTE_END_MARGIN_M  # (n,) [m]
 
         self._circle_along, self._circle_r = circle_layout(self.length_m, self.width_m,
                                                            self.is_pedestrian)
@@ -117,6 +118,9 @@ class World:
         self._progress = None
         self._kinds_key = None
         self._kinds = None
+        self._pairs_key = None
+        self._pairs = None
+        self._kinds_differ = self.is_pedestrian[None, :] != self.is_pedestrian[:, None]
         geometry = (self.is_pedestrian, self.length_m, self.width_m,
                     self.road_map.static_polygons)
         if reuse is not None and reuse.mirror.matches(*geometry):  # same solids: no rebuild
@@ -142,7 +146,7 @@ class World:
             action: (n, 2) finite raw actions (vehicles [a m/s^2, delta rad], pedestrians
                 [vx, vy] m/s); rows of inactive agents are ignored. Out-of-range values saturate.
         """
-        applied = np.zeros_like(action)
+        applied = np.zeros(action.shape, dtype=action.dtype)  # np.zeros_like, no wrapper
         veh, ped, veh_params, ped_speed_max = self._active_kinds()
         self.prev_accel_mps2 = self.accel_mps2.copy()
         if len(veh):
@@ -158,11 +162,12 @@ class World:
         if len(ped):
             before = self.state[ped]
             applied_ped = saturate_pedestrian_action(action[ped], ped_speed_max)
-            old_velocity = before[:, 3:4] * np.column_stack([np.cos(before[:, 2]),
-                                                            np.sin(before[:, 2])])
+            # |command - old velocity| / dt (what np.linalg.norm computes, without its wrapper)
+            dvx = applied_ped[:, 0] - before[:, 3] * np.cos(before[:, 2])
+            dvy = applied_ped[:, 1] - before[:, 3] * np.sin(before[:, 2])
             self.state[ped] = pedestrian_step(before, applied_ped)
             applied[ped] = applied_ped
-            self.accel_mps2[ped] = np.linalg.norm(applied_ped - old_velocity, axis=1) / DT_S
+            self.accel_mps2[ped] = np.sqrt(dvx * dvx + dvy * dvy) / DT_S
         self.last_applied_action = applied
         self.time_s += DT_S
         self.mirror.sync(self.state[:, :2], self.state[:, 2], self.active)
@@ -175,7 +180,7 @@ class World:
                     collided[label] = True
         self._progress = None
         s, _ = self.route_progress()
-        arrived = self.active & (s >= self.route_length_m - ROUTE_END_MARGIN_M)
+        arrived = self.active & (s >= self._arrive_at_m)
         return StepEvents(collided, contacts, arrived, applied)
 
     def _active_kinds(self) -> tuple:
@@ -197,7 +202,7 @@ class World:
 
     def deactivate(self, mask: np.ndarray) -> None:
         """Remove agents from the world and from its geometry mirrors."""
-        if np.any(mask & self.active):
+        if (mask & self.active).any():
             self.active &= ~mask
             self.mirror.sync(self.state[:, :2], self.state[:, 2], self.active)
 
@@ -234,16 +239,16 @@ class World:
         """(n, N_FEATURES) each agent's cost features this step (sim/costs.py)."""
         _, lateral = self.route_progress()
         xy, heading = self.state[:, :2], self.state[:, 2]
-        circles, circle_r = place_along(xy, heading, self._circle_along), self._circle_r
-        others = self.active[None, :] & ~np.eye(self.n, dtype=bool)
-        return step_features(
+        circles = place_along(xy, heading, self._circle_along)
+        key = self.active.tobytes()
+        if key != self._pairs_key:  # every active agent but itself is each agent's other
+            others = self.active[None, :] & ~np.eye(self.n, dtype=bool)
+            self._pairs_key, self._pairs = key, others
+        others = self._pairs
+        return pairwise_step_features(
             lateral_m=lateral, speed_mps=self.state[:, 3], v_ref_mps=self.v_desired_mps,
             accel_mps2=self.accel_mps2, prev_accel_mps2=self.prev_accel_mps2,
-            ego_xy=xy, ego_radius=self.bounding_radius_m, ego_is_ped=self.is_pedestrian,
-            ego_circles=circles, ego_circle_r=circle_r,
-            # (1, n, ...): every agent has the same others; the mask removes itself
-            other_xy=xy[None], other_radius=self.bounding_radius_m[None],
-            other_is_ped=self.is_pedestrian[None], other_circles=circles[None],
-            other_circle_r=circle_r[None], other_mask=others,
-            crosswalks=self.road_map.crosswalks,
+            xy=xy, radius=self.bounding_radius_m, is_ped=self.is_pedestrian,
+            circles=circles, circle_r=self._circle_r, other_mask=others,
+            crosswalks=self.road_map.crosswalks, kinds_differ=self._kinds_differ,
         )

@@ -21,6 +21,7 @@ Features per step (units):
 
 from __future__ import annotations
 
+import functools
 from dataclasses import dataclass
 
 import numpy as np
@@ -70,6 +71,12 @@ class CostWeights:
         return cls(*arr.tolist())
 
 
+@functools.lru_cache(maxsize=256)
+def _cos_sin(angle_rad: float) -> tuple:
+    """(np.cos(angle), np.sin(angle)) of a crosswalk's walk heading, computed once per angle."""
+    return np.cos(angle_rad), np.sin(angle_rad)
+
+
 def crosswalk_occupancy(xy, bounding_radius_m, crosswalk: Crosswalk) -> np.ndarray:
     """Smooth 0..1 indicator that a footprint is in the crosswalk rectangle.
 
@@ -90,7 +97,7 @@ def crosswalk_occupancy(xy, bounding_radius_m, crosswalk: Crosswalk) -> np.ndarr
     """
     xy = xy if getattr(xy, "is_jet", False) else np.asarray(xy, dtype=np.float64)
     rel = xy - crosswalk.center
-    c, s = np.cos(crosswalk.walk_heading_rad), np.sin(crosswalk.walk_heading_rad)
+    c, s = _cos_sin(crosswalk.walk_heading_rad)
     u = rel[..., 0] * c + rel[..., 1] * s
     w = -rel[..., 0] * s + rel[..., 1] * c
     depth = np.minimum(
@@ -172,12 +179,12 @@ def circle_gap(ego_circles, ego_circle_r, other_circles, other_circle_r,
 
 def _constant_last_axis(values: np.ndarray) -> bool:
     """Whether every (..., C) row of `values` holds one value."""
-    return values.shape[-1] <= 1 or bool(np.all(values[..., 1:] == values[..., :1]))
+    return values.shape[-1] <= 1 or bool((values[..., 1:] == values[..., :1]).all())
 
 
 def _distinct_circles(circles: np.ndarray) -> np.ndarray:
     """(..., C, 2) circle centres, or (..., 1, 2) when every footprint's circles coincide."""
-    if circles.shape[-2] > 1 and np.all(circles[..., 1:, :] == circles[..., :1, :]):
+    if circles.shape[-2] > 1 and (circles[..., 1:, :] == circles[..., :1, :]).all():
         return circles[..., :1, :]
     return circles
 
@@ -250,3 +257,54 @@ def step_cost(theta: np.ndarray, **kwargs) -> np.ndarray:
         if term is not None:
             total = total + weight * term
     return total
+
+
+def pairwise_step_features(*, lateral_m, speed_mps, v_ref_mps, accel_mps2, prev_accel_mps2,
+                           xy, radius, is_ped, circles, circle_r, other_mask, crosswalks,
+                           kinds_differ=None) -> np.ndarray:
+    """`step_features` of n agents who are each other's others (the env's reward), fast.
+
+    The same features, bit for bit, as ``step_features`` with ego = every agent and others =
+    the same n agents (tests/sim/test_costs.py checks it), in fewer array operations: every
+    circle pair of every agent pair in one broadcast (the minimum is exact, so its order does
+    not matter) and each crosswalk's occupancy computed once for egos and others alike.
+
+    Args:
+        lateral_m: (n,) lateral offsets from the routes [m].
+        speed_mps: (n,) speeds [m/s].
+        v_ref_mps: (n,) reference speeds [m/s].
+        accel_mps2: (n,) accelerations this step [m/s^2].
+        prev_accel_mps2: (n,) accelerations last step [m/s^2].
+        xy: (n, 2) centres [m].
+        radius: (n,) bounding radii [m].
+        is_ped: (n,) bool.
+        circles: (n, C, 2) covering-circle centres [m] (footprint.circle_layout).
+        circle_r: (n, C) their radii [m], one value per footprint.
+        other_mask: (n, n) bool, other_mask[i, j]: agent j counts as an other of agent i.
+        crosswalks: the map's crosswalks.
+        kinds_differ: (n, n) bool, is_ped[j] != is_ped[i] (computed when None).
+
+    Returns:
+        (n, N_FEATURES) in FEATURE_NAMES order.
+    """
+    n = len(xy)
+    out = np.empty((n, N_FEATURES))
+    out[:, 0] = np.asarray(lateral_m, dtype=np.float64) ** 2
+    out[:, 1] = (np.asarray(speed_mps) - v_ref_mps) ** 2
+    out[:, 2] = np.asarray(accel_mps2) ** 2
+    out[:, 3] = (np.asarray(accel_mps2) - prev_accel_mps2) ** 2
+    d = circles[:, None, :, None, :] - circles[None, :, None, :, :]  # (n, n, C, C, 2)
+    dx, dy = d[..., 0], d[..., 1]
+    nearest = (dx * dx + dy * dy).min(axis=(2, 3))
+    gap = np.maximum(np.sqrt(nearest) - circle_r[:, None, 0] - circle_r[None, :, 0], 0.0)
+    out[:, 4] = np.sum(np.where(other_mask, np.exp(-gap), 0.0), axis=-1)
+    conflict = 0.0
+    if crosswalks:
+        if kinds_differ is None:
+            kinds_differ = is_ped[None, :] != is_ped[:, None]
+        pair_mask = other_mask & kinds_differ
+        for cw in crosswalks:
+            occ = crosswalk_occupancy(xy, radius, cw)
+            conflict = conflict + occ * np.sum(np.where(pair_mask, occ[None, :], 0.0), axis=-1)
+    out[:, 5] = conflict
+    return out

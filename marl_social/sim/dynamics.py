@@ -41,11 +41,14 @@ def saturate_vehicle_action(
     Returns:
         (n, 2) saturated actions.
     """
-    accel = np.clip(action[:, 0], -brake_max_mps2, accel_max_mps2)
+    # clip(x, lo, hi) is minimum(maximum(x, lo), hi), written out: np.clip's and np.stack's
+    # Python wrappers cost more than the arithmetic on a few agents
+    out = np.empty((len(action), 2))
+    out[:, 0] = np.minimum(np.maximum(action[:, 0], -brake_max_mps2), accel_max_mps2)
     v2 = np.maximum(speed_mps, 1e-3) ** 2
     steer_lim = np.minimum(steer_max_rad, np.arctan(wheelbase_m * lat_accel_max_mps2 / v2))
-    steer = np.clip(action[:, 1], -steer_lim, steer_lim)
-    return np.stack([accel, steer], axis=1)
+    out[:, 1] = np.minimum(np.maximum(action[:, 1], -steer_lim), steer_lim)
+    return out
 
 
 def bicycle_step(
@@ -73,16 +76,18 @@ def bicycle_step(
     """
     x, y, psi, v = state.T
     accel, steer = action.T
-    v_next = np.clip(v + accel * dt_s, 0.0, speed_max_mps)
+    v_next = np.minimum(np.maximum(v + accel * dt_s, 0.0), speed_max_mps)
     v_mid = 0.5 * (v + v_next)
     tan_d = np.tan(steer)
     beta = np.arctan(0.5 * tan_d)
     psi_next = psi + v_mid * np.cos(beta) * tan_d / wheelbase_m * dt_s
     psi_mid = 0.5 * (psi + psi_next)
-    x_next = x + v_mid * np.cos(psi_mid + beta) * dt_s
-    y_next = y + v_mid * np.sin(psi_mid + beta) * dt_s
-    psi_next = (psi_next + np.pi) % (2.0 * np.pi) - np.pi
-    return np.stack([x_next, y_next, psi_next, v_next], axis=1)
+    out = np.empty((len(state), 4))
+    out[:, 0] = x + v_mid * np.cos(psi_mid + beta) * dt_s
+    out[:, 1] = y + v_mid * np.sin(psi_mid + beta) * dt_s
+    out[:, 2] = (psi_next + np.pi) % (2.0 * np.pi) - np.pi
+    out[:, 3] = v_next
+    return out
 
 
 HUGE_COMMAND_MPS = 1e150  # above this a component's square could overflow [m/s]
@@ -101,13 +106,13 @@ def saturate_pedestrian_action(action: np.ndarray, speed_max_mps: np.ndarray) ->
     Returns:
         (n, 2) saturated commands [m/s].
     """
-    max_abs = np.max(np.abs(action), axis=1)
+    max_abs = np.abs(action).max(axis=1)
     huge = max_abs > HUGE_COMMAND_MPS
     if huge.any():  # direction first, then the norm of a vector of components <= 1
         action = action.copy()
         action[huge] = action[huge] / max_abs[huge, None]
         action[huge] *= (speed_max_mps[huge] / np.linalg.norm(action[huge], axis=1))[:, None]
-    norm = np.linalg.norm(action, axis=1)
+    norm = np.sqrt(action[:, 0] * action[:, 0] + action[:, 1] * action[:, 1])
     scale = np.where(norm > speed_max_mps, speed_max_mps / np.maximum(norm, 1e-12), 1.0)
     return action * scale[:, None]
 
@@ -118,9 +123,10 @@ def pedestrian_step(state: np.ndarray, velocity_mps: np.ndarray, dt_s: float = D
     Heading follows the velocity; a standing pedestrian (|v| < 1 cm/s) keeps its heading.
     Returns (n, 4) [x, y, psi, speed].
     """
-    speed = np.linalg.norm(velocity_mps, axis=1)
-    heading = np.where(
-        speed > 1e-2, np.arctan2(velocity_mps[:, 1], velocity_mps[:, 0]), state[:, 2]
-    )
-    xy = state[:, :2] + velocity_mps * dt_s
-    return np.column_stack([xy, heading, speed])
+    out = np.empty((len(state), 4))
+    out[:, 3] = np.sqrt(velocity_mps[:, 0] * velocity_mps[:, 0]
+                        + velocity_mps[:, 1] * velocity_mps[:, 1])  # |v|, as np.linalg.norm
+    out[:, 2] = np.where(out[:, 3] > 1e-2, np.arctan2(velocity_mps[:, 1], velocity_mps[:, 0]),
+                         state[:, 2])
+    out[:, :2] = state[:, :2] + velocity_mps * dt_s
+    return out

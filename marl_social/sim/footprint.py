@@ -70,9 +70,9 @@ def place_along(xy, heading, along) -> np.ndarray:
     """
     xy = np.asarray(xy, dtype=np.float64)
     along = np.asarray(along, dtype=np.float64)
-    shape = np.broadcast_shapes(xy.shape[:-1], np.shape(heading), along.shape[:-1])
-    out = np.empty(shape + (along.shape[-1], 2))
-    out[..., 0] = xy[..., 0:1] + along * np.cos(heading)[..., None]
+    x = xy[..., 0:1] + along * np.cos(heading)[..., None]  # (..., C): the broadcast shape
+    out = np.empty(x.shape + (2,))
+    out[..., 0] = x
     out[..., 1] = xy[..., 1:2] + along * np.sin(heading)[..., None]
     return out
 
@@ -90,8 +90,9 @@ def place_local(xy, heading, local) -> np.ndarray:
     """
     c = np.cos(heading)[..., None]
     s = np.sin(heading)[..., None]
-    out = np.empty(np.broadcast_shapes(local.shape, np.shape(xy)[:-1] + (1, 2)))
-    out[..., 0] = xy[..., 0:1] + local[..., 0] * c - local[..., 1] * s
+    x = xy[..., 0:1] + local[..., 0] * c - local[..., 1] * s  # (..., K): the broadcast shape
+    out = np.empty(x.shape + (2,))
+    out[..., 0] = x
     out[..., 1] = xy[..., 1:2] + local[..., 0] * s + local[..., 1] * c
     return out
 

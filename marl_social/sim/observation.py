@@ -236,12 +236,22 @@ class ObservationLayout:
             first = np.searchsorted(m.observer, m.observer, side="left")
             rank = np.arange(len(m.observer)) - first
             keep = rank < self.n_slots
-            obs_i, rank, tgt = m.observer[keep], rank[keep], m.target[keep]
-            slot = np.column_stack([
-                np.ones(len(tgt)), tgt + 1.0, m.xy[keep], m.velocity[keep],
-                np.cos(m.heading[keep]), np.sin(m.heading[keep]), length[tgt], width[tgt],
-                is_pedestrian[tgt].astype(np.float64),
-            ])
+            if keep.all():  # every measurement has a slot (the usual case): no copies
+                obs_i, tgt, heading_k, m_xy, m_vel = (m.observer, m.target, m.heading, m.xy,
+                                                      m.velocity)
+            else:
+                obs_i, rank, tgt = m.observer[keep], rank[keep], m.target[keep]
+                heading_k, m_xy, m_vel = m.heading[keep], m.xy[keep], m.velocity[keep]
+            slot = np.empty((len(tgt), SLOT_DIM))  # SLOT_FIELDS, in float64 as measured
+            slot[:, 0] = 1.0
+            slot[:, 1] = tgt + 1.0
+            slot[:, 2:4] = m_xy
+            slot[:, 4:6] = m_vel
+            slot[:, 6] = np.cos(heading_k)
+            slot[:, 7] = np.sin(heading_k)
+            slot[:, 8] = length[tgt]
+            slot[:, 9] = width[tgt]
+            slot[:, 10] = is_pedestrian[tgt]
             slots = out[:, EGO_DIM:EGO_DIM + self.n_slots * SLOT_DIM].reshape(
                 n, self.n_slots, SLOT_DIM
             )

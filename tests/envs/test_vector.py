@@ -106,3 +106,42 @@ def test_bad_copy_count_is_a_value_error(bad):
 def test_unknown_controlled_agent_is_named_before_any_worker_starts():
     with pytest.raises(ValueError, match="robot_7"):
         marl_social.vector_env(2, controlled=["robot_7"])
+
+
+def _rollout_with_infos(env, seed: int, steps: int, n: int):
+    obs, info = env.reset(seed=seed)
+    rng = np.random.default_rng(seed)
+    low, high = env.single_action_space.low, env.single_action_space.high
+    out = [(np.array(obs, copy=True), repr(info))]
+    for _ in range(steps):
+        obs, reward, term, trunc, info = env.step(rng.uniform(low, high, (n, 2)) * 0.5)
+        out.append((np.array(obs, copy=True), reward.tobytes(), term.tobytes(), trunc.tobytes(),
+                    repr(info)))
+    return out
+
+
+def test_copies_batched_on_fewer_workers_give_the_same_episodes_and_infos():
+    """3 copies on 2 workers (blocks of 1 and 2) = 3 copies in one process, infos included."""
+    seed = int(np.random.default_rng().integers(1000))
+    kwargs = {"scenario": "occluded_crosswalk", "max_cycles": MAX_CYCLES}
+    venv = marl_social.vector_env(3, workers=2, **kwargs)
+    try:
+        assert type(venv).__name__ == "BatchedVectorEnv"
+        batched = _rollout_with_infos(venv, seed, 2 * MAX_CYCLES + 3, 3)
+        batched_again = _rollout_with_infos(venv, seed, 2 * MAX_CYCLES + 3, 3)
+    finally:
+        venv.close()
+    sync = marl_social.vector_env(3, asynchronous=False, **kwargs)
+    in_process = _rollout_with_infos(sync, seed, 2 * MAX_CYCLES + 3, 3)
+    for a, b, c in zip(batched, batched_again, in_process):
+        assert all(np.array_equal(x, y) if isinstance(x, np.ndarray) else x == y
+                   for x, y in zip(a, b))
+        assert all(np.array_equal(x, y) if isinstance(x, np.ndarray) else x == y
+                   for x, y in zip(a, c))
+
+
+def test_workers_are_checked():
+    with pytest.raises(ValueError, match="workers"):
+        marl_social.vector_env(2, workers=3, scenario="occluded_crosswalk")
+    with pytest.raises(ValueError, match="workers"):
+        marl_social.vector_env(2, workers=0, scenario="occluded_crosswalk")

@@ -10,10 +10,11 @@ from marl_social.sim.costs import (
     FEATURE_NAMES,
     CostWeights,
     crosswalk_occupancy,
+    pairwise_step_features,
     step_cost,
     step_features,
 )
-from marl_social.sim.footprint import covering_circles
+from marl_social.sim.footprint import circle_layout, covering_circles, place_along
 from marl_social.sim.road_map import Crosswalk, Route
 
 CW = Crosswalk(np.array([50.0, 0.0]), np.pi / 2, 7.0, 4.0)
@@ -115,3 +116,36 @@ def test_a_pedestrian_on_the_sidewalk_does_not_occupy_the_crosswalk():
     assert on_curb < 0.01 and on_road > 0.99
     # along the road a footprint counts as soon as it overlaps
     assert crosswalk_occupancy(np.array([47.7, 1.75]), 0.5, CW) > 0.5
+
+
+@pytest.mark.parametrize("seed", range(6))
+def test_pairwise_features_equal_the_generic_ones_bit_for_bit(seed):
+    """The env's fast path (every agent the others' other) is step_features, exactly."""
+    rng = np.random.default_rng(seed)
+    n = int(rng.integers(1, 12))
+    is_ped = rng.random(n) < 0.4
+    if seed == 0:
+        is_ped[:] = True  # every footprint's circles coincide
+    length = np.where(is_ped, 0.6, rng.uniform(3.5, 5.5, n))
+    width = np.where(is_ped, 0.6, rng.uniform(1.6, 2.1, n))
+    xy = rng.uniform([35.0, -10.0], [65.0, 10.0], (n, 2))
+    heading = rng.uniform(-np.pi, np.pi, n)
+    radius = 0.5 * np.hypot(length, width)
+    along, circle_r = circle_layout(length, width, is_ped)
+    circles = place_along(xy, heading, along)
+    active = rng.random(n) < 0.8
+    others = active[None, :] & ~np.eye(n, dtype=bool)
+    scalars = {"lateral_m": rng.normal(0, 1, n), "speed_mps": rng.uniform(0, 15, n),
+               "v_ref_mps": rng.uniform(5, 15, n), "accel_mps2": rng.normal(0, 2, n),
+               "prev_accel_mps2": rng.normal(0, 2, n)}
+    crosswalks = (CW, Crosswalk(np.array([45.0, 3.0]), 0.3, 6.0, 3.0))
+    generic = step_features(
+        **scalars, ego_xy=xy, ego_radius=radius, ego_is_ped=is_ped, ego_circles=circles,
+        ego_circle_r=circle_r, other_xy=xy[None], other_radius=radius[None],
+        other_is_ped=is_ped[None], other_circles=circles[None], other_circle_r=circle_r[None],
+        other_mask=others, crosswalks=crosswalks)
+    fast = pairwise_step_features(**scalars, xy=xy, radius=radius, is_ped=is_ped,
+                                  circles=circles, circle_r=circle_r, other_mask=others,
+                                  crosswalks=crosswalks)
+    assert generic.shape == fast.shape == (n, len(FEATURE_NAMES))
+    assert generic.tobytes() == fast.tobytes()

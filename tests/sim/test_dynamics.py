@@ -6,6 +6,7 @@ import numpy as np
 import pytest
 
 from marl_social.sim.dynamics import (
+    DT_S,
     bicycle_step,
     pedestrian_step,
     saturate_pedestrian_action,
@@ -72,3 +73,27 @@ def test_pedestrian_moves_by_command_and_saturates():
                         np.array([[0.0, 1.5], [0.0, 0.0]]))
     assert s[0] == pytest.approx([0.0, 0.15, np.pi / 2, 1.5])
     assert s[1, 2] == 1.0  # standing still keeps the heading
+
+
+def test_written_out_clips_and_norms_equal_numpy_s_bit_for_bit():
+    """The dynamics spell out clip and norm for speed; the values are numpy's, exactly."""
+    rng = np.random.default_rng(5)
+    for _ in range(200):
+        n = int(rng.integers(1, 12))
+        act = rng.normal(0, 3, (n, 2)) * 10.0 ** rng.integers(-3, 3, (n, 1))
+        act[rng.random((n, 2)) < 0.2] = 0.0
+        speed = np.where(rng.random(n) < 0.2, 0.0, rng.uniform(0, 20, n))
+        wb, a_max, b_max = rng.uniform(2, 3, n), rng.uniform(1, 4, n), rng.uniform(3, 9, n)
+        s_max, lat, v_max = rng.uniform(0.3, 0.7, n), rng.uniform(3, 8, n), rng.uniform(1, 30, n)
+        sat = saturate_vehicle_action(act, speed, wb, a_max, b_max, s_max, lat)
+        lim = np.minimum(s_max, np.arctan(wb * lat / np.maximum(speed, 1e-3) ** 2))
+        ref = np.stack([np.clip(act[:, 0], -b_max, a_max), np.clip(act[:, 1], -lim, lim)], 1)
+        assert sat.tobytes() == ref.tobytes()
+        state = np.column_stack([rng.normal(0, 50, (n, 2)), rng.uniform(-4, 4, n), speed])
+        nxt = bicycle_step(state, sat, wb, v_max)
+        assert nxt[:, 3].tobytes() == np.clip(speed + sat[:, 0] * DT_S, 0.0, v_max).tobytes()
+        ped = saturate_pedestrian_action(act, v_max)
+        norm = np.linalg.norm(act, axis=1)
+        scale = np.where(norm > v_max, v_max / np.maximum(norm, 1e-12), 1.0)
+        assert ped.tobytes() == (act * scale[:, None]).tobytes()
+        assert pedestrian_step(state, ped)[:, 3].tobytes() == np.linalg.norm(ped, axis=1).tobytes()
