@@ -18,7 +18,6 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-from filterpy.common import Q_discrete_white_noise
 from numpy import dot
 
 from marl_social.sim.dynamics import DT_S
@@ -127,6 +126,9 @@ class Tracker:
     def __init__(self, pos_noise_m: float = 0.05, vel_noise_mps: float = 0.1,
                  accel_noise_mps2: float = 2.0, timeout_s: float = 2.0, dt_s: float = DT_S):
         """Build the constant-velocity model matrices and start with no tracks."""
+        # imported here: filterpy.common pulls in scipy.stats (~0.4 s of `import marl_social`)
+        from filterpy.common import Q_discrete_white_noise
+
         self.dt_s = dt_s
         self.timeout_s = timeout_s
         self._R = np.diag([max(pos_noise_m, MIN_NOISE_STD) ** 2] * 2

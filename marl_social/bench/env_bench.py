@@ -111,6 +111,20 @@ def profile_env(scenario: str, n_steps: int, top: int = 15, **overrides) -> str:
     return buf.getvalue()
 
 
+def import_time_s(repeats: int = 3) -> float:
+    """Fastest of `repeats` fresh interpreters' `import marl_social` [s] (python -X importtime)."""
+    import subprocess
+    import sys
+
+    best = float("inf")
+    for _ in range(repeats):
+        proc = subprocess.run([sys.executable, "-X", "importtime", "-c", "import marl_social"],
+                              capture_output=True, text=True, check=True)
+        last = [ln for ln in proc.stderr.splitlines() if ln.rstrip().endswith("| marl_social")]
+        best = min(best, int(last[-1].split("|")[1]) * 1e-6)  # cumulative [us]
+    return best
+
+
 def run_env_benchmark(agent_counts=(3, 10, 30, 100), n_steps: int = 500, peer: bool = True,
                       profile: bool = False, echo=print, vector: bool = True) -> list[dict]:
     """The `marl-social bench env` job. Returns one row per configuration.
@@ -154,6 +168,9 @@ def run_env_benchmark(agent_counts=(3, 10, 30, 100), n_steps: int = 500, peer: b
         from marl_social.bench.vector_bench import bench_vector
 
         rows.append(bench_vector(n_steps=600, echo=echo))
+    seconds = import_time_s()
+    echo(f"import marl_social: {seconds:.2f} s (fastest of 3 fresh interpreters; goal < 1 s)")
+    rows.append({"configuration": "import marl_social", "import_s": seconds})
     if profile:
         echo("\nprofile, paper scenario (top functions by own time):")
         echo(profile_env("occluded_crosswalk", 2000))

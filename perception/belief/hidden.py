@@ -50,10 +50,10 @@ track drives in, paths.py) -- none is read from the scenario's truth or an agent
 from __future__ import annotations
 
 import numpy as np
-from filterpy.discrete_bayes import normalize
 from marl_social.perception.belief.bayes import (
     TrafficSpeedBelief,
     bayes_step,
+    normalize,
     sanitize_log_likelihood,
 )
 from marl_social.perception.belief.config import BeliefConfig

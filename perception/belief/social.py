@@ -55,13 +55,12 @@ import math
 from dataclasses import dataclass, field, fields, replace
 
 import numpy as np
-from filterpy.discrete_bayes import normalize
-from filterpy.discrete_bayes import update as bayes_update
 from marl_social.perception.belief.action_model import (
     action_log_likelihood,
     bounded_log_likelihood,
     logsumexp,
 )
+from marl_social.perception.belief.bayes import bayes_update, normalize
 from marl_social.perception.belief.config import BeliefConfig
 from marl_social.perception.belief.hypotheses import Hypothesis, hypothesis_objects
 from marl_social.perception.belief.paths import LanePaths
