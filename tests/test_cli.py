@@ -144,3 +144,18 @@ def test_closed_pipe_is_quiet():
     out = _run(shell=f"{sys.executable} -m marl_social study --list | head -1")
     assert out.returncode == 0 and len(out.stdout.splitlines()) == 1
     assert "Traceback" not in out.stderr and "BrokenPipe" not in out.stderr
+
+
+def test_bench_planners_times_the_intersections_without_a_pedestrian_line(monkeypatch):
+    """`bench planners --scenario t_intersection` reaches bench_planners with that scenario;
+    an unknown scenario is a clear error, not a KeyError from deep inside."""
+    from marl_social.bench import env_bench
+
+    seen = {}
+    monkeypatch.setattr(env_bench, "bench_planners",
+                        lambda **kw: seen.update(kw) or {"robot_0_decision_ms_median": 1.0})
+    assert main(["bench", "planners", "--scenario", "t_intersection"]) == 0
+    assert seen == {"scenario": "t_intersection"}
+    monkeypatch.undo()
+    with pytest.raises(ValueError, match="bench planners: scenario 'long_road'"):
+        env_bench.bench_planners(n_episodes=1, scenario="long_road")

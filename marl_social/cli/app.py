@@ -125,6 +125,9 @@ def _add_bench(sub) -> None:
     bench.add_argument("--steps", type=int, default=500, help="steps per agent count (env)")
     bench.add_argument("--no-peer", action="store_true", help="skip highway-env")
     bench.add_argument("--profile", action="store_true", help="print a cProfile breakdown")
+    bench.add_argument("--scenario", default="occluded_crosswalk",
+                       choices=["occluded_crosswalk", "t_intersection", "signalized_intersection"],
+                       help="the scenario whose planners are timed (planners)")
     bench.add_argument("--json", help="also write the rows to this JSON file")
     bench.set_defaults(func=commands.bench)
 

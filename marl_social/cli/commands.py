@@ -74,7 +74,7 @@ def bench(args) -> int:
     from marl_social.bench.env_bench import bench_planners, run_env_benchmark
 
     if args.what == "planners":
-        rows = bench_planners()
+        rows = bench_planners(scenario=args.scenario)
     else:
         rows = run_env_benchmark(tuple(args.agents), n_steps=args.steps, peer=not args.no_peer,
                                  profile=args.profile)
