@@ -336,8 +336,7 @@ class RobotPlanner:
                                   self.road_map.speed_limit_mps, scene, weights,
                                   self._static_boxes, stop_at, contingent,
                                   self.right_of_way.claims(scene, s0),
-                                  pull_up_target(stop_at, s0, v, 0.5 * self.spec.vehicle.length_m,
-                                                 self.stop_signs.config))
+                                  pull_up_target(stop_at, s0, v, self.stop_signs.config))
         self.last_result = result
         self.prev_accel = result.accel_mps2
         steer = pure_pursuit(self.route, x, y, psi, v, s0, self.spec.vehicle.wheelbase_m)

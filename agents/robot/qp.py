@@ -47,7 +47,8 @@ _INF = 1e20  # OSQP's infinity
 # new episode's QPs then only set up OSQP
 _STRUCTURE_FIELDS = ("_a_off", "_v_off", "_s_off", "_c_off", "n_vars", "_a_idx", "_v_idx",
                      "_s_idx", "_c_idx", "_p_slot", "_p_rows", "_p_cols", "_p_coef",
-                     "_p_branch", "_p_comfort", "_p_progress", "_a_matrix", "_rows",
+                     "_p_branch", "_p_comfort", "_p_progress_slot", "_p_progress_branch",
+                     "_a_matrix", "_rows",
                      "_lower_template", "_upper_template", "_p_initial")
 _STRUCTURES: dict[tuple, dict] = {}
 
@@ -152,9 +153,9 @@ class ContingencyQp:
     def _build_cost_pattern(self) -> None:
         """Triples (row, col, coefficient, branch) of P; duplicates are summed in Px.
 
-        Per branch l and step k, in this order: v diag, s diag (the pull-up term, times
-        its weight; 0 keeps P's pattern full-rank), comfort slack diag, a diag, and for
-        k >= 1 the jerk terms of a[k - 1].
+        Per branch l and step k, in this order: v diag, s diag (0: keeps P's pattern
+        full-rank; the pull-up term's value is set by _p_values when asked), comfort slack
+        diag, a diag, and for k >= 1 the jerk terms of a[k - 1].
         """
         w, dt = self.weights, self.dt_s
         L, N = self.n_branches, self.n_steps
@@ -167,7 +168,7 @@ class ContingencyQp:
         i = np.stack([self._v_idx, self._s_idx, self._c_idx, a, prev, prev], axis=-1)
         j = np.stack([self._v_idx, self._s_idx, self._c_idx, a, prev, a], axis=-1)
         coef = np.broadcast_to(np.stack(np.broadcast_arrays(
-            2.0 * w.speed * dt, 2.0 * dt, 2.0 * w.comfort * dt, a_diag, 2.0 * w.jerk / dt,
+            2.0 * w.speed * dt, 0.0, 2.0 * w.comfort * dt, a_diag, 2.0 * w.jerk / dt,
             -2.0 * w.jerk / dt), axis=-1), shape)
         branch = np.broadcast_to(np.arange(L)[:, None, None], shape)
         is_comfort = np.broadcast_to(np.arange(6) == 2, shape)
@@ -180,17 +181,20 @@ class ContingencyQp:
         self._p_rows, self._p_cols = unique % self.n_vars, unique // self.n_vars
         self._p_coef, self._p_branch = coef[keep], branch[keep]
         self._p_comfort = is_comfort[keep]
-        self._p_progress = is_progress[keep]
+        self._p_progress_slot = self._p_slot[is_progress[keep]]  # (L * N,) s diag, by branch
+        self._p_progress_branch = self._p_branch[is_progress[keep]]
 
     def _p_values(self, weights: np.ndarray, comfort: np.ndarray | None = None,
                   goal_weight: float = 0.0) -> np.ndarray:
         factor = weights[self._p_branch]
         if comfort is not None:
             factor = np.where(self._p_comfort, factor * comfort[self._p_branch], factor)
-        # the pull-up term's weight (0: no such term, its diagonal entries stay 0)
-        factor = np.where(self._p_progress, factor * goal_weight, factor)
-        return np.bincount(self._p_slot, weights=self._p_coef * factor,
-                           minlength=len(self._p_rows))
+        values = np.bincount(self._p_slot, weights=self._p_coef * factor,
+                             minlength=len(self._p_rows))
+        if goal_weight > 0.0:  # the pull-up term on the s diagonal (else it stays 0)
+            values[self._p_progress_slot] = (2.0 * self.dt_s) * (
+                weights[self._p_progress_branch] * goal_weight)
+        return values
 
     def _p_matrix(self, weights: np.ndarray) -> sp.csc_matrix:
         indptr = np.concatenate([[0], np.cumsum(np.bincount(self._p_cols,

@@ -48,8 +48,7 @@ class StopSignConfig:
             raise ValueError("StopSignConfig: need pull_up_m >= near_m and pull_up_speed_mps > 0")
 
 
-def pull_up_target(stop_at_m: float, s0: float, v0: float, half_length_m: float,
-                   config: StopSignConfig) -> float:
+def pull_up_target(stop_at_m: float, s0: float, v0: float, config: StopSignConfig) -> float:
     """The arc length a slow robot short of its stop line drives up to (inf: none) [m].
 
     A robot slower than config.pull_up_speed_mps whose front stands more than near_m and at
@@ -61,12 +60,10 @@ def pull_up_target(stop_at_m: float, s0: float, v0: float, half_length_m: float,
         stop_at_m: the arc length its centre must stay behind (inf: no line due) [m].
         s0: its centre's arc length [m].
         v0: its speed [m/s].
-        half_length_m: half its length [m].
         config: the stop-line rule.
     """
-    short_m = stop_at_m - s0  # its front's distance to the line [m] (the bound is the centre's)
-    if (np.isfinite(stop_at_m) and v0 < config.pull_up_speed_mps
-            and config.near_m < short_m <= config.pull_up_m):
+    short_m = stop_at_m - s0  # its front's distance to the line [m] (inf: no line due)
+    if v0 < config.pull_up_speed_mps and config.near_m < short_m <= config.pull_up_m:
         return float(stop_at_m)
     return np.inf
 

@@ -189,6 +189,15 @@ def _distinct_circles(circles: np.ndarray) -> np.ndarray:
     return circles
 
 
+def _crosswalk_conflict(occ_ego, occ_other, pair_mask) -> np.ndarray:
+    """(...) one crosswalk's conflict term.
+
+    The ego's occupancy (...) times the summed occupancy occ_other (..., M) of its others of
+    the other kind (pair_mask (..., M)).
+    """
+    return occ_ego * np.sum(np.where(pair_mask, occ_other, 0.0), axis=-1)
+
+
 def _feature_terms(*, lateral_m, speed_mps, v_ref_mps, accel_mps2, prev_accel_mps2,
                    ego_xy, ego_radius, ego_is_ped, ego_circles, ego_circle_r,
                    other_xy, other_radius, other_is_ped, other_circles, other_circle_r, other_mask,
@@ -219,10 +228,9 @@ def _feature_terms(*, lateral_m, speed_mps, v_ref_mps, accel_mps2, prev_accel_mp
             other_kind_differs = np.asarray(other_is_ped) != np.asarray(ego_is_ped)[..., None]
             pair_mask = other_mask & other_kind_differs
             for cw in crosswalks:
-                occ_ego = crosswalk_occupancy(ego_xy, ego_radius, cw)
-                occ_other = crosswalk_occupancy(other_xy, other_radius, cw)
-                conflict = conflict + occ_ego * np.sum(np.where(pair_mask, occ_other, 0.0),
-                                                       axis=-1)
+                conflict = conflict + _crosswalk_conflict(
+                    crosswalk_occupancy(ego_xy, ego_radius, cw),
+                    crosswalk_occupancy(other_xy, other_radius, cw), pair_mask)
         for polygon, claim in yield_zones:
             occ_ego = zone_occupancy(ego_circles, ego_circle_r, polygon)
             conflict = conflict + occ_ego * np.sum(np.where(other_mask, claim, 0.0), axis=-1)
@@ -287,24 +295,24 @@ def pairwise_step_features(*, lateral_m, speed_mps, v_ref_mps, accel_mps2, prev_
     Returns:
         (n, N_FEATURES) in FEATURE_NAMES order.
     """
-    n = len(xy)
-    out = np.empty((n, N_FEATURES))
-    out[:, 0] = np.asarray(lateral_m, dtype=np.float64) ** 2
-    out[:, 1] = (np.asarray(speed_mps) - v_ref_mps) ** 2
-    out[:, 2] = np.asarray(accel_mps2) ** 2
-    out[:, 3] = (np.asarray(accel_mps2) - prev_accel_mps2) ** 2
     d = circles[:, None, :, None, :] - circles[None, :, None, :, :]  # (n, n, C, C, 2)
     dx, dy = d[..., 0], d[..., 1]
     nearest = (dx * dx + dy * dy).min(axis=(2, 3))
     gap = np.maximum(np.sqrt(nearest) - circle_r[:, None, 0] - circle_r[None, :, 0], 0.0)
-    out[:, 4] = np.sum(np.where(other_mask, np.exp(-gap), 0.0), axis=-1)
+    out = np.empty((len(xy), N_FEATURES))
+    out[:, :5] = np.stack(np.broadcast_arrays(*_feature_terms(
+        lateral_m=lateral_m, speed_mps=speed_mps, v_ref_mps=v_ref_mps, accel_mps2=accel_mps2,
+        prev_accel_mps2=prev_accel_mps2, ego_xy=None, ego_radius=None, ego_is_ped=None,
+        ego_circles=None, ego_circle_r=None, other_xy=None, other_radius=None,
+        other_is_ped=None, other_circles=None, other_circle_r=None, other_mask=other_mask,
+        crosswalks=(), needed=(True,) * 5 + (False,), gap=gap)[:5]), axis=-1)
     conflict = 0.0
     if crosswalks:
         if kinds_differ is None:
             kinds_differ = is_ped[None, :] != is_ped[:, None]
         pair_mask = other_mask & kinds_differ
         for cw in crosswalks:
-            occ = crosswalk_occupancy(xy, radius, cw)
-            conflict = conflict + occ * np.sum(np.where(pair_mask, occ[None, :], 0.0), axis=-1)
+            occ = crosswalk_occupancy(xy, radius, cw)  # egos' and others' alike
+            conflict = conflict + _crosswalk_conflict(occ, occ[None, :], pair_mask)
     out[:, 5] = conflict
     return out
