@@ -9,8 +9,8 @@ in its own observation (red if it has never read it):
   else it goes on through that line even if the head turns red before it gets there;
 * red: a wall; where its route turns right just after the line (by more than
   RIGHT_TURN_MIN_RAD within RIGHT_TURN_LOOKAHEAD_M) right turn on red is allowed: once it has
-  come to rest at the line (the stop-sign rule, agents/robot/stop.StopSignConfig) the wall is
-  lifted and it goes when the cross traffic lets it (its right-of-way claims, in the MPC).
+  come to rest for the line (the stop-sign rule, agents/robot/stop.stopped_at_line: at the line
+  or, as the first car, a few metres short of it) the wall is lifted and it goes when the cross traffic lets it (its right-of-way claims, in the MPC).
 
 A line the robot's front has passed by more than `near_m` is behind it; one it has passed while
 moving (it could not stop) it does not stop for in the middle of the junction.
@@ -19,7 +19,7 @@ moving (it could not stop) it does not stop for in the middle of the junction.
 from __future__ import annotations
 
 import numpy as np
-from marl_social.agents.robot.stop import StopSignConfig
+from marl_social.agents.robot.stop import StopSignConfig, stop_wall, stopped_at_line
 
 from marl_social.sim.road_map import RoadMap, Route
 from marl_social.sim.signal_rules import must_stop, route_signal_lines
@@ -101,7 +101,7 @@ class SignalStops:
             # close and slow: it comes to rest where a gentle stop brings it
             wall = min(line, front + v0 * v0 / (2.0 * SETTLE_DECEL_MPS2))
         if state == RED and self.right_on_red[k]:
-            if v0 < c.rest_mps and abs(line - front) <= c.near_m:
+            if stopped_at_line(line, front, v0, c):
                 self.rest_s += dt_s
             else:
                 self.rest_s = 0.0
@@ -109,4 +109,5 @@ class SignalStops:
                 self._served.add(k)
                 self.rest_s = 0.0
                 return np.inf
+            wall = min(wall, stop_wall(line, front, self.rest_s > 0.0, c))
         return wall - self._half

@@ -3,8 +3,11 @@
 Every stop line of kind "stop_sign" that the robot's route crosses (RoadMap.stop_lines; one
 with a lane index counts only where the route runs the way that lane does) is, in turn, a wall
 for the robot's front bumper at the line, until the robot has come to rest there: slower than
-`rest_mps` with its front within `near_m` of the line (either side) for `hold_s`. Then the line
-is cleared and the robot goes; what else it plans for (tracked objects, hidden-pedestrian
+`rest_mps` for `hold_s` with its front within `near_m` past the line and at most `pull_up_m`
+short of it (`stopped_at_line`: a complete stop behind the line, as the first car at it, is the
+stop the line demands; a robot that has stopped a few metres short completes its stop where it
+stands and then goes, it does not creep up and stop a second time). Then the line is cleared
+and the robot goes; what else it plans for (tracked objects, hidden-pedestrian
 hypotheses, pedestrians at a crosswalk) still holds, in the MPC. A line the robot's front has
 passed by more than `near_m` without stopping (it could not stop: it started too close) is
 behind it: the robot does not stop in the middle of the junction.
@@ -27,11 +30,13 @@ class StopSignConfig:
     """When the robot counts as having stopped at a stop line.
 
     Attributes:
-        near_m: its front bumper within this of the line (either side) [m].
+        near_m: its front bumper within this of the line (either side) is at the line [m].
         rest_mps: slower than this [m/s].
         hold_s: for at least this long [s].
-        pull_up_m: a robot whose front stands more than near_m and at most this far short of
-            the line it must stop at drives up to it (`pull_up_target`) [m].
+        pull_up_m: a robot at rest with its front at most this far short of the line has
+            stopped for it (`stopped_at_line`); one slower than pull_up_speed_mps but not at
+            rest, more than near_m and at most this far short, drives up to it
+            (`pull_up_target`) [m].
         pull_up_speed_mps: ... while slower than this [m/s].
     """
 
@@ -48,13 +53,47 @@ class StopSignConfig:
             raise ValueError("StopSignConfig: need pull_up_m >= near_m and pull_up_speed_mps > 0")
 
 
+def stopped_at_line(line_m: float, front_m: float, v0: float, config: StopSignConfig) -> bool:
+    """Whether the robot is at rest for a stop line: the stop it demands, while it lasts hold_s.
+
+    Slower than config.rest_mps with its front at most config.pull_up_m short of the line
+    and at most config.near_m past it.
+
+    Args:
+        line_m: the line's arc length along the robot's route [m].
+        front_m: the arc length of the robot's front bumper [m].
+        v0: its speed [m/s].
+        config: the stop-line rule.
+    """
+    short_m = line_m - front_m
+    return bool(v0 < config.rest_mps and -config.near_m <= short_m <= config.pull_up_m)
+
+
+def stop_wall(line_m: float, front_m: float, resting: bool, config: StopSignConfig) -> float:
+    """Where the robot's front must stay behind while a line is due [m].
+
+    The line; where the robot is at rest more than near_m short of it (`stopped_at_line`), its
+    front: it completes its stop where it stands (creeping up would restart it).
+
+    Args:
+        line_m: the line's arc length [m].
+        front_m: the robot's front bumper's arc length [m].
+        resting: it has been at rest for the line since its last call (`rest_s` > 0).
+        config: the stop-line rule.
+    """
+    if resting and line_m - front_m > config.near_m:
+        return float(front_m)
+    return float(line_m)
+
+
 def pull_up_target(stop_at_m: float, s0: float, v0: float, config: StopSignConfig) -> float:
     """The arc length a slow robot short of its stop line drives up to (inf: none) [m].
 
     A robot slower than config.pull_up_speed_mps whose front stands more than near_m and at
     most pull_up_m short of the line it must stop at (stop_at_m: its centre's bound, from
     StopSigns / SignalStops) pulls up to it (the MPC's pull-up term); within near_m it is at
-    the line already and may come to rest where it is.
+    the line already and may come to rest where it is. One at rest short of the line is
+    stopping there (`stop_wall` puts its bound at its front): not pulled up.
 
     Args:
         stop_at_m: the arc length its centre must stay behind (inf: no line due) [m].
@@ -134,8 +173,8 @@ class StopSigns:
             self.rest_s = 0.0
         if self.next_line >= len(self.lines_m):
             return np.inf
-        line = self.lines_m[self.next_line]
-        if v0 < c.rest_mps and abs(line - front) <= c.near_m:
+        line = float(self.lines_m[self.next_line])
+        if stopped_at_line(line, front, v0, c):
             self.rest_s += dt_s
         else:
             self.rest_s = 0.0
@@ -143,4 +182,4 @@ class StopSigns:
             self.next_line += 1
             self.rest_s = 0.0
             return self.update(s0, v0, 0.0) if self.next_line < len(self.lines_m) else np.inf
-        return float(line - self._half)
+        return stop_wall(line, front, self.rest_s > 0.0, c) - self._half

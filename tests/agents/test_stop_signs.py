@@ -112,3 +112,17 @@ def test_stop_lines_on_the_route_and_their_state():
         assert signs.update(s_rest, 0.0, DT_S) == pytest.approx(110.0 - HALF_LENGTH)
     assert signs.update(s_rest, 0.0, DT_S) == pytest.approx(260.0 - HALF_LENGTH)  # 0.5 s
     assert signs.update(300.0, 10.0, DT_S) == np.inf  # past the second without stopping
+
+
+@pytest.mark.parametrize("short_m", [2.0, 4.5])
+def test_a_robot_at_rest_short_of_the_line_completes_its_stop_there_then_goes(short_m):
+    """At rest with its front 2-4.5 m short of the stop line (the first car at it), the robot
+    has stopped: it stays where it stands for hold_s, then goes through without a second stop."""
+    road_map = _map([_line()])
+    x, v, planner = _drive(road_map, LINE_X - HALF_LENGTH - short_m, 0.0, n_steps=60)
+    hold = planner.stop_signs.config.hold_s
+    moved = np.flatnonzero(v >= 0.1)
+    assert len(moved) and moved[0] * DT_S >= hold - 1e-9
+    assert np.all(np.abs(x[:moved[0]] - x[0]) < 0.02)  # it stays where it stands
+    past = np.flatnonzero(x + HALF_LENGTH > LINE_X)
+    assert len(past) and np.all(v[moved[0]:past[0]] >= 0.1)  # no second stop at the line

@@ -85,10 +85,9 @@ def test_social_never_forces_the_cross_traffic_to_brake_hard(runs):
     assert worst <= FORCED_BRAKE_MPS2, worst
 
 
-@pytest.mark.xfail(strict=False, reason="measured 50 % of 50 seeds (0-49): 24 of the 29 seeds in "
-                   "which the aggressive robot has rested at its red line while the first cross "
-                   "car can still stop; in the other 21 that car is already too close to stop "
-                   "(more than 8 m/s^2) when the robot is ready, and it waits for it")
 def test_aggressive_collides_or_forces_hard_braking_in_most_cross_green_seeds(runs):
+    """Measured 74 % of seeds 0-49, 78 % of 50-99. In the others the first cross car is slow or
+    far enough for the robot to turn in front of it unhurried, or already too close to stop
+    (more than 8 m/s^2) when the robot is ready: even the aggressive robot then waits for it."""
     bad = [_bad(m) for m in runs[("aggressive", "cross_green")]]
     assert np.mean(bad) > 0.5, np.mean(bad)
