@@ -9,6 +9,7 @@ decomposition: position along the route, the route gives x, y, heading) and thei
 
 from __future__ import annotations
 
+import functools
 import math
 from dataclasses import dataclass
 
@@ -16,14 +17,13 @@ import numpy as np
 
 from marl_social.sim.agent_spec import VehicleParams
 from marl_social.sim.costs import (
-    circle_gap,
     crosswalk_occupancy,
     step_cost,
     step_features,
     zone_occupancy,
 )
 from marl_social.sim.dynamics import DT_S
-from marl_social.sim.footprint import covering_circles
+from marl_social.sim.footprint import circle_layout, covering_circles
 from marl_social.sim.road_map import Crosswalk, Route
 from marl_social.sim.route_rules import CurveSpeed
 
@@ -147,13 +147,60 @@ def rollout_speeds(v0: float, accel: np.ndarray, dt_s: float = DT_S) -> tuple[np
         v (..., T) speed after each step [m/s], ds (..., T) distance travelled up to each step
         [m], a_eff (..., T) effective acceleration (dv / dt) [m/s^2].
     """
-    shape = accel.shape
-    s = v0 + np.cumsum(accel * dt_s, axis=-1)
-    s_full = np.concatenate([np.full(shape[:-1] + (1,), v0), s], axis=-1)
+    return _rollout(v0, np.cumsum(accel * dt_s, axis=-1), dt_s)
+
+
+def _rollout(v0: float, increments: np.ndarray, dt_s: float) -> tuple[np.ndarray, ...]:
+    """rollout_speeds from increments (..., T) = cumsum(accel * dt_s) [m/s] (same arithmetic)."""
+    shape = increments.shape
+    s_full = np.empty(shape[:-1] + (shape[-1] + 1,))
+    s_full[..., 0] = v0
+    np.add(v0, increments, out=s_full[..., 1:])
     v_full = s_full - np.minimum(0.0, np.minimum.accumulate(s_full, axis=-1))
     v = v_full[..., 1:]
-    ds = np.cumsum(0.5 * (v_full[..., 1:] + v_full[..., :-1]) * dt_s, axis=-1)
-    return v, ds, np.diff(v_full, axis=-1) / dt_s
+    ds = np.cumsum(0.5 * (v + v_full[..., :-1]) * dt_s, axis=-1)
+    return v, ds, (v - v_full[..., :-1]) / dt_s
+
+
+@dataclass(frozen=True)
+class _PlanConstants:
+    """What a CandidateSet's rollouts share, computed once per set (read-only arrays).
+
+    Attributes:
+        continuations: (C,) continuation accelerations [m/s^2].
+        increments: (A, C, T) cumsum(accel * plan_dt) of the candidates' commands [m/s].
+    """
+
+    continuations: np.ndarray
+    increments: np.ndarray
+
+
+def _plan_constants(cands: CandidateSet) -> _PlanConstants:
+    """The set's _PlanConstants (cached for hashable sets, computed for the others)."""
+    try:
+        return _cached_plan_constants(cands)
+    except TypeError:  # a field that cannot be hashed (e.g. accelerations given as a list)
+        return _cached_plan_constants.__wrapped__(cands)
+
+
+@functools.lru_cache(maxsize=64)
+def _cached_plan_constants(cands: CandidateSet) -> _PlanConstants:
+    first = np.asarray(cands.first_actions_mps2, dtype=np.float64)
+    cont = np.asarray(cands.continuations_mps2, dtype=np.float64)
+    step = np.arange(cands.n_steps)
+    accel = np.where(step < cands.n_first, first[:, None, None], cont[None, :, None])  # (A,C,T)
+    out = _PlanConstants(cont, np.cumsum(accel * cands.plan_dt_s, axis=-1))
+    for array in (out.continuations, out.increments):
+        array.setflags(write=False)
+    return out
+
+
+@functools.lru_cache(maxsize=64)
+def _vehicle_circles(length_m: float, width_m: float) -> tuple[np.ndarray, float]:
+    """A vehicle's covering circles (footprint.circle_layout): offsets (C,) [m], radius [m]."""
+    along, radius = circle_layout(length_m, width_m, False)
+    along.setflags(write=False)
+    return along, float(radius[0])
 
 
 @dataclass(frozen=True)
@@ -278,6 +325,30 @@ def _governed(v: np.ndarray, ds: np.ndarray, v0: float, cont: np.ndarray, n_firs
     return v, ds, np.diff(v_full, axis=-1) / dt_s
 
 
+def _circle_gap(ego_x, ego_y, ego_r: float, other_x, other_y, other_r) -> np.ndarray:
+    """(L, A, C, T, M) sim/costs.circle_gap(clip=False) of the candidates and the scene objects.
+
+    The same arithmetic per circle pair (the smallest squared centre distance, its square root
+    minus the two radii); every pair in one broadcast, circle axes first.
+
+    Args:
+        ego_x: (K, A, C, T) x of the ego's covering circles [m].
+        ego_y: (K, A, C, T) their y [m].
+        ego_r: their radius [m].
+        other_x: (J, L, M, T) x of the objects' covering circles [m].
+        other_y: (J, L, M, T) their y [m].
+        other_r: (L, M) their radii [m].
+    """
+    ox = np.moveaxis(other_x, -2, -1)[None, :, :, None, None]  # (1, J, L, 1, 1, T, M)
+    oy = np.moveaxis(other_y, -2, -1)[None, :, :, None, None]
+    dx = ego_x[:, None, None, ..., None] - ox  # (K, J, L, A, C, T, M)
+    dy = ego_y[:, None, None, ..., None] - oy
+    d2 = dx * dx
+    d2 += dy * dy
+    nearest = np.minimum.reduce(d2.reshape((d2.shape[0] * d2.shape[1],) + d2.shape[2:]), axis=0)
+    return np.sqrt(nearest) - ego_r - other_r[:, None, None, None, :]
+
+
 def evaluate_candidates(cands: CandidateSet, theta: np.ndarray, v_ref_mps: float,
                         vehicle: VehicleParams, route: Route, s0: float, v0: float,
                         prev_accel: float, scene: ScenePrediction,
@@ -285,7 +356,8 @@ def evaluate_candidates(cands: CandidateSet, theta: np.ndarray, v_ref_mps: float
                         static_boxes: np.ndarray | None = None,
                         features: bool = False, yield_zones: tuple = (),
                         yield_margin_s: float = 0.0,
-                        curve_speed: CurveSpeed | None = None) -> CandidateEvaluation:
+                        curve_speed: CurveSpeed | None = None,
+                        vehicle_gaps_only: bool = False) -> CandidateEvaluation:
     """Roll out every candidate and cost it against every scene hypothesis (see module doc).
 
     yield_zones: the conflict zones the ego yields at, each (polygon (V, 2) [m], priority
@@ -301,44 +373,53 @@ def evaluate_candidates(cands: CandidateSet, theta: np.ndarray, v_ref_mps: float
 
     static_boxes: (S, 4) [xmin, ymin, xmax, ymax] of the static polygons [m], for the
     static clearance (geometry=True only; boxes contain their polygons, so it is conservative).
+
+    vehicle_gaps_only: with geometry, only the vehicle gaps that collision_free_totals needs
+    (min_vehicle_gap_m, vehicle_clearance_m); min_gap_m, conflict and static_gap_m stay None.
     """
     dt = cands.plan_dt_s
-    first = np.asarray(cands.first_actions_mps2, dtype=np.float64)
-    cont = np.asarray(cands.continuations_mps2, dtype=np.float64)
-    step = np.arange(cands.n_steps)
-    accel = np.where(step < cands.n_first, first[:, None, None], cont[None, :, None])  # (A,C,T)
-    v, ds, a_eff = rollout_speeds(v0, accel, dt)
+    plan = _plan_constants(cands)
+    v, ds, a_eff = _rollout(v0, plan.increments, dt)
     curve_excess = None
     if curve_speed is not None:
-        v, ds, a_eff = _governed(v, ds, v0, cont, cands.n_first, dt,
+        v, ds, a_eff = _governed(v, ds, v0, plan.continuations, cands.n_first, dt,
                                  float(curve_speed.at(s0 + ds).min()))
         curve_excess = (v - curve_speed.at(s0 + ds)).max(axis=-1)  # (A, C)
     xy, heading = route.point_at(s0 + ds)  # (A, C, T, 2), (A, C, T)
-    ego_circles, ego_r = covering_circles(xy, heading, vehicle.length_m, vehicle.width_m, False)
+    # the ego's covering circles (footprint.covering_circles), circle axis first: (K, A, C, T)
+    along, ego_circle_r = _vehicle_circles(vehicle.length_m, vehicle.width_m)
+    ego_x = xy[..., 0] + along[:, None, None, None] * np.cos(heading)
+    ego_y = xy[..., 1] + along[:, None, None, None] * np.sin(heading)
     ego_radius = 0.5 * math.hypot(vehicle.length_m, vehicle.width_m)
-    oc, orad = covering_circles(
-        scene.xy, scene.heading, scene.length_m[..., None], scene.width_m[..., None],
-        scene.is_pedestrian[..., None],
-    )  # (L, M, T, C, 2)
+    # the others' covering circles, circle axis first: (K, L, M, T)
+    other_along, other_r = circle_layout(scene.length_m, scene.width_m, scene.is_pedestrian)
+    if not other_along.any():  # only discs: their circles coincide, one stands for all
+        other_along = other_along[..., :1]
+    other_along = np.moveaxis(other_along, -1, 0)[..., None]  # (K, L, M, 1)
+    ox = scene.xy[..., 0] + other_along * np.cos(scene.heading)
+    oy = scene.xy[..., 1] + other_along * np.sin(scene.heading)
     # others to (L, 1, 1, T, M, ...) so they broadcast against the (A, C, T) candidates
     to_cand = lambda a: np.moveaxis(a, 1, 2)[:, None, None]
-    other_circles, other_circle_r = to_cand(oc), to_cand(orad)
     other_xy = to_cand(scene.xy)
     other_radius = scene.radius_m[:, None, None, None, :]
     other_is_ped = scene.is_pedestrian[:, None, None, None, :]
     other_mask = scene.mask[:, None, None, None, :]
-    prev = np.concatenate([np.full(a_eff.shape[:-1] + (1,), prev_accel), a_eff[..., :-1]], -1)
-    gap = raw_gap = None
-    if geometry and scene.mask.shape[1]:  # shared by the safety cost and the gap constraint
-        raw_gap = circle_gap(ego_circles, ego_r, other_circles, other_circle_r, clip=False)
-        gap = np.maximum(raw_gap, 0.0)  # (L, A, C, T, M)
+    prev = np.empty_like(a_eff)
+    prev[..., 0] = prev_accel
+    prev[..., 1:] = a_eff[..., :-1]
+    # shared by the safety cost and the gap constraint
+    raw_gap = _circle_gap(ego_x, ego_y, ego_circle_r, ox, oy, other_r[..., 0])
+    gap = np.maximum(raw_gap, 0.0)  # (L, A, C, T, M)
+    ego_circles = ego_r = None  # (A, C, T, K, 2), (A, C, T, K): only where they are needed
+    if yield_zones or static_boxes is not None:
+        ego_circles = np.moveaxis(np.stack((ego_x, ego_y), axis=-1), 0, -2)
+        ego_r = np.broadcast_to(ego_circle_r, ego_circles.shape[:-1])
     feature_args = {
         "lateral_m": 0.0, "speed_mps": v, "v_ref_mps": v_ref_mps, "accel_mps2": a_eff,
         "prev_accel_mps2": prev, "ego_xy": xy, "ego_radius": ego_radius, "ego_is_ped": False,
         "ego_circles": ego_circles, "ego_circle_r": ego_r, "other_xy": other_xy,
-        "other_radius": other_radius, "other_is_ped": other_is_ped,
-        "other_circles": other_circles, "other_circle_r": other_circle_r,
-        "other_mask": other_mask, "crosswalks": crosswalks, "gap": gap,
+        "other_radius": other_radius, "other_is_ped": other_is_ped, "other_circles": None,
+        "other_circle_r": None, "other_mask": other_mask, "crosswalks": crosswalks, "gap": gap,
     }
     if yield_zones:
         feature_args["yield_zones"] = tuple(
@@ -354,7 +435,14 @@ def evaluate_candidates(cands: CandidateSet, theta: np.ndarray, v_ref_mps: float
         return CandidateEvaluation(cost, v, a_eff, feature_totals=totals, travel_m=ds,
                                    curve_excess_mps=curve_excess)
     n_hyp = len(scene.mask)
-    if gap is not None:
+    if vehicle_gaps_only:
+        clearance = np.full((n_hyp,) + v.shape[:2], np.inf)
+        if scene.mask.shape[1]:
+            clearance = np.broadcast_to(np.where(other_mask & ~other_is_ped, raw_gap, np.inf)
+                                        .min(axis=(-1, -2)), clearance.shape)
+        return CandidateEvaluation(cost, v, a_eff, None, None, None, np.maximum(clearance, 0.0),
+                                   totals, ds, clearance, curve_excess)
+    if scene.mask.shape[1]:
         gap = np.where(other_mask, gap, np.inf)
         min_gap = np.broadcast_to(gap.min(axis=(-1, -2)), (n_hyp,) + v.shape[:2])
         vehicle_gap = np.where(other_is_ped, np.inf, gap)

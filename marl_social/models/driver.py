@@ -105,7 +105,8 @@ def _evaluate(model: DriverModel, route: Route, s0: float, v0: float, prev_accel
                                       "curve_speed": rules.curve_speed}
     return evaluate_candidates(model.candidates, model.theta.as_array(), model.v_desired_mps,
                                model.vehicle, route, s0, v0, prev_accel, scene, crosswalks,
-                               geometry=True, features=features, **extra)
+                               geometry=True, features=features,
+                               vehicle_gaps_only=True, **extra)
 
 
 def rule_abiding_totals(ev: CandidateEvaluation, model: DriverModel, s0: float,
