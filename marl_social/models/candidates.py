@@ -257,8 +257,11 @@ def zone_claims(scene: ScenePrediction, polygon: np.ndarray, priority: np.ndarra
         dt_s: the planner step [s].
     """
     xy = scene.xy  # (L, M, T, 2)
-    if xy.shape[2] > 1:
-        velocity = np.gradient(xy, dt_s, axis=2)
+    if xy.shape[2] > 1:  # np.gradient(xy, dt_s, axis=2), the same arithmetic without its overhead
+        velocity = np.empty_like(xy)
+        velocity[:, :, 1:-1] = (xy[:, :, 2:] - xy[:, :, :-2]) / (2.0 * dt_s)
+        velocity[:, :, 0] = (xy[:, :, 1] - xy[:, :, 0]) / dt_s
+        velocity[:, :, -1] = (xy[:, :, -1] - xy[:, :, -2]) / dt_s
     else:
         velocity = np.zeros_like(xy)
     offsets = np.arange(round(margin_s / dt_s) + 1) * dt_s  # (J,)
