@@ -328,28 +328,45 @@ def _governed(v: np.ndarray, ds: np.ndarray, v0: float, cont: np.ndarray, n_firs
     return v, ds, np.diff(v_full, axis=-1) / dt_s
 
 
-def _circle_gap(ego_x, ego_y, ego_r: float, other_x, other_y, other_r) -> np.ndarray:
-    """(L, A, C, T, M) sim/costs.circle_gap(clip=False) of the candidates and the scene objects.
+def circle_pair_gap(ego_x, ego_y, ego_r: float, other_x, other_y, other_r) -> np.ndarray:
+    """(L, ..., T, M) sim/costs.circle_gap(clip=False) of ego plans and scene objects.
 
     The same arithmetic per circle pair (the smallest squared centre distance, its square root
     minus the two radii); every pair in one broadcast, circle axes first.
 
     Args:
-        ego_x: (K, A, C, T) x of the ego's covering circles [m].
-        ego_y: (K, A, C, T) their y [m].
+        ego_x: (K, ..., T) x of the ego's covering circles along its plans [m] (e.g.
+            (K, A, C, T) candidates).
+        ego_y: (K, ..., T) their y [m].
         ego_r: their radius [m].
         other_x: (J, L, M, T) x of the objects' covering circles [m].
         other_y: (J, L, M, T) their y [m].
         other_r: (L, M) their radii [m].
     """
-    ox = np.moveaxis(other_x, -2, -1)[None, :, :, None, None]  # (1, J, L, 1, 1, T, M)
-    oy = np.moveaxis(other_y, -2, -1)[None, :, :, None, None]
-    dx = ego_x[:, None, None, ..., None] - ox  # (K, J, L, A, C, T, M)
+    plan_axes = (None,) * (ego_x.ndim - 2)  # the ego's plan axes, e.g. (A, C)
+    ox = np.moveaxis(other_x, -2, -1)[(None, slice(None), slice(None)) + plan_axes]
+    oy = np.moveaxis(other_y, -2, -1)[(None, slice(None), slice(None)) + plan_axes]
+    dx = ego_x[:, None, None, ..., None] - ox  # (K, J, L, ..., T, M)
     dy = ego_y[:, None, None, ..., None] - oy
     d2 = dx * dx
     d2 += dy * dy
     nearest = np.minimum.reduce(d2.reshape((d2.shape[0] * d2.shape[1],) + d2.shape[2:]), axis=0)
-    return np.sqrt(nearest) - ego_r - other_r[:, None, None, None, :]
+    return np.sqrt(nearest) - ego_r - other_r[(slice(None),) + plan_axes + (None, slice(None))]
+
+
+def scene_circles(scene: ScenePrediction) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The scene objects' covering circles (footprint.covering_circles), circle axis first.
+
+    Returns:
+        x (J, L, M, T) and y (J, L, M, T) of the centres [m] (J = 1 when every footprint is a
+        disc: its circles coincide), and the radii (L, M) [m].
+    """
+    along, radius = circle_layout(scene.length_m, scene.width_m, scene.is_pedestrian)
+    if not along.any():  # only discs: their circles coincide, one stands for all
+        along = along[..., :1]
+    along = np.moveaxis(along, -1, 0)[..., None]  # (J, L, M, 1)
+    return (scene.xy[..., 0] + along * np.cos(scene.heading),
+            scene.xy[..., 1] + along * np.sin(scene.heading), radius[..., 0])
 
 
 def evaluate_candidates(cands: CandidateSet, theta: np.ndarray, v_ref_mps: float,
@@ -394,13 +411,7 @@ def evaluate_candidates(cands: CandidateSet, theta: np.ndarray, v_ref_mps: float
     ego_x = xy[..., 0] + along[:, None, None, None] * np.cos(heading)
     ego_y = xy[..., 1] + along[:, None, None, None] * np.sin(heading)
     ego_radius = 0.5 * math.hypot(vehicle.length_m, vehicle.width_m)
-    # the others' covering circles, circle axis first: (K, L, M, T)
-    other_along, other_r = circle_layout(scene.length_m, scene.width_m, scene.is_pedestrian)
-    if not other_along.any():  # only discs: their circles coincide, one stands for all
-        other_along = other_along[..., :1]
-    other_along = np.moveaxis(other_along, -1, 0)[..., None]  # (K, L, M, 1)
-    ox = scene.xy[..., 0] + other_along * np.cos(scene.heading)
-    oy = scene.xy[..., 1] + other_along * np.sin(scene.heading)
+    ox, oy, other_r = scene_circles(scene)  # (J, L, M, T) x 2, (L, M)
     # others to (L, 1, 1, T, M, ...) so they broadcast against the (A, C, T) candidates
     to_cand = lambda a: np.moveaxis(a, 1, 2)[:, None, None]
     other_xy = to_cand(scene.xy)
@@ -411,7 +422,7 @@ def evaluate_candidates(cands: CandidateSet, theta: np.ndarray, v_ref_mps: float
     prev[..., 0] = prev_accel
     prev[..., 1:] = a_eff[..., :-1]
     # shared by the safety cost and the gap constraint
-    raw_gap = _circle_gap(ego_x, ego_y, ego_circle_r, ox, oy, other_r[..., 0])
+    raw_gap = circle_pair_gap(ego_x, ego_y, ego_circle_r, ox, oy, other_r)
     gap = np.maximum(raw_gap, 0.0)  # (L, A, C, T, M)
     ego_circles = ego_r = None  # (A, C, T, K, 2), (A, C, T, K): only where they are needed
     if yield_zones or static_boxes is not None:

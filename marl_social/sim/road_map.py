@@ -67,12 +67,15 @@ class Route:
         xy = np.asarray(xy, dtype=np.float64)
         rel = xy[..., None, :] - self._seg_start  # (..., S, 2)
         t = np.einsum("...sk,sk->...s", rel, self._seg_dir)
-        t = np.clip(t, 0.0, self._seg_len)
+        t = np.minimum(np.maximum(t, 0.0), self._seg_len)  # np.clip's ufuncs
         closest = self._seg_start + t[..., None] * self._seg_dir
         d2 = np.sum((xy[..., None, :] - closest) ** 2, axis=-1)
         k = np.argmin(d2, axis=-1)
-        t_k = np.take_along_axis(t, k[..., None], axis=-1)[..., 0]
-        rel_k = np.take_along_axis(rel, k[..., None, None], axis=-2)[..., 0, :]
+        if xy.ndim == 1:  # one point (a planner's own position): plain indexing
+            t_k, rel_k = t[k], rel[k]
+        else:
+            t_k = np.take_along_axis(t, k[..., None], axis=-1)[..., 0]
+            rel_k = np.take_along_axis(rel, k[..., None, None], axis=-2)[..., 0, :]
         dir_k = self._seg_dir[k]
         lateral = dir_k[..., 0] * rel_k[..., 1] - dir_k[..., 1] * rel_k[..., 0]
         return self._cum_s[k] + t_k, lateral, self._seg_heading[k]
