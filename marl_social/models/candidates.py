@@ -344,8 +344,8 @@ def circle_pair_gap(ego_x, ego_y, ego_r: float, other_x, other_y, other_r) -> np
         other_r: (L, M) their radii [m].
     """
     plan_axes = (None,) * (ego_x.ndim - 2)  # the ego's plan axes, e.g. (A, C)
-    ox = np.moveaxis(other_x, -2, -1)[(None, slice(None), slice(None)) + plan_axes]
-    oy = np.moveaxis(other_y, -2, -1)[(None, slice(None), slice(None)) + plan_axes]
+    ox = other_x.swapaxes(-2, -1)[(None, slice(None), slice(None)) + plan_axes]
+    oy = other_y.swapaxes(-2, -1)[(None, slice(None), slice(None)) + plan_axes]
     dx = ego_x[:, None, None, ..., None] - ox  # (K, J, L, ..., T, M)
     dy = ego_y[:, None, None, ..., None] - oy
     d2 = dx * dx
@@ -364,7 +364,7 @@ def scene_circles(scene: ScenePrediction) -> tuple[np.ndarray, np.ndarray, np.nd
     along, radius = circle_layout(scene.length_m, scene.width_m, scene.is_pedestrian)
     if not along.any():  # only discs: their circles coincide, one stands for all
         along = along[..., :1]
-    along = np.moveaxis(along, -1, 0)[..., None]  # (J, L, M, 1)
+    along = along.transpose(2, 0, 1)[..., None]  # (L, M, J) -> (J, L, M, 1)
     return (scene.xy[..., 0] + along * np.cos(scene.heading),
             scene.xy[..., 1] + along * np.sin(scene.heading), radius[..., 0])
 
@@ -413,7 +413,7 @@ def evaluate_candidates(cands: CandidateSet, theta: np.ndarray, v_ref_mps: float
     ego_radius = 0.5 * math.hypot(vehicle.length_m, vehicle.width_m)
     ox, oy, other_r = scene_circles(scene)  # (J, L, M, T) x 2, (L, M)
     # others to (L, 1, 1, T, M, ...) so they broadcast against the (A, C, T) candidates
-    to_cand = lambda a: np.moveaxis(a, 1, 2)[:, None, None]
+    to_cand = lambda a: a.swapaxes(1, 2)[:, None, None]
     other_xy = to_cand(scene.xy)
     other_radius = scene.radius_m[:, None, None, None, :]
     other_is_ped = scene.is_pedestrian[:, None, None, None, :]

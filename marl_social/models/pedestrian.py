@@ -91,7 +91,7 @@ def pedestrian_q_values(model: PedestrianModel, route: Route, s0: float, v_ref: 
     ego_y = (xy[..., 1] + ego_along[0] * np.sin(heading))[None]
     ox, oy, other_r = scene_circles(scene)
     gap = np.maximum(circle_pair_gap(ego_x, ego_y, float(ego_radius[0]), ox, oy, other_r), 0.0)
-    to_cand = lambda a: np.moveaxis(a, 1, 2)[:, None]  # (L, 1, T, M, ...)
+    to_cand = lambda a: a.swapaxes(1, 2)[:, None]  # (L, 1, T, M, ...)
     cost = step_cost(
         theta, lateral_m=0.0, speed_mps=v, v_ref_mps=v_ref, accel_mps2=accel,
         prev_accel_mps2=0.0,
