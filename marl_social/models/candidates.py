@@ -61,7 +61,7 @@ class ScenePrediction:
             times_s: (T,) prediction times [s].
         """
         xy = tracks.predict_xy(times_s)[None]  # (1, M, T, 2)
-        heading = np.broadcast_to(tracks.heading_rad[None, :, None], xy.shape[:-1])
+        heading = tracks.heading_rad[None, :, None].repeat(xy.shape[2], axis=2)  # (1, M, T)
         radius = 0.5 * np.hypot(tracks.length_m, tracks.width_m)
         m = len(tracks)
         return cls(xy, heading, tracks.length_m[None], tracks.width_m[None], radius[None],
