@@ -317,15 +317,18 @@ def _governed(v: np.ndarray, ds: np.ndarray, v0: float, cont: np.ndarray, n_firs
     Returns:
         v, ds, a_eff as rollout_speeds returns them.
     """
+    v_full = np.empty(v.shape[:-1] + (v.shape[-1] + 1,))
+    v_full[..., 0] = v0
     if not np.isfinite(v_ceiling_mps):
-        return v, ds, np.diff(np.concatenate([np.full(v.shape[:-1] + (1,), v0), v], -1),
-                              axis=-1) / dt_s
+        v_full[..., 1:] = v
+        return v, ds, (v - v_full[..., :-1]) / dt_s
     v1 = v[..., n_first - 1: n_first]  # (A, C, 1) speed at the end of the first segment
     rising = (cont > 0)[None, :, None] & (np.arange(v.shape[-1]) >= n_first)
-    v = np.where(rising, np.minimum(v, np.maximum(v1, v_ceiling_mps)), v)
-    v_full = np.concatenate([np.full(v.shape[:-1] + (1,), v0), v], axis=-1)
-    ds = np.cumsum(0.5 * (v_full[..., 1:] + v_full[..., :-1]) * dt_s, axis=-1)
-    return v, ds, np.diff(v_full, axis=-1) / dt_s
+    np.copyto(v_full[..., 1:], np.minimum(v, np.maximum(v1, v_ceiling_mps)), where=rising)
+    np.copyto(v_full[..., 1:], v, where=~rising)
+    v = v_full[..., 1:]
+    ds = np.cumsum(0.5 * (v + v_full[..., :-1]) * dt_s, axis=-1)
+    return v, ds, (v - v_full[..., :-1]) / dt_s
 
 
 def circle_pair_gap(ego_x, ego_y, ego_r: float, other_x, other_y, other_r) -> np.ndarray:

@@ -177,6 +177,5 @@ class CurveSpeed:
 
     def at(self, s_m) -> np.ndarray:
         """(...) the speed cap [m/s] at arc lengths (...) [m] (inf on straight stretches)."""
-        k = np.clip(np.rint(np.asarray(s_m) / CURVE_PROFILE_STEP_M).astype(np.int64), 0,
-                    len(self.v_max_mps) - 1)
-        return self.v_max_mps[k]
+        k = np.rint(np.asarray(s_m) / CURVE_PROFILE_STEP_M).astype(np.int64)
+        return self.v_max_mps[np.minimum(np.maximum(k, 0), len(self.v_max_mps) - 1)]
