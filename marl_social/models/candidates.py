@@ -443,7 +443,8 @@ def evaluate_candidates(cands: CandidateSet, theta: np.ndarray, v_ref_mps: float
             (polygon, to_cand(zone_claims(scene, polygon, priority, yield_margin_s, dt)))
             for polygon, priority in yield_zones)
     cost = step_cost(theta, **feature_args) * (dt / DT_S)
-    cost = np.broadcast_to(cost, (len(scene.mask),) + v.shape)
+    if cost.shape != (len(scene.mask),) + v.shape:
+        cost = np.broadcast_to(cost, (len(scene.mask),) + v.shape)
     totals = None
     if features:
         phi = step_features(**feature_args) * (dt / DT_S)  # (L or 1, A, C, T, F)
