@@ -30,7 +30,8 @@ MIN_NOISE_STD = 1e-3  # measurement noise stds are at least this [m, m/s]
 _MAX_COVARIANCE_STEPS = 4096
 _COVARIANCE_STEPS: dict[tuple, dict] = {}
 # slot columns of the measured state [x m, y m, vx m/s, vy m/s]
-_MEASURED_STATE = [SLOT_INDEX["x"], SLOT_INDEX["y"], SLOT_INDEX["vx"], SLOT_INDEX["vy"]]
+# (consecutive in SLOT_FIELDS)
+_MEASURED_STATE = slice(SLOT_INDEX["x"], SLOT_INDEX["vy"] + 1)
 
 
 def kf_predict(x: np.ndarray, P: np.ndarray, F: np.ndarray, Q: np.ndarray
@@ -163,7 +164,7 @@ class Tracker:
             measured[oid] = row
         for oid in list(self._filters):
             x, p_prev = self._filters[oid]
-            x_pred = dot(self._F, x) + dot(1, 0)  # kf_predict's state, bit for bit
+            x_pred = dot(self._F, x) + 0  # kf_predict's state (F x + dot(B=1, u=0)), bit for bit
             gain, p_next, dv_cov = self._covariance_step(p_prev, oid in measured)
             if oid in measured:
                 z = measured[oid][_MEASURED_STATE].astype(np.float64)

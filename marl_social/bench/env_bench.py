@@ -205,8 +205,8 @@ def bench_planners(n_episodes: int = 3, robot_planner: str = "social", echo=prin
     the T-intersection with a near hidden car, the signalized intersection on the protected
     left); the pedestrian's line is left out where there is none.
 
-    Decision times of the robot, human driver and pedestrian planners (the robot's also in
-    thread CPU time, which waiting to be scheduled on a busy machine does not inflate, and
+    Decision times of the robot, human driver and pedestrian planners (also in thread CPU
+    time, which waiting to be scheduled on a busy machine does not inflate; the robot's also
     split into its belief update and its MPC solve), and env steps/s end to end with every agent on
     its built-in planner; with highway-env installed, the robot's
     decision also as a multiple of one highway-env ``intersection-multi-agent-v1`` step with 3
@@ -220,7 +220,7 @@ def bench_planners(n_episodes: int = 3, robot_planner: str = "social", echo=prin
     belief_s: list[float] = []  # the robot's belief update (tracking, own sensors, social)
     # the robot's decision in this thread's CPU time: on a machine shared with other work the
     # wall-clock median also counts the time the process waited to be scheduled
-    robot_cpu_s: list[float] = []
+    decide_cpu: dict[str, list] = {}  # the decisions in thread CPU time
     steps, loop_s = 0, 0.0
     for ep in range(n_episodes):
         env = parallel_env(scenario=scenario, robot_planner=robot_planner,
@@ -246,8 +246,8 @@ def bench_planners(n_episodes: int = 3, robot_planner: str = "social", echo=prin
                 actions[a] = pols[a](obs[a])
                 if a in decide:
                     decide[a].append(time.perf_counter() - t0)
-                if a == "robot_0":
-                    robot_cpu_s.append(time.thread_time() - c0)
+                if a in decide:
+                    decide_cpu.setdefault(a, []).append(time.thread_time() - c0)
             obs, *_ = env.step(actions)
             loop_s += time.perf_counter() - t_loop
             steps += 1
@@ -258,15 +258,15 @@ def bench_planners(n_episodes: int = 3, robot_planner: str = "social", echo=prin
     if mpc_s:
         out["robot_0_mpc_ms_median"] = 1e3 * float(np.median(mpc_s))
         out["robot_0_mpc_ms_p99"] = 1e3 * float(np.percentile(mpc_s, 99))
-    if robot_cpu_s:
-        out["robot_0_decision_cpu_ms_median"] = 1e3 * float(np.median(robot_cpu_s))
-        out["robot_0_decision_cpu_ms_p99"] = 1e3 * float(np.percentile(robot_cpu_s, 99))
+    for a, v in decide_cpu.items():
+        out[f"{a}_decision_cpu_ms_median"] = 1e3 * float(np.median(v))
+        out[f"{a}_decision_cpu_ms_p99"] = 1e3 * float(np.percentile(v, 99))
     if belief_s:
         out["robot_0_belief_ms_median"] = 1e3 * float(np.median(belief_s))
         out["robot_0_belief_ms_p99"] = 1e3 * float(np.percentile(belief_s, 99))
     echo(f"robot ({robot_planner}) decision  median {out['robot_0_decision_ms_median']:.3f} ms   "
          f"p99 {out['robot_0_decision_ms_p99']:.3f} ms")
-    if robot_cpu_s:
+    if "robot_0" in decide_cpu:
         echo(f"  in thread CPU time     median {out['robot_0_decision_cpu_ms_median']:.3f} ms   "
              f"p99 {out['robot_0_decision_cpu_ms_p99']:.3f} ms")
     if mpc_s:
@@ -279,6 +279,8 @@ def bench_planners(n_episodes: int = 3, robot_planner: str = "social", echo=prin
         if a in decide:
             echo(f"{label}  median {out[f'{a}_decision_ms_median']:.3f} ms   "
                  f"p99 {out[f'{a}_decision_ms_p99']:.3f} ms")
+            echo(f"  in thread CPU time     median {out[f'{a}_decision_cpu_ms_median']:.3f} ms   "
+                 f"p99 {out[f'{a}_decision_cpu_ms_p99']:.3f} ms")
     where = "paper scenario" if scenario == "occluded_crosswalk" else scenario
     echo(f"{where}, every agent on its built-in planner: "
          f"{out['steps_per_s_all_planners']:.1f} env steps/s ({steps} steps)")

@@ -9,6 +9,7 @@ decomposition: position along the route, the route gives x, y, heading) and thei
 
 from __future__ import annotations
 
+import functools
 import math
 from dataclasses import dataclass
 
@@ -16,14 +17,13 @@ import numpy as np
 
 from marl_social.sim.agent_spec import VehicleParams
 from marl_social.sim.costs import (
-    circle_gap,
     crosswalk_occupancy,
     step_cost,
     step_features,
     zone_occupancy,
 )
 from marl_social.sim.dynamics import DT_S
-from marl_social.sim.footprint import covering_circles
+from marl_social.sim.footprint import circle_layout, covering_circles
 from marl_social.sim.road_map import Crosswalk, Route
 from marl_social.sim.route_rules import CurveSpeed
 
@@ -61,7 +61,7 @@ class ScenePrediction:
             times_s: (T,) prediction times [s].
         """
         xy = tracks.predict_xy(times_s)[None]  # (1, M, T, 2)
-        heading = np.broadcast_to(tracks.heading_rad[None, :, None], xy.shape[:-1])
+        heading = tracks.heading_rad[None, :, None].repeat(xy.shape[2], axis=2)  # (1, M, T)
         radius = 0.5 * np.hypot(tracks.length_m, tracks.width_m)
         m = len(tracks)
         return cls(xy, heading, tracks.length_m[None], tracks.width_m[None], radius[None],
@@ -147,13 +147,60 @@ def rollout_speeds(v0: float, accel: np.ndarray, dt_s: float = DT_S) -> tuple[np
         v (..., T) speed after each step [m/s], ds (..., T) distance travelled up to each step
         [m], a_eff (..., T) effective acceleration (dv / dt) [m/s^2].
     """
-    shape = accel.shape
-    s = v0 + np.cumsum(accel * dt_s, axis=-1)
-    s_full = np.concatenate([np.full(shape[:-1] + (1,), v0), s], axis=-1)
+    return _rollout(v0, np.cumsum(accel * dt_s, axis=-1), dt_s)
+
+
+def _rollout(v0: float, increments: np.ndarray, dt_s: float) -> tuple[np.ndarray, ...]:
+    """rollout_speeds from increments (..., T) = cumsum(accel * dt_s) [m/s] (same arithmetic)."""
+    shape = increments.shape
+    s_full = np.empty(shape[:-1] + (shape[-1] + 1,))
+    s_full[..., 0] = v0
+    np.add(v0, increments, out=s_full[..., 1:])
     v_full = s_full - np.minimum(0.0, np.minimum.accumulate(s_full, axis=-1))
     v = v_full[..., 1:]
-    ds = np.cumsum(0.5 * (v_full[..., 1:] + v_full[..., :-1]) * dt_s, axis=-1)
-    return v, ds, np.diff(v_full, axis=-1) / dt_s
+    ds = np.cumsum(0.5 * (v + v_full[..., :-1]) * dt_s, axis=-1)
+    return v, ds, (v - v_full[..., :-1]) / dt_s
+
+
+@dataclass(frozen=True)
+class _PlanConstants:
+    """What a CandidateSet's rollouts share, computed once per set (read-only arrays).
+
+    Attributes:
+        continuations: (C,) continuation accelerations [m/s^2].
+        increments: (A, C, T) cumsum(accel * plan_dt) of the candidates' commands [m/s].
+    """
+
+    continuations: np.ndarray
+    increments: np.ndarray
+
+
+def _plan_constants(cands: CandidateSet) -> _PlanConstants:
+    """The set's _PlanConstants (cached for hashable sets, computed for the others)."""
+    try:
+        return _cached_plan_constants(cands)
+    except TypeError:  # a field that cannot be hashed (e.g. accelerations given as a list)
+        return _cached_plan_constants.__wrapped__(cands)
+
+
+@functools.lru_cache(maxsize=64)
+def _cached_plan_constants(cands: CandidateSet) -> _PlanConstants:
+    first = np.asarray(cands.first_actions_mps2, dtype=np.float64)
+    cont = np.asarray(cands.continuations_mps2, dtype=np.float64)
+    step = np.arange(cands.n_steps)
+    accel = np.where(step < cands.n_first, first[:, None, None], cont[None, :, None])  # (A,C,T)
+    out = _PlanConstants(cont, np.cumsum(accel * cands.plan_dt_s, axis=-1))
+    for array in (out.continuations, out.increments):
+        array.setflags(write=False)
+    return out
+
+
+@functools.lru_cache(maxsize=64)
+def _vehicle_circles(length_m: float, width_m: float) -> tuple[np.ndarray, float]:
+    """A vehicle's covering circles (footprint.circle_layout): offsets (C,) [m], radius [m]."""
+    along, radius = circle_layout(length_m, width_m, False)
+    along.setflags(write=False)
+    return along, float(radius[0])
 
 
 @dataclass(frozen=True)
@@ -210,8 +257,11 @@ def zone_claims(scene: ScenePrediction, polygon: np.ndarray, priority: np.ndarra
         dt_s: the planner step [s].
     """
     xy = scene.xy  # (L, M, T, 2)
-    if xy.shape[2] > 1:
-        velocity = np.gradient(xy, dt_s, axis=2)
+    if xy.shape[2] > 1:  # np.gradient(xy, dt_s, axis=2), the same arithmetic without its overhead
+        velocity = np.empty_like(xy)
+        velocity[:, :, 1:-1] = (xy[:, :, 2:] - xy[:, :, :-2]) / (2.0 * dt_s)
+        velocity[:, :, 0] = (xy[:, :, 1] - xy[:, :, 0]) / dt_s
+        velocity[:, :, -1] = (xy[:, :, -1] - xy[:, :, -2]) / dt_s
     else:
         velocity = np.zeros_like(xy)
     offsets = np.arange(round(margin_s / dt_s) + 1) * dt_s  # (J,)
@@ -267,15 +317,59 @@ def _governed(v: np.ndarray, ds: np.ndarray, v0: float, cont: np.ndarray, n_firs
     Returns:
         v, ds, a_eff as rollout_speeds returns them.
     """
+    v_full = np.empty(v.shape[:-1] + (v.shape[-1] + 1,))
+    v_full[..., 0] = v0
     if not np.isfinite(v_ceiling_mps):
-        return v, ds, np.diff(np.concatenate([np.full(v.shape[:-1] + (1,), v0), v], -1),
-                              axis=-1) / dt_s
+        v_full[..., 1:] = v
+        return v, ds, (v - v_full[..., :-1]) / dt_s
     v1 = v[..., n_first - 1: n_first]  # (A, C, 1) speed at the end of the first segment
     rising = (cont > 0)[None, :, None] & (np.arange(v.shape[-1]) >= n_first)
-    v = np.where(rising, np.minimum(v, np.maximum(v1, v_ceiling_mps)), v)
-    v_full = np.concatenate([np.full(v.shape[:-1] + (1,), v0), v], axis=-1)
-    ds = np.cumsum(0.5 * (v_full[..., 1:] + v_full[..., :-1]) * dt_s, axis=-1)
-    return v, ds, np.diff(v_full, axis=-1) / dt_s
+    np.copyto(v_full[..., 1:], np.minimum(v, np.maximum(v1, v_ceiling_mps)), where=rising)
+    np.copyto(v_full[..., 1:], v, where=~rising)
+    v = v_full[..., 1:]
+    ds = np.cumsum(0.5 * (v + v_full[..., :-1]) * dt_s, axis=-1)
+    return v, ds, (v - v_full[..., :-1]) / dt_s
+
+
+def circle_pair_gap(ego_x, ego_y, ego_r: float, other_x, other_y, other_r) -> np.ndarray:
+    """(L, ..., T, M) sim/costs.circle_gap(clip=False) of ego plans and scene objects.
+
+    The same arithmetic per circle pair (the smallest squared centre distance, its square root
+    minus the two radii); every pair in one broadcast, circle axes first.
+
+    Args:
+        ego_x: (K, ..., T) x of the ego's covering circles along its plans [m] (e.g.
+            (K, A, C, T) candidates).
+        ego_y: (K, ..., T) their y [m].
+        ego_r: their radius [m].
+        other_x: (J, L, M, T) x of the objects' covering circles [m].
+        other_y: (J, L, M, T) their y [m].
+        other_r: (L, M) their radii [m].
+    """
+    plan_axes = (None,) * (ego_x.ndim - 2)  # the ego's plan axes, e.g. (A, C)
+    ox = other_x.swapaxes(-2, -1)[(None, slice(None), slice(None)) + plan_axes]
+    oy = other_y.swapaxes(-2, -1)[(None, slice(None), slice(None)) + plan_axes]
+    dx = ego_x[:, None, None, ..., None] - ox  # (K, J, L, ..., T, M)
+    dy = ego_y[:, None, None, ..., None] - oy
+    d2 = dx * dx
+    d2 += dy * dy
+    nearest = np.minimum.reduce(d2.reshape((d2.shape[0] * d2.shape[1],) + d2.shape[2:]), axis=0)
+    return np.sqrt(nearest) - ego_r - other_r[(slice(None),) + plan_axes + (None, slice(None))]
+
+
+def scene_circles(scene: ScenePrediction) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The scene objects' covering circles (footprint.covering_circles), circle axis first.
+
+    Returns:
+        x (J, L, M, T) and y (J, L, M, T) of the centres [m] (J = 1 when every footprint is a
+        disc: its circles coincide), and the radii (L, M) [m].
+    """
+    along, radius = circle_layout(scene.length_m, scene.width_m, scene.is_pedestrian)
+    if not along.any():  # only discs: their circles coincide, one stands for all
+        along = along[..., :1]
+    along = along.transpose(2, 0, 1)[..., None]  # (L, M, J) -> (J, L, M, 1)
+    return (scene.xy[..., 0] + along * np.cos(scene.heading),
+            scene.xy[..., 1] + along * np.sin(scene.heading), radius[..., 0])
 
 
 def evaluate_candidates(cands: CandidateSet, theta: np.ndarray, v_ref_mps: float,
@@ -285,7 +379,8 @@ def evaluate_candidates(cands: CandidateSet, theta: np.ndarray, v_ref_mps: float
                         static_boxes: np.ndarray | None = None,
                         features: bool = False, yield_zones: tuple = (),
                         yield_margin_s: float = 0.0,
-                        curve_speed: CurveSpeed | None = None) -> CandidateEvaluation:
+                        curve_speed: CurveSpeed | None = None,
+                        vehicle_gaps_only: bool = False) -> CandidateEvaluation:
     """Roll out every candidate and cost it against every scene hypothesis (see module doc).
 
     yield_zones: the conflict zones the ego yields at, each (polygon (V, 2) [m], priority
@@ -301,51 +396,55 @@ def evaluate_candidates(cands: CandidateSet, theta: np.ndarray, v_ref_mps: float
 
     static_boxes: (S, 4) [xmin, ymin, xmax, ymax] of the static polygons [m], for the
     static clearance (geometry=True only; boxes contain their polygons, so it is conservative).
+
+    vehicle_gaps_only: with geometry, only the vehicle gaps that collision_free_totals needs
+    (min_vehicle_gap_m, vehicle_clearance_m); min_gap_m, conflict and static_gap_m stay None.
     """
     dt = cands.plan_dt_s
-    first = np.asarray(cands.first_actions_mps2, dtype=np.float64)
-    cont = np.asarray(cands.continuations_mps2, dtype=np.float64)
-    step = np.arange(cands.n_steps)
-    accel = np.where(step < cands.n_first, first[:, None, None], cont[None, :, None])  # (A,C,T)
-    v, ds, a_eff = rollout_speeds(v0, accel, dt)
+    plan = _plan_constants(cands)
+    v, ds, a_eff = _rollout(v0, plan.increments, dt)
     curve_excess = None
     if curve_speed is not None:
-        v, ds, a_eff = _governed(v, ds, v0, cont, cands.n_first, dt,
+        v, ds, a_eff = _governed(v, ds, v0, plan.continuations, cands.n_first, dt,
                                  float(curve_speed.at(s0 + ds).min()))
         curve_excess = (v - curve_speed.at(s0 + ds)).max(axis=-1)  # (A, C)
     xy, heading = route.point_at(s0 + ds)  # (A, C, T, 2), (A, C, T)
-    ego_circles, ego_r = covering_circles(xy, heading, vehicle.length_m, vehicle.width_m, False)
+    # the ego's covering circles (footprint.covering_circles), circle axis first: (K, A, C, T)
+    along, ego_circle_r = _vehicle_circles(vehicle.length_m, vehicle.width_m)
+    ego_x = xy[..., 0] + along[:, None, None, None] * np.cos(heading)
+    ego_y = xy[..., 1] + along[:, None, None, None] * np.sin(heading)
     ego_radius = 0.5 * math.hypot(vehicle.length_m, vehicle.width_m)
-    oc, orad = covering_circles(
-        scene.xy, scene.heading, scene.length_m[..., None], scene.width_m[..., None],
-        scene.is_pedestrian[..., None],
-    )  # (L, M, T, C, 2)
+    ox, oy, other_r = scene_circles(scene)  # (J, L, M, T) x 2, (L, M)
     # others to (L, 1, 1, T, M, ...) so they broadcast against the (A, C, T) candidates
-    to_cand = lambda a: np.moveaxis(a, 1, 2)[:, None, None]
-    other_circles, other_circle_r = to_cand(oc), to_cand(orad)
+    to_cand = lambda a: a.swapaxes(1, 2)[:, None, None]
     other_xy = to_cand(scene.xy)
     other_radius = scene.radius_m[:, None, None, None, :]
     other_is_ped = scene.is_pedestrian[:, None, None, None, :]
     other_mask = scene.mask[:, None, None, None, :]
-    prev = np.concatenate([np.full(a_eff.shape[:-1] + (1,), prev_accel), a_eff[..., :-1]], -1)
-    gap = raw_gap = None
-    if geometry and scene.mask.shape[1]:  # shared by the safety cost and the gap constraint
-        raw_gap = circle_gap(ego_circles, ego_r, other_circles, other_circle_r, clip=False)
-        gap = np.maximum(raw_gap, 0.0)  # (L, A, C, T, M)
+    prev = np.empty_like(a_eff)
+    prev[..., 0] = prev_accel
+    prev[..., 1:] = a_eff[..., :-1]
+    # shared by the safety cost and the gap constraint
+    raw_gap = circle_pair_gap(ego_x, ego_y, ego_circle_r, ox, oy, other_r)
+    gap = np.maximum(raw_gap, 0.0)  # (L, A, C, T, M)
+    ego_circles = ego_r = None  # (A, C, T, K, 2), (A, C, T, K): only where they are needed
+    if yield_zones or static_boxes is not None:
+        ego_circles = np.moveaxis(np.stack((ego_x, ego_y), axis=-1), 0, -2)
+        ego_r = np.broadcast_to(ego_circle_r, ego_circles.shape[:-1])
     feature_args = {
         "lateral_m": 0.0, "speed_mps": v, "v_ref_mps": v_ref_mps, "accel_mps2": a_eff,
         "prev_accel_mps2": prev, "ego_xy": xy, "ego_radius": ego_radius, "ego_is_ped": False,
         "ego_circles": ego_circles, "ego_circle_r": ego_r, "other_xy": other_xy,
-        "other_radius": other_radius, "other_is_ped": other_is_ped,
-        "other_circles": other_circles, "other_circle_r": other_circle_r,
-        "other_mask": other_mask, "crosswalks": crosswalks, "gap": gap,
+        "other_radius": other_radius, "other_is_ped": other_is_ped, "other_circles": None,
+        "other_circle_r": None, "other_mask": other_mask, "crosswalks": crosswalks, "gap": gap,
     }
     if yield_zones:
         feature_args["yield_zones"] = tuple(
             (polygon, to_cand(zone_claims(scene, polygon, priority, yield_margin_s, dt)))
             for polygon, priority in yield_zones)
     cost = step_cost(theta, **feature_args) * (dt / DT_S)
-    cost = np.broadcast_to(cost, (len(scene.mask),) + v.shape)
+    if cost.shape != (len(scene.mask),) + v.shape:
+        cost = np.broadcast_to(cost, (len(scene.mask),) + v.shape)
     totals = None
     if features:
         phi = step_features(**feature_args) * (dt / DT_S)  # (L or 1, A, C, T, F)
@@ -354,7 +453,14 @@ def evaluate_candidates(cands: CandidateSet, theta: np.ndarray, v_ref_mps: float
         return CandidateEvaluation(cost, v, a_eff, feature_totals=totals, travel_m=ds,
                                    curve_excess_mps=curve_excess)
     n_hyp = len(scene.mask)
-    if gap is not None:
+    if vehicle_gaps_only:
+        clearance = np.full((n_hyp,) + v.shape[:2], np.inf)
+        if scene.mask.shape[1]:
+            clearance = np.broadcast_to(np.where(other_mask & ~other_is_ped, raw_gap, np.inf)
+                                        .min(axis=(-1, -2)), clearance.shape)
+        return CandidateEvaluation(cost, v, a_eff, None, None, None, np.maximum(clearance, 0.0),
+                                   totals, ds, clearance, curve_excess)
+    if scene.mask.shape[1]:
         gap = np.where(other_mask, gap, np.inf)
         min_gap = np.broadcast_to(gap.min(axis=(-1, -2)), (n_hyp,) + v.shape[:2])
         vehicle_gap = np.where(other_is_ped, np.inf, gap)

@@ -14,6 +14,7 @@ bends (a constraint, like the stop line).
 
 from __future__ import annotations
 
+import functools
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -97,15 +98,32 @@ class RoadRules:
     curve_speed: CurveSpeed | None = None
 
 
+def _model_constants(model: DriverModel) -> tuple:
+    """(model.candidates, model.theta.as_array() read-only), once per (hashable) model."""
+    try:
+        return _cached_model_constants(model)
+    except TypeError:  # a field that cannot be hashed (e.g. accelerations given as a list)
+        return _cached_model_constants.__wrapped__(model)
+
+
+@functools.lru_cache(maxsize=256)
+def _cached_model_constants(model: DriverModel) -> tuple:
+    theta = model.theta.as_array()
+    theta.setflags(write=False)
+    return model.candidates, theta
+
+
 def _evaluate(model: DriverModel, route: Route, s0: float, v0: float, prev_accel: float,
               scene: ScenePrediction, crosswalks: tuple[Crosswalk, ...], rules: RoadRules | None,
               features: bool) -> CandidateEvaluation:
     extra = {} if rules is None else {"yield_zones": rules.yield_zones,
                                       "yield_margin_s": model.yield_margin_s,
                                       "curve_speed": rules.curve_speed}
-    return evaluate_candidates(model.candidates, model.theta.as_array(), model.v_desired_mps,
+    candidates, theta = _model_constants(model)
+    return evaluate_candidates(candidates, theta, model.v_desired_mps,
                                model.vehicle, route, s0, v0, prev_accel, scene, crosswalks,
-                               geometry=True, features=features, **extra)
+                               geometry=True, features=features,
+                               vehicle_gaps_only=True, **extra)
 
 
 def rule_abiding_totals(ev: CandidateEvaluation, model: DriverModel, s0: float,

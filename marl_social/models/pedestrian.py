@@ -11,10 +11,10 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from marl_social.models.candidates import ScenePrediction
+from marl_social.models.candidates import ScenePrediction, circle_pair_gap, scene_circles
 from marl_social.sim.costs import CostWeights, step_cost
 from marl_social.sim.dynamics import DT_S
-from marl_social.sim.footprint import circle_layout, covering_circles, place_along
+from marl_social.sim.footprint import circle_layout
 from marl_social.sim.road_map import Crosswalk, Route
 
 
@@ -85,19 +85,21 @@ def pedestrian_q_values(model: PedestrianModel, route: Route, s0: float, v_ref: 
     v = np.broadcast_to(speeds[:, None], s.shape)
     accel = np.zeros_like(v)
     accel[:, 0] = (speeds - prev_speed) / dt
-    ego_c = place_along(xy, heading, ego_along)
-    ego_r = np.broadcast_to(ego_radius, ego_c.shape[:-1])
-    oc, orad = covering_circles(scene.xy, scene.heading, scene.length_m[..., None],
-                                scene.width_m[..., None], scene.is_pedestrian[..., None])
-    to_cand = lambda a: np.moveaxis(a, 1, 2)[:, None]  # (L, 1, T, M, ...)
+    # covering circles (footprint.covering_circles): its own coincide (a disc), one stands for
+    # all; every circle pair with the others in one broadcast (models/candidates.py)
+    ego_x = (xy[..., 0] + ego_along[0] * np.cos(heading))[None]  # (1, A, T)
+    ego_y = (xy[..., 1] + ego_along[0] * np.sin(heading))[None]
+    ox, oy, other_r = scene_circles(scene)
+    gap = np.maximum(circle_pair_gap(ego_x, ego_y, float(ego_radius[0]), ox, oy, other_r), 0.0)
+    to_cand = lambda a: a.swapaxes(1, 2)[:, None]  # (L, 1, T, M, ...)
     cost = step_cost(
         theta, lateral_m=0.0, speed_mps=v, v_ref_mps=v_ref, accel_mps2=accel,
         prev_accel_mps2=0.0,
-        ego_xy=xy, ego_radius=model.radius_m, ego_is_ped=True, ego_circles=ego_c,
-        ego_circle_r=ego_r, other_xy=to_cand(scene.xy),
+        ego_xy=xy, ego_radius=model.radius_m, ego_is_ped=True, ego_circles=None,
+        ego_circle_r=None, other_xy=to_cand(scene.xy),
         other_radius=scene.radius_m[:, None, None, :],
-        other_is_ped=scene.is_pedestrian[:, None, None, :], other_circles=to_cand(oc),
-        other_circle_r=to_cand(orad), other_mask=scene.mask[:, None, None, :],
-        crosswalks=crosswalks,
+        other_is_ped=scene.is_pedestrian[:, None, None, :], other_circles=None,
+        other_circle_r=None, other_mask=scene.mask[:, None, None, :],
+        crosswalks=crosswalks, gap=gap,
     )  # (L, A, T)
     return cost.sum(axis=-1) * (dt / DT_S)

@@ -122,13 +122,30 @@ def zone_occupancy(circles, circle_r, polygon) -> np.ndarray:
     Returns:
         (...) occupancy in 0..1.
     """
-    poly = np.asarray(polygon, dtype=np.float64)
-    edge = np.roll(poly, -1, axis=0) - poly  # (V, 2)
-    length = np.linalg.norm(edge, axis=1)
-    rel = np.asarray(circles)[..., None, :] - poly  # (..., C, V, 2)
-    inside = ((edge[:, 0] * rel[..., 1] - edge[:, 1] * rel[..., 0]) / length).min(axis=-1)
+    circles = np.asarray(circles)
+    x, y = circles[..., 0], circles[..., 1]  # (..., C)
+    # the signed distance inside each edge, one edge at a time (V is a handful): no
+    # (..., C, V, 2) array and no reduction over a tiny trailing axis
+    inside = None
+    for px, py, ex, ey, edge_length in _polygon_edges(polygon):
+        d = (ex * (y - py) - ey * (x - px)) / edge_length
+        inside = d if inside is None else np.minimum(inside, d)
     depth = (inside + circle_r).max(axis=-1)
     return 0.5 * (1.0 + np.tanh(0.5 * depth / OCCUPANCY_SOFTNESS_M))
+
+
+def _polygon_edges(polygon) -> tuple:
+    """((x, y, edge x, edge y, edge length), ...) per vertex of a polygon [m], cached."""
+    poly = np.ascontiguousarray(polygon, dtype=np.float64)
+    return _cached_polygon_edges(poly.tobytes(), poly.shape)
+
+
+@functools.lru_cache(maxsize=256)
+def _cached_polygon_edges(points: bytes, shape: tuple) -> tuple:
+    poly = np.frombuffer(points, dtype=np.float64).reshape(shape)
+    edge = np.roll(poly, -1, axis=0) - poly  # (V, 2)
+    length = np.linalg.norm(edge, axis=1)
+    return tuple(zip(*(column.tolist() for column in (*poly.T, *edge.T, length))))
 
 
 def circle_gap(ego_circles, ego_circle_r, other_circles, other_circle_r,

@@ -50,6 +50,8 @@ class Route:
         self._seg_dir_list = self._seg_dir.tolist()
         self._seg_len_list = self._seg_len.tolist()
         self._cum_s_list = self._cum_s[:-1].tolist()
+        # (S, 5) per segment: start x, y [m], unit direction x, y, heading [rad] (point_at)
+        self._seg_table = np.column_stack([self._seg_start, self._seg_dir, self._seg_heading])
 
     def project(self, xy) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """Project points onto the route.
@@ -65,12 +67,15 @@ class Route:
         xy = np.asarray(xy, dtype=np.float64)
         rel = xy[..., None, :] - self._seg_start  # (..., S, 2)
         t = np.einsum("...sk,sk->...s", rel, self._seg_dir)
-        t = np.clip(t, 0.0, self._seg_len)
+        t = np.minimum(np.maximum(t, 0.0), self._seg_len)  # np.clip's ufuncs
         closest = self._seg_start + t[..., None] * self._seg_dir
         d2 = np.sum((xy[..., None, :] - closest) ** 2, axis=-1)
         k = np.argmin(d2, axis=-1)
-        t_k = np.take_along_axis(t, k[..., None], axis=-1)[..., 0]
-        rel_k = np.take_along_axis(rel, k[..., None, None], axis=-2)[..., 0, :]
+        if xy.ndim == 1:  # one point (a planner's own position): plain indexing
+            t_k, rel_k = t[k], rel[k]
+        else:
+            t_k = np.take_along_axis(t, k[..., None], axis=-1)[..., 0]
+            rel_k = np.take_along_axis(rel, k[..., None, None], axis=-2)[..., 0, :]
         dir_k = self._seg_dir[k]
         lateral = dir_k[..., 0] * rel_k[..., 1] - dir_k[..., 1] * rel_k[..., 0]
         return self._cum_s[k] + t_k, lateral, self._seg_heading[k]
@@ -128,10 +133,17 @@ class Route:
             xy: (..., 2) [m], heading: (...) [rad].
         """
         s = np.asarray(s, dtype=np.float64)
-        k = np.clip(np.searchsorted(self._cum_s, s, side="right") - 1, 0, len(self._seg_len) - 1)
+        if len(self._seg_len) == 1:  # k = 0 everywhere: the same arithmetic, no lookup
+            local = s - self._cum_s[0]
+            xy = self._seg_start[0] + local[..., None] * self._seg_dir[0]
+            heading = self._seg_heading[0]
+            return xy, (np.full(s.shape, heading) if s.ndim else heading)
+        k = np.searchsorted(self._cum_s, s, side="right") - 1
+        k = np.minimum(np.maximum(k, 0), len(self._seg_len) - 1)
         local = s - self._cum_s[k]
-        xy = self._seg_start[k] + local[..., None] * self._seg_dir[k]
-        return xy, self._seg_heading[k]
+        row = self._seg_table[k]  # (..., 5)
+        xy = row[..., 0:2] + local[..., None] * row[..., 2:4]
+        return xy, (row[..., 4] if s.ndim else self._seg_heading[k])
 
 
 @dataclass(frozen=True)

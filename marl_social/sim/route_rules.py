@@ -21,6 +21,7 @@ of sim/costs.py). A robot planner gets the same facts from the same functions:
 
 from __future__ import annotations
 
+import functools
 import math
 from dataclasses import dataclass
 
@@ -55,7 +56,18 @@ class RouteConflict:
 
 
 def _lane_routes(lanes: tuple[Lane, ...]) -> list[Route]:
-    return [Route(lane.centerline, lane.name or f"lane {i}") for i, lane in enumerate(lanes)]
+    return [_lane_route(lane, lane.name or f"lane {i}") for i, lane in enumerate(lanes)]
+
+
+def _lane_route(lane: Lane, name: str) -> Route:
+    """The Route along a lane's centreline, built once per centreline (a static-map table)."""
+    points = np.ascontiguousarray(lane.centerline, dtype=np.float64)
+    return _cached_route(points.tobytes(), points.shape, name)
+
+
+@functools.lru_cache(maxsize=256)
+def _cached_route(points: bytes, shape: tuple, name: str) -> Route:
+    return Route(np.frombuffer(points, dtype=np.float64).reshape(shape).copy(), name)
 
 
 def on_lanes(lanes, xy, heading) -> np.ndarray:
@@ -165,6 +177,5 @@ class CurveSpeed:
 
     def at(self, s_m) -> np.ndarray:
         """(...) the speed cap [m/s] at arc lengths (...) [m] (inf on straight stretches)."""
-        k = np.clip(np.rint(np.asarray(s_m) / CURVE_PROFILE_STEP_M).astype(np.int64), 0,
-                    len(self.v_max_mps) - 1)
-        return self.v_max_mps[k]
+        k = np.rint(np.asarray(s_m) / CURVE_PROFILE_STEP_M).astype(np.int64)
+        return self.v_max_mps[np.minimum(np.maximum(k, 0), len(self.v_max_mps) - 1)]

@@ -1,0 +1,112 @@
+"""The per-decision fast paths equal the plain formulas they replace, bit for bit.
+
+circle_pair_gap / scene_circles (models/candidates.py) against costs.circle_gap on the covering
+circles; zone_occupancy against the all-edges-at-once formula; Route.point_at and Route.project
+against the plain lookups; CurveSpeed.at against np.clip.
+"""
+
+import numpy as np
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from marl_social.models.candidates import ScenePrediction, circle_pair_gap, scene_circles
+from marl_social.sim.costs import circle_gap, zone_occupancy
+from marl_social.sim.footprint import covering_circles
+from marl_social.sim.road_map import Route
+from marl_social.sim.route_rules import CURVE_PROFILE_STEP_M, CurveSpeed
+
+
+def _scene(rng, n_hyp, n_obj, n_t, all_peds=False):
+    is_ped = np.ones((n_hyp, n_obj), bool) if all_peds else rng.random((n_hyp, n_obj)) < 0.5
+    length = np.where(is_ped, 0.6, rng.uniform(3.5, 5.5, (n_hyp, n_obj)))
+    width = np.where(is_ped, 0.6, rng.uniform(1.6, 2.2, (n_hyp, n_obj)))
+    return ScenePrediction(rng.normal(size=(n_hyp, n_obj, n_t, 2)) * 8.0,
+                           rng.uniform(-4, 4, (n_hyp, n_obj, n_t)), length, width,
+                           0.5 * np.hypot(length, width), is_ped, np.ones((n_hyp, n_obj), bool))
+
+
+@settings(max_examples=60, deadline=None)
+@given(seed=st.integers(0, 2**32 - 1), n_hyp=st.integers(1, 3), n_obj=st.integers(0, 4),
+       all_peds=st.booleans(), ego_ped=st.booleans())
+def test_circle_pair_gap_equals_circle_gap(seed, n_hyp, n_obj, all_peds, ego_ped):
+    rng = np.random.default_rng(seed)
+    n_t = 7
+    scene = _scene(rng, n_hyp, n_obj, n_t, all_peds)
+    xy, heading = rng.normal(size=(4, 5, n_t, 2)) * 8.0, rng.uniform(-4, 4, (4, 5, n_t))
+    size = 0.6 if ego_ped else 4.6, 0.6 if ego_ped else 1.9
+    ego_c, ego_r = covering_circles(xy, heading, *size, ego_ped)
+    oc, orad = covering_circles(scene.xy, scene.heading, scene.length_m[..., None],
+                                scene.width_m[..., None], scene.is_pedestrian[..., None])
+    to_cand = lambda a: np.moveaxis(a, 1, 2)[:, None, None]
+    reference = circle_gap(ego_c, ego_r, to_cand(oc), to_cand(orad), clip=False)
+    ox, oy, other_r = scene_circles(scene)
+    fast = circle_pair_gap(np.moveaxis(ego_c[..., 0], -1, 0), np.moveaxis(ego_c[..., 1], -1, 0),
+                           float(ego_r.flat[0]), ox, oy, other_r)
+    assert fast.shape == reference.shape == (n_hyp, 4, 5, n_t, n_obj)
+    assert np.array_equal(fast, reference)
+
+
+def _zone_occupancy_reference(circles, circle_r, polygon):
+    poly = np.asarray(polygon, dtype=np.float64)
+    edge = np.roll(poly, -1, axis=0) - poly
+    length = np.linalg.norm(edge, axis=1)
+    rel = np.asarray(circles)[..., None, :] - poly
+    inside = ((edge[:, 0] * rel[..., 1] - edge[:, 1] * rel[..., 0]) / length).min(axis=-1)
+    depth = (inside + circle_r).max(axis=-1)
+    return 0.5 * (1.0 + np.tanh(0.5 * depth / 0.1))
+
+
+@settings(max_examples=40, deadline=None)
+@given(seed=st.integers(0, 2**32 - 1), n_vertices=st.integers(3, 8))
+def test_zone_occupancy_equals_all_edges_at_once(seed, n_vertices):
+    rng = np.random.default_rng(seed)
+    angles = np.linspace(0, 2 * np.pi, n_vertices, endpoint=False) + rng.uniform(0, 2 * np.pi)
+    polygon = np.column_stack([np.cos(angles), np.sin(angles)]) * rng.uniform(2, 10) + 3.0
+    circles = rng.normal(size=(6, 5, 3, 2)) * 6.0 + 3.0
+    radius = rng.uniform(0.3, 1.5, (6, 5, 3))
+    assert np.array_equal(zone_occupancy(circles, radius, polygon),
+                          _zone_occupancy_reference(circles, radius, polygon))
+
+
+def _point_at_reference(route, s):
+    s = np.asarray(s, dtype=np.float64)
+    k = np.clip(np.searchsorted(route._cum_s, s, side="right") - 1, 0, len(route._seg_len) - 1)
+    xy = route._seg_start[k] + (s - route._cum_s[k])[..., None] * route._seg_dir[k]
+    return xy, route._seg_heading[k]
+
+
+def _project_reference(route, xy):
+    xy = np.asarray(xy, dtype=np.float64)
+    rel = xy[..., None, :] - route._seg_start
+    t = np.clip(np.einsum("...sk,sk->...s", rel, route._seg_dir), 0.0, route._seg_len)
+    closest = route._seg_start + t[..., None] * route._seg_dir
+    k = np.argmin(np.sum((xy[..., None, :] - closest) ** 2, axis=-1), axis=-1)
+    t_k = np.take_along_axis(t, k[..., None], axis=-1)[..., 0]
+    rel_k = np.take_along_axis(rel, k[..., None, None], axis=-2)[..., 0, :]
+    dir_k = route._seg_dir[k]
+    lateral = dir_k[..., 0] * rel_k[..., 1] - dir_k[..., 1] * rel_k[..., 0]
+    return route._cum_s[k] + t_k, lateral, route._seg_heading[k]
+
+
+@settings(max_examples=40, deadline=None)
+@given(seed=st.integers(0, 2**32 - 1), n_points=st.integers(2, 12))
+def test_route_lookups_equal_the_plain_formulas(seed, n_points):
+    rng = np.random.default_rng(seed)
+    route = Route(np.cumsum(rng.uniform(1.0, 6.0, (n_points, 2)), axis=0))
+    for s in (rng.uniform(-5, route.length_m + 5, (4, 3, 5)), float(rng.uniform(0, 9)),
+              np.array(route.length_m + 2.0)):
+        fast, reference = route.point_at(s), _point_at_reference(route, s)
+        for a, b in zip(fast, reference):
+            assert np.array_equal(a, b) and type(a) is type(b) and np.shape(a) == np.shape(b)
+    for xy in (rng.normal(size=2) * 20, rng.normal(size=(6, 2)) * 20,
+               rng.normal(size=(2, 3, 2)) * 20):
+        for a, b in zip(route.project(xy), _project_reference(route, xy)):
+            assert np.array_equal(a, b) and type(a) is type(b)
+
+
+def test_curve_speed_lookup_equals_clip():
+    route = Route(np.column_stack([np.linspace(0, 30, 31), 0.02 * np.linspace(0, 30, 31) ** 2]))
+    curve = CurveSpeed(route, 2.5, 2.0)
+    s = np.linspace(-10, route.length_m + 10, 500)
+    k = np.clip(np.rint(s / CURVE_PROFILE_STEP_M).astype(np.int64), 0, len(curve.v_max_mps) - 1)
+    assert np.array_equal(curve.at(s), curve.v_max_mps[k])
