@@ -310,7 +310,8 @@ class SignalPhaseBelief:
         curve = self.social._curve_speed(car.route)
         ev = evaluate_candidates(model.candidates, model.theta.as_array(), model.v_desired_mps,
                                  model.vehicle, car.route, car.s_m, v0, prev_accel, scene,
-                                 self.road_map.crosswalks, geometry=True, curve_speed=curve)
+                                 self.road_map.crosswalks, geometry=True, curve_speed=curve,
+                                 vehicle_gaps_only=True)
         q_go = rule_abiding_totals(ev, model, car.s_m, RoadRules(None, (), curve))[0]
         q_stop = rule_abiding_totals(ev, model, car.s_m, RoadRules(car.line_s_m, (), curve))[0]
         stops = stops_per_phase(self.head_states, car)

@@ -286,7 +286,7 @@ class SocialLikelihood:
                                  route, s0, v0, prev_accel, scene, self.road_map.crosswalks,
                                  geometry=True, yield_zones=rules.yield_zones,
                                  yield_margin_s=self.model.yield_margin_s,
-                                 curve_speed=rules.curve_speed)
+                                 curve_speed=rules.curve_speed, vehicle_gaps_only=True)
         # (L, A, C): predicted collisions and plans too fast for its bends excluded
         base = rule_abiding_totals(ev, self.model, s0, rules)
         scale = self._candidates.plan_dt_s / DT_S
