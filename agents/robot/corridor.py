@@ -35,6 +35,9 @@ class PathObject:
         k_last: last occupied step.
         is_pedestrian: a pedestrian (it has the right of way: the robot passes in front of it
             only if it cannot stay behind).
+        pass_margin: the robot must be past it `pass_margin_steps` before it arrives (False:
+            only while it is on the path, e.g. a car the robot merges in front of, whose
+            s_front_m already allows for it; agents/robot/right_of_way.py).
     """
 
     occupied: np.ndarray
@@ -43,6 +46,7 @@ class PathObject:
     k_first: int
     k_last: int
     is_pedestrian: bool = False
+    pass_margin: bool = True
 
 
 def _corners(xy: np.ndarray, heading: np.ndarray, length_m: np.ndarray,
@@ -256,7 +260,7 @@ def mode_bounds(objects: list[PathObject], modes: tuple[str, ...], n_steps: int,
         else:
             need = np.full(n_steps, -np.inf)
             need[k0:k1 + 1] = obj.s_front_m[k0:k1 + 1] + gap + half - s0
-            start = max(0, k0 - pass_margin_steps)
+            start = max(0, k0 - pass_margin_steps) if obj.pass_margin else k0
             need[start:k0] = need[k0]
             s_low = np.maximum(s_low, np.maximum.accumulate(need))
     return s_low, s_up
@@ -264,7 +268,7 @@ def mode_bounds(objects: list[PathObject], modes: tuple[str, ...], n_steps: int,
 
 def past_reachable(obj: PathObject, v0: float, v_cap_mps: float, accel_max_mps2: float,
                    dt_s: float, s0: float, robot_length_m: float, gap_m: float,
-                   pass_margin_steps: int) -> bool:
+                   pass_margin_steps: int, v_max_mps: np.ndarray | None = None) -> bool:
     """Whether full acceleration (capped at v_cap) gets the robot past `obj` in time.
 
     Args:
@@ -277,14 +281,29 @@ def past_reachable(obj: PathObject, v0: float, v_cap_mps: float, accel_max_mps2:
         robot_length_m: its length [m].
         gap_m: the longitudinal gap kept [m].
         pass_margin_steps: as in mode_bounds.
+        v_max_mps: (N,) the speed bound of each plan step (e.g. its curves) [m/s]; used for
+            an object without a pass margin (None: v_cap only).
     """
+    t_cap = max(0.0, (v_cap_mps - v0) / accel_max_mps2)
+
+    def reach(t):
+        if t <= t_cap:
+            return v0 * t + 0.5 * accel_max_mps2 * t * t
+        return v0 * t_cap + 0.5 * accel_max_mps2 * t_cap ** 2 + max(v0, v_cap_mps) * (t - t_cap)
+
+    ahead = gap_m + 0.5 * robot_length_m - s0
+    if not obj.pass_margin:
+        # past it at every step it is on the path (its front there may keep moving ahead),
+        # accelerating fully under the steps' speed bounds: v_k = min(v_k-1 + a dt, v_max_k)
+        n = len(obj.s_front_m)
+        t = dt_s * np.arange(1, n + 1)
+        cap = np.full(n, v_cap_mps) if v_max_mps is None else np.minimum(v_max_mps, v_cap_mps)
+        v = accel_max_mps2 * t + np.minimum(v0, np.minimum.accumulate(cap - accel_max_mps2 * t))
+        v = np.maximum(v, 0.0)
+        s = np.cumsum(0.5 * (np.concatenate([[v0], v[:-1]]) + v) * dt_s)
+        k = slice(obj.k_first, obj.k_last + 1)
+        return bool(np.all(s[k] >= obj.s_front_m[k] + ahead))
     k = obj.k_first - pass_margin_steps
     if k < 0:
         return False
-    t = (k + 1) * dt_s
-    t_cap = max(0.0, (v_cap_mps - v0) / accel_max_mps2)
-    if t <= t_cap:
-        reach = v0 * t + 0.5 * accel_max_mps2 * t * t
-    else:
-        reach = v0 * t_cap + 0.5 * accel_max_mps2 * t_cap ** 2 + max(v0, v_cap_mps) * (t - t_cap)
-    return reach >= obj.s_front_m[obj.k_first] + gap_m + 0.5 * robot_length_m - s0
+    return reach((k + 1) * dt_s) >= obj.s_front_m[obj.k_first] + ahead

@@ -409,13 +409,14 @@ class ContingencyMpc:
         Pedestrians are passed in front only with `pass_pedestrians`.
         """
         c, veh = self.config, self.vehicle
-        v0, margin, s0 = bounds[0], bounds[5], bounds[6]
+        v0, v_max, margin, s0 = bounds[0], bounds[3], bounds[5], bounds[6]
         options = []
         for obj in objects:
             two = (len([o for o in options if len(o) == 2]) < MAX_MODE_OBJECTS
                    and (pass_pedestrians or not obj.is_pedestrian)
                    and past_reachable(obj, v0, v_cap, veh.accel_max_mps2, c.plan_dt_s, s0,
-                                      veh.length_m, c.min_gap_m, margin))
+                                      veh.length_m, c.min_gap_m, margin,
+                                      np.broadcast_to(v_max, (c.n_steps,))))
             options.append((BEHIND, PAST) if two else (BEHIND,))
         combos = list(itertools.product(*options))
         if len(combos) == 1:

@@ -335,7 +335,7 @@ class RobotPlanner:
         result = self.solver.plan(self.route, s0, v, self.prev_accel, self.v_ref(),
                                   self.road_map.speed_limit_mps, scene, weights,
                                   self._static_boxes, stop_at, contingent,
-                                  self.right_of_way.claims(scene, s0),
+                                  self.right_of_way.claims(scene, s0, self._times),
                                   pull_up_target(stop_at, s0, v, self.stop_signs.config))
         self.last_result = result
         self.prev_accel = result.accel_mps2

@@ -17,6 +17,17 @@ which a car reaching the zone means the robot did not give way, metrics/physical
 So the contingency MPC gives way to every car it believes may come, weighed by its belief, and
 pulls out only where it can clear the zone well before the car arrives.
 
+A *merge* (the robot's route leaves the zone along one of its priority lanes: a right turn
+into the lane of the traffic it yields to) is car following, not a crossing: the car with the
+right of way ends up behind or ahead of the robot in the same lane. Its claim is the car
+itself, its predicted position along the lane mapped onto the robot's route (from the step its
+front reaches the zone on): "behind", the robot follows it (front `min_gap_m` short of its
+rear); "past", the robot's rear stays `min_gap_m` ahead of where the car's front would be if it
+slowed for the robot at `follower_decel_mps2` after `follower_reaction_s` (a gap a follower
+keeps by braking at most that hard: once it has slowed to the robot's speed it only follows).
+The robot merges in front of a car only where that car need not brake harder than a
+comfortable follower does.
+
 A zone the robot's front has entered by more than `committed_m` is not claimed against it any
 more: it is committed and clears the zone (stopping inside would block the car with the right
 of way).
@@ -31,7 +42,7 @@ from marl_social.agents.robot.corridor import PathObject
 
 from marl_social.models.candidates import ScenePrediction
 from marl_social.sim.road_map import RoadMap, Route
-from marl_social.sim.route_rules import RouteConflict, priority_mask, route_conflicts
+from marl_social.sim.route_rules import RouteConflict, on_lanes, priority_mask, route_conflicts
 
 
 @dataclass(frozen=True)
@@ -41,13 +52,26 @@ class RightOfWayConfig:
     Attributes:
         committed_m: the robot's front this far into the zone (past s_enter_m) is committed:
             the zone is no longer claimed against it [m], >= 0.
+        follower_decel_mps2: at a merge, the braking the robot may ask of a car it merges in
+            front of [m/s^2], > 0.
+        follower_reaction_s: ... which starts braking this long after the plan's start [s],
+            >= 0 (from its line the robot's front reaches the lane in about 1.5-2 s: the car
+            reacts as the robot rolls into its lane, not before).
     """
 
     committed_m: float = 0.0
+    follower_decel_mps2: float = 2.0
+    follower_reaction_s: float = 2.0
 
     def __post_init__(self):
         if not self.committed_m >= 0.0:
             raise ValueError(f"RightOfWayConfig.committed_m must be >= 0, got {self.committed_m}")
+        if not self.follower_decel_mps2 > 0.0:
+            raise ValueError("RightOfWayConfig.follower_decel_mps2 must be > 0, got "
+                             f"{self.follower_decel_mps2}")
+        if not self.follower_reaction_s >= 0.0:
+            raise ValueError("RightOfWayConfig.follower_reaction_s must be >= 0, got "
+                             f"{self.follower_reaction_s}")
 
 
 class RightOfWay:
@@ -66,18 +90,25 @@ class RightOfWay:
         self.road_map = road_map
         self.conflicts: tuple[RouteConflict, ...] = tuple(
             c for c in route_conflicts(route, road_map) if c.yields)
+        # per conflict: (the priority lane's path, the lane's arc length where the robot's route
+        # joins it) for a merge, None for a crossing
+        self.merges = tuple(_merge_lane(route, road_map, c) for c in self.conflicts)
         self._half = 0.5 * robot_length_m
 
-    def claims(self, scene: ScenePrediction, s0: float) -> list[list[PathObject]]:
+    def claims(self, scene: ScenePrediction, s0: float, times_s: np.ndarray
+               ) -> list[list[PathObject]]:
         """Per hypothesis of `scene`, the zone claims of the cars with the right of way.
 
         Args:
             scene: the predicted objects (L hypotheses, M objects, N plan steps).
             s0: the robot's arc length along its route (footprint centre) [m].
+            times_s: (N,) the plan steps' times [s].
 
         Returns:
-            L lists of PathObject (one per claiming car and zone; s_rear_m = the zone's
-            s_enter_m, s_front_m = its s_exit_m along the robot's route).
+            L lists of PathObject (one per claiming car and zone). A crossing: s_rear_m = the
+            zone's s_enter_m, s_front_m = its s_exit_m along the robot's route. A merge: the
+            car along the robot's route (s_rear_m its rear, s_front_m where its front is if
+            it slows for the robot; module docstring), pass_margin False.
         """
         n_hyp, n_obj = scene.mask.shape
         out: list[list[PathObject]] = [[] for _ in range(n_hyp)]
@@ -88,7 +119,7 @@ class RightOfWay:
         if not vehicle.any():
             return out
         front = s0 + self._half
-        for conflict in self.conflicts:
+        for conflict, merge in zip(self.conflicts, self.merges):
             if front > conflict.s_enter_m + self.config.committed_m:
                 continue  # committed: it clears this zone
             zone = conflict.zone
@@ -101,6 +132,9 @@ class RightOfWay:
             # in the zone: its footprint's centre within half its length of the outline
             margin = 0.5 * scene.length_m[src_l, src_m]  # (P,)
             xy = scene.xy[src_l, src_m]  # (P, N, 2)
+            if merge is not None:
+                self._merge_claims(out, conflict, merge, src_l, xy, margin, times_s)
+                continue
             claimed = _inside(zone, xy, margin)  # (P, N)
             s_rear = np.full(n_t, conflict.s_enter_m)
             s_front = np.full(n_t, conflict.s_exit_m)
@@ -109,6 +143,58 @@ class RightOfWay:
                     ks = np.flatnonzero(row)
                     out[l].append(PathObject(row, s_rear, s_front, int(ks[0]), int(ks[-1])))
         return out
+
+    def _merge_claims(self, out: list[list[PathObject]], conflict: RouteConflict, merge: tuple,
+                      src_l: np.ndarray, xy: np.ndarray, half_length_m: np.ndarray,
+                      times_s: np.ndarray) -> None:
+        """Append the claims of P cars at a merge (module docstring) to `out`.
+
+        Args:
+            out: L lists of claims.
+            conflict: the merge zone on the robot's route.
+            merge: (the priority lane's path, its arc length where the robot's route joins it).
+            src_l: (P,) each car's hypothesis.
+            xy: (P, N, 2) their predicted positions [m].
+            half_length_m: (P,) half their lengths [m].
+            times_s: (N,) the plan steps' times [s].
+        """
+        lane, s_join = merge
+        c = self.config
+        s_lane, _, _ = lane.project(xy)  # (P, N) along the lane [m]
+        centre = conflict.s_exit_m + (s_lane - s_join)  # ... along the robot's route [m]
+        rear = centre - half_length_m[:, None]
+        front = centre + half_length_m[:, None]
+        # where its front would be if it slowed for the robot (speeds between plan steps)
+        t = np.asarray(times_s, dtype=np.float64)
+        dt = np.diff(t, prepend=0.0)
+        speed = np.diff(s_lane, axis=1) / dt[1:]  # (P, N-1) [m/s]
+        slowed = np.maximum(speed - c.follower_decel_mps2
+                            * np.maximum(t[1:] - c.follower_reaction_s, 0.0), 0.0)
+        yielding_front = front[:, :1] + np.concatenate(
+            [np.zeros((len(front), 1)), np.cumsum(slowed * dt[1:], axis=1)], axis=1)
+        # it has reached the zone; a car already past the join is a car ahead (the corridor's)
+        claimed = (front >= conflict.s_enter_m) & (rear[:, :1] <= conflict.s_exit_m)  # (P, N)
+        for p, l in enumerate(src_l.tolist()):
+            row = claimed[p]
+            if row.any():
+                ks = np.flatnonzero(row)
+                out[l].append(PathObject(row, rear[p], yielding_front[p], int(ks[0]),
+                                         int(ks[-1]), pass_margin=False))
+
+
+def _merge_lane(route: Route, road_map: RoadMap, conflict: RouteConflict
+                ) -> tuple[Route, float] | None:
+    """(the priority lane's path, its arc length at the join) at a merge, else None.
+
+    A merge: `route` leaves `conflict`'s zone along one of the zone's priority lanes.
+    """
+    xy, heading = route.point_at(np.array([conflict.s_exit_m]))
+    for i in conflict.zone.priority_lanes:
+        lane = road_map.lanes[i]
+        if on_lanes([lane], xy, heading)[0]:
+            path = Route(lane.centerline, lane.name or f"lane {i}")
+            return path, float(path.project(xy)[0][0])
+    return None
 
 
 def _inside(zone, xy: np.ndarray, margin_m: np.ndarray) -> np.ndarray:

@@ -1,4 +1,4 @@
-"""The robot gives way at the T-intersection's merge zone: zone claims and the MPC's plan."""
+"""The robot gives way at the T-intersection's merge zone: a car it merges in front of or follows."""
 
 from __future__ import annotations
 
@@ -48,31 +48,45 @@ def test_the_robot_yields_at_the_merge_zone_only(layout):
     assert [c.zone.name for c in row.conflicts] == ["right_turn_merge"]
 
 
-def test_an_eastbound_car_claims_the_zone_in_its_own_hypothesis_only(layout):
-    """A car coming along the priority lane claims the zone while it is predicted there; in the
-    hypothesis where it is absent, and for a car that has passed, there is no claim."""
+def test_an_eastbound_car_claims_the_merge_in_its_own_hypothesis_only(layout):
+    """A car coming along the priority lane is, from the step its front reaches the zone, a car
+    on the robot's path (the merge is car following, not a crossing); in the hypothesis where it
+    is absent, and for a car already past the merge, there is no claim."""
     row = _robot(layout)[2]
     conflict = row.conflicts[0]
+    assert row.merges[0] is not None  # the right turn joins the eastbound lane
     s0 = conflict.s_enter_m - 5.0
     scene = _car_scene([-30.0, -30.0, 30.0], EASTBOUND_Y_M, 11.0, mask=[True, False, True])
-    claims = row.claims(scene, s0)
+    claims = row.claims(scene, s0, TIMES)
     assert len(claims[0]) == 1 and claims[1] == [] and claims[2] == []
     obj = claims[0][0]
-    # in the zone (x in [2.5, 14] grown by half a car) between about 2.6 and 4.0 s
-    t_first, t_last = TIMES[obj.k_first], TIMES[obj.k_last]
-    assert 2.2 <= t_first <= 2.8 and 3.8 <= t_last <= 4.4
-    assert np.all(obj.s_rear_m == conflict.s_enter_m) and np.all(obj.s_front_m == conflict.s_exit_m)
+    assert not obj.pass_margin
+    # its rear along the robot's route advances at its speed; claimed from its front's arrival
+    dt = np.diff(TIMES)
+    assert np.allclose(np.diff(obj.s_rear_m) / dt, 11.0, atol=1e-6)
+    front = obj.s_rear_m + CAR.length_m
+    assert obj.k_first == np.flatnonzero(front >= conflict.s_enter_m)[0]
+    assert obj.k_last == len(TIMES) - 1
+    # the front the robot must stay ahead of: the car keeping its speed for
+    # follower_reaction_s, then slowing at follower_decel_mps2
+    config = row.config
+    late = TIMES > config.follower_reaction_s + 1e-9
+    assert np.allclose(obj.s_front_m[~late], front[~late])
+    slowed = np.diff(obj.s_front_m) / dt
+    expected = np.maximum(11.0 - config.follower_decel_mps2
+                          * np.maximum(TIMES[1:] - config.follower_reaction_s, 0.0), 0.0)
+    assert np.allclose(slowed, expected, atol=1e-6)
 
 
 def test_a_westbound_car_or_a_pedestrian_does_not_claim_the_zone(layout):
     _, _, row = _robot(layout)
     s0 = row.conflicts[0].s_enter_m - 5.0
     westbound = _car_scene([30.0], 1.75, 11.0, heading_rad=np.pi)
-    assert row.claims(westbound, s0) == [[]]
+    assert row.claims(westbound, s0, TIMES) == [[]]
     walker = _car_scene([-3.0], EASTBOUND_Y_M, 1.0)
     walker = ScenePrediction(walker.xy, walker.heading, walker.length_m, walker.width_m,
                              walker.radius_m, np.ones((1, 1), bool), walker.mask)
-    assert row.claims(walker, s0) == [[]]
+    assert row.claims(walker, s0, TIMES) == [[]]
 
 
 def test_a_committed_robot_is_not_held_back(layout):
@@ -81,31 +95,81 @@ def test_a_committed_robot_is_not_held_back(layout):
     row = RightOfWay(route, road_map, CAR.length_m, RightOfWayConfig(committed_m=0.5))
     enter = row.conflicts[0].s_enter_m
     scene = _car_scene([-30.0], EASTBOUND_Y_M, 11.0)
-    assert len(row.claims(scene, enter - 0.5 * CAR.length_m + 0.4)[0]) == 1
-    assert row.claims(scene, enter - 0.5 * CAR.length_m + 0.6) == [[]]
+    assert len(row.claims(scene, enter - 0.5 * CAR.length_m + 0.4, TIMES)[0]) == 1
+    assert row.claims(scene, enter - 0.5 * CAR.length_m + 0.6, TIMES) == [[]]
     with pytest.raises(ValueError, match="committed_m"):
         RightOfWayConfig(committed_m=-1.0)
+    with pytest.raises(ValueError, match="follower_decel_mps2"):
+        RightOfWayConfig(follower_decel_mps2=0.0)
+    with pytest.raises(ValueError, match="follower_reaction_s"):
+        RightOfWayConfig(follower_reaction_s=-0.1)
 
 
-@pytest.mark.parametrize("x0", [-25.0, -35.0, -45.0])
-def test_the_mpc_waits_at_the_line_for_a_car_with_the_right_of_way(layout, x0):
-    """At rest at the stop line, with a car 25-45 m west coming at 11 m/s: the robot's plan
-    keeps its front out of the zone until the car has passed through it (it cannot clear the
-    zone 2.5 s before the car arrives)."""
+def _plan_at_the_line(layout, x0: float, speed_mps: float):
+    """The robot at rest 1.5 m short of the zone, one car x0 [m] west at speed_mps [m/s].
+
+    Returns (robot front (N,) [m], robot speed (N,) [m/s], car front at constant speed
+    (N,) [m], the zone's s_enter_m [m], the claim or None, the plan without the claim's
+    front (N,) [m]).
+    """
     road_map, route, row = _robot(layout)
     conflict = row.conflicts[0]
     s0 = conflict.s_enter_m - 0.5 * CAR.length_m - 1.5
-    scene = _car_scene([x0], EASTBOUND_Y_M, 11.0)
+    scene = _car_scene([x0], EASTBOUND_Y_M, speed_mps)
     mpc = ContingencyMpc(MpcConfig(), CAR)
-    claims = row.claims(scene, s0)
+    claims = row.claims(scene, s0, TIMES)
     result = mpc.plan(route, s0, 0.0, 0.0, 11.0, road_map.speed_limit_mps, scene, np.ones(1),
                       None, np.inf, extra_objects=claims)
     assert result.feasible
-    obj = claims[0][0]
+    obj = claims[0][0] if claims[0] else None
     front = s0 + result.progress_plan[0] + 0.5 * CAR.length_m
-    assert np.all(front[obj.k_first:obj.k_last + 1] <= conflict.s_enter_m)
-    # without the claim the corridor alone lets it go further (the car crosses the robot's
-    # corridor only where the route has turned east): the claim is what holds it
     plain = mpc.plan(route, s0, 0.0, 0.0, 11.0, road_map.speed_limit_mps, scene, np.ones(1))
     plain_front = s0 + plain.progress_plan[0] + 0.5 * CAR.length_m
-    assert plain_front[obj.k_first] > front[obj.k_first]
+    car_front = None if obj is None else obj.s_rear_m + CAR.length_m
+    return front, result.speed_plan[0], car_front, conflict.s_enter_m, obj, plain_front
+
+
+@pytest.mark.parametrize("x0, speed_mps", [(-25.0, 11.0), (-25.0, 14.0), (-35.0, 14.0)])
+def test_the_mpc_waits_at_the_line_for_a_near_car_and_follows_it(layout, x0, speed_mps):
+    """At rest at the stop line, a car 25-35 m west at 11-14 m/s: merging in front would make
+    it brake hard, so the robot's plan keeps its front out of the zone until the car has
+    reached it, then follows it (front min_gap_m behind its rear)."""
+    front, _, car_front, enter, obj, plain_front = _plan_at_the_line(layout, x0, speed_mps)
+    k = obj.k_first
+    assert front[k] <= enter
+    car_rear = car_front - CAR.length_m
+    gap = MpcConfig().min_gap_m
+    # where the car's rear is still short of the robot's front (the car west of the junction,
+    # mapped onto the robot's route) the robot stays where it stands
+    start = enter - 1.5  # its front at rest
+    assert np.all(front[k:] <= np.maximum(car_rear[k:] - gap, start + 0.2) + 0.05)
+    assert front[-1] > start + 1.0  # and it follows the car out
+    # without the claim the corridor alone lets it go further (the car enters the robot's
+    # corridor only where the route has turned east): the claim is what holds it
+    assert plain_front[k] > front[k]
+
+
+def test_the_mpc_merges_in_front_of_a_car_only_where_it_need_not_brake_hard():
+    """Over random cars 15-60 m west at 8-14 m/s, the robot at rest at its line: where its
+    plan rolls into the lane before the car gets there, the car (at its speed until then) needs
+    at most 2.5 m/s^2 to keep a metre behind it, braking from the moment the robot's front
+    enters the zone; a car far enough away does not hold it back, a near one does."""
+    layout = make_scenario("t_intersection", hidden_vehicle="near").build(
+        np.random.default_rng(0))
+    rng = np.random.default_rng(2024)
+    merged = waited = 0
+    for x0, speed in zip(rng.uniform(-60.0, -15.0, 16), rng.uniform(8.0, 14.0, 16)):
+        front, v, car_front, enter, obj, _ = _plan_at_the_line(layout, float(x0), float(speed))
+        inside = np.flatnonzero(front > enter)
+        if obj is None or (len(inside) and inside[0] < obj.k_first):
+            merged += 1
+            if obj is None:
+                continue  # the car does not reach the zone within the plan
+            k = inside[0]
+            gap = (front[k] - CAR.length_m) - car_front[k] - 1.0
+            assert gap > 0.0, (x0, speed)
+            need = max(speed - v[k], 0.0) ** 2 / (2.0 * gap)
+            assert need <= 2.5, (x0, speed, need)
+        else:
+            waited += 1
+    assert merged >= 3 and waited >= 3, (merged, waited)
