@@ -175,12 +175,22 @@ class _PlanConstants:
     increments: np.ndarray
 
 
+def cached_or_computed(cached, key):
+    """cached(key) for a hashable key; the wrapped function's result for an unhashable one.
+
+    Args:
+        cached: a functools.lru_cache-wrapped function of one argument.
+        key: its argument (e.g. a frozen dataclass with a field given as a list).
+    """
+    try:
+        return cached(key)
+    except TypeError:  # a field that cannot be hashed (e.g. accelerations given as a list)
+        return cached.__wrapped__(key)
+
+
 def _plan_constants(cands: CandidateSet) -> _PlanConstants:
     """The set's _PlanConstants (cached for hashable sets, computed for the others)."""
-    try:
-        return _cached_plan_constants(cands)
-    except TypeError:  # a field that cannot be hashed (e.g. accelerations given as a list)
-        return _cached_plan_constants.__wrapped__(cands)
+    return cached_or_computed(_cached_plan_constants, cands)
 
 
 @functools.lru_cache(maxsize=64)

@@ -23,6 +23,7 @@ from marl_social.models.candidates import (
     CandidateEvaluation,
     CandidateSet,
     ScenePrediction,
+    cached_or_computed,
     collision_free_totals,
     evaluate_candidates,
 )
@@ -100,10 +101,7 @@ class RoadRules:
 
 def _model_constants(model: DriverModel) -> tuple:
     """(model.candidates, model.theta.as_array() read-only), once per (hashable) model."""
-    try:
-        return _cached_model_constants(model)
-    except TypeError:  # a field that cannot be hashed (e.g. accelerations given as a list)
-        return _cached_model_constants.__wrapped__(model)
+    return cached_or_computed(_cached_model_constants, model)
 
 
 @functools.lru_cache(maxsize=256)
