@@ -135,7 +135,7 @@ def signalled_cars(lane_paths: LanePaths, road_map: RoadMap, tracks: TrackSet
         route = lane_paths.route_of(tracks.xy[k], float(tracks.heading_rad[k]))
         if route is None:
             continue
-        lines, heads = route_signal_lines(route, road_map)
+        lines, heads = lane_paths.signal_lines(route, road_map)
         s0, _ = route.project_point(float(tracks.xy[k, 0]), float(tracks.xy[k, 1]))
         half = 0.5 * float(tracks.length_m[k])
         ahead = np.flatnonzero(lines > s0 + half)
