@@ -347,6 +347,10 @@ def circle_pair_gap(ego_x, ego_y, ego_r: float, other_x, other_y, other_r) -> np
     The same arithmetic per circle pair (the smallest squared centre distance, its square root
     minus the two radii); every pair in one broadcast, circle axes first.
 
+    Objects that are the same in every hypothesis (the tracked ones, which a scene built with
+    `ScenePrediction.with_extra` repeats in each) are computed once and repeated: the same
+    values, for a fraction of the work.
+
     Args:
         ego_x: (K, ..., T) x of the ego's covering circles along its plans [m] (e.g.
             (K, A, C, T) candidates).
@@ -356,6 +360,30 @@ def circle_pair_gap(ego_x, ego_y, ego_r: float, other_x, other_y, other_r) -> np
         other_y: (J, L, M, T) their y [m].
         other_r: (L, M) their radii [m].
     """
+    n_hyp, n_obj = other_r.shape
+    if n_hyp > 1 and n_obj:
+        shared = ((other_x == other_x[:, :1]) & (other_y == other_y[:, :1])).all(axis=(0, 1, 3))
+        shared &= (other_r == other_r[:1]).all(axis=0)
+        if shared.any():
+            out = np.empty((n_hyp,) + ego_x.shape[1:] + (n_obj,))
+            same, rest = np.flatnonzero(shared), np.flatnonzero(~shared)
+            out[..., same] = _circle_pair_gap(ego_x, ego_y, ego_r, other_x[:, :1, same],
+                                              other_y[:, :1, same], other_r[:1, same])
+            if len(rest):
+                out[..., rest] = _circle_pair_gap(ego_x, ego_y, ego_r, other_x[:, :, rest],
+                                                  other_y[:, :, rest], other_r[:, rest])
+            return out
+    return _circle_pair_gap(ego_x, ego_y, ego_r, other_x, other_y, other_r)
+
+
+def _circle_pair_gap(ego_x, ego_y, ego_r: float, other_x, other_y, other_r) -> np.ndarray:
+    """`circle_pair_gap` of every object in every hypothesis (the same arguments).
+
+    When every object's circles coincide (discs) one stands for all (the minimum is exact).
+    """
+    if len(other_x) > 1 and (other_x[1:] == other_x[:1]).all() and (
+            other_y[1:] == other_y[:1]).all():
+        other_x, other_y = other_x[:1], other_y[:1]
     plan_axes = (None,) * (ego_x.ndim - 2)  # the ego's plan axes, e.g. (A, C)
     ox = other_x.swapaxes(-2, -1)[(None, slice(None), slice(None)) + plan_axes]
     oy = other_y.swapaxes(-2, -1)[(None, slice(None), slice(None)) + plan_axes]

@@ -9,6 +9,7 @@ import numpy as np
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
+from marl_social.models import candidates
 from marl_social.models.candidates import ScenePrediction, circle_pair_gap, scene_circles
 from marl_social.sim.costs import circle_gap, zone_occupancy
 from marl_social.sim.footprint import covering_circles
@@ -44,6 +45,34 @@ def test_circle_pair_gap_equals_circle_gap(seed, n_hyp, n_obj, all_peds, ego_ped
                            float(ego_r.flat[0]), ox, oy, other_r)
     assert fast.shape == reference.shape == (n_hyp, 4, 5, n_t, n_obj)
     assert np.array_equal(fast, reference)
+
+
+def _scene_with_extra(rng, n_hyp, n_obj, n_t):
+    """A scene as the planners build it: n_obj tracked objects shared by n_hyp hypotheses,
+    each hypothesis with its own extra object (a pedestrian or a car; masked out in the first)."""
+    others = _scene(rng, 1, n_obj, n_t)
+    is_ped = rng.random(n_hyp) < 0.5
+    mask = np.ones(n_hyp, bool)
+    mask[0] = False
+    return others.with_extra(rng.normal(size=(n_hyp, n_t, 2)) * 8.0,
+                             rng.uniform(-4, 4, (n_hyp, n_t)), np.where(is_ped, 0.6, 4.6),
+                             np.where(is_ped, 0.6, 1.9), is_ped, mask)
+
+
+@settings(max_examples=40, deadline=None)
+@given(seed=st.integers(0, 2**32 - 1), n_hyp=st.integers(2, 5), n_obj=st.integers(0, 4))
+def test_shared_objects_are_computed_once_with_the_same_values(seed, n_hyp, n_obj):
+    """circle_pair_gap computes the objects every hypothesis shares once: the same values, bit
+    for bit, as every object in every hypothesis."""
+    rng = np.random.default_rng(seed)
+    n_t = 6
+    scene = _scene_with_extra(rng, n_hyp, n_obj, n_t)
+    ego_x, ego_y = rng.normal(size=(2, 3, 4, 5, n_t)) * 8.0
+    ox, oy, other_r = scene_circles(scene)
+    fast = circle_pair_gap(ego_x, ego_y, 1.1, ox, oy, other_r)
+    full = candidates._circle_pair_gap(ego_x, ego_y, 1.1, ox, oy, other_r)
+    assert fast.shape == full.shape == (n_hyp, 4, 5, n_t, n_obj + 1)
+    assert np.array_equal(fast, full)
 
 
 def _zone_occupancy_reference(circles, circle_r, polygon):
