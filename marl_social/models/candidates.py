@@ -493,7 +493,12 @@ def evaluate_candidates(cands: CandidateSet, theta: np.ndarray, v_ref_mps: float
     n_hyp = len(scene.mask)
     if vehicle_gaps_only:
         clearance = np.full((n_hyp,) + v.shape[:2], np.inf)
-        if scene.mask.shape[1]:
+        # only the objects that are a present vehicle in some hypothesis can be finite
+        cars = np.flatnonzero((scene.mask & ~scene.is_pedestrian).any(axis=0))
+        if len(cars):
+            if len(cars) < scene.mask.shape[1]:
+                raw_gap, other_mask, other_is_ped = (
+                    raw_gap[..., cars], other_mask[..., cars], other_is_ped[..., cars])
             clearance = np.broadcast_to(np.where(other_mask & ~other_is_ped, raw_gap, np.inf)
                                         .min(axis=(-1, -2)), clearance.shape)
         return CandidateEvaluation(cost, v, a_eff, None, None, None, np.maximum(clearance, 0.0),
