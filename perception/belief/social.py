@@ -80,6 +80,7 @@ from marl_social.sim.route_rules import CurveSpeed, priority_mask, route_conflic
 # the lateral acceleration the robot assumes a human accepts in a bend (a generic driver's;
 # a human slowing for its turn is then not read as giving way to a hidden car) [m/s^2]
 HUMAN_CURVE_LAT_ACCEL_MPS2 = 2.5
+KEPT_SCENES_MAX = 64  # scenes without others remembered per (kept hypotheses, mask)
 _EGO_XY = [EGO_INDEX["x"], EGO_INDEX["y"]]
 _EGO_COS_SIN = [EGO_INDEX["cos_psi"], EGO_INDEX["sin_psi"]]
 
@@ -148,6 +149,7 @@ class SocialLikelihood:
         self._beta_prior = np.full(len(self._beta_grid), 1.0 / max(len(self._beta_grid), 1))
         self._empty_scene: ScenePrediction | None = None
         self._empty_hyp_scene: ScenePrediction | None = None
+        self._kept_scenes: dict[tuple, ScenePrediction] = {}  # (keep, mask) -> scene, no others
         self._conflicts: dict[str, tuple] = {}  # route name -> its yield conflicts
         self._curves: dict[str, CurveSpeed | None] = {}  # route name -> its curve speed
         self.reset()
@@ -224,23 +226,62 @@ class SocialLikelihood:
                 to it (None: every hypothesised agent is in the scene). Hypothesised
                 pedestrians stay in (the human knows the crosswalk ahead of it).
         """
+        objects = self._objects_in_view(viewer)
+        if others is None:
+            if objects is self._hyp_scene:
+                if self._empty_hyp_scene is None:
+                    self._empty_hyp_scene = self._no_others().with_extra(*objects)
+                return self._empty_hyp_scene
+            return self._no_others().with_extra(*objects)
+        return others.with_extra(*objects)
+
+    def _objects_in_view(self, viewer: tuple | None) -> tuple:
+        """The hypotheses' objects (`hypothesis_objects`), vehicles out of the viewer's view masked.
+
+        Args:
+            viewer: (xy (2,) [m], heading [rad]) of the human, or None (all in).
+        """
         objects = self._hyp_scene
         if viewer is not None and self._vehicle.any():
             hidden = self._vehicle & ~self.in_view(*viewer)
             objects = (*objects[:5], objects[5] & ~hidden)
-        if others is None:
-            if self._empty_scene is None:
-                n_t = len(self._times)
-                self._empty_scene = ScenePrediction(
-                    np.zeros((1, 0, n_t, 2)), np.zeros((1, 0, n_t)), np.zeros((1, 0)),
-                    np.zeros((1, 0)), np.zeros((1, 0)), np.zeros((1, 0), dtype=bool),
-                    np.zeros((1, 0), dtype=bool))
-            if objects is self._hyp_scene:
-                if self._empty_hyp_scene is None:
-                    self._empty_hyp_scene = self._empty_scene.with_extra(*objects)
-                return self._empty_hyp_scene
-            return self._empty_scene.with_extra(*objects)
-        return others.with_extra(*objects)
+        return objects
+
+    def _no_others(self) -> ScenePrediction:
+        """A one-hypothesis scene without objects (built once)."""
+        if self._empty_scene is None:
+            n_t = len(self._times)
+            self._empty_scene = ScenePrediction(
+                np.zeros((1, 0, n_t, 2)), np.zeros((1, 0, n_t)), np.zeros((1, 0)),
+                np.zeros((1, 0)), np.zeros((1, 0)), np.zeros((1, 0), dtype=bool),
+                np.zeros((1, 0), dtype=bool))
+        return self._empty_scene
+
+    def _kept_scene(self, others: ScenePrediction | None, objects: tuple, keep: np.ndarray
+                    ) -> ScenePrediction:
+        """`hypothesis_scene` restricted to the hypotheses `keep` (K,) (indices).
+
+        The same arrays as indexing the full scene, built from the kept rows only; without
+        others, once per (keep, mask) (read-only).
+
+        Args:
+            others: one-hypothesis scene of the other objects (None: nothing else).
+            objects: the hypotheses' objects (`_objects_in_view`).
+            keep: (K,) indices of the hypotheses to keep.
+        """
+        kept = tuple(array[keep] for array in objects)
+        if others is not None:
+            return others.with_extra(*kept)
+        key = (keep.tobytes(), kept[5].tobytes())
+        scene = self._kept_scenes.get(key)
+        if scene is None:
+            if len(self._kept_scenes) >= KEPT_SCENES_MAX:
+                self._kept_scenes.clear()
+            scene = self._no_others().with_extra(*kept)
+            for f in fields(scene):
+                getattr(scene, f.name).setflags(write=False)
+            self._kept_scenes[key] = scene
+        return scene
 
     # -- the human's Q-values and the likelihood of its action ----------------------------------
     def human_q_values(self, route: Route, s0: float, v0: float, prev_accel: float,
@@ -271,16 +312,16 @@ class SocialLikelihood:
         if self._vehicle.any():
             xy, heading = route.point_at(s0)
             viewer = (xy, float(heading))
-        scene = self.hypothesis_scene(others, viewer)
+        objects = self._objects_in_view(viewer)
         # every hypothesis whose hidden agent is not in the human's scene ("none", a car out of
         # its view) gives the scene of "none": the candidates are evaluated once for all of them
-        present = scene.mask[:, -1].copy()
+        present = objects[5].copy()
         if negligible is not None:
             present &= ~np.asarray(negligible, dtype=bool)
         inverse = np.zeros(len(present), dtype=np.intp)
         inverse[present] = np.arange(1, int(present.sum()) + 1)
         keep = np.concatenate([np.flatnonzero(~present)[:1], np.flatnonzero(present)])
-        scene = ScenePrediction(*(getattr(scene, f.name)[keep] for f in fields(scene)))
+        scene = self._kept_scene(others, objects, keep)  # hypothesis_scene(others, viewer)[keep]
         rules = RoadRules(None, self.yield_zones(route, s0, scene), self._curve_speed(route))
         ev = evaluate_candidates(self._candidates, self._theta_no_speed, 0.0, self.model.vehicle,
                                  route, s0, v0, prev_accel, scene, self.road_map.crosswalks,
