@@ -79,8 +79,8 @@ class OwnSensors:
             i0 = (i1 - 1) % n_rays
             in_cone = np.ones(bearing.shape, dtype=bool)
         else:
-            i1 = np.clip(np.searchsorted(angles, bearing), 0, n_rays - 1)
-            i0 = np.clip(i1 - 1, 0, n_rays - 1)
+            i1 = np.minimum(np.searchsorted(angles, bearing), n_rays - 1)  # >= 0 already
+            i0 = np.maximum(i1 - 1, 0)
             in_cone = np.abs(bearing) <= half + CONE_TOLERANCE_RAD
         reach = np.minimum(depth[i0], depth[i1])
         seen = in_cone & (dist <= rng) & (reach >= dist - 0.5 * PEDESTRIAN_DIAMETER_M)
@@ -154,8 +154,8 @@ class OwnSensors:
             seen_veh = ~tracks.is_pedestrian & tracks.seen
             detected |= self.match_vehicles(tracks.xy[seen_veh], tracks.velocity[seen_veh])
         visible = self.visible_fraction(decoded)
-        miss = np.clip(1.0 - cfg.p_detect * visible, PROBABILITY_MIN, 1.0)
-        p_fa = np.clip(cfg.p_false_alarm, PROBABILITY_MIN, 1.0 - PROBABILITY_MIN)
+        miss = np.minimum(np.maximum(1.0 - cfg.p_detect * visible, PROBABILITY_MIN), 1.0)
+        p_fa = min(max(cfg.p_false_alarm, PROBABILITY_MIN), 1.0 - PROBABILITY_MIN)
         if detected.any():
             # the detection is explained by a matching hypothesis, or is a false alarm (then
             # any other hidden agent's region was missed)
