@@ -141,6 +141,8 @@ class SocialLikelihood:
         self._theta_no_speed = replace(config.theta_hat, speed=0.0).as_array()
         self._times = self._candidates.plan_times_s
         self._first = np.asarray(self._candidates.first_actions_mps2, dtype=np.float64)
+        veh = self.model.vehicle  # the first actions within the vehicle's limits (_executed)
+        self._first_limited = np.clip(self._first, -veh.brake_max_mps2, veh.accel_max_mps2)
         self._hyp_scene = hypothesis_objects(hypotheses, self._times)
         self._vehicle = np.array([h.kind == "vehicle" for h in hypotheses])
         self._now_xy = np.array([h.predict_xy(np.zeros(1))[0] if h.present else np.zeros(2)
@@ -150,6 +152,7 @@ class SocialLikelihood:
         self._empty_scene: ScenePrediction | None = None
         self._empty_hyp_scene: ScenePrediction | None = None
         self._kept_scenes: dict[tuple, ScenePrediction] = {}  # (keep, mask) -> scene, no others
+        self._step_cache: tuple | None = None  # (decoded, tracks, _step_objects)
         self._conflicts: dict[str, tuple] = {}  # route name -> its yield conflicts
         self._curves: dict[str, CurveSpeed | None] = {}  # route name -> its curve speed
         self.reset()
@@ -189,30 +192,58 @@ class SocialLikelihood:
             decoded: the robot's decoded observation (its own pose and speed).
             tracks: the robot's current tracks.
         """
-        ego = decoded.ego
-        xy = np.vstack([tracks.xy, ego[None, _EGO_XY]])
-        rel = xy - human_xy
+        step = self._step_objects(decoded, tracks)
+        rel = step["xy"] - human_xy
         dist = np.hypot(rel[:, 0], rel[:, 1])
         bearing = np.arctan2(rel[:, 1], rel[:, 0]) - human_heading
         bearing = np.abs((bearing + np.pi) % (2.0 * np.pi) - np.pi)
-        keep = np.append((tracks.ids != human_id) & ~tracks.is_pedestrian, True)
+        keep = step["vehicle"].copy()
+        keep[:-1] &= tracks.ids != human_id
         keep &= (dist <= self.config.human_range_m) & (bearing <= self.config.human_half_fov_rad)
         if not keep.any():
             return None
+        if "pred" not in step:
+            self._predict_step_objects(step, decoded, tracks)
+        m = int(keep.sum())
+        heading = np.repeat(step["heading"][keep][:, None], len(self._times), axis=1)
+        return ScenePrediction(step["pred"][keep][None], heading[None],
+                               step["length"][keep][None], step["width"][keep][None],
+                               step["radius"][keep][None], step["is_ped"][keep][None],
+                               np.ones((1, m), dtype=bool))
+
+    def _step_objects(self, decoded: DecodedObservation, tracks: TrackSet) -> dict:
+        """The tracked objects and the robot as `others_scene` sees them, once per step.
+
+        Remembered for the last (decoded, tracks) pair: every human of a step shares them.
+        {"xy": (N + 1, 2) [m], "vehicle": (N + 1,) bool}: the N tracks, then the robot; the
+        predictions are added on first use (`_predict_step_objects`).
+        """
+        cached = self._step_cache
+        if cached is not None and cached[0] is decoded and cached[1] is tracks:
+            return cached[2]
+        step = {"xy": np.vstack([tracks.xy, decoded.ego[None, _EGO_XY]]),
+                "vehicle": np.append(~tracks.is_pedestrian, True)}
+        self._step_cache = (decoded, tracks, step)
+        return step
+
+    def _predict_step_objects(self, step: dict, decoded: DecodedObservation,
+                              tracks: TrackSet) -> None:
+        """Add to `step` the objects' predictions at constant velocity and their footprints.
+
+        "pred" (N + 1, T, 2) [m], "heading" (N + 1,) [rad], "length", "width", "radius"
+        (N + 1,) [m], "is_ped" (N + 1,) bool.
+        """
+        ego = decoded.ego
         veh = self.model.vehicle
         ego_velocity = float(ego[EGO_INDEX["v"]]) * ego[None, _EGO_COS_SIN]
-        vel = np.vstack([tracks.velocity, ego_velocity])[keep]
-        length = np.append(tracks.length_m, veh.length_m)[keep]
-        width = np.append(tracks.width_m, veh.width_m)[keep]
-        is_ped = np.append(tracks.is_pedestrian, False)[keep]
-        m = len(vel)
-        pred = xy[keep][:, None, :] + vel[:, None, :] * self._times[None, :, None]
+        vel = np.vstack([tracks.velocity, ego_velocity])
+        length = np.append(tracks.length_m, veh.length_m)
+        width = np.append(tracks.width_m, veh.width_m)
         ego_heading = math.atan2(ego[EGO_INDEX["sin_psi"]], ego[EGO_INDEX["cos_psi"]])
-        heading = np.append(tracks.heading_rad, ego_heading)[keep]
-        heading = np.broadcast_to(heading[:, None], (m, len(self._times)))
-        return ScenePrediction(pred[None], heading[None], length[None], width[None],
-                               0.5 * np.hypot(length, width)[None], is_ped[None],
-                               np.ones((1, m), dtype=bool))
+        step.update(pred=step["xy"][:, None, :] + vel[:, None, :] * self._times[None, :, None],
+                    heading=np.append(tracks.heading_rad, ego_heading), length=length,
+                    width=width, radius=0.5 * np.hypot(length, width),
+                    is_ped=np.append(tracks.is_pedestrian, False))
 
     def hypothesis_scene(self, others: ScenePrediction | None = None,
                          viewer: tuple | None = None) -> ScenePrediction:
@@ -381,9 +412,7 @@ class SocialLikelihood:
 
     def _executed(self, v0: float) -> np.ndarray:
         """(A,) accelerations the candidate first actions execute as at speed v0 [m/s^2]."""
-        veh = self.model.vehicle
-        a = np.clip(self._first, -veh.brake_max_mps2, veh.accel_max_mps2)
-        return np.maximum(a, -max(v0, 0.0) / DT_S)
+        return np.maximum(self._first_limited, -max(v0, 0.0) / DT_S)
 
     def _human_log_likelihood(self, prev: _HumanState, a_est: float, sigma_mps2: float,
                               predicted: np.ndarray):
