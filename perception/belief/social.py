@@ -91,7 +91,8 @@ class _HumanState:
 
     Attributes:
         v_mps: its along-route speed [m/s].
-        q_values: (L, V, A) Q*_H of its candidate actions.
+        q_values: (L, V, A) Q*_H of its candidate actions; None while its track is too young
+            for the next step to score its action (n_seen < BeliefConfig.min_track_steps).
         actions_mps2: (A,) accelerations they execute as [m/s^2].
         n_seen: consecutive steps its track has been measured.
         beta_belief: (B,) belief over its rationality on BeliefConfig.beta_grid_hat (empty
@@ -99,7 +100,7 @@ class _HumanState:
     """
 
     v_mps: float
-    q_values: np.ndarray
+    q_values: np.ndarray | None
     actions_mps2: np.ndarray
     n_seen: int = 1
     beta_belief: np.ndarray = field(default_factory=lambda: np.zeros(0))
@@ -527,9 +528,11 @@ class SocialLikelihood:
                     sigma = self.observation_sigma_mps2(tracks, k, heading)
                     ll, beta_belief = self._human_log_likelihood(prev, a_est, sigma, predicted)
                     out.append(ll)
-            others = self.others_scene(np.array([x, y]), heading, oid, decoded, tracks)
             v0 = max(v, 0.0)
-            q = self.human_q_values(route, s0, v0, a_est, others, negligible)
+            q = None  # the next step scores this prediction only from min_track_steps + 1 on
+            if n_seen >= cfg.min_track_steps:
+                others = self.others_scene(np.array([x, y]), heading, oid, decoded, tracks)
+                q = self.human_q_values(route, s0, v0, a_est, others, negligible)
             current[oid] = _HumanState(v, q, self._executed(v0), n_seen, beta_belief)
         self._humans = current  # a human not seen this step starts afresh when seen again
         n, n_v = len(self.hypotheses), len(self.traffic_grid_mps)
