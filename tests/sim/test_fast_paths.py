@@ -1,6 +1,6 @@
 """The per-decision fast paths equal the plain formulas they replace, bit for bit.
 
-circle_pair_gap / scene_circles (models/candidates.py) against costs.circle_gap on the covering
+circle_pair_gap / scene_circles (models/circle_gaps.py) against costs.circle_gap on the covering
 circles; zone_occupancy against the all-edges-at-once formula; Route.point_at and Route.project
 against the plain lookups; CurveSpeed.at against np.clip.
 """
@@ -9,7 +9,7 @@ import numpy as np
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from marl_social.models import candidates
+from marl_social.models import circle_gaps
 from marl_social.models.candidates import ScenePrediction, circle_pair_gap, scene_circles
 from marl_social.sim.costs import circle_gap, zone_occupancy
 from marl_social.sim.footprint import covering_circles
@@ -70,7 +70,7 @@ def test_shared_objects_are_computed_once_with_the_same_values(seed, n_hyp, n_ob
     ego_x, ego_y = rng.normal(size=(2, 3, 4, 5, n_t)) * 8.0
     ox, oy, other_r = scene_circles(scene)
     fast = circle_pair_gap(ego_x, ego_y, 1.1, ox, oy, other_r)
-    full = candidates._circle_pair_gap(ego_x, ego_y, 1.1, ox, oy, other_r)
+    full = circle_gaps._circle_pair_gap(ego_x, ego_y, 1.1, ox, oy, other_r)
     assert fast.shape == full.shape == (n_hyp, 4, 5, n_t, n_obj + 1)
     assert np.array_equal(fast, full)
 
