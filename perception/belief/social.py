@@ -52,7 +52,7 @@ Modelling choices of `SocialLikelihood`:
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field, fields, replace
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 from marl_social.perception.belief.action_model import (
@@ -62,7 +62,8 @@ from marl_social.perception.belief.action_model import (
 )
 from marl_social.perception.belief.bayes import bayes_update, normalize
 from marl_social.perception.belief.config import BeliefConfig
-from marl_social.perception.belief.hypotheses import Hypothesis, hypothesis_objects
+from marl_social.perception.belief.human_scene import HumanScenes
+from marl_social.perception.belief.hypotheses import Hypothesis
 from marl_social.perception.belief.paths import LanePaths
 from marl_social.perception.tracking import TrackSet
 
@@ -73,16 +74,13 @@ from marl_social.models.candidates import (
 from marl_social.models.driver import DriverModel, RoadRules, rule_abiding_totals
 from marl_social.sim.agent_spec import VehicleParams
 from marl_social.sim.dynamics import DT_S
-from marl_social.sim.observation import EGO_INDEX, DecodedObservation
+from marl_social.sim.observation import DecodedObservation
 from marl_social.sim.road_map import RoadMap, Route
 from marl_social.sim.route_rules import CurveSpeed, priority_mask, route_conflicts
 
 # the lateral acceleration the robot assumes a human accepts in a bend (a generic driver's;
 # a human slowing for its turn is then not read as giving way to a hidden car) [m/s^2]
 HUMAN_CURVE_LAT_ACCEL_MPS2 = 2.5
-KEPT_SCENES_MAX = 64  # scenes without others remembered per (kept hypotheses, mask)
-_EGO_XY = [EGO_INDEX["x"], EGO_INDEX["y"]]
-_EGO_COS_SIN = [EGO_INDEX["cos_psi"], EGO_INDEX["sin_psi"]]
 
 
 @dataclass
@@ -144,16 +142,10 @@ class SocialLikelihood:
         self._first = np.asarray(self._candidates.first_actions_mps2, dtype=np.float64)
         veh = self.model.vehicle  # the first actions within the vehicle's limits (_executed)
         self._first_limited = np.clip(self._first, -veh.brake_max_mps2, veh.accel_max_mps2)
-        self._hyp_scene = hypothesis_objects(hypotheses, self._times)
         self._vehicle = np.array([h.kind == "vehicle" for h in hypotheses])
-        self._now_xy = np.array([h.predict_xy(np.zeros(1))[0] if h.present else np.zeros(2)
-                                 for h in hypotheses]).reshape(-1, 2)
+        self.scenes = HumanScenes(hypotheses, self._times, config, self.model.vehicle)
         self._beta_grid = np.asarray(config.beta_grid_hat, dtype=np.float64)
         self._beta_prior = np.full(len(self._beta_grid), 1.0 / max(len(self._beta_grid), 1))
-        self._empty_scene: ScenePrediction | None = None
-        self._empty_hyp_scene: ScenePrediction | None = None
-        self._kept_scenes: dict[tuple, ScenePrediction] = {}  # (keep, mask) -> scene, no others
-        self._step_cache: tuple | None = None  # (decoded, tracks, _step_objects)
         self._conflicts: dict[str, tuple] = {}  # route name -> its yield conflicts
         self._curves: dict[str, CurveSpeed | None] = {}  # route name -> its curve speed
         self.reset()
@@ -162,158 +154,23 @@ class SocialLikelihood:
         """Forget every tracked human (call at every episode start)."""
         self._humans: dict[int, _HumanState] = {}
 
-    # -- the scenes the human is modelled against -----------------------------------------------
+    # -- the scenes the human is modelled against (human_scene.HumanScenes) ---------------------
     def in_view(self, viewer_xy, viewer_heading_rad: float) -> np.ndarray:
-        """(L,) bool: hypothesised agents inside a human's assumed field of view now.
-
-        The view the robot assumes a human has (BeliefConfig.human_range_m,
-        human_half_fov_rad) from viewer_xy (2,) [m] looking along viewer_heading_rad [rad];
-        False for "none".
-        """
-        rel = self._now_xy - np.asarray(viewer_xy, dtype=np.float64)
-        dist = np.hypot(rel[:, 0], rel[:, 1])
-        bearing = np.arctan2(rel[:, 1], rel[:, 0]) - viewer_heading_rad
-        bearing = np.abs((bearing + np.pi) % (2.0 * np.pi) - np.pi)
-        return (self._present & (dist <= self.config.human_range_m)
-                & (bearing <= self.config.human_half_fov_rad))
+        """(L,) bool: hypothesised agents inside a human's assumed view (HumanScenes.in_view)."""
+        return self.scenes.in_view(viewer_xy, viewer_heading_rad)
 
     def others_scene(self, human_xy, human_heading, human_id, decoded: DecodedObservation,
                      tracks: TrackSet) -> ScenePrediction | None:
-        """What the robot assumes the human reacts to besides the hypothesised pedestrian.
+        """What the robot assumes the human reacts to besides the hypothesised agent.
 
-        One hypothesis (L = 1): the vehicles the robot tracks (other than the human) and the
-        robot itself inside the human's assumed field of view, at constant velocity; None if
-        there is nothing. Seen pedestrians are left to the hypotheses (a crossing one is the
-        detected hypothesis).
-
-        Args:
-            human_xy: (2,) the human's tracked position [m].
-            human_heading: its route heading [rad].
-            human_id: its object id (agent index + 1).
-            decoded: the robot's decoded observation (its own pose and speed).
-            tracks: the robot's current tracks.
+        HumanScenes.others_scene (the same arguments).
         """
-        step = self._step_objects(decoded, tracks)
-        rel = step["xy"] - human_xy
-        dist = np.hypot(rel[:, 0], rel[:, 1])
-        bearing = np.arctan2(rel[:, 1], rel[:, 0]) - human_heading
-        bearing = np.abs((bearing + np.pi) % (2.0 * np.pi) - np.pi)
-        keep = step["vehicle"].copy()
-        keep[:-1] &= tracks.ids != human_id
-        keep &= (dist <= self.config.human_range_m) & (bearing <= self.config.human_half_fov_rad)
-        if not keep.any():
-            return None
-        if "pred" not in step:
-            self._predict_step_objects(step, decoded, tracks)
-        m = int(keep.sum())
-        heading = np.repeat(step["heading"][keep][:, None], len(self._times), axis=1)
-        return ScenePrediction(step["pred"][keep][None], heading[None],
-                               step["length"][keep][None], step["width"][keep][None],
-                               step["radius"][keep][None], step["is_ped"][keep][None],
-                               np.ones((1, m), dtype=bool))
-
-    def _step_objects(self, decoded: DecodedObservation, tracks: TrackSet) -> dict:
-        """The tracked objects and the robot as `others_scene` sees them, once per step.
-
-        Remembered for the last (decoded, tracks) pair: every human of a step shares them.
-        {"xy": (N + 1, 2) [m], "vehicle": (N + 1,) bool}: the N tracks, then the robot; the
-        predictions are added on first use (`_predict_step_objects`).
-        """
-        cached = self._step_cache
-        if cached is not None and cached[0] is decoded and cached[1] is tracks:
-            return cached[2]
-        step = {"xy": np.vstack([tracks.xy, decoded.ego[None, _EGO_XY]]),
-                "vehicle": np.append(~tracks.is_pedestrian, True)}
-        self._step_cache = (decoded, tracks, step)
-        return step
-
-    def _predict_step_objects(self, step: dict, decoded: DecodedObservation,
-                              tracks: TrackSet) -> None:
-        """Add to `step` the objects' predictions at constant velocity and their footprints.
-
-        "pred" (N + 1, T, 2) [m], "heading" (N + 1,) [rad], "length", "width", "radius"
-        (N + 1,) [m], "is_ped" (N + 1,) bool.
-        """
-        ego = decoded.ego
-        veh = self.model.vehicle
-        ego_velocity = float(ego[EGO_INDEX["v"]]) * ego[None, _EGO_COS_SIN]
-        vel = np.vstack([tracks.velocity, ego_velocity])
-        length = np.append(tracks.length_m, veh.length_m)
-        width = np.append(tracks.width_m, veh.width_m)
-        ego_heading = math.atan2(ego[EGO_INDEX["sin_psi"]], ego[EGO_INDEX["cos_psi"]])
-        step.update(pred=step["xy"][:, None, :] + vel[:, None, :] * self._times[None, :, None],
-                    heading=np.append(tracks.heading_rad, ego_heading), length=length,
-                    width=width, radius=0.5 * np.hypot(length, width),
-                    is_ped=np.append(tracks.is_pedestrian, False))
+        return self.scenes.others_scene(human_xy, human_heading, human_id, decoded, tracks)
 
     def hypothesis_scene(self, others: ScenePrediction | None = None,
                          viewer: tuple | None = None) -> ScenePrediction:
-        """The L scenes the human is modelled against.
-
-        Args:
-            others: one-hypothesis scene of the other objects (None: nothing else); each
-                hypothesis' hidden agent is added to it (masked out for "none").
-            viewer: (xy (2,) [m], heading [rad]) of the human: a hypothesised vehicle outside
-                its assumed field of view (`in_view`) is masked out, the human does not react
-                to it (None: every hypothesised agent is in the scene). Hypothesised
-                pedestrians stay in (the human knows the crosswalk ahead of it).
-        """
-        objects = self._objects_in_view(viewer)
-        if others is None:
-            if objects is self._hyp_scene:
-                if self._empty_hyp_scene is None:
-                    self._empty_hyp_scene = self._no_others().with_extra(*objects)
-                return self._empty_hyp_scene
-            return self._no_others().with_extra(*objects)
-        return others.with_extra(*objects)
-
-    def _objects_in_view(self, viewer: tuple | None) -> tuple:
-        """The hypotheses' objects (`hypothesis_objects`), vehicles out of the viewer's view masked.
-
-        Args:
-            viewer: (xy (2,) [m], heading [rad]) of the human, or None (all in).
-        """
-        objects = self._hyp_scene
-        if viewer is not None and self._vehicle.any():
-            hidden = self._vehicle & ~self.in_view(*viewer)
-            objects = (*objects[:5], objects[5] & ~hidden)
-        return objects
-
-    def _no_others(self) -> ScenePrediction:
-        """A one-hypothesis scene without objects (built once)."""
-        if self._empty_scene is None:
-            n_t = len(self._times)
-            self._empty_scene = ScenePrediction(
-                np.zeros((1, 0, n_t, 2)), np.zeros((1, 0, n_t)), np.zeros((1, 0)),
-                np.zeros((1, 0)), np.zeros((1, 0)), np.zeros((1, 0), dtype=bool),
-                np.zeros((1, 0), dtype=bool))
-        return self._empty_scene
-
-    def _kept_scene(self, others: ScenePrediction | None, objects: tuple, keep: np.ndarray
-                    ) -> ScenePrediction:
-        """`hypothesis_scene` restricted to the hypotheses `keep` (K,) (indices).
-
-        The same arrays as indexing the full scene, built from the kept rows only; without
-        others, once per (keep, mask) (read-only).
-
-        Args:
-            others: one-hypothesis scene of the other objects (None: nothing else).
-            objects: the hypotheses' objects (`_objects_in_view`).
-            keep: (K,) indices of the hypotheses to keep.
-        """
-        kept = tuple(array[keep] for array in objects)
-        if others is not None:
-            return others.with_extra(*kept)
-        key = (keep.tobytes(), kept[5].tobytes())
-        scene = self._kept_scenes.get(key)
-        if scene is None:
-            if len(self._kept_scenes) >= KEPT_SCENES_MAX:
-                self._kept_scenes.clear()
-            scene = self._no_others().with_extra(*kept)
-            for f in fields(scene):
-                getattr(scene, f.name).setflags(write=False)
-            self._kept_scenes[key] = scene
-        return scene
+        """The L scenes the human is modelled against (HumanScenes.hypothesis_scene)."""
+        return self.scenes.hypothesis_scene(others, viewer)
 
     # -- the human's Q-values and the likelihood of its action ----------------------------------
     def human_q_values(self, route: Route, s0: float, v0: float, prev_accel: float,
@@ -344,7 +201,7 @@ class SocialLikelihood:
         if self._vehicle.any():
             xy, heading = route.point_at(s0)
             viewer = (xy, float(heading))
-        objects = self._objects_in_view(viewer)
+        objects = self.scenes.objects_in_view(viewer)
         # every hypothesis whose hidden agent is not in the human's scene ("none", a car out of
         # its view) gives the scene of "none": the candidates are evaluated once for all of them
         present = objects[5].copy()
@@ -353,7 +210,7 @@ class SocialLikelihood:
         inverse = np.zeros(len(present), dtype=np.intp)
         inverse[present] = np.arange(1, int(present.sum()) + 1)
         keep = np.concatenate([np.flatnonzero(~present)[:1], np.flatnonzero(present)])
-        scene = self._kept_scene(others, objects, keep)  # hypothesis_scene(others, viewer)[keep]
+        scene = self.scenes.kept_scene(others, objects, keep)  # hypothesis_scene(others, viewer)[keep]
         rules = RoadRules(None, self.yield_zones(route, s0, scene), self._curve_speed(route))
         ev = evaluate_candidates(self._candidates, self._theta_no_speed, 0.0, self.model.vehicle,
                                  route, s0, v0, prev_accel, scene, self.road_map.crosswalks,
