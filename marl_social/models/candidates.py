@@ -259,6 +259,7 @@ def zone_claims(scene: ScenePrediction, polygon: np.ndarray, priority: np.ndarra
     An object claims the zone when it occupies it now or will within margin_s, extrapolating
     its predicted motion at its current predicted velocity (beyond the horizon too); the claim
     is the largest occupancy (sim/costs.zone_occupancy) over offsets 0, dt, ..., margin_s.
+    Computed for the present priority objects only (the others' claim is 0).
 
     Args:
         scene: the predicted objects (L hypotheses, M objects, T steps).
@@ -267,22 +268,26 @@ def zone_claims(scene: ScenePrediction, polygon: np.ndarray, priority: np.ndarra
         margin_s: the time margin [s], >= 0.
         dt_s: the planner step [s].
     """
-    xy = scene.xy  # (L, M, T, 2)
-    if xy.shape[2] > 1:  # np.gradient(xy, dt_s, axis=2), the same arithmetic without its overhead
+    claim = np.zeros(scene.heading.shape)  # 0 for the others: only claimants are computed
+    rows, cols = np.nonzero(np.asarray(priority, dtype=bool) & scene.mask)
+    if not len(rows):
+        return claim
+    xy = scene.xy[rows, cols]  # (P, T, 2)
+    if xy.shape[1] > 1:  # np.gradient(xy, dt_s, axis=1), the same arithmetic without its overhead
         velocity = np.empty_like(xy)
-        velocity[:, :, 1:-1] = (xy[:, :, 2:] - xy[:, :, :-2]) / (2.0 * dt_s)
-        velocity[:, :, 0] = (xy[:, :, 1] - xy[:, :, 0]) / dt_s
-        velocity[:, :, -1] = (xy[:, :, -1] - xy[:, :, -2]) / dt_s
+        velocity[:, 1:-1] = (xy[:, 2:] - xy[:, :-2]) / (2.0 * dt_s)
+        velocity[:, 0] = (xy[:, 1] - xy[:, 0]) / dt_s
+        velocity[:, -1] = (xy[:, -1] - xy[:, -2]) / dt_s
     else:
         velocity = np.zeros_like(xy)
     offsets = np.arange(round(margin_s / dt_s) + 1) * dt_s  # (J,)
-    ahead = xy[None] + offsets[:, None, None, None, None] * velocity[None]  # (J, L, M, T, 2)
-    circles, radii = covering_circles(ahead, scene.heading[None],
-                                      scene.length_m[None, ..., None],
-                                      scene.width_m[None, ..., None],
-                                      scene.is_pedestrian[None, ..., None])
-    claim = zone_occupancy(circles, radii, polygon).max(axis=0)  # (L, M, T)
-    return np.where((np.asarray(priority, dtype=bool) & scene.mask)[..., None], claim, 0.0)
+    ahead = xy[None] + offsets[:, None, None, None] * velocity[None]  # (J, P, T, 2)
+    circles, radii = covering_circles(ahead, scene.heading[rows, cols][None],
+                                      scene.length_m[rows, cols][None, :, None],
+                                      scene.width_m[rows, cols][None, :, None],
+                                      scene.is_pedestrian[rows, cols][None, :, None])
+    claim[rows, cols] = zone_occupancy(circles, radii, polygon).max(axis=0)  # (P, T)
+    return claim
 
 
 def collision_free_totals(ev: CandidateEvaluation) -> np.ndarray:

@@ -9,7 +9,7 @@ import numpy as np
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from marl_social.models import circle_gaps
+from marl_social.models import candidates, circle_gaps
 from marl_social.models.candidates import ScenePrediction, circle_pair_gap, scene_circles
 from marl_social.sim.costs import circle_gap, zone_occupancy
 from marl_social.sim.footprint import covering_circles
@@ -73,6 +73,32 @@ def test_shared_objects_are_computed_once_with_the_same_values(seed, n_hyp, n_ob
     full = circle_gaps._circle_pair_gap(ego_x, ego_y, 1.1, ox, oy, other_r)
     assert fast.shape == full.shape == (n_hyp, 4, 5, n_t, n_obj + 1)
     assert np.array_equal(fast, full)
+
+
+def _zone_claims_reference(scene, polygon, priority, margin_s, dt_s):
+    """zone_claims as first written: every object of every hypothesis, then masked."""
+    velocity = np.gradient(scene.xy, dt_s, axis=2)
+    offsets = np.arange(round(margin_s / dt_s) + 1) * dt_s
+    ahead = scene.xy[None] + offsets[:, None, None, None, None] * velocity[None]
+    circles, radii = covering_circles(ahead, scene.heading[None], scene.length_m[None, ..., None],
+                                      scene.width_m[None, ..., None],
+                                      scene.is_pedestrian[None, ..., None])
+    claim = zone_occupancy(circles, radii, polygon).max(axis=0)
+    return np.where((priority & scene.mask)[..., None], claim, 0.0)
+
+
+@settings(max_examples=40, deadline=None)
+@given(seed=st.integers(0, 2**32 - 1), n_hyp=st.integers(1, 5), n_obj=st.integers(0, 4),
+       p_priority=st.sampled_from([0.0, 0.3, 1.0]))
+def test_zone_claims_of_the_claimants_only_equal_all_then_masked(seed, n_hyp, n_obj,
+                                                                 p_priority):
+    """zone_claims computes only the present priority objects: the same values, bit for bit."""
+    rng = np.random.default_rng(seed)
+    scene = _scene_with_extra(rng, n_hyp, n_obj, 12)
+    polygon = np.array([[-4.0, -4.0], [4.0, -4.0], [4.0, 4.0], [-4.0, 4.0]]) * 2.0
+    priority = rng.random((n_hyp, n_obj + 1)) < p_priority
+    claims = candidates.zone_claims(scene, polygon, priority, 1.5, 0.25)
+    assert np.array_equal(claims, _zone_claims_reference(scene, polygon, priority, 1.5, 0.25))
 
 
 def _zone_occupancy_reference(circles, circle_r, polygon):
