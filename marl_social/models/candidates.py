@@ -82,17 +82,22 @@ class ScenePrediction:
             mask: (L,) bool, object present in that hypothesis.
         """
         n_hyp = len(mask)
-        grow = lambda a: np.broadcast_to(a, (n_hyp,) + a.shape[1:])
         radius = 0.5 * np.hypot(length_m, width_m)
+
+        def append(mine: np.ndarray, extra) -> np.ndarray:
+            """(n_hyp, M + 1, ...): mine (1 or n_hyp, M, ...) repeated, then extra (n_hyp, ...)."""
+            extra = np.asarray(extra)
+            out = np.empty((n_hyp, mine.shape[1] + 1) + mine.shape[2:],
+                           dtype=np.result_type(mine.dtype, extra.dtype))  # np.concatenate's
+            out[:, :-1] = mine
+            out[:, -1] = extra
+            return out
+
         return ScenePrediction(
-            np.concatenate([grow(self.xy), xy[:, None]], axis=1),
-            np.concatenate([grow(self.heading), heading[:, None]], axis=1),
-            np.concatenate([grow(self.length_m), np.asarray(length_m)[:, None]], axis=1),
-            np.concatenate([grow(self.width_m), np.asarray(width_m)[:, None]], axis=1),
-            np.concatenate([grow(self.radius_m), radius[:, None]], axis=1),
-            np.concatenate([grow(self.is_pedestrian), np.asarray(is_pedestrian)[:, None]],
-                           axis=1),
-            np.concatenate([grow(self.mask), np.asarray(mask)[:, None]], axis=1),
+            append(self.xy, xy), append(self.heading, heading),
+            append(self.length_m, length_m), append(self.width_m, width_m),
+            append(self.radius_m, radius), append(self.is_pedestrian, is_pedestrian),
+            append(self.mask, mask),
         )
 
 

@@ -165,3 +165,27 @@ def test_curve_speed_lookup_equals_clip():
     s = np.linspace(-10, route.length_m + 10, 500)
     k = np.clip(np.rint(s / CURVE_PROFILE_STEP_M).astype(np.int64), 0, len(curve.v_max_mps) - 1)
     assert np.array_equal(curve.at(s), curve.v_max_mps[k])
+
+
+@settings(max_examples=30, deadline=None)
+@given(seed=st.integers(0, 2**32 - 1), n_hyp=st.integers(1, 4), n_obj=st.integers(0, 3),
+       one_row=st.booleans())
+def test_with_extra_equals_concatenating_the_repeated_rows(seed, n_hyp, n_obj, one_row):
+    """ScenePrediction.with_extra: the scene's rows repeated (or its L rows) and the extra
+    object appended, the same arrays and dtypes as np.concatenate of the broadcast rows."""
+    rng = np.random.default_rng(seed)
+    scene = _scene(rng, 1 if one_row else n_hyp, n_obj, 5)
+    is_ped = rng.random(n_hyp) < 0.5
+    extra = (rng.normal(size=(n_hyp, 5, 2)), rng.normal(size=(n_hyp, 5)),
+             rng.uniform(0.5, 5.0, n_hyp), rng.uniform(0.5, 2.0, n_hyp), is_ped,
+             rng.random(n_hyp) < 0.7)
+    out = scene.with_extra(*extra)
+    radius = 0.5 * np.hypot(extra[2], extra[3])
+    for mine, add, got in zip((scene.xy, scene.heading, scene.length_m, scene.width_m,
+                               scene.radius_m, scene.is_pedestrian, scene.mask),
+                              (*extra[:4], radius, *extra[4:]),
+                              (out.xy, out.heading, out.length_m, out.width_m, out.radius_m,
+                               out.is_pedestrian, out.mask)):
+        grown = np.broadcast_to(mine, (n_hyp,) + mine.shape[1:])
+        reference = np.concatenate([grown, np.asarray(add)[:, None]], axis=1)
+        assert got.dtype == reference.dtype and np.array_equal(got, reference)
