@@ -67,6 +67,9 @@ def _circle_pair_gap(ego_x, ego_y, ego_r: float, other_x, other_y, other_r) -> n
     return np.sqrt(nearest) - ego_r - other_r[(slice(None),) + plan_axes + (None, slice(None))]
 
 
+_last_read_only: list = [None, None]  # [scene, scene_circles(scene)] of a read-only scene
+
+
 def scene_circles(scene) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """The scene objects' covering circles (footprint.covering_circles), circle axis first.
 
@@ -77,6 +80,30 @@ def scene_circles(scene) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         x (J, L, M, T) and y (J, L, M, T) of the centres [m] (J = 1 when every footprint is a
         disc: its circles coincide), and the radii (L, M) [m].
     """
+    if _last_read_only[0] is scene:
+        return _last_read_only[1]
+    out = _scene_circles(scene)
+    if all(_immutable(array) for array in (scene.xy, scene.heading, scene.length_m,
+                                           scene.width_m, scene.is_pedestrian)):
+        # a frozen scene of arrays nobody can write to cannot change: remembered (e.g. the
+        # scene the robot's model of a human reuses while the human sees nobody)
+        for array in out:
+            array.setflags(write=False)
+        _last_read_only[:] = [scene, out]
+    return out
+
+
+def _immutable(array: np.ndarray) -> bool:
+    """Whether neither the array nor any array it views can be written to."""
+    while isinstance(array, np.ndarray):
+        if array.flags.writeable:
+            return False
+        array = array.base
+    return True
+
+
+def _scene_circles(scene) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """`scene_circles` computed."""
     along, radius = circle_layout(scene.length_m, scene.width_m, scene.is_pedestrian)
     if not along.any():  # only discs: their circles coincide, one stands for all
         along = along[..., :1]
