@@ -310,6 +310,8 @@ def collision_free_totals(ev: CandidateEvaluation) -> np.ndarray:
     """
     total = ev.step_cost.sum(axis=-1)
     colliding = ev.min_vehicle_gap_m <= 0.0
+    if not colliding.any():
+        return total
     hopeless = colliding.all(axis=(-1, -2), keepdims=True)
     if not hopeless.any():
         return np.where(colliding, np.inf, total)
