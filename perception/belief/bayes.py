@@ -24,7 +24,9 @@ def normalize(pdf: np.ndarray) -> np.ndarray:
     a left-to-right sum, which np.cumsum's last entry is too (without the per-entry Python
     loop; tests/perception/belief/test_bayes.py checks it against filterpy).
     """
-    if len(pdf):  # filterpy divides an empty pdf by 0: nothing happens
+    if np.ndim(pdf) != 1:  # filterpy's sum() then runs over the rows
+        pdf /= sum(np.asarray(pdf, dtype=float))
+    elif len(pdf):  # filterpy divides an empty pdf by 0: nothing happens
         pdf /= np.cumsum(np.asarray(pdf, dtype=float))[-1]
     return pdf
 
