@@ -15,6 +15,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from marl_social.models.circle_gaps import circle_pair_gap, scene_circles
 from marl_social.sim.agent_spec import VehicleParams
 from marl_social.sim.costs import (
     crosswalk_occupancy,
@@ -81,17 +82,22 @@ class ScenePrediction:
             mask: (L,) bool, object present in that hypothesis.
         """
         n_hyp = len(mask)
-        grow = lambda a: np.broadcast_to(a, (n_hyp,) + a.shape[1:])
         radius = 0.5 * np.hypot(length_m, width_m)
+
+        def append(mine: np.ndarray, extra) -> np.ndarray:
+            """(n_hyp, M + 1, ...): mine (1 or n_hyp, M, ...) repeated, then extra (n_hyp, ...)."""
+            extra = np.asarray(extra)
+            out = np.empty((n_hyp, mine.shape[1] + 1) + mine.shape[2:],
+                           dtype=np.result_type(mine.dtype, extra.dtype))  # np.concatenate's
+            out[:, :-1] = mine
+            out[:, -1] = extra
+            return out
+
         return ScenePrediction(
-            np.concatenate([grow(self.xy), xy[:, None]], axis=1),
-            np.concatenate([grow(self.heading), heading[:, None]], axis=1),
-            np.concatenate([grow(self.length_m), np.asarray(length_m)[:, None]], axis=1),
-            np.concatenate([grow(self.width_m), np.asarray(width_m)[:, None]], axis=1),
-            np.concatenate([grow(self.radius_m), radius[:, None]], axis=1),
-            np.concatenate([grow(self.is_pedestrian), np.asarray(is_pedestrian)[:, None]],
-                           axis=1),
-            np.concatenate([grow(self.mask), np.asarray(mask)[:, None]], axis=1),
+            append(self.xy, xy), append(self.heading, heading),
+            append(self.length_m, length_m), append(self.width_m, width_m),
+            append(self.radius_m, radius), append(self.is_pedestrian, is_pedestrian),
+            append(self.mask, mask),
         )
 
 
@@ -258,6 +264,7 @@ def zone_claims(scene: ScenePrediction, polygon: np.ndarray, priority: np.ndarra
     An object claims the zone when it occupies it now or will within margin_s, extrapolating
     its predicted motion at its current predicted velocity (beyond the horizon too); the claim
     is the largest occupancy (sim/costs.zone_occupancy) over offsets 0, dt, ..., margin_s.
+    Computed for the present priority objects only (the others' claim is 0).
 
     Args:
         scene: the predicted objects (L hypotheses, M objects, T steps).
@@ -266,22 +273,26 @@ def zone_claims(scene: ScenePrediction, polygon: np.ndarray, priority: np.ndarra
         margin_s: the time margin [s], >= 0.
         dt_s: the planner step [s].
     """
-    xy = scene.xy  # (L, M, T, 2)
-    if xy.shape[2] > 1:  # np.gradient(xy, dt_s, axis=2), the same arithmetic without its overhead
+    claim = np.zeros(scene.heading.shape)  # 0 for the others: only claimants are computed
+    rows, cols = np.nonzero(np.asarray(priority, dtype=bool) & scene.mask)
+    if not len(rows):
+        return claim
+    xy = scene.xy[rows, cols]  # (P, T, 2)
+    if xy.shape[1] > 1:  # np.gradient(xy, dt_s, axis=1), the same arithmetic without its overhead
         velocity = np.empty_like(xy)
-        velocity[:, :, 1:-1] = (xy[:, :, 2:] - xy[:, :, :-2]) / (2.0 * dt_s)
-        velocity[:, :, 0] = (xy[:, :, 1] - xy[:, :, 0]) / dt_s
-        velocity[:, :, -1] = (xy[:, :, -1] - xy[:, :, -2]) / dt_s
+        velocity[:, 1:-1] = (xy[:, 2:] - xy[:, :-2]) / (2.0 * dt_s)
+        velocity[:, 0] = (xy[:, 1] - xy[:, 0]) / dt_s
+        velocity[:, -1] = (xy[:, -1] - xy[:, -2]) / dt_s
     else:
         velocity = np.zeros_like(xy)
     offsets = np.arange(round(margin_s / dt_s) + 1) * dt_s  # (J,)
-    ahead = xy[None] + offsets[:, None, None, None, None] * velocity[None]  # (J, L, M, T, 2)
-    circles, radii = covering_circles(ahead, scene.heading[None],
-                                      scene.length_m[None, ..., None],
-                                      scene.width_m[None, ..., None],
-                                      scene.is_pedestrian[None, ..., None])
-    claim = zone_occupancy(circles, radii, polygon).max(axis=0)  # (L, M, T)
-    return np.where((np.asarray(priority, dtype=bool) & scene.mask)[..., None], claim, 0.0)
+    ahead = xy[None] + offsets[:, None, None, None] * velocity[None]  # (J, P, T, 2)
+    circles, radii = covering_circles(ahead, scene.heading[rows, cols][None],
+                                      scene.length_m[rows, cols][None, :, None],
+                                      scene.width_m[rows, cols][None, :, None],
+                                      scene.is_pedestrian[rows, cols][None, :, None])
+    claim[rows, cols] = zone_occupancy(circles, radii, polygon).max(axis=0)  # (P, T)
+    return claim
 
 
 def collision_free_totals(ev: CandidateEvaluation) -> np.ndarray:
@@ -299,6 +310,8 @@ def collision_free_totals(ev: CandidateEvaluation) -> np.ndarray:
     """
     total = ev.step_cost.sum(axis=-1)
     colliding = ev.min_vehicle_gap_m <= 0.0
+    if not colliding.any():
+        return total
     hopeless = colliding.all(axis=(-1, -2), keepdims=True)
     if not hopeless.any():
         return np.where(colliding, np.inf, total)
@@ -339,47 +352,6 @@ def _governed(v: np.ndarray, ds: np.ndarray, v0: float, cont: np.ndarray, n_firs
     v = v_full[..., 1:]
     ds = np.cumsum(0.5 * (v + v_full[..., :-1]) * dt_s, axis=-1)
     return v, ds, (v - v_full[..., :-1]) / dt_s
-
-
-def circle_pair_gap(ego_x, ego_y, ego_r: float, other_x, other_y, other_r) -> np.ndarray:
-    """(L, ..., T, M) sim/costs.circle_gap(clip=False) of ego plans and scene objects.
-
-    The same arithmetic per circle pair (the smallest squared centre distance, its square root
-    minus the two radii); every pair in one broadcast, circle axes first.
-
-    Args:
-        ego_x: (K, ..., T) x of the ego's covering circles along its plans [m] (e.g.
-            (K, A, C, T) candidates).
-        ego_y: (K, ..., T) their y [m].
-        ego_r: their radius [m].
-        other_x: (J, L, M, T) x of the objects' covering circles [m].
-        other_y: (J, L, M, T) their y [m].
-        other_r: (L, M) their radii [m].
-    """
-    plan_axes = (None,) * (ego_x.ndim - 2)  # the ego's plan axes, e.g. (A, C)
-    ox = other_x.swapaxes(-2, -1)[(None, slice(None), slice(None)) + plan_axes]
-    oy = other_y.swapaxes(-2, -1)[(None, slice(None), slice(None)) + plan_axes]
-    dx = ego_x[:, None, None, ..., None] - ox  # (K, J, L, ..., T, M)
-    dy = ego_y[:, None, None, ..., None] - oy
-    d2 = dx * dx
-    d2 += dy * dy
-    nearest = np.minimum.reduce(d2.reshape((d2.shape[0] * d2.shape[1],) + d2.shape[2:]), axis=0)
-    return np.sqrt(nearest) - ego_r - other_r[(slice(None),) + plan_axes + (None, slice(None))]
-
-
-def scene_circles(scene: ScenePrediction) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """The scene objects' covering circles (footprint.covering_circles), circle axis first.
-
-    Returns:
-        x (J, L, M, T) and y (J, L, M, T) of the centres [m] (J = 1 when every footprint is a
-        disc: its circles coincide), and the radii (L, M) [m].
-    """
-    along, radius = circle_layout(scene.length_m, scene.width_m, scene.is_pedestrian)
-    if not along.any():  # only discs: their circles coincide, one stands for all
-        along = along[..., :1]
-    along = along.transpose(2, 0, 1)[..., None]  # (L, M, J) -> (J, L, M, 1)
-    return (scene.xy[..., 0] + along * np.cos(scene.heading),
-            scene.xy[..., 1] + along * np.sin(scene.heading), radius[..., 0])
 
 
 def evaluate_candidates(cands: CandidateSet, theta: np.ndarray, v_ref_mps: float,
@@ -465,7 +437,12 @@ def evaluate_candidates(cands: CandidateSet, theta: np.ndarray, v_ref_mps: float
     n_hyp = len(scene.mask)
     if vehicle_gaps_only:
         clearance = np.full((n_hyp,) + v.shape[:2], np.inf)
-        if scene.mask.shape[1]:
+        # only the objects that are a present vehicle in some hypothesis can be finite
+        cars = np.flatnonzero((scene.mask & ~scene.is_pedestrian).any(axis=0))
+        if len(cars):
+            if len(cars) < scene.mask.shape[1]:
+                raw_gap, other_mask, other_is_ped = (
+                    raw_gap[..., cars], other_mask[..., cars], other_is_ped[..., cars])
             clearance = np.broadcast_to(np.where(other_mask & ~other_is_ped, raw_gap, np.inf)
                                         .min(axis=(-1, -2)), clearance.shape)
         return CandidateEvaluation(cost, v, a_eff, None, None, None, np.maximum(clearance, 0.0),

@@ -11,7 +11,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from marl_social.models.candidates import ScenePrediction, circle_pair_gap, scene_circles
+from marl_social.models.candidates import ScenePrediction
+from marl_social.models.circle_gaps import circle_pair_gap, scene_circles
 from marl_social.sim.costs import CostWeights, step_cost
 from marl_social.sim.dynamics import DT_S
 from marl_social.sim.footprint import circle_layout

@@ -11,6 +11,7 @@
 * action_model.py: `action_log_likelihood`, `bounded_log_likelihood` (a human's observed action
   as evidence, eq. 9-10);
 * social.py: `SocialLikelihood` (the robot's model of a human, eq. 9-11);
+* human_scene.py: `HumanScenes` (the scenes the robot assumes a human reacts to);
 * config.py: `BeliefConfig`;
 * hidden.py: `HiddenAgentBelief` (alias `PedestrianBelief`), which combines them (the joint
   b(l, v) update).

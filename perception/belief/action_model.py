@@ -58,7 +58,7 @@ def action_log_likelihood(q_values: np.ndarray, beta: float, a_obs: float,
         log_gauss = (-0.5 * ((a_obs - actions) / sigma) ** 2
                      - math.log(sigma * math.sqrt(2 * math.pi)))
     log_model = logsumexp(log_p + log_gauss, axis=-1)
-    rho = float(np.clip(outlier_prob, 0.0, OUTLIER_PROB_MAX))
+    rho = min(max(float(outlier_prob), 0.0), OUTLIER_PROB_MAX)  # np.clip's value, no call
     if rho == 0.0:
         return log_model
     width = actions.max() - actions.min() + 2.0 * OUTLIER_MARGIN_SIGMAS * sigma

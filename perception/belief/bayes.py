@@ -18,24 +18,25 @@ TRAFFIC_HAZARD_PER_STEP = 0.002  # default mass moving between traffic speeds pe
 
 
 def normalize(pdf: np.ndarray) -> np.ndarray:
-    """filterpy.discrete_bayes.normalize: pdf (L,) scaled to sum to one.
+    """filterpy.discrete_bayes.normalize, inline: pdf (L,) scaled to sum to one, in place.
 
-    filterpy is imported on first use: importing it pulls in scipy.stats (~0.4 s of
-    `import marl_social`).
+    The same operations, so the same bits: filterpy divides by Python's sum() of the entries,
+    a left-to-right sum, which np.cumsum's last entry is too (without the per-entry Python
+    loop; tests/perception/belief/test_bayes.py checks it against filterpy).
     """
-    from filterpy.discrete_bayes import normalize as filterpy_normalize
-
-    return filterpy_normalize(pdf)
+    if np.ndim(pdf) != 1:  # filterpy's sum() then runs over the rows
+        pdf /= sum(np.asarray(pdf, dtype=float))
+    elif len(pdf):  # filterpy divides an empty pdf by 0: nothing happens
+        pdf /= np.cumsum(np.asarray(pdf, dtype=float))[-1]
+    return pdf
 
 
 def bayes_update(likelihood: np.ndarray, prior: np.ndarray) -> np.ndarray:
-    """filterpy.discrete_bayes.update: the normalized posterior (L,) of prior and likelihood.
+    """filterpy.discrete_bayes.update, inline: the normalized posterior (L,).
 
-    Both (L,); filterpy is imported on first use, as in `normalize`.
+    Of prior and likelihood, both (L,) (the same operations as filterpy, see `normalize`).
     """
-    from filterpy.discrete_bayes import update as filterpy_update
-
-    return filterpy_update(likelihood, prior)
+    return normalize(prior * likelihood)
 
 
 def markov_transition(n: int, p_move: float) -> np.ndarray:

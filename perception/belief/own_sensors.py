@@ -15,7 +15,12 @@ import math
 
 import numpy as np
 from marl_social.perception.belief.config import BeliefConfig
-from marl_social.perception.belief.hypotheses import PEDESTRIAN_DIAMETER_M, Hypothesis
+from marl_social.perception.belief.hypotheses import (
+    MATCH_MARGIN_M,
+    PEDESTRIAN_DIAMETER_M,
+    VEHICLE_MATCH_HEADING_RAD,
+    Hypothesis,
+)
 from marl_social.perception.fov import depth_ray_angles
 from marl_social.perception.tracking import TrackSet
 
@@ -43,6 +48,7 @@ class OwnSensors:
         regions = [h.region() for h in hypotheses if h.present]
         self._region = np.array(regions) if regions else np.zeros((0, 1, 2))  # (P, K, 2)
         self._ray_cache: tuple | None = None
+        self._paths = _path_groups(hypotheses)
 
     def visible_fraction(self, decoded: DecodedObservation) -> np.ndarray:
         """(L,) fraction of each hypothesis' region the robot's depth rays show free.
@@ -73,8 +79,8 @@ class OwnSensors:
             i0 = (i1 - 1) % n_rays
             in_cone = np.ones(bearing.shape, dtype=bool)
         else:
-            i1 = np.clip(np.searchsorted(angles, bearing), 0, n_rays - 1)
-            i0 = np.clip(i1 - 1, 0, n_rays - 1)
+            i1 = np.minimum(np.searchsorted(angles, bearing), n_rays - 1)  # >= 0 already
+            i0 = np.maximum(i1 - 1, 0)
             in_cone = np.abs(bearing) <= half + CONE_TOLERANCE_RAD
         reach = np.minimum(depth[i0], depth[i1])
         seen = in_cone & (dist <= rng) & (reach >= dist - 0.5 * PEDESTRIAN_DIAMETER_M)
@@ -89,16 +95,20 @@ class OwnSensors:
         return self._ray_cache[1]
 
     def _match(self, kind: str, xy, velocity) -> np.ndarray:
-        """(L,) bool: the hypotheses of one kind that one of the seen agents matches."""
+        """(L,) bool: the hypotheses of one kind that one of the seen agents matches.
+
+        `Hypothesis.matches` of every hypothesis, the coordinates computed once per path
+        (`_PathGroup`).
+        """
         out = np.zeros(len(self.hypotheses), dtype=bool)
         xy = np.asarray(xy, dtype=np.float64).reshape(-1, 2)
         vel = np.asarray(velocity, dtype=np.float64).reshape(-1, 2)
         if len(xy) == 0:
             return out
         v_min = self.config.walking_speed_min_mps
-        for i in self._present_idx:
-            if self.hypotheses[i].kind == kind:
-                out[i] = self.hypotheses[i].matches(xy, vel, v_min)
+        for group in self._paths:
+            if group.kind == kind:
+                out[group.index] = group.matches(xy, vel, v_min)
         return out
 
     def match_pedestrians(self, xy, velocity) -> np.ndarray:
@@ -144,8 +154,8 @@ class OwnSensors:
             seen_veh = ~tracks.is_pedestrian & tracks.seen
             detected |= self.match_vehicles(tracks.xy[seen_veh], tracks.velocity[seen_veh])
         visible = self.visible_fraction(decoded)
-        miss = np.clip(1.0 - cfg.p_detect * visible, PROBABILITY_MIN, 1.0)
-        p_fa = np.clip(cfg.p_false_alarm, PROBABILITY_MIN, 1.0 - PROBABILITY_MIN)
+        miss = np.minimum(np.maximum(1.0 - cfg.p_detect * visible, PROBABILITY_MIN), 1.0)
+        p_fa = min(max(cfg.p_false_alarm, PROBABILITY_MIN), 1.0 - PROBABILITY_MIN)
         if detected.any():
             # the detection is explained by a matching hypothesis, or is a false alarm (then
             # any other hidden agent's region was missed)
@@ -154,3 +164,73 @@ class OwnSensors:
             lik = (1.0 - p_fa) * np.where(self._present, miss, 1.0)
         with np.errstate(divide="ignore"):
             return np.log(lik), visible, detected
+
+
+class _PathGroup:
+    """The present hypotheses of one path (same kind and geometry), for `OwnSensors._match`.
+
+    `Hypothesis.matches` for all of them at once: the seen agents' coordinates along the path
+    computed once (by the first hypothesis, the same arithmetic), the bins' bounds compared in
+    one broadcast.
+
+    Args:
+        hypotheses: the group's hypotheses (one path).
+        index: (H,) their indices in the hypothesis list.
+    """
+
+    def __init__(self, hypotheses: list[Hypothesis], index: np.ndarray):
+        """Tabulate each hypothesis' bounds (H, 1) as `Hypothesis.matches` computes them."""
+        self.first = hypotheses[0]
+        self.kind = self.first.kind
+        self.index = index
+        bounds = []
+        for h in hypotheses:
+            lo, hi = h._along_range()
+            if self.kind == "vehicle":
+                bounds.append((h.half_width_m + MATCH_MARGIN_M, lo - MATCH_MARGIN_M,
+                               hi + MATCH_MARGIN_M, *h.speed_range_mps))
+            else:
+                road_end = h.walk_length_m - h.curb_offset_m
+                bounds.append((h.half_width_m + MATCH_MARGIN_M, lo - MATCH_MARGIN_M,
+                               min(hi + MATCH_MARGIN_M, road_end), h.curb_offset_m, road_end))
+        self.bounds = np.array(bounds, dtype=np.float64).T[..., None]  # (B, H, 1)
+
+    def matches(self, xy: np.ndarray, velocity: np.ndarray, walking_speed_min_mps: float
+                ) -> np.ndarray:
+        """(H,) bool: whether one of the seen agents (n, 2) [m], (n, 2) [m/s] is each one's agent.
+
+        Args:
+            xy: (n, 2) seen agents' positions [m], n >= 1.
+            velocity: (n, 2) their velocities [m/s].
+            walking_speed_min_mps: pedestrians only.
+        """
+        if self.kind == "vehicle":
+            s, lateral, heading = self.first.path_coords(xy)
+            speed = np.hypot(velocity[:, 0], velocity[:, 1])
+            v_along = velocity[:, 0] * np.cos(heading) + velocity[:, 1] * np.sin(heading)
+            half, lo, hi, lo_v, hi_v = self.bounds
+            inside = (np.abs(lateral) <= half) & (s >= lo) & (s <= hi)
+            along = v_along >= speed * math.cos(VEHICLE_MATCH_HEADING_RAD)
+            return np.any(inside & along & (v_along >= lo_v) & (v_along < hi_v), axis=1)
+        along, across = self.first.corridor_coords(xy)
+        v_along = velocity @ self.first.walk_dir
+        half, lo, hi, curb, road_end = self.bounds
+        inside = (np.abs(across) <= half) & (along >= lo) & (along <= hi)
+        on_road = (along >= curb) & (along <= road_end)
+        crossing = (on_road & (v_along > -walking_speed_min_mps)) | (
+            v_along >= walking_speed_min_mps)
+        return np.any(inside & crossing, axis=1)
+
+
+def _path_groups(hypotheses: list[Hypothesis]) -> list[_PathGroup]:
+    """The present hypotheses grouped by path: same kind, start, direction and polyline."""
+    groups: dict[tuple, list[int]] = {}
+    for i, h in enumerate(hypotheses):
+        if h.present:
+            key = (h.kind, h.path, np.asarray(h.start_xy, dtype=np.float64).tobytes(),
+                   np.asarray(h.walk_dir, dtype=np.float64).tobytes(),
+                   np.asarray(h.path_xy, dtype=np.float64).tobytes(),
+                   np.asarray(h.path_xy).shape)
+            groups.setdefault(key, []).append(i)
+    return [_PathGroup([hypotheses[i] for i in index], np.array(index))
+            for index in groups.values()]

@@ -17,11 +17,13 @@ import math
 import numpy as np
 
 from marl_social.sim.road_map import RoadMap, Route
+from marl_social.sim.signal_rules import route_signal_lines
 
 LANE_MATCH_MARGIN_M = 0.5  # a car this far outside a lane's edges still drives in it [m]
 LANE_MATCH_HEADING_RAD = math.radians(45.0)  # largest track-to-lane heading difference [rad]
 LANE_JOIN_M = 0.5  # a lane starting this close to another's end continues it [m]
 MAX_CHAINED_LANES = 4  # a car's path follows at most this many lanes
+ROUTE_MEMO_SIZE = 256  # route_of remembers this many recent queries (a step's tracks, twice)
 _SAME_POINT_M = 1e-6  # a continuation's first point this close to the end is the same point [m]
 
 
@@ -39,6 +41,9 @@ class LanePaths:
     Attributes:
         successors: per lane, the indices of the lanes that continue it.
         routes: per lane, the Route of the lane followed by its unique continuations.
+
+    `route_of` remembers its recent answers (the hidden-agent and the phase beliefs ask about
+    the same tracks each step) and `signal_lines` its per-route answers (static).
     """
 
     def __init__(self, road_map: RoadMap):
@@ -48,6 +53,8 @@ class LanePaths:
         self._half_width_m = [0.5 * lane.width_m for lane in lanes]
         self.successors = self._find_successors(lanes)
         self.routes = [self._chained(i, lanes) for i in range(len(lanes))]
+        self._route_memo: dict[tuple, Route | None] = {}
+        self._signal_lines: dict[tuple, tuple] = {}
 
     @staticmethod
     def _find_successors(lanes) -> list[list[int]]:
@@ -90,6 +97,17 @@ class LanePaths:
         None if no lane matches (off the road, or driving against every lane).
         """
         x, y = float(xy[0]), float(xy[1])
+        key = (x, y, float(heading_rad))
+        if key in self._route_memo:
+            return self._route_memo[key]
+        if len(self._route_memo) >= ROUTE_MEMO_SIZE:
+            self._route_memo.clear()
+        route = self._route_of(x, y, key[2])
+        self._route_memo[key] = route
+        return route
+
+    def _route_of(self, x: float, y: float, heading_rad: float) -> Route | None:
+        """`route_of` computed (see there)."""
         best, best_offset = None, math.inf
         for k, (lane, half) in enumerate(zip(self._lanes, self._half_width_m)):
             s, lateral = lane.project_point(x, y)
@@ -100,3 +118,17 @@ class LanePaths:
             if abs(diff) <= LANE_MATCH_HEADING_RAD:
                 best, best_offset = self.routes[k], abs(lateral)
         return best
+
+    def signal_lines(self, route: Route, road_map: RoadMap) -> tuple[np.ndarray, np.ndarray]:
+        """sim.signal_rules.route_signal_lines(route, road_map), once per (route, map).
+
+        Returns read-only arrays: s (S,) [m] and head (S,) int.
+        """
+        key = (id(route), id(road_map))
+        cached = self._signal_lines.get(key)
+        if cached is None or cached[0] is not route or cached[1] is not road_map:
+            lines, heads = route_signal_lines(route, road_map)
+            lines.setflags(write=False)
+            heads.setflags(write=False)
+            cached = self._signal_lines[key] = (route, road_map, (lines, heads))
+        return cached[2]

@@ -78,14 +78,15 @@ class _Human:
 
     Attributes:
         v_mps: its along-path speed [m/s].
-        q_values: (P, A) Q*_H of its first actions under each phase hypothesis.
+        q_values: (P, A) Q*_H of its first actions under each phase hypothesis; None when the
+            next step cannot score its action (its track too young, or it cannot read its head).
         actions_mps2: (A,) the accelerations they execute as [m/s^2].
         n_seen: consecutive steps it has been tracked.
         sees_head: the robot expected it to read its head (`human_sees_head`).
     """
 
     v_mps: float
-    q_values: np.ndarray
+    q_values: np.ndarray | None
     actions_mps2: np.ndarray
     n_seen: int
     sees_head: bool = True
@@ -135,7 +136,7 @@ def signalled_cars(lane_paths: LanePaths, road_map: RoadMap, tracks: TrackSet
         route = lane_paths.route_of(tracks.xy[k], float(tracks.heading_rad[k]))
         if route is None:
             continue
-        lines, heads = route_signal_lines(route, road_map)
+        lines, heads = lane_paths.signal_lines(route, road_map)
         s0, _ = route.project_point(float(tracks.xy[k, 0]), float(tracks.xy[k, 1]))
         half = 0.5 * float(tracks.length_m[k])
         ahead = np.flatnonzero(lines > s0 + half)
@@ -293,7 +294,9 @@ class SignalPhaseBelief:
                     ll = action_log_likelihood(prev.q_values, cfg.beta_hat, a_est,
                                                prev.actions_mps2, sigma, cfg.outlier_prob)
                     out.append(bounded_log_likelihood(ll, cfg.max_log_likelihood_ratio))
-            q = self._q_values(model, car, a_est, decoded, tracks)
+            q = None  # the next step scores it only if it reads its head now and then, and
+            if n_seen >= PHASE_MIN_TRACK_STEPS and sees:  # from PHASE_MIN_TRACK_STEPS + 1 on
+                q = self._q_values(model, car, a_est, decoded, tracks)
             current[oid] = _Human(car.v_mps, q, self._executed(max(car.v_mps, 0.0)), n_seen,
                                   sees)
         self._humans = current

@@ -52,7 +52,7 @@ Modelling choices of `SocialLikelihood`:
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field, fields, replace
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 from marl_social.perception.belief.action_model import (
@@ -62,7 +62,8 @@ from marl_social.perception.belief.action_model import (
 )
 from marl_social.perception.belief.bayes import bayes_update, normalize
 from marl_social.perception.belief.config import BeliefConfig
-from marl_social.perception.belief.hypotheses import Hypothesis, hypothesis_objects
+from marl_social.perception.belief.human_scene import HumanScenes
+from marl_social.perception.belief.hypotheses import Hypothesis
 from marl_social.perception.belief.paths import LanePaths
 from marl_social.perception.tracking import TrackSet
 
@@ -73,15 +74,13 @@ from marl_social.models.candidates import (
 from marl_social.models.driver import DriverModel, RoadRules, rule_abiding_totals
 from marl_social.sim.agent_spec import VehicleParams
 from marl_social.sim.dynamics import DT_S
-from marl_social.sim.observation import EGO_INDEX, DecodedObservation
+from marl_social.sim.observation import DecodedObservation
 from marl_social.sim.road_map import RoadMap, Route
 from marl_social.sim.route_rules import CurveSpeed, priority_mask, route_conflicts
 
 # the lateral acceleration the robot assumes a human accepts in a bend (a generic driver's;
 # a human slowing for its turn is then not read as giving way to a hidden car) [m/s^2]
 HUMAN_CURVE_LAT_ACCEL_MPS2 = 2.5
-_EGO_XY = [EGO_INDEX["x"], EGO_INDEX["y"]]
-_EGO_COS_SIN = [EGO_INDEX["cos_psi"], EGO_INDEX["sin_psi"]]
 
 
 @dataclass
@@ -90,7 +89,8 @@ class _HumanState:
 
     Attributes:
         v_mps: its along-route speed [m/s].
-        q_values: (L, V, A) Q*_H of its candidate actions.
+        q_values: (L, V, A) Q*_H of its candidate actions; None while its track is too young
+            for the next step to score its action (n_seen < BeliefConfig.min_track_steps).
         actions_mps2: (A,) accelerations they execute as [m/s^2].
         n_seen: consecutive steps its track has been measured.
         beta_belief: (B,) belief over its rationality on BeliefConfig.beta_grid_hat (empty
@@ -98,7 +98,7 @@ class _HumanState:
     """
 
     v_mps: float
-    q_values: np.ndarray
+    q_values: np.ndarray | None
     actions_mps2: np.ndarray
     n_seen: int = 1
     beta_belief: np.ndarray = field(default_factory=lambda: np.zeros(0))
@@ -140,14 +140,12 @@ class SocialLikelihood:
         self._theta_no_speed = replace(config.theta_hat, speed=0.0).as_array()
         self._times = self._candidates.plan_times_s
         self._first = np.asarray(self._candidates.first_actions_mps2, dtype=np.float64)
-        self._hyp_scene = hypothesis_objects(hypotheses, self._times)
+        veh = self.model.vehicle  # the first actions within the vehicle's limits (_executed)
+        self._first_limited = np.clip(self._first, -veh.brake_max_mps2, veh.accel_max_mps2)
         self._vehicle = np.array([h.kind == "vehicle" for h in hypotheses])
-        self._now_xy = np.array([h.predict_xy(np.zeros(1))[0] if h.present else np.zeros(2)
-                                 for h in hypotheses]).reshape(-1, 2)
+        self.scenes = HumanScenes(hypotheses, self._times, config, self.model.vehicle)
         self._beta_grid = np.asarray(config.beta_grid_hat, dtype=np.float64)
         self._beta_prior = np.full(len(self._beta_grid), 1.0 / max(len(self._beta_grid), 1))
-        self._empty_scene: ScenePrediction | None = None
-        self._empty_hyp_scene: ScenePrediction | None = None
         self._conflicts: dict[str, tuple] = {}  # route name -> its yield conflicts
         self._curves: dict[str, CurveSpeed | None] = {}  # route name -> its curve speed
         self.reset()
@@ -156,91 +154,23 @@ class SocialLikelihood:
         """Forget every tracked human (call at every episode start)."""
         self._humans: dict[int, _HumanState] = {}
 
-    # -- the scenes the human is modelled against -----------------------------------------------
+    # -- the scenes the human is modelled against (human_scene.HumanScenes) ---------------------
     def in_view(self, viewer_xy, viewer_heading_rad: float) -> np.ndarray:
-        """(L,) bool: hypothesised agents inside a human's assumed field of view now.
-
-        The view the robot assumes a human has (BeliefConfig.human_range_m,
-        human_half_fov_rad) from viewer_xy (2,) [m] looking along viewer_heading_rad [rad];
-        False for "none".
-        """
-        rel = self._now_xy - np.asarray(viewer_xy, dtype=np.float64)
-        dist = np.hypot(rel[:, 0], rel[:, 1])
-        bearing = np.arctan2(rel[:, 1], rel[:, 0]) - viewer_heading_rad
-        bearing = np.abs((bearing + np.pi) % (2.0 * np.pi) - np.pi)
-        return (self._present & (dist <= self.config.human_range_m)
-                & (bearing <= self.config.human_half_fov_rad))
+        """(L,) bool: hypothesised agents inside a human's assumed view (HumanScenes.in_view)."""
+        return self.scenes.in_view(viewer_xy, viewer_heading_rad)
 
     def others_scene(self, human_xy, human_heading, human_id, decoded: DecodedObservation,
                      tracks: TrackSet) -> ScenePrediction | None:
-        """What the robot assumes the human reacts to besides the hypothesised pedestrian.
+        """What the robot assumes the human reacts to besides the hypothesised agent.
 
-        One hypothesis (L = 1): the vehicles the robot tracks (other than the human) and the
-        robot itself inside the human's assumed field of view, at constant velocity; None if
-        there is nothing. Seen pedestrians are left to the hypotheses (a crossing one is the
-        detected hypothesis).
-
-        Args:
-            human_xy: (2,) the human's tracked position [m].
-            human_heading: its route heading [rad].
-            human_id: its object id (agent index + 1).
-            decoded: the robot's decoded observation (its own pose and speed).
-            tracks: the robot's current tracks.
+        HumanScenes.others_scene (the same arguments).
         """
-        ego = decoded.ego
-        xy = np.vstack([tracks.xy, ego[None, _EGO_XY]])
-        rel = xy - human_xy
-        dist = np.hypot(rel[:, 0], rel[:, 1])
-        bearing = np.arctan2(rel[:, 1], rel[:, 0]) - human_heading
-        bearing = np.abs((bearing + np.pi) % (2.0 * np.pi) - np.pi)
-        keep = np.append((tracks.ids != human_id) & ~tracks.is_pedestrian, True)
-        keep &= (dist <= self.config.human_range_m) & (bearing <= self.config.human_half_fov_rad)
-        if not keep.any():
-            return None
-        veh = self.model.vehicle
-        ego_velocity = float(ego[EGO_INDEX["v"]]) * ego[None, _EGO_COS_SIN]
-        vel = np.vstack([tracks.velocity, ego_velocity])[keep]
-        length = np.append(tracks.length_m, veh.length_m)[keep]
-        width = np.append(tracks.width_m, veh.width_m)[keep]
-        is_ped = np.append(tracks.is_pedestrian, False)[keep]
-        m = len(vel)
-        pred = xy[keep][:, None, :] + vel[:, None, :] * self._times[None, :, None]
-        ego_heading = math.atan2(ego[EGO_INDEX["sin_psi"]], ego[EGO_INDEX["cos_psi"]])
-        heading = np.append(tracks.heading_rad, ego_heading)[keep]
-        heading = np.broadcast_to(heading[:, None], (m, len(self._times)))
-        return ScenePrediction(pred[None], heading[None], length[None], width[None],
-                               0.5 * np.hypot(length, width)[None], is_ped[None],
-                               np.ones((1, m), dtype=bool))
+        return self.scenes.others_scene(human_xy, human_heading, human_id, decoded, tracks)
 
     def hypothesis_scene(self, others: ScenePrediction | None = None,
                          viewer: tuple | None = None) -> ScenePrediction:
-        """The L scenes the human is modelled against.
-
-        Args:
-            others: one-hypothesis scene of the other objects (None: nothing else); each
-                hypothesis' hidden agent is added to it (masked out for "none").
-            viewer: (xy (2,) [m], heading [rad]) of the human: a hypothesised vehicle outside
-                its assumed field of view (`in_view`) is masked out, the human does not react
-                to it (None: every hypothesised agent is in the scene). Hypothesised
-                pedestrians stay in (the human knows the crosswalk ahead of it).
-        """
-        objects = self._hyp_scene
-        if viewer is not None and self._vehicle.any():
-            hidden = self._vehicle & ~self.in_view(*viewer)
-            objects = (*objects[:5], objects[5] & ~hidden)
-        if others is None:
-            if self._empty_scene is None:
-                n_t = len(self._times)
-                self._empty_scene = ScenePrediction(
-                    np.zeros((1, 0, n_t, 2)), np.zeros((1, 0, n_t)), np.zeros((1, 0)),
-                    np.zeros((1, 0)), np.zeros((1, 0)), np.zeros((1, 0), dtype=bool),
-                    np.zeros((1, 0), dtype=bool))
-            if objects is self._hyp_scene:
-                if self._empty_hyp_scene is None:
-                    self._empty_hyp_scene = self._empty_scene.with_extra(*objects)
-                return self._empty_hyp_scene
-            return self._empty_scene.with_extra(*objects)
-        return others.with_extra(*objects)
+        """The L scenes the human is modelled against (HumanScenes.hypothesis_scene)."""
+        return self.scenes.hypothesis_scene(others, viewer)
 
     # -- the human's Q-values and the likelihood of its action ----------------------------------
     def human_q_values(self, route: Route, s0: float, v0: float, prev_accel: float,
@@ -271,16 +201,16 @@ class SocialLikelihood:
         if self._vehicle.any():
             xy, heading = route.point_at(s0)
             viewer = (xy, float(heading))
-        scene = self.hypothesis_scene(others, viewer)
+        objects = self.scenes.objects_in_view(viewer)
         # every hypothesis whose hidden agent is not in the human's scene ("none", a car out of
         # its view) gives the scene of "none": the candidates are evaluated once for all of them
-        present = scene.mask[:, -1].copy()
+        present = objects[5].copy()
         if negligible is not None:
             present &= ~np.asarray(negligible, dtype=bool)
         inverse = np.zeros(len(present), dtype=np.intp)
         inverse[present] = np.arange(1, int(present.sum()) + 1)
         keep = np.concatenate([np.flatnonzero(~present)[:1], np.flatnonzero(present)])
-        scene = ScenePrediction(*(getattr(scene, f.name)[keep] for f in fields(scene)))
+        scene = self.scenes.kept_scene(others, objects, keep)  # hypothesis_scene(others, viewer)[keep]
         rules = RoadRules(None, self.yield_zones(route, s0, scene), self._curve_speed(route))
         ev = evaluate_candidates(self._candidates, self._theta_no_speed, 0.0, self.model.vehicle,
                                  route, s0, v0, prev_accel, scene, self.road_map.crosswalks,
@@ -340,9 +270,7 @@ class SocialLikelihood:
 
     def _executed(self, v0: float) -> np.ndarray:
         """(A,) accelerations the candidate first actions execute as at speed v0 [m/s^2]."""
-        veh = self.model.vehicle
-        a = np.clip(self._first, -veh.brake_max_mps2, veh.accel_max_mps2)
-        return np.maximum(a, -max(v0, 0.0) / DT_S)
+        return np.maximum(self._first_limited, -max(v0, 0.0) / DT_S)
 
     def _human_log_likelihood(self, prev: _HumanState, a_est: float, sigma_mps2: float,
                               predicted: np.ndarray):
@@ -457,9 +385,11 @@ class SocialLikelihood:
                     sigma = self.observation_sigma_mps2(tracks, k, heading)
                     ll, beta_belief = self._human_log_likelihood(prev, a_est, sigma, predicted)
                     out.append(ll)
-            others = self.others_scene(np.array([x, y]), heading, oid, decoded, tracks)
             v0 = max(v, 0.0)
-            q = self.human_q_values(route, s0, v0, a_est, others, negligible)
+            q = None  # the next step scores this prediction only from min_track_steps + 1 on
+            if n_seen >= cfg.min_track_steps:
+                others = self.others_scene(np.array([x, y]), heading, oid, decoded, tracks)
+                q = self.human_q_values(route, s0, v0, a_est, others, negligible)
             current[oid] = _HumanState(v, q, self._executed(v0), n_seen, beta_belief)
         self._humans = current  # a human not seen this step starts afresh when seen again
         n, n_v = len(self.hypotheses), len(self.traffic_grid_mps)

@@ -1,6 +1,6 @@
 """The per-decision fast paths equal the plain formulas they replace, bit for bit.
 
-circle_pair_gap / scene_circles (models/candidates.py) against costs.circle_gap on the covering
+circle_pair_gap / scene_circles (models/circle_gaps.py) against costs.circle_gap on the covering
 circles; zone_occupancy against the all-edges-at-once formula; Route.point_at and Route.project
 against the plain lookups; CurveSpeed.at against np.clip.
 """
@@ -9,6 +9,7 @@ import numpy as np
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
+from marl_social.models import candidates, circle_gaps
 from marl_social.models.candidates import ScenePrediction, circle_pair_gap, scene_circles
 from marl_social.sim.costs import circle_gap, zone_occupancy
 from marl_social.sim.footprint import covering_circles
@@ -44,6 +45,60 @@ def test_circle_pair_gap_equals_circle_gap(seed, n_hyp, n_obj, all_peds, ego_ped
                            float(ego_r.flat[0]), ox, oy, other_r)
     assert fast.shape == reference.shape == (n_hyp, 4, 5, n_t, n_obj)
     assert np.array_equal(fast, reference)
+
+
+def _scene_with_extra(rng, n_hyp, n_obj, n_t):
+    """A scene as the planners build it: n_obj tracked objects shared by n_hyp hypotheses,
+    each hypothesis with its own extra object (a pedestrian or a car; masked out in the first)."""
+    others = _scene(rng, 1, n_obj, n_t)
+    is_ped = rng.random(n_hyp) < 0.5
+    mask = np.ones(n_hyp, bool)
+    mask[0] = False
+    return others.with_extra(rng.normal(size=(n_hyp, n_t, 2)) * 8.0,
+                             rng.uniform(-4, 4, (n_hyp, n_t)), np.where(is_ped, 0.6, 4.6),
+                             np.where(is_ped, 0.6, 1.9), is_ped, mask)
+
+
+@settings(max_examples=40, deadline=None)
+@given(seed=st.integers(0, 2**32 - 1), n_hyp=st.integers(2, 5), n_obj=st.integers(0, 4))
+def test_shared_objects_are_computed_once_with_the_same_values(seed, n_hyp, n_obj):
+    """circle_pair_gap computes the objects every hypothesis shares once: the same values, bit
+    for bit, as every object in every hypothesis."""
+    rng = np.random.default_rng(seed)
+    n_t = 6
+    scene = _scene_with_extra(rng, n_hyp, n_obj, n_t)
+    ego_x, ego_y = rng.normal(size=(2, 3, 4, 5, n_t)) * 8.0
+    ox, oy, other_r = scene_circles(scene)
+    fast = circle_pair_gap(ego_x, ego_y, 1.1, ox, oy, other_r)
+    full = circle_gaps._circle_pair_gap(ego_x, ego_y, 1.1, ox, oy, other_r)
+    assert fast.shape == full.shape == (n_hyp, 4, 5, n_t, n_obj + 1)
+    assert np.array_equal(fast, full)
+
+
+def _zone_claims_reference(scene, polygon, priority, margin_s, dt_s):
+    """zone_claims as first written: every object of every hypothesis, then masked."""
+    velocity = np.gradient(scene.xy, dt_s, axis=2)
+    offsets = np.arange(round(margin_s / dt_s) + 1) * dt_s
+    ahead = scene.xy[None] + offsets[:, None, None, None, None] * velocity[None]
+    circles, radii = covering_circles(ahead, scene.heading[None], scene.length_m[None, ..., None],
+                                      scene.width_m[None, ..., None],
+                                      scene.is_pedestrian[None, ..., None])
+    claim = zone_occupancy(circles, radii, polygon).max(axis=0)
+    return np.where((priority & scene.mask)[..., None], claim, 0.0)
+
+
+@settings(max_examples=40, deadline=None)
+@given(seed=st.integers(0, 2**32 - 1), n_hyp=st.integers(1, 5), n_obj=st.integers(0, 4),
+       p_priority=st.sampled_from([0.0, 0.3, 1.0]))
+def test_zone_claims_of_the_claimants_only_equal_all_then_masked(seed, n_hyp, n_obj,
+                                                                 p_priority):
+    """zone_claims computes only the present priority objects: the same values, bit for bit."""
+    rng = np.random.default_rng(seed)
+    scene = _scene_with_extra(rng, n_hyp, n_obj, 12)
+    polygon = np.array([[-4.0, -4.0], [4.0, -4.0], [4.0, 4.0], [-4.0, 4.0]]) * 2.0
+    priority = rng.random((n_hyp, n_obj + 1)) < p_priority
+    claims = candidates.zone_claims(scene, polygon, priority, 1.5, 0.25)
+    assert np.array_equal(claims, _zone_claims_reference(scene, polygon, priority, 1.5, 0.25))
 
 
 def _zone_occupancy_reference(circles, circle_r, polygon):
@@ -110,3 +165,27 @@ def test_curve_speed_lookup_equals_clip():
     s = np.linspace(-10, route.length_m + 10, 500)
     k = np.clip(np.rint(s / CURVE_PROFILE_STEP_M).astype(np.int64), 0, len(curve.v_max_mps) - 1)
     assert np.array_equal(curve.at(s), curve.v_max_mps[k])
+
+
+@settings(max_examples=30, deadline=None)
+@given(seed=st.integers(0, 2**32 - 1), n_hyp=st.integers(1, 4), n_obj=st.integers(0, 3),
+       one_row=st.booleans())
+def test_with_extra_equals_concatenating_the_repeated_rows(seed, n_hyp, n_obj, one_row):
+    """ScenePrediction.with_extra: the scene's rows repeated (or its L rows) and the extra
+    object appended, the same arrays and dtypes as np.concatenate of the broadcast rows."""
+    rng = np.random.default_rng(seed)
+    scene = _scene(rng, 1 if one_row else n_hyp, n_obj, 5)
+    is_ped = rng.random(n_hyp) < 0.5
+    extra = (rng.normal(size=(n_hyp, 5, 2)), rng.normal(size=(n_hyp, 5)),
+             rng.uniform(0.5, 5.0, n_hyp), rng.uniform(0.5, 2.0, n_hyp), is_ped,
+             rng.random(n_hyp) < 0.7)
+    out = scene.with_extra(*extra)
+    radius = 0.5 * np.hypot(extra[2], extra[3])
+    for mine, add, got in zip((scene.xy, scene.heading, scene.length_m, scene.width_m,
+                               scene.radius_m, scene.is_pedestrian, scene.mask),
+                              (*extra[:4], radius, *extra[4:]),
+                              (out.xy, out.heading, out.length_m, out.width_m, out.radius_m,
+                               out.is_pedestrian, out.mask)):
+        grown = np.broadcast_to(mine, (n_hyp,) + mine.shape[1:])
+        reference = np.concatenate([grown, np.asarray(add)[:, None]], axis=1)
+        assert got.dtype == reference.dtype and np.array_equal(got, reference)

@@ -4,7 +4,10 @@ hand-computed cases, garbage sources, and the traffic-speed belief as a product.
 from __future__ import annotations
 
 import numpy as np
+from hypothesis import given, settings
+from hypothesis import strategies as st
 from marl_social.perception.belief import TrafficSpeedBelief, bayes_step, markov_transition
+from marl_social.perception.belief.bayes import bayes_update, normalize
 
 
 def test_markov_transition_moves_the_hazard_mass_evenly():
@@ -64,3 +67,20 @@ def test_traffic_speed_belief_update_is_a_product():
     np.testing.assert_allclose(two.probabilities, np.array([0.04, 0.09, 0.25]) / 0.38,
                                rtol=1e-9)
     assert two.expected_mps > one.expected_mps
+
+
+@settings(max_examples=60, deadline=None)
+@given(seed=st.integers(0, 2**32 - 1), n=st.integers(1, 300))
+def test_inlined_normalize_and_update_are_filterpy_bit_for_bit(seed, n):
+    """normalize and bayes_update run filterpy.discrete_bayes' operations inline: the same bits
+    (sums of many entries over a wide range of magnitudes, where the order of the sum shows)."""
+    from filterpy.discrete_bayes import normalize as filterpy_normalize
+    from filterpy.discrete_bayes import update as filterpy_update
+
+    rng = np.random.default_rng(seed)
+    pdf = np.exp(rng.uniform(-30.0, 5.0, n))
+    likelihood = np.exp(rng.uniform(-30.0, 0.0, n))
+    assert np.array_equal(normalize(pdf.copy()), filterpy_normalize(pdf.copy()))
+    assert np.array_equal(bayes_update(likelihood, pdf), filterpy_update(likelihood, pdf))
+    pdf_in = pdf.copy()
+    assert normalize(pdf_in) is pdf_in  # in place, as filterpy

@@ -4,8 +4,11 @@ depth rays and positive information from a seen crossing pedestrian."""
 from __future__ import annotations
 
 import numpy as np
+import pytest
 from marl_social.perception.belief import PedestrianBelief
 
+import marl_social
+from marl_social.envs.policies import policies
 from tests.perception.belief.episodes import hyp_index, robot_episode, run_beliefs
 
 
@@ -68,3 +71,27 @@ def test_detection_and_negative_information_work_per_hypothesis():
     vis = sensors.visible_fraction(env.obs_layout.decode(episode[0][k]))
     far_bins = hyp_index(belief, "crossing_right", progress_bin=2)
     assert vis[far_bins].min() > 0.5 and vis[hyp_index(belief, "crossing_right", 0)].max() == 0
+
+
+@pytest.mark.parametrize("scenario", ["occluded_crosswalk", "t_intersection"])
+def test_matching_per_path_equals_each_hypothesis_matches(scenario):
+    """OwnSensors matches the hypotheses of one path at once: the same answer as
+    Hypothesis.matches of each, for seen agents in and around every hypothesis' region."""
+    env = marl_social.parallel_env(scenario=scenario)
+    belief = policies(env)["robot_0"].belief
+    sensors, v_min = belief.own_sensors, belief.config.walking_speed_min_mps
+    present = [h for h in belief.hypotheses if h.present]
+    rng = np.random.default_rng(7)
+    n_matched = 0
+    for _ in range(300):
+        n = int(rng.integers(1, 4))
+        anchors = np.array([present[i].region()[rng.integers(15)]
+                            for i in rng.integers(len(present), size=n)])
+        xy = anchors + rng.normal(size=(n, 2)) * 2.0
+        for kind, scale in (("pedestrian", 1.5), ("vehicle", 8.0)):
+            vel = rng.normal(size=(n, 2)) * scale
+            expected = np.array([h.present and h.kind == kind and h.matches(xy, vel, v_min)
+                                 for h in belief.hypotheses])
+            assert np.array_equal(sensors._match(kind, xy, vel), expected)
+            n_matched += int(expected.sum())
+    assert n_matched > 50  # the draws do exercise matches

@@ -1,0 +1,112 @@
+"""Gaps between an ego's covering circles along its plans and a scene's objects, in one broadcast.
+
+The candidate evaluation (candidates.py: the human drivers' Q*, the robot's model of them and
+its MPC) and the pedestrian model share these: `scene_circles` lays out the objects' covering
+circles (sim/footprint.py), `circle_pair_gap` the smallest gap of every plan step to every
+object (sim/costs.circle_gap's arithmetic, bit for bit; tests/sim/test_fast_paths.py).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from marl_social.sim.footprint import circle_layout
+
+
+def circle_pair_gap(ego_x, ego_y, ego_r: float, other_x, other_y, other_r) -> np.ndarray:
+    """(L, ..., T, M) sim/costs.circle_gap(clip=False) of ego plans and scene objects.
+
+    The same arithmetic per circle pair (the smallest squared centre distance, its square root
+    minus the two radii); every pair in one broadcast, circle axes first.
+
+    Objects that are the same in every hypothesis (the tracked ones, which a scene built with
+    `ScenePrediction.with_extra` repeats in each) are computed once and repeated: the same
+    values, for a fraction of the work.
+
+    Args:
+        ego_x: (K, ..., T) x of the ego's covering circles along its plans [m] (e.g.
+            (K, A, C, T) candidates).
+        ego_y: (K, ..., T) their y [m].
+        ego_r: their radius [m].
+        other_x: (J, L, M, T) x of the objects' covering circles [m].
+        other_y: (J, L, M, T) their y [m].
+        other_r: (L, M) their radii [m].
+    """
+    n_hyp, n_obj = other_r.shape
+    if n_hyp > 1 and n_obj:
+        shared = ((other_x == other_x[:, :1]) & (other_y == other_y[:, :1])).all(axis=(0, 1, 3))
+        shared &= (other_r == other_r[:1]).all(axis=0)
+        if shared.any():
+            out = np.empty((n_hyp,) + ego_x.shape[1:] + (n_obj,))
+            same, rest = np.flatnonzero(shared), np.flatnonzero(~shared)
+            out[..., same] = _circle_pair_gap(ego_x, ego_y, ego_r, other_x[:, :1, same],
+                                              other_y[:, :1, same], other_r[:1, same])
+            if len(rest):
+                out[..., rest] = _circle_pair_gap(ego_x, ego_y, ego_r, other_x[:, :, rest],
+                                                  other_y[:, :, rest], other_r[:, rest])
+            return out
+    return _circle_pair_gap(ego_x, ego_y, ego_r, other_x, other_y, other_r)
+
+
+def _circle_pair_gap(ego_x, ego_y, ego_r: float, other_x, other_y, other_r) -> np.ndarray:
+    """`circle_pair_gap` of every object in every hypothesis (the same arguments).
+
+    When every object's circles coincide (discs) one stands for all (the minimum is exact).
+    """
+    if len(other_x) > 1 and (other_x[1:] == other_x[:1]).all() and (
+            other_y[1:] == other_y[:1]).all():
+        other_x, other_y = other_x[:1], other_y[:1]
+    plan_axes = (None,) * (ego_x.ndim - 2)  # the ego's plan axes, e.g. (A, C)
+    ox = other_x.swapaxes(-2, -1)[(None, slice(None), slice(None)) + plan_axes]
+    oy = other_y.swapaxes(-2, -1)[(None, slice(None), slice(None)) + plan_axes]
+    dx = ego_x[:, None, None, ..., None] - ox  # (K, J, L, ..., T, M)
+    dy = ego_y[:, None, None, ..., None] - oy
+    d2 = dx * dx
+    d2 += dy * dy
+    nearest = np.minimum.reduce(d2.reshape((d2.shape[0] * d2.shape[1],) + d2.shape[2:]), axis=0)
+    return np.sqrt(nearest) - ego_r - other_r[(slice(None),) + plan_axes + (None, slice(None))]
+
+
+_last_read_only: list = [None, None]  # [scene, scene_circles(scene)] of a read-only scene
+
+
+def scene_circles(scene) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The scene objects' covering circles (footprint.covering_circles), circle axis first.
+
+    Args:
+        scene: models.candidates.ScenePrediction (L hypotheses, M objects, T steps).
+
+    Returns:
+        x (J, L, M, T) and y (J, L, M, T) of the centres [m] (J = 1 when every footprint is a
+        disc: its circles coincide), and the radii (L, M) [m].
+    """
+    if _last_read_only[0] is scene:
+        return _last_read_only[1]
+    out = _scene_circles(scene)
+    if all(_immutable(array) for array in (scene.xy, scene.heading, scene.length_m,
+                                           scene.width_m, scene.is_pedestrian)):
+        # a frozen scene of arrays nobody can write to cannot change: remembered (e.g. the
+        # scene the robot's model of a human reuses while the human sees nobody)
+        for array in out:
+            array.setflags(write=False)
+        _last_read_only[:] = [scene, out]
+    return out
+
+
+def _immutable(array: np.ndarray) -> bool:
+    """Whether neither the array nor any array it views can be written to."""
+    while isinstance(array, np.ndarray):
+        if array.flags.writeable:
+            return False
+        array = array.base
+    return True
+
+
+def _scene_circles(scene) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """`scene_circles` computed."""
+    along, radius = circle_layout(scene.length_m, scene.width_m, scene.is_pedestrian)
+    if not along.any():  # only discs: their circles coincide, one stands for all
+        along = along[..., :1]
+    along = along.transpose(2, 0, 1)[..., None]  # (L, M, J) -> (J, L, M, 1)
+    return (scene.xy[..., 0] + along * np.cos(scene.heading),
+            scene.xy[..., 1] + along * np.sin(scene.heading), radius[..., 0])
