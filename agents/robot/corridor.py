@@ -51,7 +51,7 @@ class PathObject:
 
 def _corners(xy: np.ndarray, heading: np.ndarray, length_m: np.ndarray,
              width_m: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """(..., 4) x and (..., 4) y of the corners of rectangles (xy (..., 2), heading (...)) [m].
+    """(4, ...) x and (4, ...) y of the corners of rectangles (xy (..., 2), heading (...)) [m].
 
     The corners: front left, front right, rear right, rear left; length_m and width_m
     broadcast against heading (...) [m].
@@ -59,10 +59,11 @@ def _corners(xy: np.ndarray, heading: np.ndarray, length_m: np.ndarray,
     half_l, half_w = 0.5 * length_m, 0.5 * width_m
     c, s = np.cos(heading), np.sin(heading)
     lc, ls, wc, ws = half_l * c, half_l * s, half_w * c, half_w * s
-    x, y = xy[..., 0, None], xy[..., 1, None]
-    dx = np.stack([lc - ws, lc + ws, ws - lc, -lc - ws], axis=-1)
-    dy = np.stack([ls + wc, ls - wc, -ls - wc, wc - ls], axis=-1)
-    return x + dx, y + dy
+    dx = np.empty((4,) + heading.shape)
+    dy = np.empty((4,) + heading.shape)
+    dx[0], dx[1], dx[2], dx[3] = lc - ws, lc + ws, ws - lc, -lc - ws
+    dy[0], dy[1], dy[2], dy[3] = ls + wc, ls - wc, -ls - wc, wc - ls
+    return xy[..., 0] + dx, xy[..., 1] + dy
 
 
 @dataclass(frozen=True)
@@ -126,11 +127,10 @@ def project_xy(route: Route, x: np.ndarray, y: np.ndarray) -> tuple[np.ndarray, 
     else:
         ex = x[..., None] - (g.start_x + t * g.dir_x)
         ey = y[..., None] - (g.start_y + t * g.dir_y)
-        k = np.argmin(ex ** 2 + ey ** 2, axis=-1)[..., None]
-        t_k = np.take_along_axis(t, k, axis=-1)[..., 0]
-        rx = np.take_along_axis(rel_x, k, axis=-1)[..., 0]
-        ry = np.take_along_axis(rel_y, k, axis=-1)[..., 0]
-        k = k[..., 0]
+        n_seg = len(g.length)
+        k = np.argmin(ex ** 2 + ey ** 2, axis=-1)  # (...)
+        flat = k.ravel() + n_seg * np.arange(k.size)  # k's entries of the (..., S) arrays
+        t_k, rx, ry = (a.ravel()[flat].reshape(k.shape) for a in (t, rel_x, rel_y))
         dx, dy = g.dir_x[k], g.dir_y[k]
         s = g.cum_s[k] + t_k
     return s, dx * ry - dy * rx
@@ -160,26 +160,26 @@ def objects_on_path(route: Route, scene: ScenePrediction, s0: float, robot_lengt
     n_hyp, n_obj = scene.mask.shape
     if n_obj == 0 or not scene.mask.any():
         return [[] for _ in range(n_hyp)]
-    # project each distinct prediction once: an object predicted alike in every hypothesis
-    # (a tracked one) from the first, the others only where they are present
-    shared = (np.all(scene.xy == scene.xy[:1], axis=(0, 2, 3))
-              & np.all(scene.heading == scene.heading[:1], axis=(0, 2))
-              & np.all(scene.length_m == scene.length_m[:1], axis=0)
-              & np.all(scene.width_m == scene.width_m[:1], axis=0)
-              & np.all(scene.is_pedestrian == scene.is_pedestrian[:1], axis=0))  # (M,)
-    use = scene.mask & ~shared[None]
-    use[0] |= shared & scene.mask.any(axis=0)
+    # project each distinct prediction once: an object present in several hypotheses and
+    # predicted alike in every one (a tracked one) from the first, the others where present
+    mask = scene.mask
+    shared = np.zeros(n_obj, dtype=bool)
+    if n_hyp > 1 and (mask.sum(axis=0) > 1).any():
+        shared = (np.all(scene.xy == scene.xy[:1], axis=(0, 2, 3))
+                  & np.all(scene.heading == scene.heading[:1], axis=(0, 2))
+                  & np.all(scene.length_m == scene.length_m[:1], axis=0)
+                  & np.all(scene.width_m == scene.width_m[:1], axis=0)
+                  & np.all(scene.is_pedestrian == scene.is_pedestrian[:1], axis=0))  # (M,)
+    use = mask & ~shared[None]
+    use[0] |= shared & mask.any(axis=0)
     src_l, src_m = np.nonzero(use)  # (P,) the projected (hypothesis, object) pairs
-    pair = np.full((n_hyp, n_obj), -1)
-    pair[src_l, src_m] = np.arange(len(src_l))
-    pair = np.where(shared[None], pair[:1], pair)  # shared objects: the first hypothesis' pair
     xy, heading = scene.xy[src_l, src_m], scene.heading[src_l, src_m]  # (P, N, 2), (P, N)
     is_ped = scene.is_pedestrian[src_l, src_m]
     length = scene.length_m[src_l, src_m][:, None]  # (P, 1)
     width = scene.width_m[src_l, src_m][:, None]
-    s, lateral = project_xy(route, *_corners(xy, heading, length, width))  # (P, N, 4)
-    s_rear, s_front = s.min(axis=-1), s.max(axis=-1)  # (P, N)
-    lat_min, lat_max = lateral.min(axis=-1), lateral.max(axis=-1)
+    s, lateral = project_xy(route, *_corners(xy, heading, length, width))  # (4, P, N)
+    s_rear, s_front = s.min(axis=0), s.max(axis=0)  # (P, N)
+    lat_min, lat_max = lateral.min(axis=0), lateral.max(axis=0)
     clearance = lateral_margin_m if pedestrian_clearance_m is None else pedestrian_clearance_m
     half = 0.5 * robot_width_m + np.where(is_ped, clearance, lateral_margin_m)[:, None]
     overlap = (lat_min <= half) & (lat_max >= -half)
@@ -187,12 +187,12 @@ def objects_on_path(route: Route, scene: ScenePrediction, s0: float, robot_lengt
         # a pedestrian heading for the corridor is in the way from further out (it has the
         # right of way on the carriageway); one standing or walking away is not
         wide = 0.5 * robot_width_m + pedestrian_margin_m
-        centre = np.abs((((lateral[..., 0] + lateral[..., 1]) + lateral[..., 2])
-                         + lateral[..., 3]) / 4.0)  # (P, N) the corners' mean
+        centre = np.abs((((lateral[0] + lateral[1]) + lateral[2]) + lateral[3])
+                        / 4.0)  # (P, N) the corners' mean
         closing = np.empty(centre.shape, dtype=bool)
-        closing[..., 1:] = centre[..., 1:] - centre[..., :-1] < -1e-3
-        closing[..., 0] = (closing[..., 1] if centre.shape[-1] > 1
-                           else centre[..., 0] - (centre[..., 0] + 1.0) < -1e-3)
+        closing[:, 1:] = centre[:, 1:] - centre[:, :-1] < -1e-3
+        closing[:, 0] = (closing[:, 1] if centre.shape[-1] > 1
+                         else centre[:, 0] - (centre[:, 0] + 1.0) < -1e-3)
         near = (lat_min <= wide) & (lat_max >= -wide)
         overlap |= near & closing & is_ped[:, None]
     # an object whose projection is clamped at the route's ends is not on the path
@@ -200,15 +200,19 @@ def objects_on_path(route: Route, scene: ScenePrediction, s0: float, robot_lengt
     # beside or behind the robot now (its rear short of the robot's front): not the robot's to
     # yield to; a car alongside that drifts into the corridor in its prediction is one
     relevant = occupied.any(axis=-1) & (s_rear[:, 0] >= s0 + 0.5 * robot_length_m)  # (P,)
+    out: list[list[PathObject]] = [[] for _ in range(n_hyp)]
+    if not relevant.any():
+        return out
+    pair = np.full((n_hyp, n_obj), -1)
+    pair[src_l, src_m] = np.arange(len(src_l))
+    pair = np.where(shared[None], pair[:1], pair)  # shared objects: the first hypothesis' pair
     objects = [None] * len(src_l)
     for i in np.flatnonzero(relevant):
         ks = np.flatnonzero(occupied[i])
         objects[i] = PathObject(occupied[i], s_rear[i], s_front[i], int(ks[0]), int(ks[-1]),
                                 bool(is_ped[i]))
-    out: list[list[PathObject]] = []
-    for l in range(n_hyp):
-        idx = pair[l][scene.mask[l]]
-        out.append([objects[i] for i in idx if objects[i] is not None])
+    for l in np.flatnonzero(mask.any(axis=1)):
+        out[l] = [objects[i] for i in pair[l][mask[l]] if objects[i] is not None]
     return out
 
 
