@@ -369,11 +369,14 @@ class ContingencyMpc:
         return chosen, solution, True
 
     def _braking_reach(self, v0: float) -> np.ndarray:
-        """(N,) where braking at half the limit gets the robot, plus headway and room [m].
+        """(N,) how far braking at half the limit gets the robot, plus headway and room [m].
 
-        Braking at half the limit in the plan's steps (constant per step, v >= 0): a plan
-        with room around it (at the limit the feasible set is a point, slow for OSQP); plus
-        some room: the feasible set is not a single point (slow for OSQP).
+        Braking at half the limit in the plan's steps (constant per step, v >= 0), not at the
+        limit, and ROOM_M beyond: the feasible set a bound gives way to has room around it (at
+        the limit it is a single point, slow for OSQP). Depends on v0 only: once per plan.
+
+        Args:
+            v0: the robot's speed [m/s].
         """
         c = self.config
         v_brake = np.maximum(v0 - 0.5 * self.vehicle.brake_max_mps2 * self._plan_times, 0.0)
