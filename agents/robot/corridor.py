@@ -112,6 +112,11 @@ def project_xy(route: Route, x: np.ndarray, y: np.ndarray) -> tuple[np.ndarray, 
     Bit for bit Route.project's values (the same operations on each point, on x and y kept
     apart instead of an (..., S, 2) array: a few times faster for the planner's small batches).
 
+    Args:
+        route: the route.
+        x: (...) the points' x [m].
+        y: (...) their y [m].
+
     Returns:
         s: (...) arc length of the closest point [m] (clamped to [0, length]),
         lateral: (...) signed lateral offset [m], positive to the left of travel.
