@@ -209,6 +209,8 @@ class ContingencyMpc:
         # the static boxes projected on the route, per (route, boxes array): they do not move
         self._static: tuple[Route, np.ndarray | None, StaticBoxes] | None = None
         self._headway = config.headway_s()
+        self._plan_times = config.plan_times_s
+        self._reach = np.zeros(config.n_steps)  # _braking_reach(v0), set by plan
         self._comfort = np.ones(0)  # (L,) comfort weight factor per hypothesis, set by plan
         self._goal = (0.0, 0.0)  # the pull-up term (weight, progress to the line), set by plan
 
@@ -304,9 +306,10 @@ class ContingencyMpc:
             per_hyp = [objs + list(more) for objs, more in zip(per_hyp, extra_objects)]
         live_idx = np.flatnonzero(live)
         margin = round(c.pass_margin_s / c.plan_dt_s)
+        self._reach = self._braking_reach(v0)  # _branch_bounds' room, for this v0
         # the curvature bound needs the positions, which the plan decides: guess them (constant
         # speed), solve, and widen the guess to the solution's positions until it holds them
-        guess_lo = guess_hi = s0 + v0 * c.plan_times_s
+        guess_lo = guess_hi = s0 + v0 * self._plan_times
         for _ in range(4):
             v_max, curved = self._speed_bound(route, guess_lo, guess_hi, v_cap)
             bounds = (v0, prev_accel, v_ref, v_max, wall, margin, s0)
@@ -365,6 +368,22 @@ class ContingencyMpc:
                     return crossing, solution, relaxed
         return chosen, solution, True
 
+    def _braking_reach(self, v0: float) -> np.ndarray:
+        """(N,) how far braking at half the limit gets the robot, plus headway and room [m].
+
+        Braking at half the limit in the plan's steps (constant per step, v >= 0), not at the
+        limit, and ROOM_M beyond: the feasible set a bound gives way to has room around it (at
+        the limit it is a single point, slow for OSQP). Depends on v0 only: once per plan.
+
+        Args:
+            v0: the robot's speed [m/s].
+        """
+        c = self.config
+        v_brake = np.maximum(v0 - 0.5 * self.vehicle.brake_max_mps2 * self._plan_times, 0.0)
+        v_start = np.concatenate([[v0], v_brake[:-1]])
+        s_brake = np.cumsum(0.5 * (v_start + v_brake) * c.plan_dt_s)
+        return s_brake + self._headway * v_brake + ROOM_M
+
     def _branch_bounds(self, objects: list[PathObject], modes: tuple, bounds: tuple):
         c, veh = self.config, self.vehicle
         wall, margin, s0 = bounds[4:]
@@ -375,13 +394,7 @@ class ContingencyMpc:
         # up to position_tolerance_m, a bound is never tighter than firm braking now gets (nor
         # than staying where it is, at rest), so noise alone does not make it infeasible
         v0 = bounds[0]
-        # braking at half the limit in the plan's steps (constant per step, v >= 0): a plan
-        # with room around it (at the limit the feasible set is a point, slow for OSQP)
-        v_brake = np.maximum(v0 - 0.5 * veh.brake_max_mps2 * c.plan_times_s, 0.0)
-        v_start = np.concatenate([[v0], v_brake[:-1]])
-        s_brake = np.cumsum(0.5 * (v_start + v_brake) * c.plan_dt_s)
-        # some room: the feasible set is not a single point (slow for OSQP)
-        reach = s_brake + self._headway * v_brake + ROOM_M
+        reach = self._reach
         if v0 > c.rest_mps:
             s_up = np.maximum(s_up, np.minimum(reach, s_up + c.position_tolerance_m))
         else:

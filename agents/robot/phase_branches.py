@@ -100,6 +100,16 @@ class PhaseBranches:
         self.head_states = head_states
         self.brake_max_mps2 = brake_max_mps2
         self.epsilon = epsilon
+        # route_signal_lines per lane path (static: the map's), computed once each
+        self._lines: dict[int, tuple] = {}
+
+    def _signal_lines(self, route) -> tuple[np.ndarray, np.ndarray]:
+        """route_signal_lines(route, road_map), computed once per lane path (read only)."""
+        hit = self._lines.get(id(route))
+        if hit is None or hit[0] is not route:
+            hit = (route, route_signal_lines(route, self.road_map))
+            self._lines[id(route)] = hit
+        return hit[1]
 
     def _along_paths(self, scene: ScenePrediction, tracks: TrackSet, times_s: np.ndarray
                      ) -> ScenePrediction:
@@ -159,7 +169,7 @@ class PhaseBranches:
             route = self.lane_paths.route_of(xy0, float(scene.heading[hyp, m, 0]))
             if route is None:
                 continue
-            lines, heads = route_signal_lines(route, self.road_map)
+            lines, heads = self._signal_lines(route)
             s0, _ = route.project_point(float(xy0[0]), float(xy0[1]))
             half = 0.5 * float(scene.length_m[hyp, m])
             ahead = np.flatnonzero(lines > s0 + half)

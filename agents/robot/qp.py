@@ -40,8 +40,11 @@ import numpy as np
 import osqp
 import scipy.sparse as sp
 
-_OK = (osqp.SolverStatus.OSQP_SOLVED, osqp.SolverStatus.OSQP_SOLVED_INACCURATE)
+_OK = frozenset(int(s) for s in (osqp.SolverStatus.OSQP_SOLVED,
+                                  osqp.SolverStatus.OSQP_SOLVED_INACCURATE))
+_MAX_ITER = int(osqp.SolverStatus.OSQP_MAX_ITER_REACHED)
 _INF = 1e20  # OSQP's infinity
+_OSQP_INFTY = 1e30  # what osqp.OSQP.update clips the bounds to (its OSQP_INFTY)
 # what a QP's layout needs, built once per (L, N, n_trunk, steps, weights, headway) and shared
 # by every ContingencyQp of that layout (read only: bounds are copied from the templates); a
 # new episode's QPs then only set up OSQP
@@ -129,6 +132,11 @@ class ContingencyQp:
                            # a fixed rho-update interval: OSQP's default (0) times the setup
                            # and adapts on wall-clock time, which breaks bit-identical episodes
                            adaptive_rho_interval=25)
+        # the compiled solver behind osqp.OSQP: update and solve call it directly, as
+        # osqp.OSQP.update / solve do, without their per-call Python work (constant lookups
+        # through importlib, the derivative cache, the info namespace): the same calls with
+        # the same data
+        self._ext = self._solver._solver
 
     def _build_structure(self, headway_s: np.ndarray) -> None:
         """The index maps, P's pattern, A and the bound templates (_STRUCTURE_FIELDS)."""
@@ -320,22 +328,30 @@ class ContingencyQp:
                                     jerk_max, comfort_decel)
         if np.any(lower > upper + 1e-9):
             return self._failed()
-        self._solver.update(Px=self._p_values(weights, comfort, goal_weight),
-                            q=self._q_vector(weights, v_ref_mps, prev_accel, goal_weight, goal_m),
+        # osqp.OSQP.update's order: the vectors (bounds clipped to OSQP's infinity), then P
+        np.maximum(lower, -_OSQP_INFTY, out=lower)
+        np.minimum(upper, _OSQP_INFTY, out=upper)
+        ext = self._ext
+        ext.update_data_vec(q=self._q_vector(weights, v_ref_mps, prev_accel, goal_weight, goal_m),
                             l=lower, u=upper)
-        res = self._solver.solve(raise_error=False)
+        ext.update_data_mat(P_x=self._p_values(weights, comfort, goal_weight), P_i=None,
+                            A_x=None, A_i=None)
+        ext.solve()
         for _ in range(3):  # a cold start may need more iterations: go on from where it stopped
-            if res.info.status_val != osqp.SolverStatus.OSQP_MAX_ITER_REACHED:
+            if ext.info.status_val != _MAX_ITER:
                 break
-            res = self._solver.solve(raise_error=False)
-        if res.info.status_val not in [int(s) for s in _OK] or res.x is None:
+            ext.solve()
+        info = ext.info
+        if info.status_val not in _OK:
             return self._failed()
-        x = res.x
+        x = ext.solution.x
+        if x is None:
+            return self._failed()
         ax = self._a_matrix @ x
         violation = max(float(np.max(lower - ax)), float(np.max(ax - upper)))
         if not np.all(np.isfinite(x)) or violation > 1e-3:
             return self._failed()
-        return QpSolution(True, float(res.info.obj_val), x[self._a_idx], x[self._v_idx],
+        return QpSolution(True, float(info.obj_val), x[self._a_idx], x[self._v_idx],
                           x[self._s_idx])
 
     def _failed(self) -> QpSolution:

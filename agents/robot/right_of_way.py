@@ -38,7 +38,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-from marl_social.agents.robot.corridor import PathObject
+from marl_social.agents.robot.corridor import PathObject, project_xy
 
 from marl_social.models.candidates import ScenePrediction
 from marl_social.sim.road_map import RoadMap, Route
@@ -119,67 +119,91 @@ class RightOfWay:
         if not vehicle.any():
             return out
         front = s0 + self._half
-        for conflict, merge in zip(self.conflicts, self.merges):
-            if front > conflict.s_enter_m + self.config.committed_m:
-                continue  # committed: it clears this zone
+        active = [(conflict, merge) for conflict, merge in zip(self.conflicts, self.merges)
+                  if front <= conflict.s_enter_m + self.config.committed_m]  # else committed
+        if not active:
+            return out
+        src_l, src_m = np.nonzero(vehicle)  # (P,) the (hypothesis, car) pairs, in order
+        source = np.arange(len(src_l))  # (P,) each pair's index into the unique pairs
+        u_l, u_m = src_l, src_m  # (U,) the unique pairs
+        if n_hyp > 1 and (vehicle.sum(axis=0) > 1).any():
+            # a car predicted alike in several hypotheses (a tracked one) is computed once:
+            # from the first hypothesis with that car, where predicted alike
+            first = np.argmax(vehicle, axis=0)[src_m]  # (P,)
+            alike = (np.all(scene.xy[src_l, src_m] == scene.xy[first, src_m], axis=(1, 2))
+                     & np.all(scene.heading[src_l, src_m] == scene.heading[first, src_m],
+                              axis=1)
+                     & (scene.length_m[src_l, src_m] == scene.length_m[first, src_m]))
+            unique = ~alike | (src_l == first)
+            index = np.full((n_hyp, n_obj), -1)
+            index[src_l[unique], src_m[unique]] = np.arange(int(unique.sum()))
+            source = index[np.where(alike, first, src_l), src_m]
+            u_l, u_m = src_l[unique], src_m[unique]
+        for conflict, merge in active:
             zone = conflict.zone
-            src_l, src_m = np.nonzero(vehicle)
-            xy0 = scene.xy[src_l, src_m, 0]  # (P, 2) the first predicted pose
-            has_way = priority_mask(zone, self.road_map, xy0, scene.heading[src_l, src_m, 0])
+            xy0 = scene.xy[u_l, u_m, 0]  # (U, 2) the first predicted pose
+            has_way = priority_mask(zone, self.road_map, xy0, scene.heading[u_l, u_m, 0])
             if not has_way.any():
                 continue
-            src_l, src_m = src_l[has_way], src_m[has_way]
+            way = np.flatnonzero(has_way)  # the unique pairs with the right of way
             # in the zone: its footprint's centre within half its length of the outline
-            margin = 0.5 * scene.length_m[src_l, src_m]  # (P,)
-            xy = scene.xy[src_l, src_m]  # (P, N, 2)
+            margin = 0.5 * scene.length_m[u_l[way], u_m[way]]  # (W,)
+            xy = scene.xy[u_l[way], u_m[way]]  # (W, N, 2)
             if merge is not None:
-                self._merge_claims(out, conflict, merge, src_l, xy, margin, times_s)
+                made = self._merge_claims(conflict, merge, xy, margin, times_s)
+            else:
+                claimed = _inside(zone, xy, margin)  # (W, N)
+                s_rear = np.full(n_t, conflict.s_enter_m)
+                s_front = np.full(n_t, conflict.s_exit_m)
+                made = [None] * len(way)
+                for w, row in enumerate(claimed):
+                    if row.any():
+                        ks = np.flatnonzero(row)
+                        made[w] = PathObject(row, s_rear, s_front, int(ks[0]), int(ks[-1]))
+            if all(obj is None for obj in made):
                 continue
-            claimed = _inside(zone, xy, margin)  # (P, N)
-            s_rear = np.full(n_t, conflict.s_enter_m)
-            s_front = np.full(n_t, conflict.s_exit_m)
-            for l, row in zip(src_l.tolist(), claimed):
-                if row.any():
-                    ks = np.flatnonzero(row)
-                    out[l].append(PathObject(row, s_rear, s_front, int(ks[0]), int(ks[-1])))
+            claim = [None] * len(u_l)
+            for w, obj in zip(way.tolist(), made):
+                claim[w] = obj
+            for l, u in zip(src_l.tolist(), source.tolist()):
+                if claim[u] is not None:
+                    out[l].append(claim[u])
         return out
 
-    def _merge_claims(self, out: list[list[PathObject]], conflict: RouteConflict, merge: tuple,
-                      src_l: np.ndarray, xy: np.ndarray, half_length_m: np.ndarray,
-                      times_s: np.ndarray) -> None:
-        """Append the claims of P cars at a merge (module docstring) to `out`.
+    def _merge_claims(self, conflict: RouteConflict, merge: tuple, xy: np.ndarray,
+                      half_length_m: np.ndarray, times_s: np.ndarray) -> list:
+        """The claims of W cars at a merge (module docstring): W PathObjects or None.
 
         Args:
-            out: L lists of claims.
             conflict: the merge zone on the robot's route.
             merge: (the priority lane's path, its arc length where the robot's route joins it).
-            src_l: (P,) each car's hypothesis.
-            xy: (P, N, 2) their predicted positions [m].
-            half_length_m: (P,) half their lengths [m].
+            xy: (W, N, 2) their predicted positions [m].
+            half_length_m: (W,) half their lengths [m].
             times_s: (N,) the plan steps' times [s].
         """
         lane, s_join = merge
         c = self.config
-        s_lane, _, _ = lane.project(xy)  # (P, N) along the lane [m]
+        s_lane, _ = project_xy(lane, xy[..., 0], xy[..., 1])  # (W, N) along the lane [m]
         centre = conflict.s_exit_m + (s_lane - s_join)  # ... along the robot's route [m]
         rear = centre - half_length_m[:, None]
         front = centre + half_length_m[:, None]
         # where its front would be if it slowed for the robot (speeds between plan steps)
         t = np.asarray(times_s, dtype=np.float64)
         dt = np.diff(t, prepend=0.0)
-        speed = np.diff(s_lane, axis=1) / dt[1:]  # (P, N-1) [m/s]
+        speed = np.diff(s_lane, axis=1) / dt[1:]  # (W, N-1) [m/s]
         slowed = np.maximum(speed - c.follower_decel_mps2
                             * np.maximum(t[1:] - c.follower_reaction_s, 0.0), 0.0)
         yielding_front = front[:, :1] + np.concatenate(
             [np.zeros((len(front), 1)), np.cumsum(slowed * dt[1:], axis=1)], axis=1)
         # it has reached the zone; a car already past the join is a car ahead (the corridor's)
-        claimed = (front >= conflict.s_enter_m) & (rear[:, :1] <= conflict.s_exit_m)  # (P, N)
-        for p, l in enumerate(src_l.tolist()):
-            row = claimed[p]
+        claimed = (front >= conflict.s_enter_m) & (rear[:, :1] <= conflict.s_exit_m)  # (W, N)
+        made = [None] * len(claimed)
+        for p, row in enumerate(claimed):
             if row.any():
                 ks = np.flatnonzero(row)
-                out[l].append(PathObject(row, rear[p], yielding_front[p], int(ks[0]),
-                                         int(ks[-1]), pass_margin=False))
+                made[p] = PathObject(row, rear[p], yielding_front[p], int(ks[0]), int(ks[-1]),
+                                     pass_margin=False)
+        return made
 
 
 def _merge_lane(route: Route, road_map: RoadMap, conflict: RouteConflict
