@@ -358,3 +358,54 @@ def test_project_xy_is_route_project_bit_for_bit(n_segments):
     # and one point at a time: the values do not depend on the batch
     s1, lateral1 = project_xy(route, xy[3, 5, :, 0].copy(), xy[3, 5, :, 1].copy())
     assert np.array_equal(s1, s_ref[3, 5]) and np.array_equal(lateral1, lateral_ref[3, 5])
+
+
+class _PublicOsqp:
+    """osqp.OSQP's public update/solve behind the calls ContingencyQp makes on the compiled
+    solver (update_data_vec, update_data_mat, solve, info, solution): the reference path."""
+
+    def __init__(self, solver):
+        self.solver, self._vec, self._res = solver, {}, None
+
+    def update_data_vec(self, q, l, u):
+        self._vec = {"q": q, "l": l, "u": u}
+
+    def update_data_mat(self, P_x, P_i, A_x, A_i):
+        self.solver.update(Px=P_x, **self._vec)  # one call, as before the direct path
+
+    def solve(self):
+        self._res = self.solver.solve(raise_error=False)
+
+    @property
+    def info(self):
+        return self._res.info
+
+    @property
+    def solution(self):
+        return self._res
+
+
+def test_direct_solver_calls_match_osqps_public_api_bit_for_bit():
+    """qp.py calls OSQP's compiled solver directly (its per-call Python work left out): over a
+    sequence of plans (warm starts, a stop, a pass, an infeasible bound) it gives the same
+    bits as osqp.OSQP.update / solve. Fails if a new osqp changes what its wrapper does."""
+
+    def episode(public: bool) -> list:
+        mpc = ContingencyMpc(CONFIG, VEHICLE)
+        qps = [mpc._qp(1), mpc._qp(2), mpc._qp(1, for_modes=True)]  # every QP the plans use
+        if public:
+            for qp in qps:
+                qp._ext = _PublicOsqp(qp._solver)
+        out = []
+        for s0, v0, prev, b in ((30.0, 11.5, 0.0, 0.7), (31.1, 11.0, -1.0, 0.4),
+                                (32.1, 10.2, -2.0, 0.9), (33.0, 9.8, -2.5, 0.02),
+                                (40.0, 3.0, -4.0, 0.5), (47.0, 13.0, 0.0, 1.0)):
+            res = mpc.plan(ROUTE, s0, v0, prev, 11.5, 13.9, _scene([False, True]),
+                           np.array([1.0 - b, b]))
+            out.append((res.feasible, res.accel_mps2, res.accel_plan.tobytes(), res.cost))
+        assert set(mpc._qps) <= {1, 2}
+        return out
+
+    direct, public = episode(False), episode(True)
+    assert any(r[0] for r in direct) and len({r[1] for r in direct}) > 3  # plans that differ
+    assert direct == public
