@@ -157,6 +157,13 @@ def test_route_lookups_equal_the_plain_formulas(seed, n_points):
                rng.normal(size=(2, 3, 2)) * 20):
         for a, b in zip(route.project(xy), _project_reference(route, xy)):
             assert np.array_equal(a, b) and type(a) is type(b)
+    # the vertices themselves (ties between two segments) and x, y given apart
+    xy = np.concatenate([rng.normal(size=(7, 2)) * 20, route.points])
+    reference = _project_reference(route, xy)
+    for a, b in zip(route.project_xy(xy[:, 0], xy[:, 1]), reference[:2]):
+        assert np.array_equal(a, b)
+    for a, b in zip(route.project(xy), reference):
+        assert np.array_equal(a, b)
 
 
 def test_curve_speed_lookup_equals_clip():
