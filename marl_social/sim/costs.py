@@ -96,14 +96,52 @@ def crosswalk_occupancy(xy, bounding_radius_m, crosswalk: Crosswalk) -> np.ndarr
         (...) occupancy in 0..1.
     """
     xy = xy if getattr(xy, "is_jet", False) else np.asarray(xy, dtype=np.float64)
-    rel = xy - crosswalk.center
     c, s = _cos_sin(crosswalk.walk_heading_rad)
+    if isinstance(xy, np.ndarray) and xy.size >= _IN_PLACE_MIN_SIZE:
+        return _array_occupancy(xy, bounding_radius_m, crosswalk, c, s)
+    rel = xy - crosswalk.center
     u = rel[..., 0] * c + rel[..., 1] * s
     w = -rel[..., 0] * s + rel[..., 1] * c
     depth = np.minimum(
         0.5 * crosswalk.length_m - np.abs(u), 0.5 * crosswalk.width_m - np.abs(w) + bounding_radius_m
     )
     return 0.5 * (1.0 + np.tanh(0.5 * depth / OCCUPANCY_SOFTNESS_M))
+
+
+_IN_PLACE_MIN_SIZE = 128  # (..., 2) arrays this large take _array_occupancy (smaller: fewer calls)
+
+
+def _array_occupancy(xy: np.ndarray, bounding_radius_m, crosswalk: Crosswalk, c, s
+                     ) -> np.ndarray:
+    """crosswalk_occupancy of an (..., 2) array, bit for bit, with x and y apart and in place.
+
+    The same operations on each element (u = rx c + ry s, w = ry c - rx s is -rx s + ry c
+    exactly), without the (..., 2) temporaries.
+    """
+    rx = xy[..., 0] - crosswalk.center[0]  # (...)
+    ry = xy[..., 1] - crosswalk.center[1]
+    u = rx * c
+    w = ry * c
+    rx *= s
+    ry *= s
+    u += ry
+    w -= rx
+    np.abs(u, out=u)
+    np.subtract(0.5 * crosswalk.length_m, u, out=u)
+    np.abs(w, out=w)
+    np.subtract(0.5 * crosswalk.width_m, w, out=w)
+    if np.shape(bounding_radius_m) == () or np.broadcast_shapes(
+            w.shape, np.shape(bounding_radius_m)) == w.shape:
+        w += bounding_radius_m
+        depth = np.minimum(u, w, out=u)
+    else:
+        depth = np.minimum(u, w + bounding_radius_m)
+    depth *= 0.5
+    depth /= OCCUPANCY_SOFTNESS_M
+    np.tanh(depth, out=depth)
+    depth += 1.0
+    depth *= 0.5
+    return depth
 
 
 def zone_occupancy(circles, circle_r, polygon) -> np.ndarray:
