@@ -102,9 +102,36 @@ def _immutable(array: np.ndarray) -> bool:
     return True
 
 
+# circle_layout of the scene objects' dimensions, by their bytes (a scene's objects keep
+# their sizes from step to step); read-only arrays; emptied when it reaches this many entries
+_MAX_LAYOUTS = 256
+_LAYOUTS: dict[tuple, tuple[np.ndarray, np.ndarray]] = {}
+
+
+def _scene_layout(length_m: np.ndarray, width_m: np.ndarray, is_pedestrian: np.ndarray
+                  ) -> tuple[np.ndarray, np.ndarray]:
+    """footprint.circle_layout(length_m, width_m, is_pedestrian) (L, M), once per distinct input.
+
+    Returns:
+        along (L, M, C) [m] and radius (L, M, C) [m], read-only.
+    """
+    length_m, width_m = np.asarray(length_m), np.asarray(width_m)
+    is_pedestrian = np.asarray(is_pedestrian)
+    key = tuple((a.dtype.str, a.shape, a.tobytes()) for a in (length_m, width_m, is_pedestrian))
+    hit = _LAYOUTS.get(key)
+    if hit is None:
+        hit = circle_layout(length_m, width_m, is_pedestrian)
+        for array in hit:
+            array.setflags(write=False)
+        if len(_LAYOUTS) >= _MAX_LAYOUTS:
+            _LAYOUTS.clear()
+        _LAYOUTS[key] = hit
+    return hit
+
+
 def _scene_circles(scene) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """`scene_circles` computed."""
-    along, radius = circle_layout(scene.length_m, scene.width_m, scene.is_pedestrian)
+    along, radius = _scene_layout(scene.length_m, scene.width_m, scene.is_pedestrian)
     if not along.any():  # only discs: their circles coincide, one stands for all
         along = along[..., :1]
     along = along.transpose(2, 0, 1)[..., None]  # (L, M, J) -> (J, L, M, 1)
