@@ -256,10 +256,12 @@ def _crosswalk_conflict(occ_ego, occ_other, pair_mask) -> np.ndarray:
 def _feature_terms(*, lateral_m, speed_mps, v_ref_mps, accel_mps2, prev_accel_mps2,
                    ego_xy, ego_radius, ego_is_ped, ego_circles, ego_circle_r,
                    other_xy, other_radius, other_is_ped, other_circles, other_circle_r, other_mask,
-                   crosswalks, needed=(True,) * N_FEATURES, gap=None, yield_zones=()) -> list:
+                   crosswalks, needed=(True,) * N_FEATURES, gap=None, yield_zones=(),
+                   other_occupancy=None) -> list:
     """The six per-step features in FEATURE_NAMES order (None where not needed).
 
-    `gap` may pass circle_gap(ego, others) already computed by the caller. `yield_zones`: the
+    `gap` may pass circle_gap(ego, others) already computed by the caller, `other_occupancy`
+    the others' crosswalk_occupancy(other_xy, other_radius, cw) per crosswalk. `yield_zones`: the
     conflict zones the ego yields at, each (polygon (V, 2) [m], claim (..., M) in 0..1: how much
     each other with the right of way there claims the zone, 0 for the others; broadcast
     against other_mask).
@@ -282,10 +284,11 @@ def _feature_terms(*, lateral_m, speed_mps, v_ref_mps, accel_mps2, prev_accel_mp
         if crosswalks:
             other_kind_differs = np.asarray(other_is_ped) != np.asarray(ego_is_ped)[..., None]
             pair_mask = other_mask & other_kind_differs
-            for cw in crosswalks:
+            for i, cw in enumerate(crosswalks):
+                occ_other = (crosswalk_occupancy(other_xy, other_radius, cw)
+                             if other_occupancy is None else other_occupancy[i])
                 conflict = conflict + _crosswalk_conflict(
-                    crosswalk_occupancy(ego_xy, ego_radius, cw),
-                    crosswalk_occupancy(other_xy, other_radius, cw), pair_mask)
+                    crosswalk_occupancy(ego_xy, ego_radius, cw), occ_other, pair_mask)
         for polygon, claim in yield_zones:
             occ_ego = zone_occupancy(ego_circles, ego_circle_r, polygon)
             conflict = conflict + occ_ego * np.sum(np.where(other_mask, claim, 0.0), axis=-1)
@@ -302,7 +305,8 @@ def step_features(**kwargs) -> np.ndarray:
     other_is_ped (..., M), other_circles (..., M, C, 2), other_circle_r (..., M, C),
     other_mask (..., M) bool (excludes absent agents and the ego itself); crosswalks;
     optionally yield_zones (see the module docstring: ((polygon (V, 2), claim (..., M)),
-    ...)). Leading dimensions broadcast. Returns (..., N_FEATURES) in FEATURE_NAMES order.
+    ...)) and other_occupancy (the others' crosswalk_occupancy per crosswalk, computed by
+    the caller). Leading dimensions broadcast. Returns (..., N_FEATURES) in FEATURE_NAMES order.
     """
     terms = _feature_terms(**kwargs)
     return np.stack(np.broadcast_arrays(*terms), axis=-1)

@@ -228,3 +228,26 @@ def test_crosswalk_occupancy_equals_the_plain_formula(seed, heading):
     for one in (xy[0, 0, 0], xy[0, 0]):  # one point, a row of points
         occ, ref = crosswalk_occupancy(one, 0.4, cw), _crosswalk_occupancy_reference(one, 0.4, cw)
         assert np.array_equal(occ, ref) and type(occ) is type(ref)
+
+
+def test_scene_crosswalk_occupancy_is_remembered_only_for_a_read_only_scene():
+    """The others' occupancy the candidates use: crosswalk_occupancy of the scene's predictions;
+    kept for a scene nobody can write to, recomputed for one that can change."""
+    rng = np.random.default_rng(3)
+    cws = (Crosswalk(center=np.array([1.0, 0.5]), walk_heading_rad=np.pi / 2, length_m=7.0,
+                     width_m=4.0),)
+    scene = _scene(rng, 3, 4, 12, all_peds=True)
+    expected = crosswalk_occupancy(scene.xy.swapaxes(1, 2)[:, None, None],
+                                   scene.radius_m[:, None, None, None, :], cws[0])
+    (occ,) = circle_gaps.scene_crosswalk_occupancy(scene, cws)
+    assert occ.shape == (3, 1, 1, 12, 4) and np.array_equal(occ, expected)
+    scene.xy[...] += 1.0  # writable: not remembered
+    (moved,) = circle_gaps.scene_crosswalk_occupancy(scene, cws)
+    assert np.array_equal(moved, crosswalk_occupancy(scene.xy.swapaxes(1, 2)[:, None, None],
+                                                     scene.radius_m[:, None, None, None, :],
+                                                     cws[0]))
+    for array in (scene.xy, scene.radius_m):
+        array.setflags(write=False)
+    first = circle_gaps.scene_crosswalk_occupancy(scene, cws)
+    assert circle_gaps.scene_crosswalk_occupancy(scene, cws) is first
+    assert np.array_equal(first[0], moved) and not first[0].flags.writeable
