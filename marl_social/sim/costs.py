@@ -284,6 +284,12 @@ def _feature_terms(*, lateral_m, speed_mps, v_ref_mps, accel_mps2, prev_accel_mp
         if crosswalks:
             other_kind_differs = np.asarray(other_is_ped) != np.asarray(ego_is_ped)[..., None]
             pair_mask = other_mask & other_kind_differs
+            if not pair_mask.any() and not getattr(ego_xy, "is_jet", False):
+                # no pair of the two kinds: each crosswalk adds occupancy (finite, >= 0) times
+                # 0.0, +0.0 everywhere; the same zeros without computing the occupancies
+                crosswalks = ()
+                conflict = conflict + np.zeros(_no_pair_shape(
+                    ego_xy, ego_radius, other_xy, other_radius, pair_mask, other_occupancy))
             for i, cw in enumerate(crosswalks):
                 occ_other = (crosswalk_occupancy(other_xy, other_radius, cw)
                              if other_occupancy is None else other_occupancy[i])
@@ -294,6 +300,15 @@ def _feature_terms(*, lateral_m, speed_mps, v_ref_mps, accel_mps2, prev_accel_mp
             conflict = conflict + occ_ego * np.sum(np.where(other_mask, claim, 0.0), axis=-1)
         terms[5] = conflict
     return terms
+
+
+def _no_pair_shape(ego_xy, ego_radius, other_xy, other_radius, pair_mask, other_occupancy
+                   ) -> tuple:
+    """The shape of a crosswalk's _crosswalk_conflict term (the broadcast of its operands)."""
+    occ_other = (np.broadcast_shapes(np.shape(other_xy)[:-1], np.shape(other_radius))
+                 if other_occupancy is None else np.shape(other_occupancy[0]))
+    return np.broadcast_shapes(np.shape(ego_xy)[:-1], np.shape(ego_radius),
+                               np.broadcast_shapes(pair_mask.shape, occ_other)[:-1])
 
 
 def step_features(**kwargs) -> np.ndarray:
