@@ -66,51 +66,10 @@ def _corners(xy: np.ndarray, heading: np.ndarray, length_m: np.ndarray,
     return xy[..., 0] + dx, xy[..., 1] + dy
 
 
-@dataclass(frozen=True)
-class _Segments:
-    """A route's segments, as Route.project computes them (same arithmetic, so same values).
-
-    Attributes:
-        start_x, start_y: (S,) segment start points [m].
-        dir_x, dir_y: (S,) unit directions.
-        length: (S,) lengths [m].
-        cum_s: (S,) arc length at each segment's start [m].
-    """
-
-    start_x: np.ndarray
-    start_y: np.ndarray
-    dir_x: np.ndarray
-    dir_y: np.ndarray
-    length: np.ndarray
-    cum_s: np.ndarray
-
-
-_SEGMENTS: dict[int, tuple[Route, _Segments]] = {}
-
-
-def _segments(route: Route) -> _Segments:
-    """The route's _Segments, computed once per route (kept with the route it is for)."""
-    hit = _SEGMENTS.get(id(route))
-    if hit is not None and hit[0] is route:
-        return hit[1]
-    seg = np.diff(route.points, axis=0)
-    length = np.linalg.norm(seg, axis=1)
-    direction = seg / length[:, None]
-    cum_s = np.concatenate([[0.0], np.cumsum(length)])[:-1]
-    out = _Segments(*(np.ascontiguousarray(a) for a in (
-        route.points[:-1, 0], route.points[:-1, 1], direction[:, 0], direction[:, 1], length,
-        cum_s)))
-    if len(_SEGMENTS) > 64:
-        _SEGMENTS.clear()
-    _SEGMENTS[id(route)] = (route, out)
-    return out
-
-
 def project_xy(route: Route, x: np.ndarray, y: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Route.project's arc length and lateral offset of points given as x (...) and y (...) [m].
 
-    Bit for bit Route.project's values (the same operations on each point, on x and y kept
-    apart instead of an (..., S, 2) array: a few times faster for the planner's small batches).
+    Route.project_xy (Route.project's values without the heading).
 
     Args:
         route: the route.
@@ -121,24 +80,7 @@ def project_xy(route: Route, x: np.ndarray, y: np.ndarray) -> tuple[np.ndarray, 
         s: (...) arc length of the closest point [m] (clamped to [0, length]),
         lateral: (...) signed lateral offset [m], positive to the left of travel.
     """
-    g = _segments(route)
-    rel_x = x[..., None] - g.start_x  # (..., S)
-    rel_y = y[..., None] - g.start_y
-    t = rel_x * g.dir_x + rel_y * g.dir_y
-    t = np.minimum(np.maximum(t, 0.0), g.length)
-    if len(g.length) == 1:
-        t_k, rx, ry, dx, dy = t[..., 0], rel_x[..., 0], rel_y[..., 0], g.dir_x[0], g.dir_y[0]
-        s = g.cum_s[0] + t_k
-    else:
-        ex = x[..., None] - (g.start_x + t * g.dir_x)
-        ey = y[..., None] - (g.start_y + t * g.dir_y)
-        n_seg = len(g.length)
-        k = np.argmin(ex ** 2 + ey ** 2, axis=-1)  # (...)
-        flat = k.ravel() + n_seg * np.arange(k.size)  # k's entries of the (..., S) arrays
-        t_k, rx, ry = (a.ravel()[flat].reshape(k.shape) for a in (t, rel_x, rel_y))
-        dx, dy = g.dir_x[k], g.dir_y[k]
-        s = g.cum_s[k] + t_k
-    return s, dx * ry - dy * rx
+    return route.project_xy(x, y)
 
 
 def objects_on_path(route: Route, scene: ScenePrediction, s0: float, robot_length_m: float,

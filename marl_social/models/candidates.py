@@ -15,7 +15,11 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from marl_social.models.circle_gaps import circle_pair_gap, scene_circles
+from marl_social.models.circle_gaps import (
+    circle_pair_gap,
+    scene_circles,
+    scene_crosswalk_occupancy,
+)
 from marl_social.sim.agent_spec import VehicleParams
 from marl_social.sim.costs import (
     crosswalk_occupancy,
@@ -419,6 +423,7 @@ def evaluate_candidates(cands: CandidateSet, theta: np.ndarray, v_ref_mps: float
         "ego_circles": ego_circles, "ego_circle_r": ego_r, "other_xy": other_xy,
         "other_radius": other_radius, "other_is_ped": other_is_ped, "other_circles": None,
         "other_circle_r": None, "other_mask": other_mask, "crosswalks": crosswalks, "gap": gap,
+        "other_occupancy": scene_crosswalk_occupancy(scene, crosswalks) if crosswalks else None,
     }
     if yield_zones:
         feature_args["yield_zones"] = tuple(
@@ -459,9 +464,9 @@ def evaluate_candidates(cands: CandidateSet, theta: np.ndarray, v_ref_mps: float
         min_vehicle_gap = clearance = min_gap
     conflict = np.zeros((n_hyp,) + v.shape)
     ped_mask = other_mask & other_is_ped
-    for cw in crosswalks:
+    for cw, occ_other in zip(crosswalks, feature_args["other_occupancy"] or ()):
         occ_ego = crosswalk_occupancy(xy, ego_radius, cw)  # (A, C, T)
-        occ_ped = np.where(ped_mask, crosswalk_occupancy(other_xy, other_radius, cw), 0.0)
+        occ_ped = np.where(ped_mask, occ_other, 0.0)
         conflict = np.maximum(conflict, occ_ego * occ_ped.max(axis=-1, initial=0.0))
     static_gap = np.full(v.shape[:2], np.inf)
     if static_boxes is not None and len(static_boxes):

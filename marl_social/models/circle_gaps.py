@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from marl_social.sim.costs import crosswalk_occupancy
 from marl_social.sim.footprint import circle_layout
 
 
@@ -102,11 +103,69 @@ def _immutable(array: np.ndarray) -> bool:
     return True
 
 
+# circle_layout of the scene objects' dimensions, by their bytes (a scene's objects keep
+# their sizes from step to step); read-only arrays; emptied when it reaches this many entries
+_MAX_LAYOUTS = 256
+_LAYOUTS: dict[tuple, tuple[np.ndarray, np.ndarray]] = {}
+
+
+def _scene_layout(length_m: np.ndarray, width_m: np.ndarray, is_pedestrian: np.ndarray
+                  ) -> tuple[np.ndarray, np.ndarray]:
+    """footprint.circle_layout(length_m, width_m, is_pedestrian) (L, M), once per distinct input.
+
+    Returns:
+        along (L, M, C) [m] and radius (L, M, C) [m], read-only.
+    """
+    length_m, width_m = np.asarray(length_m), np.asarray(width_m)
+    is_pedestrian = np.asarray(is_pedestrian)
+    key = tuple((a.dtype.str, a.shape, a.tobytes()) for a in (length_m, width_m, is_pedestrian))
+    hit = _LAYOUTS.get(key)
+    if hit is None:
+        hit = circle_layout(length_m, width_m, is_pedestrian)
+        for array in hit:
+            array.setflags(write=False)
+        if len(_LAYOUTS) >= _MAX_LAYOUTS:
+            _LAYOUTS.clear()
+        _LAYOUTS[key] = hit
+    return hit
+
+
 def _scene_circles(scene) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """`scene_circles` computed."""
-    along, radius = circle_layout(scene.length_m, scene.width_m, scene.is_pedestrian)
+    along, radius = _scene_layout(scene.length_m, scene.width_m, scene.is_pedestrian)
     if not along.any():  # only discs: their circles coincide, one stands for all
         along = along[..., :1]
     along = along.transpose(2, 0, 1)[..., None]  # (L, M, J) -> (J, L, M, 1)
     return (scene.xy[..., 0] + along * np.cos(scene.heading),
             scene.xy[..., 1] + along * np.sin(scene.heading), radius[..., 0])
+
+
+# [scene, crosswalks, scene_crosswalk_occupancy(scene, crosswalks)] of a read-only scene
+_last_occupancy: list = [None, None, None]
+
+
+def scene_crosswalk_occupancy(scene, crosswalks: tuple) -> tuple[np.ndarray, ...]:
+    """The scene objects' crosswalk occupancy, per crosswalk, as the candidates see them.
+
+    crosswalk_occupancy(xy, radius, cw) of the objects' predictions brought to the candidates'
+    axes (models/candidates.evaluate_candidates): remembered for a scene of arrays nobody can
+    write to (the hypothesised pedestrians the robot's model of a human reuses step after step).
+
+    Args:
+        scene: models.candidates.ScenePrediction (L hypotheses, M objects, T steps).
+        crosswalks: the map's crosswalks.
+
+    Returns:
+        per crosswalk, (L, 1, 1, T, M) occupancy in 0..1.
+    """
+    last = _last_occupancy
+    if last[0] is scene and last[1] is crosswalks:
+        return last[2]
+    xy = scene.xy.swapaxes(1, 2)[:, None, None]  # (L, 1, 1, T, M, 2)
+    radius = scene.radius_m[:, None, None, None, :]
+    out = tuple(crosswalk_occupancy(xy, radius, cw) for cw in crosswalks)
+    if all(_immutable(array) for array in (scene.xy, scene.radius_m)):
+        for array in out:
+            array.setflags(write=False)
+        last[:] = [scene, crosswalks, out]
+    return out

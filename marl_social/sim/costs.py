@@ -96,14 +96,52 @@ def crosswalk_occupancy(xy, bounding_radius_m, crosswalk: Crosswalk) -> np.ndarr
         (...) occupancy in 0..1.
     """
     xy = xy if getattr(xy, "is_jet", False) else np.asarray(xy, dtype=np.float64)
-    rel = xy - crosswalk.center
     c, s = _cos_sin(crosswalk.walk_heading_rad)
+    if isinstance(xy, np.ndarray) and xy.size >= _IN_PLACE_MIN_SIZE:
+        return _array_occupancy(xy, bounding_radius_m, crosswalk, c, s)
+    rel = xy - crosswalk.center
     u = rel[..., 0] * c + rel[..., 1] * s
     w = -rel[..., 0] * s + rel[..., 1] * c
     depth = np.minimum(
         0.5 * crosswalk.length_m - np.abs(u), 0.5 * crosswalk.width_m - np.abs(w) + bounding_radius_m
     )
     return 0.5 * (1.0 + np.tanh(0.5 * depth / OCCUPANCY_SOFTNESS_M))
+
+
+_IN_PLACE_MIN_SIZE = 128  # (..., 2) arrays this large take _array_occupancy (smaller: fewer calls)
+
+
+def _array_occupancy(xy: np.ndarray, bounding_radius_m, crosswalk: Crosswalk, c, s
+                     ) -> np.ndarray:
+    """crosswalk_occupancy of an (..., 2) array, bit for bit, with x and y apart and in place.
+
+    The same operations on each element (u = rx c + ry s, w = ry c - rx s is -rx s + ry c
+    exactly), without the (..., 2) temporaries.
+    """
+    rx = xy[..., 0] - crosswalk.center[0]  # (...)
+    ry = xy[..., 1] - crosswalk.center[1]
+    u = rx * c
+    w = ry * c
+    rx *= s
+    ry *= s
+    u += ry
+    w -= rx
+    np.abs(u, out=u)
+    np.subtract(0.5 * crosswalk.length_m, u, out=u)
+    np.abs(w, out=w)
+    np.subtract(0.5 * crosswalk.width_m, w, out=w)
+    if np.shape(bounding_radius_m) == () or np.broadcast_shapes(
+            w.shape, np.shape(bounding_radius_m)) == w.shape:
+        w += bounding_radius_m
+        depth = np.minimum(u, w, out=u)
+    else:
+        depth = np.minimum(u, w + bounding_radius_m)
+    depth *= 0.5
+    depth /= OCCUPANCY_SOFTNESS_M
+    np.tanh(depth, out=depth)
+    depth += 1.0
+    depth *= 0.5
+    return depth
 
 
 def zone_occupancy(circles, circle_r, polygon) -> np.ndarray:
@@ -218,10 +256,12 @@ def _crosswalk_conflict(occ_ego, occ_other, pair_mask) -> np.ndarray:
 def _feature_terms(*, lateral_m, speed_mps, v_ref_mps, accel_mps2, prev_accel_mps2,
                    ego_xy, ego_radius, ego_is_ped, ego_circles, ego_circle_r,
                    other_xy, other_radius, other_is_ped, other_circles, other_circle_r, other_mask,
-                   crosswalks, needed=(True,) * N_FEATURES, gap=None, yield_zones=()) -> list:
+                   crosswalks, needed=(True,) * N_FEATURES, gap=None, yield_zones=(),
+                   other_occupancy=None) -> list:
     """The six per-step features in FEATURE_NAMES order (None where not needed).
 
-    `gap` may pass circle_gap(ego, others) already computed by the caller. `yield_zones`: the
+    `gap` may pass circle_gap(ego, others) already computed by the caller, `other_occupancy`
+    the others' crosswalk_occupancy(other_xy, other_radius, cw) per crosswalk. `yield_zones`: the
     conflict zones the ego yields at, each (polygon (V, 2) [m], claim (..., M) in 0..1: how much
     each other with the right of way there claims the zone, 0 for the others; broadcast
     against other_mask).
@@ -244,15 +284,31 @@ def _feature_terms(*, lateral_m, speed_mps, v_ref_mps, accel_mps2, prev_accel_mp
         if crosswalks:
             other_kind_differs = np.asarray(other_is_ped) != np.asarray(ego_is_ped)[..., None]
             pair_mask = other_mask & other_kind_differs
-            for cw in crosswalks:
+            if not pair_mask.any() and not getattr(ego_xy, "is_jet", False):
+                # no pair of the two kinds: each crosswalk adds occupancy (finite, >= 0) times
+                # 0.0, +0.0 everywhere; the same zeros without computing the occupancies
+                crosswalks = ()
+                conflict = conflict + np.zeros(_no_pair_shape(
+                    ego_xy, ego_radius, other_xy, other_radius, pair_mask, other_occupancy))
+            for i, cw in enumerate(crosswalks):
+                occ_other = (crosswalk_occupancy(other_xy, other_radius, cw)
+                             if other_occupancy is None else other_occupancy[i])
                 conflict = conflict + _crosswalk_conflict(
-                    crosswalk_occupancy(ego_xy, ego_radius, cw),
-                    crosswalk_occupancy(other_xy, other_radius, cw), pair_mask)
+                    crosswalk_occupancy(ego_xy, ego_radius, cw), occ_other, pair_mask)
         for polygon, claim in yield_zones:
             occ_ego = zone_occupancy(ego_circles, ego_circle_r, polygon)
             conflict = conflict + occ_ego * np.sum(np.where(other_mask, claim, 0.0), axis=-1)
         terms[5] = conflict
     return terms
+
+
+def _no_pair_shape(ego_xy, ego_radius, other_xy, other_radius, pair_mask, other_occupancy
+                   ) -> tuple:
+    """The shape of a crosswalk's _crosswalk_conflict term (the broadcast of its operands)."""
+    occ_other = (np.broadcast_shapes(np.shape(other_xy)[:-1], np.shape(other_radius))
+                 if other_occupancy is None else np.shape(other_occupancy[0]))
+    return np.broadcast_shapes(np.shape(ego_xy)[:-1], np.shape(ego_radius),
+                               np.broadcast_shapes(pair_mask.shape, occ_other)[:-1])
 
 
 def step_features(**kwargs) -> np.ndarray:
@@ -264,7 +320,8 @@ def step_features(**kwargs) -> np.ndarray:
     other_is_ped (..., M), other_circles (..., M, C, 2), other_circle_r (..., M, C),
     other_mask (..., M) bool (excludes absent agents and the ego itself); crosswalks;
     optionally yield_zones (see the module docstring: ((polygon (V, 2), claim (..., M)),
-    ...)). Leading dimensions broadcast. Returns (..., N_FEATURES) in FEATURE_NAMES order.
+    ...)) and other_occupancy (the others' crosswalk_occupancy per crosswalk, computed by
+    the caller). Leading dimensions broadcast. Returns (..., N_FEATURES) in FEATURE_NAMES order.
     """
     terms = _feature_terms(**kwargs)
     return np.stack(np.broadcast_arrays(*terms), axis=-1)

@@ -44,6 +44,9 @@ class Route:
         self._seg_len = np.linalg.norm(seg, axis=1)
         self._seg_dir = seg / self._seg_len[:, None]
         self._seg_heading = np.arctan2(seg[:, 1], seg[:, 0])
+        # (S,) the same values per component, contiguous (project's arithmetic on x and y apart)
+        self._sx, self._sy = (np.ascontiguousarray(a) for a in self._seg_start.T)
+        self._dx, self._dy = (np.ascontiguousarray(a) for a in self._seg_dir.T)
         self._cum_s = np.concatenate([[0.0], np.cumsum(self._seg_len)])
         self.length_m = float(self._cum_s[-1])
         self._seg_start_list = self._seg_start.tolist()
@@ -65,20 +68,55 @@ class Route:
             heading: (...) route heading at the closest point [rad].
         """
         xy = np.asarray(xy, dtype=np.float64)
-        rel = xy[..., None, :] - self._seg_start  # (..., S, 2)
-        t = np.einsum("...sk,sk->...s", rel, self._seg_dir)
-        t = np.minimum(np.maximum(t, 0.0), self._seg_len)  # np.clip's ufuncs
-        closest = self._seg_start + t[..., None] * self._seg_dir
-        d2 = np.sum((xy[..., None, :] - closest) ** 2, axis=-1)
-        k = np.argmin(d2, axis=-1)
-        if xy.ndim == 1:  # one point (a planner's own position): plain indexing
-            t_k, rel_k = t[k], rel[k]
+        s, lateral, k = self._project(xy[..., 0], xy[..., 1])
+        if xy.ndim == 1:  # one point: numpy scalars, as plain indexing gives them
+            return s[()], lateral[()], self._seg_heading[int(k)]
+        return s, lateral, self._seg_heading[k]
+
+    def project_xy(self, x, y) -> tuple[np.ndarray, np.ndarray]:
+        """`project`'s arc length and lateral offset of points given as x and y apart.
+
+        Args:
+            x: (...) the points' x [m].
+            y: (...) their y [m] (x's shape).
+
+        Returns:
+            s: (...) arc length of the closest point [m] (clamped to [0, length]),
+            lateral: (...) signed lateral offset [m], positive to the left of travel.
+        """
+        s, lateral, _ = self._project(np.asarray(x, dtype=np.float64),
+                                      np.asarray(y, dtype=np.float64))
+        return s, lateral
+
+    def _project(self, x: np.ndarray, y: np.ndarray):
+        """The projection on x (...) and y (...) [m] kept apart (no (..., S, 2) array).
+
+        Each segment's foot point is clamped to the segment, the closest foot point's segment k
+        is chosen; the products are summed as rel_x * dir_x + rel_y * dir_y.
+
+        Returns:
+            s: (...) arc length [m], lateral: (...) signed offset [m], k: (...) segment index.
+        """
+        sx, sy, dx, dy, length = self._sx, self._sy, self._dx, self._dy, self._seg_len
+        rel_x = x[..., None] - sx  # (..., S)
+        rel_y = y[..., None] - sy
+        t = rel_x * dx + rel_y * dy
+        t = np.minimum(np.maximum(t, 0.0), length)  # np.clip's ufuncs
+        n_seg = len(length)
+        if n_seg == 1:  # k = 0 everywhere
+            k = np.zeros(t.shape[:-1], dtype=np.intp)
+            t_k, rx, ry, dx_k, dy_k = t[..., 0], rel_x[..., 0], rel_y[..., 0], dx[0], dy[0]
+            s = self._cum_s[0] + t_k
         else:
-            t_k = np.take_along_axis(t, k[..., None], axis=-1)[..., 0]
-            rel_k = np.take_along_axis(rel, k[..., None, None], axis=-2)[..., 0, :]
-        dir_k = self._seg_dir[k]
-        lateral = dir_k[..., 0] * rel_k[..., 1] - dir_k[..., 1] * rel_k[..., 0]
-        return self._cum_s[k] + t_k, lateral, self._seg_heading[k]
+            ex = x[..., None] - (sx + t * dx)
+            ey = y[..., None] - (sy + t * dy)
+            k = np.argmin(ex ** 2 + ey ** 2, axis=-1)  # (...)
+            k = np.asarray(k)
+            flat = k.ravel() + n_seg * np.arange(k.size)  # k's entries of the (..., S) arrays
+            t_k, rx, ry = (a.ravel()[flat].reshape(k.shape) for a in (t, rel_x, rel_y))
+            dx_k, dy_k = dx[k], dy[k]
+            s = self._cum_s[k] + t_k
+        return np.asarray(s), np.asarray(dx_k * ry - dy_k * rx), k
 
     def segment_crossings(self, segment) -> np.ndarray:
         """Arc lengths [m] at which the route crosses a line segment, ascending.

@@ -21,8 +21,16 @@ from marl_social.sim.signals import GREEN, RED, YELLOW
 COMFORTABLE_DECEL_MPS2 = 3.0  # the deceleration a driver accepts to stop on yellow [m/s^2]
 
 
+# route_signal_lines per (route, map) pair, static map data: {(id(route), id(road_map)):
+# (route, road_map, s, head)}, emptied when it reaches this many entries
+_MAX_SIGNAL_LINES = 256
+_SIGNAL_LINES: dict[tuple[int, int], tuple] = {}
+
+
 def route_signal_lines(route: Route, road_map: RoadMap) -> tuple[np.ndarray, np.ndarray]:
     """The signal stop lines a route must obey, in the order it reaches them.
+
+    Computed once per (route, map) pair (both static); each call returns its own copies.
 
     Args:
         route: the driver's route.
@@ -32,6 +40,18 @@ def route_signal_lines(route: Route, road_map: RoadMap) -> tuple[np.ndarray, np.
         s (S,) arc lengths [m] at which the route crosses the lines, ascending, and head (S,)
         int, the index into road_map.signal_heads of the head controlling each.
     """
+    key = (id(route), id(road_map))
+    hit = _SIGNAL_LINES.get(key)
+    if hit is None or hit[0] is not route or hit[1] is not road_map:
+        hit = (route, road_map, *_route_signal_lines(route, road_map))
+        if len(_SIGNAL_LINES) >= _MAX_SIGNAL_LINES:
+            _SIGNAL_LINES.clear()
+        _SIGNAL_LINES[key] = hit
+    return hit[2].copy(), hit[3].copy()
+
+
+def _route_signal_lines(route: Route, road_map: RoadMap) -> tuple[np.ndarray, np.ndarray]:
+    """`route_signal_lines` computed."""
     s_out, head_out = [], []
     for h, head in enumerate(road_map.signal_heads):
         line = road_map.stop_lines[head.stop_line]

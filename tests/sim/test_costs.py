@@ -149,3 +149,35 @@ def test_pairwise_features_equal_the_generic_ones_bit_for_bit(seed):
                                   crosswalks=crosswalks)
     assert generic.shape == fast.shape == (n, len(FEATURE_NAMES))
     assert generic.tobytes() == fast.tobytes()
+
+
+@pytest.mark.parametrize("seed", range(6))
+def test_conflict_without_a_pair_of_kinds_is_the_formula_s_zeros(seed):
+    """With no car-pedestrian pair the conflict is occupancy * 0 per crosswalk: the shortcut
+    gives the same zeros, the same shape, and the other features as with a pair."""
+    rng = np.random.default_rng(seed)
+    cws = (CW, Crosswalk(np.array([20.0, 3.0]), 0.3, 6.0, 3.0))
+    ego_xy = rng.normal(size=(4, 1, 5, 2)) * 10 + [50.0, 0.0]
+    other_xy = rng.normal(size=(2, 1, 1, 5, 3, 2)) * 10 + [50.0, 0.0]
+    is_ped = np.zeros((2, 1, 1, 1, 3), bool)
+    is_ped[0, ..., 1] = seed % 2 == 0  # a pedestrian, masked out below
+    mask = ~is_ped
+    args = {"lateral_m": 0.0, "speed_mps": rng.uniform(0, 9, (4, 1, 5)), "v_ref_mps": 8.0,
+            "accel_mps2": 1.0, "prev_accel_mps2": 0.0, "ego_xy": ego_xy, "ego_radius": 2.4,
+            "ego_is_ped": False, "ego_circles": None, "ego_circle_r": None, "other_circles": None,
+            "other_circle_r": None,
+            "other_xy": other_xy, "other_radius": rng.uniform(0.3, 2.5, (2, 1, 1, 1, 3)),
+            "other_is_ped": is_ped, "other_mask": mask, "crosswalks": cws,
+            "gap": rng.uniform(0, 5, (2, 4, 1, 5, 3))}
+    phi = step_features(**args)
+    pair_mask = mask & is_ped
+    conflict = 0.0
+    for cw in cws:  # the formula, each crosswalk's term
+        occ_other = crosswalk_occupancy(other_xy, args["other_radius"], cw)
+        conflict = conflict + crosswalk_occupancy(ego_xy, 2.4, cw) * np.sum(
+            np.where(pair_mask, occ_other, 0.0), axis=-1)
+    assert phi.shape[:-1] == conflict.shape == (2, 4, 1, 5)
+    assert np.array_equal(phi[..., 5], conflict) and not np.signbit(phi[..., 5]).any()
+    theta = rng.uniform(0.1, 2.0, 6)
+    assert np.array_equal(step_cost(theta, **args), sum(
+        w * phi[..., i] for i, w in enumerate(theta)))

@@ -1,8 +1,9 @@
 """The per-decision fast paths equal the plain formulas they replace, bit for bit.
 
 circle_pair_gap / scene_circles (models/circle_gaps.py) against costs.circle_gap on the covering
-circles; zone_occupancy against the all-edges-at-once formula; Route.point_at and Route.project
-against the plain lookups; CurveSpeed.at against np.clip.
+circles; zone_occupancy against the all-edges-at-once formula; crosswalk_occupancy against the
+(..., 2) formula; Route.point_at and Route.project against the plain lookups; CurveSpeed.at
+against np.clip.
 """
 
 import numpy as np
@@ -11,9 +12,14 @@ from hypothesis import strategies as st
 
 from marl_social.models import candidates, circle_gaps
 from marl_social.models.candidates import ScenePrediction, circle_pair_gap, scene_circles
-from marl_social.sim.costs import circle_gap, zone_occupancy
+from marl_social.sim.costs import (
+    OCCUPANCY_SOFTNESS_M,
+    circle_gap,
+    crosswalk_occupancy,
+    zone_occupancy,
+)
 from marl_social.sim.footprint import covering_circles
-from marl_social.sim.road_map import Route
+from marl_social.sim.road_map import Crosswalk, Route
 from marl_social.sim.route_rules import CURVE_PROFILE_STEP_M, CurveSpeed
 
 
@@ -157,6 +163,13 @@ def test_route_lookups_equal_the_plain_formulas(seed, n_points):
                rng.normal(size=(2, 3, 2)) * 20):
         for a, b in zip(route.project(xy), _project_reference(route, xy)):
             assert np.array_equal(a, b) and type(a) is type(b)
+    # the vertices themselves (ties between two segments) and x, y given apart
+    xy = np.concatenate([rng.normal(size=(7, 2)) * 20, route.points])
+    reference = _project_reference(route, xy)
+    for a, b in zip(route.project_xy(xy[:, 0], xy[:, 1]), reference[:2]):
+        assert np.array_equal(a, b)
+    for a, b in zip(route.project(xy), reference):
+        assert np.array_equal(a, b)
 
 
 def test_curve_speed_lookup_equals_clip():
@@ -189,3 +202,52 @@ def test_with_extra_equals_concatenating_the_repeated_rows(seed, n_hyp, n_obj, o
         grown = np.broadcast_to(mine, (n_hyp,) + mine.shape[1:])
         reference = np.concatenate([grown, np.asarray(add)[:, None]], axis=1)
         assert got.dtype == reference.dtype and np.array_equal(got, reference)
+
+
+def _crosswalk_occupancy_reference(xy, radius, cw):
+    rel = np.asarray(xy, dtype=np.float64) - cw.center
+    c, s = np.cos(cw.walk_heading_rad), np.sin(cw.walk_heading_rad)
+    u = rel[..., 0] * c + rel[..., 1] * s
+    w = -rel[..., 0] * s + rel[..., 1] * c
+    depth = np.minimum(0.5 * cw.length_m - np.abs(u), 0.5 * cw.width_m - np.abs(w) + radius)
+    return 0.5 * (1.0 + np.tanh(0.5 * depth / OCCUPANCY_SOFTNESS_M))
+
+
+@settings(max_examples=40, deadline=None)
+@given(seed=st.integers(0, 2**32 - 1), heading=st.sampled_from([0.0, np.pi / 2, -np.pi, 0.7]))
+def test_crosswalk_occupancy_equals_the_plain_formula(seed, heading):
+    """Bit for bit, for every radius shape (scalar, the points' shape, broadcasting wider)."""
+    rng = np.random.default_rng(seed)
+    cw = Crosswalk(center=rng.normal(size=2) * 5, walk_heading_rad=heading, length_m=7.0,
+                   width_m=4.0)
+    xy = rng.normal(size=(3, 4, 6, 2)) * 6 + cw.center  # the in-place path (>= 128 values)
+    for radius in (2.5, rng.uniform(0, 3, (3, 4, 6)), rng.uniform(0, 3, (3, 1, 6)),
+                   rng.uniform(0, 3, (2, 3, 4, 6))):
+        occ, ref = crosswalk_occupancy(xy, radius, cw), _crosswalk_occupancy_reference(xy, radius, cw)
+        assert occ.shape == ref.shape and np.array_equal(occ, ref)
+    for one in (xy[0, 0, 0], xy[0, 0]):  # one point, a row of points
+        occ, ref = crosswalk_occupancy(one, 0.4, cw), _crosswalk_occupancy_reference(one, 0.4, cw)
+        assert np.array_equal(occ, ref) and type(occ) is type(ref)
+
+
+def test_scene_crosswalk_occupancy_is_remembered_only_for_a_read_only_scene():
+    """The others' occupancy the candidates use: crosswalk_occupancy of the scene's predictions;
+    kept for a scene nobody can write to, recomputed for one that can change."""
+    rng = np.random.default_rng(3)
+    cws = (Crosswalk(center=np.array([1.0, 0.5]), walk_heading_rad=np.pi / 2, length_m=7.0,
+                     width_m=4.0),)
+    scene = _scene(rng, 3, 4, 12, all_peds=True)
+    expected = crosswalk_occupancy(scene.xy.swapaxes(1, 2)[:, None, None],
+                                   scene.radius_m[:, None, None, None, :], cws[0])
+    (occ,) = circle_gaps.scene_crosswalk_occupancy(scene, cws)
+    assert occ.shape == (3, 1, 1, 12, 4) and np.array_equal(occ, expected)
+    scene.xy[...] += 1.0  # writable: not remembered
+    (moved,) = circle_gaps.scene_crosswalk_occupancy(scene, cws)
+    assert np.array_equal(moved, crosswalk_occupancy(scene.xy.swapaxes(1, 2)[:, None, None],
+                                                     scene.radius_m[:, None, None, None, :],
+                                                     cws[0]))
+    for array in (scene.xy, scene.radius_m):
+        array.setflags(write=False)
+    first = circle_gaps.scene_crosswalk_occupancy(scene, cws)
+    assert circle_gaps.scene_crosswalk_occupancy(scene, cws) is first
+    assert np.array_equal(first[0], moved) and not first[0].flags.writeable

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+from dataclasses import replace
 
 import numpy as np
 import pytest
@@ -110,3 +111,18 @@ def test_each_route_obeys_only_its_own_signal_line():
         s0, _ = route.project_point(*spec.initial_state[:2])
         assert s[0] > s0 + 0.5 * spec.vehicle.length_m
     assert math.isclose(rm.signal_plan.cycle_s, sum(p.duration_s for p in rm.signal_plan.phases))
+
+
+def test_route_signal_lines_are_computed_once_per_route_and_map():
+    """Repeated calls give the same lines, each its own arrays; another map is computed anew."""
+    layout = SignalizedIntersection(n_humans=1, n_cross=1).build(np.random.default_rng(0))
+    rm = layout.road_map
+    route = rm.routes["robot_0"]
+    s, heads = route_signal_lines(route, rm)
+    s[:] = -1.0  # the caller's copy
+    s2, heads2 = route_signal_lines(route, rm)
+    assert np.all(s2 > 0.0) and np.array_equal(heads2, heads)
+    assert s2.dtype == np.float64 and heads2.dtype == np.int64
+    other = SignalizedIntersection(n_humans=1, n_cross=1).build(np.random.default_rng(0)).road_map
+    assert np.array_equal(route_signal_lines(route, replace(other, signal_heads=()))[0],
+                          np.zeros(0))
