@@ -17,18 +17,8 @@ import time
 import numpy as np
 
 from marl_social import parallel_env
-from marl_social.bench.env_bench import PLANNER_BENCH_SITUATIONS
+from marl_social.bench.env_bench import PLANNER_BENCH_SITUATIONS, timed
 from marl_social.envs.policies import policies
-
-
-def _timed(function, durations_s: list):
-    """`function`, appending each call's thread CPU time [s] to durations_s."""
-    def timed(*args, **kwargs):
-        c0 = time.thread_time()
-        out = function(*args, **kwargs)
-        durations_s.append(time.thread_time() - c0)
-        return out
-    return timed
 
 
 def belief_times(scenario: str, n_episodes: int) -> tuple[np.ndarray, np.ndarray]:
@@ -41,9 +31,9 @@ def belief_times(scenario: str, n_episodes: int) -> tuple[np.ndarray, np.ndarray
         for i, p in enumerate(pols.values()):
             p.reset(ep * 10 + i)
         robot = pols["robot_0"]
-        robot.belief.update = _timed(robot.belief.update, hidden)
+        robot.belief.update = timed(robot.belief.update, hidden, time.thread_time)
         if getattr(robot, "phase_belief", None) is not None:
-            robot.phase_belief.update = _timed(robot.phase_belief.update, phase)
+            robot.phase_belief.update = timed(robot.phase_belief.update, phase, time.thread_time)
         obs, _ = env.reset(seed=ep)
         while env.agents:
             obs, *_ = env.step({a: pols[a](obs[a]) for a in env.agents})

@@ -66,23 +66,6 @@ def _corners(xy: np.ndarray, heading: np.ndarray, length_m: np.ndarray,
     return xy[..., 0] + dx, xy[..., 1] + dy
 
 
-def project_xy(route: Route, x: np.ndarray, y: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Route.project's arc length and lateral offset of points given as x (...) and y (...) [m].
-
-    Route.project_xy (Route.project's values without the heading).
-
-    Args:
-        route: the route.
-        x: (...) the points' x [m].
-        y: (...) their y [m].
-
-    Returns:
-        s: (...) arc length of the closest point [m] (clamped to [0, length]),
-        lateral: (...) signed lateral offset [m], positive to the left of travel.
-    """
-    return route.project_xy(x, y)
-
-
 def objects_on_path(route: Route, scene: ScenePrediction, s0: float, robot_length_m: float,
                     robot_width_m: float, lateral_margin_m: float,
                     pedestrian_margin_m: float | None = None,
@@ -124,7 +107,7 @@ def objects_on_path(route: Route, scene: ScenePrediction, s0: float, robot_lengt
     is_ped = scene.is_pedestrian[src_l, src_m]
     length = scene.length_m[src_l, src_m][:, None]  # (P, 1)
     width = scene.width_m[src_l, src_m][:, None]
-    s, lateral = project_xy(route, *_corners(xy, heading, length, width))  # (4, P, N)
+    s, lateral = route.project_xy(*_corners(xy, heading, length, width))  # (4, P, N)
     s_rear, s_front = s.min(axis=0), s.max(axis=0)  # (P, N)
     lat_min, lat_max = lateral.min(axis=0), lateral.max(axis=0)
     clearance = lateral_margin_m if pedestrian_clearance_m is None else pedestrian_clearance_m

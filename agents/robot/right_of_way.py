@@ -38,7 +38,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-from marl_social.agents.robot.corridor import PathObject, project_xy
+from marl_social.agents.robot.corridor import PathObject
 
 from marl_social.models.candidates import ScenePrediction
 from marl_social.sim.road_map import RoadMap, Route
@@ -183,7 +183,7 @@ class RightOfWay:
         """
         lane, s_join = merge
         c = self.config
-        s_lane, _ = project_xy(lane, xy[..., 0], xy[..., 1])  # (W, N) along the lane [m]
+        s_lane, _ = lane.project_xy(xy[..., 0], xy[..., 1])  # (W, N) along the lane [m]
         centre = conflict.s_exit_m + (s_lane - s_join)  # ... along the robot's route [m]
         rear = centre - half_length_m[:, None]
         front = centre + half_length_m[:, None]

@@ -179,14 +179,20 @@ def run_env_benchmark(agent_counts=(3, 10, 30, 100), n_steps: int = 500, peer: b
     return rows
 
 
-def _timed(function, durations_s: list):
-    """`function`, appending each call's wall-clock duration [s] to durations_s."""
-    def timed(*args, **kwargs):
-        t0 = time.perf_counter()
+def timed(function, durations_s: list, clock=time.perf_counter):
+    """`function`, appending each call's duration [s] on `clock` to durations_s.
+
+    Args:
+        function: the callable to time.
+        durations_s: the list the durations are appended to [s].
+        clock: wall clock (default) or e.g. time.thread_time (CPU time of this thread).
+    """
+    def timed_call(*args, **kwargs):
+        t0 = clock()
         out = function(*args, **kwargs)
-        durations_s.append(time.perf_counter() - t0)
+        durations_s.append(clock() - t0)
         return out
-    return timed
+    return timed_call
 
 
 # the situation each scenario's planner benchmark runs: the one its claims are about
@@ -233,10 +239,10 @@ def bench_planners(n_episodes: int = 3, robot_planner: str = "social", echo=prin
             p.reset(ep * 10 + i)
         robot_solver = getattr(pols.get("robot_0"), "solver", None)
         if robot_solver is not None:  # time the MPC alone, apart from the belief update
-            robot_solver.plan = _timed(robot_solver.plan, mpc_s)
+            robot_solver.plan = timed(robot_solver.plan, mpc_s)
         robot_belief = getattr(pols.get("robot_0"), "belief", None)
         if robot_belief is not None:
-            robot_belief.update = _timed(robot_belief.update, belief_s)
+            robot_belief.update = timed(robot_belief.update, belief_s)
         obs, _ = env.reset(seed=ep)
         while env.agents:
             t_loop = time.perf_counter()

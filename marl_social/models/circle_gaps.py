@@ -68,7 +68,25 @@ def _circle_pair_gap(ego_x, ego_y, ego_r: float, other_x, other_y, other_r) -> n
     return np.sqrt(nearest) - ego_r - other_r[(slice(None),) + plan_axes + (None, slice(None))]
 
 
-_last_read_only: list = [None, None]  # [scene, scene_circles(scene)] of a read-only scene
+_last_read_only: list = [None, None]  # [(scene,), scene_circles(scene)] of a read-only scene
+
+
+def _remembered(memo: list, key: tuple, compute, inputs: tuple) -> tuple:
+    """compute()'s arrays, remembered in memo = [key, out] while every input is read-only.
+
+    A frozen scene of arrays nobody can write to cannot change: the next call with the same
+    objects (`key`, compared by identity) returns the remembered, read-only arrays.
+    """
+    last_key, last_out = memo
+    if last_key is not None and len(last_key) == len(key) and all(
+            a is b for a, b in zip(last_key, key)):
+        return last_out
+    out = compute()
+    if all(_immutable(array) for array in inputs):
+        for array in out:
+            array.setflags(write=False)
+        memo[:] = [key, out]
+    return out
 
 
 def scene_circles(scene) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -81,17 +99,10 @@ def scene_circles(scene) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         x (J, L, M, T) and y (J, L, M, T) of the centres [m] (J = 1 when every footprint is a
         disc: its circles coincide), and the radii (L, M) [m].
     """
-    if _last_read_only[0] is scene:
-        return _last_read_only[1]
-    out = _scene_circles(scene)
-    if all(_immutable(array) for array in (scene.xy, scene.heading, scene.length_m,
-                                           scene.width_m, scene.is_pedestrian)):
-        # a frozen scene of arrays nobody can write to cannot change: remembered (e.g. the
-        # scene the robot's model of a human reuses while the human sees nobody)
-        for array in out:
-            array.setflags(write=False)
-        _last_read_only[:] = [scene, out]
-    return out
+    # e.g. the scene the robot's model of a human reuses while the human sees nobody
+    return _remembered(_last_read_only, (scene,), lambda: _scene_circles(scene),
+                       (scene.xy, scene.heading, scene.length_m, scene.width_m,
+                        scene.is_pedestrian))
 
 
 def _immutable(array: np.ndarray) -> bool:
@@ -140,8 +151,8 @@ def _scene_circles(scene) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
             scene.xy[..., 1] + along * np.sin(scene.heading), radius[..., 0])
 
 
-# [scene, crosswalks, scene_crosswalk_occupancy(scene, crosswalks)] of a read-only scene
-_last_occupancy: list = [None, None, None]
+# [(scene, crosswalks), scene_crosswalk_occupancy(scene, crosswalks)] of a read-only scene
+_last_occupancy: list = [None, None]
 
 
 def scene_crosswalk_occupancy(scene, crosswalks: tuple) -> tuple[np.ndarray, ...]:
@@ -158,14 +169,10 @@ def scene_crosswalk_occupancy(scene, crosswalks: tuple) -> tuple[np.ndarray, ...
     Returns:
         per crosswalk, (L, 1, 1, T, M) occupancy in 0..1.
     """
-    last = _last_occupancy
-    if last[0] is scene and last[1] is crosswalks:
-        return last[2]
-    xy = scene.xy.swapaxes(1, 2)[:, None, None]  # (L, 1, 1, T, M, 2)
-    radius = scene.radius_m[:, None, None, None, :]
-    out = tuple(crosswalk_occupancy(xy, radius, cw) for cw in crosswalks)
-    if all(_immutable(array) for array in (scene.xy, scene.radius_m)):
-        for array in out:
-            array.setflags(write=False)
-        last[:] = [scene, crosswalks, out]
-    return out
+    def compute():
+        xy = scene.xy.swapaxes(1, 2)[:, None, None]  # (L, 1, 1, T, M, 2)
+        radius = scene.radius_m[:, None, None, None, :]
+        return tuple(crosswalk_occupancy(xy, radius, cw) for cw in crosswalks)
+
+    return _remembered(_last_occupancy, (scene, crosswalks), compute,
+                       (scene.xy, scene.radius_m))

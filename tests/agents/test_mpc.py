@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from marl_social.agents.robot.corridor import mode_bounds, objects_on_path, project_xy
+from marl_social.agents.robot.corridor import mode_bounds, objects_on_path
 from marl_social.agents.robot.mpc import ContingencyMpc, MpcConfig, plan
 
 from marl_social.models.candidates import ScenePrediction
@@ -345,18 +345,19 @@ def test_robot_waiting_behind_a_standing_pedestrian_stays_at_rest(seed):
 
 @pytest.mark.parametrize("n_segments", [1, 2, 7, 30])
 def test_project_xy_is_route_project_bit_for_bit(n_segments):
-    """The corridor's projection (x and y apart) gives Route.project's values, bit for bit."""
+    """Route.project_xy (x and y apart, the corridor's projection) gives Route.project's
+    values, bit for bit."""
     rng = np.random.default_rng(n_segments)
     points = np.cumsum(rng.normal(scale=5.0, size=(n_segments + 1, 2)), axis=0)
     route = Route(points)
     xy = np.concatenate([rng.normal(scale=30.0, size=(5, 24, 4, 2)),  # anywhere around it
                          np.broadcast_to(points[:, None, None, :], (n_segments + 1, 24, 4, 2))])
     s_ref, lateral_ref, _ = route.project(xy)
-    s, lateral = project_xy(route, xy[..., 0], xy[..., 1])
+    s, lateral = route.project_xy(xy[..., 0], xy[..., 1])
     assert s.shape == lateral.shape == xy.shape[:-1]
     assert np.array_equal(s, s_ref) and np.array_equal(lateral, lateral_ref)
     # and one point at a time: the values do not depend on the batch
-    s1, lateral1 = project_xy(route, xy[3, 5, :, 0].copy(), xy[3, 5, :, 1].copy())
+    s1, lateral1 = route.project_xy(xy[3, 5, :, 0].copy(), xy[3, 5, :, 1].copy())
     assert np.array_equal(s1, s_ref[3, 5]) and np.array_equal(lateral1, lateral_ref[3, 5])
 
 
