@@ -55,6 +55,10 @@ class Route:
         self._cum_s_list = self._cum_s[:-1].tolist()
         # (S, 5) per segment: start x, y [m], unit direction x, y, heading [rad] (point_at)
         self._seg_table = np.column_stack([self._seg_start, self._seg_dir, self._seg_heading])
+        # (S, 6) per segment: start x, y [m], unit direction x, y, cos and sin of the heading
+        # (pose_at); np.cos / np.sin give each value the same bits wherever it sits in an array
+        self._pose_table = np.column_stack([self._seg_start, self._seg_dir,
+                                            np.cos(self._seg_heading), np.sin(self._seg_heading)])
 
     def project(self, xy) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """Project points onto the route.
@@ -182,6 +186,29 @@ class Route:
         row = self._seg_table[k]  # (..., 5)
         xy = row[..., 0:2] + local[..., None] * row[..., 2:4]
         return xy, (row[..., 4] if s.ndim else self._seg_heading[k])
+
+    def pose_at(self, s: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """`point_at`'s position, and the cosine and sine of its heading, in fewer operations.
+
+        The same arithmetic as point_at (and np.cos / np.sin of its heading): the position
+        and (cos, sin) are bit for bit those of ``xy, h = point_at(s); cos(h), sin(h)``.
+
+        Args:
+            s: (...) arc length [m], an array of at least one dimension.
+
+        Returns:
+            xy: (..., 2) [m]; direction: (..., 2) cos and sin of the heading (one row (2,) for
+            a single-segment route, where it is the same everywhere).
+        """
+        table = self._pose_table
+        if len(table) == 1:
+            local = s - self._cum_s[0]
+            return table[0, 0:2] + local[..., None] * table[0, 2:4], table[0, 4:6]
+        k = np.searchsorted(self._cum_s, s, side="right") - 1
+        k = np.minimum(np.maximum(k, 0), len(table) - 1)
+        local = s - self._cum_s[k]
+        row = table[k]  # (..., 6)
+        return row[..., 0:2] + local[..., None] * row[..., 2:4], row[..., 4:6]
 
 
 @dataclass(frozen=True)
