@@ -107,9 +107,12 @@ class BoltzmannPedestrian(BoltzmannPolicy):
         """(A,) Q of each walking speed in model.speeds_mps along its route."""
         wants_to_cross = self.crossing and self.time_s >= self.start_delay_s
         v_ref = self.model.v_walk_mps if wants_to_cross else 0.0
-        self._last_xy = (float(decoded.ego[0]), float(decoded.ego[1]))
-        s0, _, _ = self.route.project(decoded.ego[:2].astype(np.float64))
-        return pedestrian_q_values(self.model, self.route, float(s0), v_ref, self.prev_speed,
+        x, y = self._last_xy = (float(decoded.ego[0]), float(decoded.ego[1]))
+        if self.route.n_segments == 1:  # project's arithmetic on Python floats
+            s0, _ = self.route.project_point(x, y)
+        else:
+            s0 = float(self.route.project(decoded.ego[:2].astype(np.float64))[0])
+        return pedestrian_q_values(self.model, self.route, s0, v_ref, self.prev_speed,
                                    scene, self.crosswalks)[0]
 
     def choose(self, probabilities: np.ndarray) -> int:
