@@ -95,7 +95,6 @@ def vehicle_gap_evaluation(cands: CandidateSet, theta: np.ndarray, v_ref_mps: fl
     cost = cost * (dt / DT_S)
     if cost.shape != (n_hyp,) + v.shape:
         cost = np.broadcast_to(cost, (n_hyp,) + v.shape)
-    clearance = np.full((n_hyp,) + v.shape[:2], np.inf)
     # only the objects that are a present vehicle in some hypothesis can be finite
     vehicles = scene.mask & ~scene.is_pedestrian  # (L, M)
     cars = np.flatnonzero(vehicles.any(axis=0))
@@ -104,7 +103,9 @@ def vehicle_gap_evaluation(cands: CandidateSet, theta: np.ndarray, v_ref_mps: fl
             raw_gap, vehicles = raw_gap[..., cars], vehicles[:, cars]
         if not vehicles.all():
             raw_gap = np.where(vehicles[:, None, None, None, :], raw_gap, np.inf)
-        clearance = np.broadcast_to(raw_gap.min(axis=(-1, -2)), clearance.shape)
+        clearance = np.broadcast_to(raw_gap.min(axis=(-1, -2)), (n_hyp,) + v.shape[:2])
+    else:
+        clearance = np.full((n_hyp,) + v.shape[:2], np.inf)
     return CandidateEvaluation(cost, v, a_eff, None, None, None, np.maximum(clearance, 0.0),
                                None, ds, clearance, curve_excess)
 
