@@ -44,6 +44,8 @@ model of a human calls `driver_q_values` with its own hypotheses and (theta_hat,
 
 from __future__ import annotations
 
+import bisect
+import itertools
 import math
 
 import numpy as np
@@ -205,9 +207,11 @@ class BoltzmannDriver(BoltzmannPolicy):
 
         Inverse-CDF sampling: one uniform draw per call.
         """
-        cdf = np.cumsum(probabilities)
-        k = int(np.searchsorted(cdf, self.rng.random() * cdf[-1], side="right"))
-        return min(k, len(probabilities) - 1)
+        # np.cumsum and np.searchsorted(side="right") on a handful of Python floats: the same
+        # sequential sums and comparisons
+        cdf = list(itertools.accumulate(probabilities.tolist()))
+        k = bisect.bisect_right(cdf, self.rng.random() * cdf[-1])
+        return min(k, len(cdf) - 1)
 
     def act(self, chosen: int, obs: np.ndarray) -> np.ndarray:
         """The (2,) [acceleration m/s^2, steering rad] of first action `chosen`."""

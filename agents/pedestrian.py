@@ -14,6 +14,10 @@ cheaper than walking into its path.
 
 from __future__ import annotations
 
+import bisect
+import itertools
+import math
+
 import numpy as np
 from marl_social.agents.base import BoltzmannPolicy
 from marl_social.agents.params import PedestrianPlannerParams, parse_planner_params
@@ -42,16 +46,23 @@ def vehicles_expected_to_yield(tracks: TrackSet, crosswalk: Crosswalk, decel_mps
     """
     if len(tracks) == 0:
         return np.zeros(0, dtype=bool)
-    rel = crosswalk.center - tracks.xy
-    vx, vy = tracks.velocity[:, 0], tracks.velocity[:, 1]
-    speed = np.sqrt(vx * vx + vy * vy)  # np.linalg.norm(axis=1), the same sum of two squares
-    closing = np.einsum("kd,kd->k", rel, tracks.velocity) / np.maximum(speed, 1e-6)
-    # distance from the car's front to the crosswalk's near edge, along its motion
-    distance = np.sqrt(rel[:, 0] * rel[:, 0] + rel[:, 1] * rel[:, 1])
-    gap = distance - 0.5 * crosswalk.width_m - 0.5 * tracks.length_m
-    stopping = speed ** 2 / (2.0 * decel_mps2)
-    approaching = closing > 0.0
-    return ~tracks.is_pedestrian & approaching & (stopping < gap)
+    # a handful of tracks: the array formulas' operations one track at a time on Python floats
+    # (the same IEEE results: rel . v is rel_x v_x + rel_y v_y, norms are sqrt(x x + y y))
+    cx, cy = (float(c) for c in crosswalk.center)
+    half_width = 0.5 * crosswalk.width_m
+    two_decel = 2.0 * decel_mps2
+    out = []
+    for (x, y), (vx, vy), length, is_ped in zip(tracks.xy.tolist(), tracks.velocity.tolist(),
+                                                tracks.length_m.tolist(),
+                                                tracks.is_pedestrian.tolist()):
+        rx, ry = cx - x, cy - y
+        speed = math.sqrt(vx * vx + vy * vy)
+        closing = (rx * vx + ry * vy) / max(speed, 1e-6)
+        # distance from the car's front to the crosswalk's near edge, along its motion
+        gap = math.sqrt(rx * rx + ry * ry) - half_width - 0.5 * length
+        stopping = speed * speed / two_decel
+        out.append(not is_ped and closing > 0.0 and stopping < gap)
+    return np.array(out, dtype=bool)
 
 
 class BoltzmannPedestrian(BoltzmannPolicy):
@@ -96,22 +107,34 @@ class BoltzmannPedestrian(BoltzmannPolicy):
         """(A,) Q of each walking speed in model.speeds_mps along its route."""
         wants_to_cross = self.crossing and self.time_s >= self.start_delay_s
         v_ref = self.model.v_walk_mps if wants_to_cross else 0.0
-        s0, _, _ = self.route.project(decoded.ego[:2].astype(np.float64))
-        return pedestrian_q_values(self.model, self.route, float(s0), v_ref, self.prev_speed,
+        x, y = self._last_xy = (float(decoded.ego[0]), float(decoded.ego[1]))
+        if self.route.n_segments == 1:  # project's arithmetic on Python floats
+            s0, _ = self.route.project_point(x, y)
+        else:
+            s0 = float(self.route.project(decoded.ego[:2].astype(np.float64))[0])
+        return pedestrian_q_values(self.model, self.route, s0, v_ref, self.prev_speed,
                                    scene, self.crosswalks)[0]
 
     def choose(self, probabilities: np.ndarray) -> int:
         """Sample a speed index from (A,) `probabilities` with the seeded generator.
 
-        `Generator.choice` (its own stream consumption, kept apart from the driver's
-        inverse-CDF draw so that seeded episodes stay identical).
+        `Generator.choice(len(p), p=p)` (its own stream consumption, kept apart from the
+        driver's inverse-CDF draw so that seeded episodes stay identical), computed as choice
+        computes it -- cdf = cumsum(p) / cdf[-1], one `random()` draw, searchsorted(side=
+        "right") -- on Python floats; probabilities that choice would reject (negative, NaN,
+        not summing to 1) go to choice itself.
         """
-        return int(self.rng.choice(len(probabilities), p=probabilities))
+        p = probabilities.tolist()
+        cdf = list(itertools.accumulate(p))  # np.cumsum: the same sequential sums
+        total = cdf[-1]
+        if not (abs(total - 1.0) <= 1e-9 and min(p) >= 0.0):
+            return int(self.rng.choice(len(p), p=probabilities))
+        return bisect.bisect_right([c / total for c in cdf], self.rng.random())
 
     def act(self, chosen: int, obs: np.ndarray) -> np.ndarray:
         """The (2,) walking action at speed model.speeds_mps[chosen] along its route."""
         self.time_s += DT_S
         speed = self.model.speeds_mps[chosen]
         self.prev_speed = speed
-        x, y = (float(c) for c in self.layout.decode(obs).ego[:2])
+        x, y = self._last_xy  # of this observation, decoded by q_values
         return walk_along(self.route, x, y, speed)

@@ -46,15 +46,19 @@ def circle_pair_gap(ego_x, ego_y, ego_r: float, other_x, other_y, other_r) -> np
                 out[..., rest] = _circle_pair_gap(ego_x, ego_y, ego_r, other_x[:, :, rest],
                                                   other_y[:, :, rest], other_r[:, rest])
             return out
-    return _circle_pair_gap(ego_x, ego_y, ego_r, other_x, other_y, other_r)
+    # every object at once: scene_circles gives one circle per object (J = 1) when all are
+    # discs, so J > 1 means a vehicle among them and looking for coinciding circles is futile
+    return _circle_pair_gap(ego_x, ego_y, ego_r, other_x, other_y, other_r, False)
 
 
-def _circle_pair_gap(ego_x, ego_y, ego_r: float, other_x, other_y, other_r) -> np.ndarray:
+def _circle_pair_gap(ego_x, ego_y, ego_r: float, other_x, other_y, other_r,
+                     look_for_discs: bool = True) -> np.ndarray:
     """`circle_pair_gap` of every object in every hypothesis (the same arguments).
 
-    When every object's circles coincide (discs) one stands for all (the minimum is exact).
+    With look_for_discs, when every object's circles coincide (discs) one stands for all (the
+    minimum over repeated circles is the same: either way gives the same values).
     """
-    if len(other_x) > 1 and (other_x[1:] == other_x[:1]).all() and (
+    if look_for_discs and len(other_x) > 1 and (other_x[1:] == other_x[:1]).all() and (
             other_y[1:] == other_y[:1]).all():
         other_x, other_y = other_x[:1], other_y[:1]
     plan_axes = (None,) * (ego_x.ndim - 2)  # the ego's plan axes, e.g. (A, C)

@@ -27,6 +27,7 @@ from marl_social.models.candidates import (
     collision_free_totals,
     evaluate_candidates,
 )
+from marl_social.models.gap_evaluation import vehicle_gap_evaluation
 from marl_social.sim.agent_spec import VehicleParams
 from marl_social.sim.costs import CostWeights
 from marl_social.sim.road_map import Crosswalk, Route
@@ -118,6 +119,9 @@ def _evaluate(model: DriverModel, route: Route, s0: float, v0: float, prev_accel
                                       "yield_margin_s": model.yield_margin_s,
                                       "curve_speed": rules.curve_speed}
     candidates, theta = _model_constants(model)
+    if not features:  # the same evaluation in fewer array operations
+        return vehicle_gap_evaluation(candidates, theta, model.v_desired_mps, model.vehicle,
+                                      route, s0, v0, prev_accel, scene, crosswalks, **extra)
     return evaluate_candidates(candidates, theta, model.v_desired_mps,
                                model.vehicle, route, s0, v0, prev_accel, scene, crosswalks,
                                geometry=True, features=features,

@@ -13,7 +13,7 @@ import numpy as np
 
 from marl_social.models.candidates import ScenePrediction
 from marl_social.models.circle_gaps import circle_pair_gap, scene_circles
-from marl_social.sim.costs import CostWeights, step_cost
+from marl_social.sim.costs import CostWeights, _crosswalk_conflict, crosswalk_occupancy
 from marl_social.sim.dynamics import DT_S
 from marl_social.sim.footprint import circle_layout
 from marl_social.sim.road_map import Crosswalk, Route
@@ -56,7 +56,7 @@ def _model_constants(model: PedestrianModel) -> tuple:
 
     Returns:
         plan times (T,) [s], candidate speeds (A,) [m/s], theta (N_FEATURES,), the covering
-        circles' offsets along the heading (C,) [m] and radii (C,) [m] of its disc.
+        circles' radii (C,) [m] of its disc, and speeds x times (A, T) [m].
     """
     try:
         return _cached_model_constants(model)
@@ -67,9 +67,10 @@ def _model_constants(model: PedestrianModel) -> tuple:
 @functools.lru_cache(maxsize=64)
 def _cached_model_constants(model: PedestrianModel) -> tuple:
     diam = 2.0 * model.radius_m
-    along, radius = circle_layout(diam, diam, True)
-    out = (model.plan_times_s, np.array(model.speeds_mps, dtype=np.float64),
-           model.theta.as_array(), along, radius)
+    _, radius = circle_layout(diam, diam, True)
+    t = model.plan_times_s
+    speeds = np.array(model.speeds_mps, dtype=np.float64)
+    out = (t, speeds, model.theta.as_array(), radius, speeds[:, None] * t[None, :])
     for array in out:  # shared by every decision of the model
         array.setflags(write=False)
     return out
@@ -78,29 +79,70 @@ def _cached_model_constants(model: PedestrianModel) -> tuple:
 def pedestrian_q_values(model: PedestrianModel, route: Route, s0: float, v_ref: float,
                         prev_speed: float, scene: ScenePrediction,
                         crosswalks: tuple[Crosswalk, ...]) -> np.ndarray:
-    """Cost (L, A) of walking at each candidate speed for the horizon, per scene hypothesis."""
+    """Cost (L, A) of walking at each candidate speed for the horizon, per scene hypothesis.
+
+    sim/costs.step_cost of every step (the pedestrian's disc along its route against the
+    scene's covering circles, models/circle_gaps.py), summed over the horizon, in simulator-step
+    units. Computed term by term in step_cost's order without the terms that add exact zeros
+    (its lateral offset is 0, and every feature is >= +0: x + 0.0 == x); its own circles
+    coincide with its centre (offset 0 along its heading; the sign of a zero offset cannot
+    change a squared distance), so its centre stands for them
+    (tests/models/test_pedestrian_costs.py checks it against step_cost bit for bit).
+    """
     dt = model.plan_dt_s
-    t, speeds, theta, ego_along, ego_radius = _model_constants(model)
-    s = np.minimum(s0 + speeds[:, None] * t[None, :], route.length_m)  # (A, T)
-    xy, heading = route.point_at(s)
-    v = np.broadcast_to(speeds[:, None], s.shape)
-    accel = np.zeros_like(v)
+    _, speeds, theta, ego_radius, speed_times = _model_constants(model)
+    s = np.minimum(s0 + speed_times, route.length_m)  # (A, T)
+    xy, _ = route.pose_at(s)
+    accel = np.zeros(s.shape)
     accel[:, 0] = (speeds - prev_speed) / dt
-    # covering circles (footprint.covering_circles): its own coincide (a disc), one stands for
-    # all; every circle pair with the others in one broadcast (models/candidates.py)
-    ego_x = (xy[..., 0] + ego_along[0] * np.cos(heading))[None]  # (1, A, T)
-    ego_y = (xy[..., 1] + ego_along[0] * np.sin(heading))[None]
-    ox, oy, other_r = scene_circles(scene)
-    gap = np.maximum(circle_pair_gap(ego_x, ego_y, float(ego_radius[0]), ox, oy, other_r), 0.0)
-    to_cand = lambda a: a.swapaxes(1, 2)[:, None]  # (L, 1, T, M, ...)
-    cost = step_cost(
-        theta, lateral_m=0.0, speed_mps=v, v_ref_mps=v_ref, accel_mps2=accel,
-        prev_accel_mps2=0.0,
-        ego_xy=xy, ego_radius=model.radius_m, ego_is_ped=True, ego_circles=None,
-        ego_circle_r=None, other_xy=to_cand(scene.xy),
-        other_radius=scene.radius_m[:, None, None, :],
-        other_is_ped=scene.is_pedestrian[:, None, None, :], other_circles=None,
-        other_circle_r=None, other_mask=scene.mask[:, None, None, :],
-        crosswalks=crosswalks, gap=gap,
-    )  # (L, A, T)
-    return cost.sum(axis=-1) * (dt / DT_S)
+    w_speed, w_accel, w_jerk, w_safety, w_conflict = (float(w) for w in theta[1:])
+    n_hyp = len(scene.mask)
+    total = None
+
+    def add(total, term):
+        return term if total is None else total + term
+
+    if w_speed != 0.0:
+        term = np.broadcast_to(speeds[:, None], s.shape) - v_ref
+        term *= term
+        term *= w_speed
+        total = add(total, term)
+    if w_accel != 0.0 or w_jerk != 0.0:
+        squared = accel * accel  # the jerk's (a - 0.0)^2 too: a - 0.0 == a
+        if w_accel != 0.0:
+            total = add(total, w_accel * squared)
+        if w_jerk != 0.0:
+            total = add(total, w_jerk * squared)
+    other_mask = scene.mask[:, None, None, :]  # (L, 1, 1, M)
+    if w_safety != 0.0:
+        ox, oy, other_r = scene_circles(scene)
+        gap = circle_pair_gap(xy[None, ..., 0], xy[None, ..., 1], float(ego_radius[0]),
+                              ox, oy, other_r)  # (L, A, T, M)
+        np.maximum(gap, 0.0, out=gap)
+        np.negative(gap, out=gap)
+        np.exp(gap, out=gap)
+        if not scene.mask.all():
+            gap = np.where(other_mask, gap, 0.0)
+        term = np.sum(gap, axis=-1)
+        term *= w_safety
+        total = add(total, term)
+    if w_conflict != 0.0 and crosswalks:
+        pair_mask = other_mask & ~scene.is_pedestrian[:, None, None, :]  # vehicles
+        if not pair_mask.any():  # zeros: they only matter where they broadcast the total
+            shape = (n_hyp,) + s.shape
+            if total is None or total.shape != shape:
+                total = add(total, w_conflict * np.zeros(shape))
+        else:
+            other_xy = scene.xy.swapaxes(1, 2)[:, None]  # (L, 1, T, M, 2)
+            other_radius = scene.radius_m[:, None, None, :]
+            conflict = 0.0
+            for cw in crosswalks:
+                conflict = conflict + _crosswalk_conflict(
+                    crosswalk_occupancy(xy, model.radius_m, cw),
+                    crosswalk_occupancy(other_xy, other_radius, cw), pair_mask)
+            total = add(total, w_conflict * conflict)
+    if total is None:
+        total = np.zeros(s.shape)
+    if total.ndim == 2:  # nothing depended on the scene
+        total = np.broadcast_to(total, (n_hyp,) + s.shape)
+    return total.sum(axis=-1) * (dt / DT_S)

@@ -33,7 +33,7 @@ def pure_pursuit(route: Route, x: float, y: float, psi: float, v: float, s: floa
         lookahead_time_s: look-ahead time at speed v [s].
     """
     lookahead = max(min_lookahead_m, lookahead_time_s * v)
-    (tx, ty), _ = route.point_at(s + lookahead)
+    tx, ty = route.point_at_float(s + lookahead)
     alpha = math.atan2(ty - y, tx - x) - psi
     alpha = (alpha + math.pi) % (2 * math.pi) - math.pi
     return math.atan2(2.0 * wheelbase_m * math.sin(alpha), lookahead)
@@ -49,8 +49,8 @@ def walk_along(route: Route, x: float, y: float, speed_mps: float,
     s, _ = route.project_point(x, y)
     if speed_mps <= 0.0 or s >= route.length_m - 1e-3:
         return np.zeros(2, dtype=np.float32)
-    (tx, ty), _ = route.point_at(min(s + lookahead_m, route.length_m))
-    dx, dy = float(tx) - x, float(ty) - y
+    tx, ty = route.point_at_float(min(s + lookahead_m, route.length_m))
+    dx, dy = tx - x, ty - y
     norm = math.hypot(dx, dy)
     if norm < 1e-6:
         return np.zeros(2, dtype=np.float32)

@@ -7,6 +7,7 @@ radians counter-clockwise from +x.
 
 from __future__ import annotations
 
+import bisect
 import math
 from dataclasses import dataclass, field, replace
 
@@ -55,6 +56,17 @@ class Route:
         self._cum_s_list = self._cum_s[:-1].tolist()
         # (S, 5) per segment: start x, y [m], unit direction x, y, heading [rad] (point_at)
         self._seg_table = np.column_stack([self._seg_start, self._seg_dir, self._seg_heading])
+        # (S, 6) per segment: start x, y [m], unit direction x, y, cos and sin of the heading
+        # (pose_at); np.cos / np.sin give each value the same bits wherever it sits in an array
+        self._pose_table = np.column_stack([self._seg_start, self._seg_dir,
+                                            np.cos(self._seg_heading), np.sin(self._seg_heading)])
+        self._cum_s_all_list = self._cum_s.tolist()  # (S + 1,) point_at_float's lookup
+        self._seg_point_list = np.column_stack([self._seg_start, self._seg_dir]).tolist()
+
+    @property
+    def n_segments(self) -> int:
+        """Number of straight segments of the polyline."""
+        return len(self._seg_len)
 
     def project(self, xy) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """Project points onto the route.
@@ -145,7 +157,7 @@ class Route:
         """Arc length [m] and signed lateral offset [m] of one point.
 
         The scalar version of `project`, in plain Python for short routes (a planner's per-step
-        query).
+        query); on a single-segment route its result is project's, bit for bit.
         """
         if len(self._seg_len) > 16:
             s, lateral, _ = self.project(np.array([x, y]))
@@ -182,6 +194,43 @@ class Route:
         row = self._seg_table[k]  # (..., 5)
         xy = row[..., 0:2] + local[..., None] * row[..., 2:4]
         return xy, (row[..., 4] if s.ndim else self._seg_heading[k])
+
+    def point_at_float(self, s: float) -> tuple[float, float]:
+        """`point_at`'s position (x, y) [m] of one arc length s [m], on Python floats.
+
+        The same lookup (searchsorted side="right", clamped to the segments) and the same
+        arithmetic (start + (s - segment start s) * direction), bit for bit, without numpy's
+        per-call cost (a planner's one look-ahead point per step).
+        """
+        n_seg = len(self._seg_point_list)
+        k = 0 if n_seg == 1 else min(max(bisect.bisect_right(self._cum_s_all_list, s) - 1, 0),
+                                     n_seg - 1)
+        local = s - self._cum_s_all_list[k]
+        x0, y0, dx, dy = self._seg_point_list[k]
+        return x0 + local * dx, y0 + local * dy
+
+    def pose_at(self, s: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """`point_at`'s position, and the cosine and sine of its heading, in fewer operations.
+
+        The same arithmetic as point_at (and np.cos / np.sin of its heading): the position
+        and (cos, sin) are bit for bit those of ``xy, h = point_at(s); cos(h), sin(h)``.
+
+        Args:
+            s: (...) arc length [m], an array of at least one dimension.
+
+        Returns:
+            xy: (..., 2) [m]; direction: (..., 2) cos and sin of the heading (one row (2,) for
+            a single-segment route, where it is the same everywhere).
+        """
+        table = self._pose_table
+        if len(table) == 1:
+            local = s - self._cum_s[0]
+            return table[0, 0:2] + local[..., None] * table[0, 2:4], table[0, 4:6]
+        k = np.searchsorted(self._cum_s, s, side="right") - 1
+        k = np.minimum(np.maximum(k, 0), len(table) - 1)
+        local = s - self._cum_s[k]
+        row = table[k]  # (..., 6)
+        return row[..., 0:2] + local[..., None] * row[..., 2:4], row[..., 4:6]
 
 
 @dataclass(frozen=True)

@@ -44,8 +44,9 @@ from marl_social.perception.belief.paths import LanePaths
 from marl_social.perception.belief.social import SocialLikelihood
 from marl_social.perception.tracking import TrackSet
 
-from marl_social.models.candidates import ScenePrediction, evaluate_candidates
+from marl_social.models.candidates import ScenePrediction
 from marl_social.models.driver import RoadRules, rule_abiding_totals
+from marl_social.models.gap_evaluation import vehicle_gap_evaluation
 from marl_social.sim.dynamics import DT_S
 from marl_social.sim.observation import DecodedObservation
 from marl_social.sim.road_map import RoadMap, Route
@@ -311,10 +312,10 @@ class SignalPhaseBelief:
         scene = others if others is not None else self._empty_scene()
         v0 = max(car.v_mps, 0.0)
         curve = self.social._curve_speed(car.route)
-        ev = evaluate_candidates(model.candidates, model.theta.as_array(), model.v_desired_mps,
-                                 model.vehicle, car.route, car.s_m, v0, prev_accel, scene,
-                                 self.road_map.crosswalks, geometry=True, curve_speed=curve,
-                                 vehicle_gaps_only=True)
+        ev = vehicle_gap_evaluation(model.candidates, model.theta.as_array(),
+                                    model.v_desired_mps, model.vehicle, car.route, car.s_m, v0,
+                                    prev_accel, scene, self.road_map.crosswalks,
+                                    curve_speed=curve)
         q_go = rule_abiding_totals(ev, model, car.s_m, RoadRules(None, (), curve))[0]
         q_stop = rule_abiding_totals(ev, model, car.s_m, RoadRules(car.line_s_m, (), curve))[0]
         stops = stops_per_phase(self.head_states, car)

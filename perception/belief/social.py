@@ -67,11 +67,9 @@ from marl_social.perception.belief.hypotheses import Hypothesis
 from marl_social.perception.belief.paths import LanePaths
 from marl_social.perception.tracking import TrackSet
 
-from marl_social.models.candidates import (
-    ScenePrediction,
-    evaluate_candidates,
-)
+from marl_social.models.candidates import ScenePrediction
 from marl_social.models.driver import DriverModel, RoadRules, rule_abiding_totals
+from marl_social.models.gap_evaluation import vehicle_gap_evaluation
 from marl_social.sim.agent_spec import VehicleParams
 from marl_social.sim.dynamics import DT_S
 from marl_social.sim.observation import DecodedObservation
@@ -212,11 +210,11 @@ class SocialLikelihood:
         keep = np.concatenate([np.flatnonzero(~present)[:1], np.flatnonzero(present)])
         scene = self.scenes.kept_scene(others, objects, keep)  # hypothesis_scene(others, viewer)[keep]
         rules = RoadRules(None, self.yield_zones(route, s0, scene), self._curve_speed(route))
-        ev = evaluate_candidates(self._candidates, self._theta_no_speed, 0.0, self.model.vehicle,
-                                 route, s0, v0, prev_accel, scene, self.road_map.crosswalks,
-                                 geometry=True, yield_zones=rules.yield_zones,
-                                 yield_margin_s=self.model.yield_margin_s,
-                                 curve_speed=rules.curve_speed, vehicle_gaps_only=True)
+        ev = vehicle_gap_evaluation(self._candidates, self._theta_no_speed, 0.0,
+                                    self.model.vehicle, route, s0, v0, prev_accel, scene,
+                                    self.road_map.crosswalks, yield_zones=rules.yield_zones,
+                                    yield_margin_s=self.model.yield_margin_s,
+                                    curve_speed=rules.curve_speed)
         # (L, A, C): predicted collisions and plans too fast for its bends excluded
         base = rule_abiding_totals(ev, self.model, s0, rules)
         scale = self._candidates.plan_dt_s / DT_S
