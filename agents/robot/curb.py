@@ -54,6 +54,8 @@ class CurbConfig:
         rest_mps: the robot is at rest below this speed [m/s].
         front_m: the robot stands "in front of the crosswalk" within this distance of where
             it stops for it [m].
+        prepared_full_s: a pedestrian that steps off after the robot planned its "steps off
+            now" branch this long is met with the full comfort weight (`prepared_comfort`) [s].
     """
 
     p_step_off: float = 0.2
@@ -64,6 +66,7 @@ class CurbConfig:
     patience_s: float = 2.0
     rest_mps: float = 0.1
     front_m: float = 4.0
+    prepared_full_s: float = 1.0
 
     def __post_init__(self):
         if not 0.0 < self.p_step_off < 1.0:
@@ -111,6 +114,7 @@ class CurbPedestrians:
         """A new episode: no waiting time, no pedestrian judged to wait for something else."""
         self.wait_s: dict[int, float] = {}  # track id -> time the robot stood in front of it
         self.ignored: set[int] = set()
+        self.prepared_s: dict[int, float] = {}  # id -> how long a "steps off" branch was planned
 
     def _gaps(self, s0: float) -> list[tuple[Crosswalk, float]]:
         """The crossings whose far edge is still ahead of the robot's rear.
@@ -151,6 +155,68 @@ class CurbPedestrians:
         if not hold.any():
             return tracks
         return replace(tracks, velocity=np.where(hold[:, None], 0.0, tracks.velocity))
+
+    def walk_across(self, tracks: TrackSet) -> TrackSet:
+        """The tracks, with pedestrians on a crosswalk of the robot's route walking across it.
+
+        A pedestrian on a crosswalk walks along its walk axis: the component of its tracked
+        velocity along the road is tracking noise, not a walk towards the robot (predicted
+        over the horizon, 0.05 m/s of it moves a stay-behind bound 0.3 m towards a robot
+        stopping in front of the crosswalk, which cannot back up: an emergency stop it does
+        not need). Its velocity is projected on the walk axis.
+
+        Args:
+            tracks: the robot's tracks (the truth for the oracle), k of them.
+
+        Returns:
+            the TrackSet with those pedestrians' velocity (k, 2) projected.
+        """
+        if len(tracks) == 0 or not tracks.is_pedestrian.any():
+            return tracks
+        velocity, changed = tracks.velocity, False
+        for i, _ in self._crossings:
+            cw = self.crosswalks[i]
+            on = tracks.is_pedestrian & cw.contains(tracks.xy)
+            if not on.any():
+                continue
+            walk = np.array([np.cos(cw.walk_heading_rad), np.sin(cw.walk_heading_rad)])
+            along = velocity @ walk  # (k,) [m/s]
+            velocity = np.where(on[:, None], along[:, None] * walk, velocity)
+            changed = True
+        return replace(tracks, velocity=velocity) if changed else tracks
+
+    def prepared_comfort(self, tracks: TrackSet) -> float:
+        """How firmly the robot meets a pedestrian that stepped off as it prepared to, in [0, 1].
+
+        For a pedestrian the robot planned a "steps off now" branch for, now walking on or
+        near its crosswalk (within `curb_reach_m`), the contingency came true: the robot
+        prepared a comfortable stop for it (mpc.MpcConfig.comfort_decel_mps2, a soft bound),
+        and meets it with that bound (the comfort weight times this factor) rather than with
+        the nominal cost alone, which trades a later, harder stop for speed. The factor is the
+        time the branch was planned over `prepared_full_s`, capped at 1: a branch planned
+        for an instant has not slowed the robot, and holding it to the comfortable bound then
+        means a steeper onset instead. A track no longer tracked or off the crosswalk is
+        forgotten.
+
+        Args:
+            tracks: the robot's tracks (the truth for the oracle), k of them.
+
+        Returns:
+            the largest factor over such pedestrians (0: none).
+        """
+        if not self.prepared_s:
+            return 0.0
+        c = self.config
+        near = np.zeros(len(tracks), dtype=bool)
+        for i, _ in self._crossings:
+            near |= self.crosswalks[i].contains(tracks.xy, c.curb_reach_m)
+        keep = np.isin(tracks.ids, list(self.prepared_s)) & tracks.is_pedestrian & near
+        self.prepared_s = {int(t): self.prepared_s[int(t)] for t in tracks.ids[keep]}
+        walking = np.linalg.norm(tracks.velocity[keep], axis=1) >= c.standing_mps
+        if not walking.any():
+            return 0.0
+        longest = max(self.prepared_s[int(t)] for t in tracks.ids[keep][walking])
+        return min(1.0, longest / c.prepared_full_s)
 
     def step_off(self, tracks: TrackSet, s0: float, v0: float, dt_s: float,
                  times_s: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -199,6 +265,7 @@ class CurbPedestrians:
                 # it walks across: towards the crosswalk's centre line along the walk axis
                 direction = walk if np.dot(cw.center - tracks.xy[j], walk) >= 0.0 else -walk
                 xy_out.append(tracks.xy[j] + c.walk_speed_mps * times_s[:, None] * direction)
+                self.prepared_s[tid] = self.prepared_s.get(tid, 0.0) + dt_s
                 heading_out.append(np.arctan2(direction[1], direction[0]))
         self.wait_s = {k: w for k, w in self.wait_s.items() if k in seen}
         self.ignored &= seen

@@ -314,7 +314,7 @@ class RobotPlanner:
         s0, _ = self.route.project_point(x, y)
         # a pedestrian walking up to the curb in front of a robot that can no longer stop
         # comfortably waits there (gap acceptance, agents/robot/curb.py)
-        tracks = self.curb.hold_at_curb(tracks, s0, v)
+        tracks = self.curb.walk_across(self.curb.hold_at_curb(tracks, s0, v))
         # the pedestrian hypotheses of a crosswalk at which the robot tracks a pedestrian are
         # about that pedestrian (the belief holds at most one hidden agent): the tracked one is
         # predicted, not a hypothesised copy (also while the robot does not see it, out of its
@@ -325,6 +325,8 @@ class RobotPlanner:
         if self.phase_belief is not None:
             scene, weights, contingent = self._phase_branches(decoded, tracks, scene, weights,
                                                               contingent)
+        # a pedestrian stepping off as a branch prepared for is met as that branch planned
+        contingent = np.maximum(contingent, self.curb.prepared_comfort(tracks))
         step_xy, step_heading = self.curb.step_off(tracks, s0, v, DT_S, self._times)
         if len(step_xy):
             scene, weights = self._with_step_off(scene, weights, step_xy, step_heading)

@@ -215,7 +215,11 @@ def interaction_timings(result: EpisodeResult, robot: str = "robot_0", human: st
         brake_mps2: a deceleration at least this strong counts as braking [m/s^2].
 
     Returns:
-        human_brakes_s: first time the human brakes (nan: never) [s];
+        human_sees_pedestrian_s: first time the human sees the pedestrian (nan: never) [s];
+        human_brakes_s: first time the human brakes for the pedestrian: at or after it first
+            sees it, and below its own cruise speed (`AgentSpec.v_desired_mps`: a human
+            starting faster than that first slows down to it, which tells the robot nothing of
+            the pedestrian; nan: never) [s];
         pedestrian_clears_lane_s: first time the pedestrian, having been in the robot's lane
             (within half a lane width plus its radius of the robot's route), is out of it and
             walking away (nan: never) [s];
@@ -227,14 +231,22 @@ def interaction_timings(result: EpisodeResult, robot: str = "robot_0", human: st
     times = np.asarray(trace.times_s)
     states = np.asarray(trace.states)
     accel = np.asarray(trace.accel_mps2)
-    out = {"human_brakes_s": np.nan, "pedestrian_clears_lane_s": np.nan,
-           "robot_moves_again_s": np.nan}
-    if human in trace.names:
-        braking = np.flatnonzero(accel[:, trace.index(human)] <= -brake_mps2)
-        if len(braking):
-            out["human_brakes_s"] = float(times[braking[0] + 1])
+    out = {"human_sees_pedestrian_s": np.nan, "human_brakes_s": np.nan,
+           "pedestrian_clears_lane_s": np.nan, "robot_moves_again_s": np.nan}
     if pedestrian not in trace.names:
         return out
+    if human in trace.names:
+        h = trace.index(human)
+        seen = np.flatnonzero(np.asarray(trace.visible)[:, h, trace.index(pedestrian)])
+        if len(seen):
+            out["human_sees_pedestrian_s"] = float(times[seen[0]])
+            cruise = (result.specs[human].v_desired_mps
+                      if result.specs and human in result.specs else np.inf)
+            # accel[k] is applied from state k to k + 1: braking at k is seen at time k + 1
+            braking = np.flatnonzero((accel[seen[0]:, h] <= -brake_mps2)
+                                     & (states[seen[0]:-1, h, 3] < cruise))
+            if len(braking):
+                out["human_brakes_s"] = float(times[seen[0] + braking[0] + 1])
     route = road_map.routes[robot]
     p = trace.index(pedestrian)
     _, lateral, _ = route.project(states[:, p, :2])
