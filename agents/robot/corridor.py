@@ -320,3 +320,49 @@ def past_reachable(obj: PathObject, v0: float, v_cap_mps: float, accel_max_mps2:
     if k < 0:
         return False
     return reach((k + 1) * dt_s) >= obj.s_front_m[obj.k_first] + ahead
+
+
+def reachable_progress(v0: float, prev_accel: float, accel_max_mps2: float,
+                       jerk_max_mps3: float, first_dt_s: float, dt_s: float,
+                       v_max_mps: np.ndarray) -> np.ndarray:
+    """(N,) an upper bound on the progress at the end of each plan step [m].
+
+    The plan's dynamics (agents/robot/qp.py) with the acceleration as high as the jerk bound
+    lets it climb from the previous command (within first_dt_s on the first step, dt_s on each
+    next one), at most accel_max, and the speed capped by v_max at the end of each step:
+    v_k <= min(v_max_k, v_{k-1} + a_k dt) and s_k - s_{k-1} = dt (v_{k-1} + v_k) / 2.
+
+    Args:
+        v0: the robot's speed [m/s].
+        prev_accel: its previous acceleration command [m/s^2].
+        accel_max_mps2: its largest acceleration [m/s^2].
+        jerk_max_mps3: the jerk bound [m/s^3].
+        first_dt_s: the time the first acceleration may change in (a simulator step) [s].
+        dt_s: plan step [s].
+        v_max_mps: (N,) the speed bound of each plan step [m/s].
+    """
+    n = len(v_max_mps)
+    accel = np.minimum(accel_max_mps2, prev_accel + jerk_max_mps3 * (first_dt_s
+                                                                     + dt_s * np.arange(n)))
+    climb = np.cumsum(accel * dt_s)
+    # v_k = min(v0 + climb_k, min_{j <= k} v_max_j + climb_k - climb_j), and v >= 0
+    speed = np.maximum(climb + np.minimum(v0, np.minimum.accumulate(v_max_mps - climb)), 0.0)
+    return np.cumsum(0.5 * dt_s * (np.concatenate([[v0], speed[:-1]]) + speed))
+
+
+def provably_infeasible(s_low: np.ndarray, s_up: np.ndarray, reachable_m: np.ndarray,
+                        margin_m: float) -> bool:
+    """Whether no plan meets progress bounds by less than margin_m of violation.
+
+    Progress never decreases (v >= 0), so a plan past s_low[k] at step k is past it at every
+    later step j, where it must also be behind s_up[j] (s_up bounds s + h v, h v >= 0) and
+    within reach (reachable_progress).
+
+    Args:
+        s_low: (L, N) lower bounds on progress (-inf: none) [m].
+        s_up: (L, N) upper bounds on progress + headway x speed (inf: none) [m].
+        reachable_m: (N,) the upper bound on progress of reachable_progress [m].
+        margin_m: the violation that still does not count as infeasible [m].
+    """
+    need = np.maximum.accumulate(s_low, axis=-1)
+    return bool(np.any(need > np.minimum(s_up, reachable_m) + margin_m))

@@ -59,6 +59,8 @@ from marl_social.agents.robot.corridor import (
     mode_bounds,
     objects_on_path,
     past_reachable,
+    provably_infeasible,
+    reachable_progress,
     route_curvature,
 )
 from marl_social.agents.robot.qp import ContingencyQp, QpSolution, QpWeights
@@ -69,6 +71,7 @@ from marl_social.sim.dynamics import DT_S
 from marl_social.sim.road_map import Route
 
 MAX_MODE_OBJECTS = 3  # per branch, objects beyond this many with two plausible modes stay behind
+INFEASIBLE_MARGIN_M = 0.5  # bounds violated by more than this even at best skip the QP [m]
 ROOM_M = 0.1  # a stay-behind bound gives way to where braking gets the robot plus this [m]
 STANDSTILL_MARGIN_M = 0.05  # at rest, plans going no further than the room + this stay [m]
 
@@ -309,9 +312,10 @@ class ContingencyMpc:
         self._reach = self._braking_reach(v0)  # _branch_bounds' room, for this v0
         # the curvature bound needs the positions, which the plan decides: guess them (constant
         # speed), solve, and widen the guess to the solution's positions until it holds them
+        # or the wider guess bounds the speed as before (the same QP again)
         guess_lo = guess_hi = s0 + v0 * self._plan_times
+        v_max, curved = self._speed_bound(route, guess_lo, guess_hi, v_cap)
         for _ in range(4):
-            v_max, curved = self._speed_bound(route, guess_lo, guess_hi, v_cap)
             bounds = (v0, prev_accel, v_ref, v_max, wall, margin, s0)
             chosen, solution, relaxed = self._solve_all(per_hyp, live_idx, weights, bounds,
                                                         v_cap)
@@ -322,6 +326,10 @@ class ContingencyMpc:
             if np.all(lo >= guess_lo - 0.5) and np.all(hi <= guess_hi + 0.5):
                 break
             guess_lo, guess_hi = np.minimum(guess_lo, lo), np.maximum(guess_hi, hi)
+            wider, curved = self._speed_bound(route, guess_lo, guess_hi, v_cap)
+            if np.array_equal(wider, v_max):
+                break
+            v_max = wider
         modes = [()] * len(beliefs)
         for l, m in zip(live_idx, chosen):
             modes[l] = m
@@ -409,11 +417,17 @@ class ContingencyMpc:
                jerk_max: float | None = None) -> QpSolution:
         veh = self.vehicle
         v0, prev, v_ref, v_max = bounds[:4]
+        jerk_max = jerk_max or self.config.jerk_max_mps3
+        # a QP that reachability shows infeasible is not solved: OSQP may need thousands of
+        # iterations to find that out
+        reachable = reachable_progress(v0, prev, veh.accel_max_mps2, jerk_max, DT_S,
+                                       self.config.plan_dt_s, v_max)
+        if provably_infeasible(s_low, s_up, reachable, INFEASIBLE_MARGIN_M):
+            return qp.failed()
         v_max_b = np.broadcast_to(v_max, s_low.shape)
         return qp.solve(weights, v0, prev, v_ref, v_max_b, s_low, s_up,
-                        -veh.brake_max_mps2, veh.accel_max_mps2,
-                        jerk_max or self.config.jerk_max_mps3, self.config.comfort_decel_mps2,
-                        comfort, *self._goal)
+                        -veh.brake_max_mps2, veh.accel_max_mps2, jerk_max,
+                        self.config.comfort_decel_mps2, comfort, *self._goal)
 
     def _choose_modes(self, objects: list[PathObject], bounds: tuple, v_cap: float,
                       pass_pedestrians: bool, hyp: int) -> tuple:

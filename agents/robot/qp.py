@@ -29,7 +29,10 @@ unless asked for: a robot at rest short of its stop line drives up to it instead
 agents/robot/mpc.py) gives arriving sooner a value, which the speed term alone does not (its
 gain grows with the distance covered, not with how soon). The sparsity of P and A depends
 only on (L, N, n_trunk); a new step updates P's values
-(the beliefs), q and the bounds, and OSQP warm-starts from the previous solution.
+(the beliefs), q and the bounds, and OSQP warm-starts from the previous solution. A QP that
+OSQP has not solved within ROUND_ITER iterations (a degenerate optimum: it may need thousands)
+is solved exactly from the active set its iterate shows, the result checked against the KKT
+conditions (agents/robot/active_set.py); only if that fails does OSQP iterate on.
 """
 
 from __future__ import annotations
@@ -39,10 +42,19 @@ from dataclasses import dataclass
 import numpy as np
 import osqp
 import scipy.sparse as sp
+from marl_social.agents.robot.active_set import ActiveSetSolver
 
 _OK = frozenset(int(s) for s in (osqp.SolverStatus.OSQP_SOLVED,
                                   osqp.SolverStatus.OSQP_SOLVED_INACCURATE))
 _MAX_ITER = int(osqp.SolverStatus.OSQP_MAX_ITER_REACHED)
+_STOPPED = frozenset((_MAX_ITER, int(osqp.SolverStatus.OSQP_SOLVED_INACCURATE)))
+# ADMM iterations before an exact solve from the iterate's active set (active_set.py) is
+# tried: a hard QP needs thousands of iterations, but its iterate tells the active set after a
+# few hundred; if that fails, rounds of twice as many iterations (at most MAX_ITER), each
+# followed by another try
+ROUND_ITER = 200
+MAX_ITER = 4000
+MAX_ROUNDS = 8  # 18 200 iterations in all; then the QP has failed (unless solved inaccurately)
 _INF = 1e20  # OSQP's infinity
 _OSQP_INFTY = 1e30  # what osqp.OSQP.update clips the bounds to (its OSQP_INFTY)
 # what a QP's layout needs, built once per (L, N, n_trunk, steps, weights, headway) and shared
@@ -52,7 +64,7 @@ _STRUCTURE_FIELDS = ("_a_off", "_v_off", "_s_off", "_c_off", "n_vars", "_a_idx",
                      "_s_idx", "_c_idx", "_p_slot", "_p_rows", "_p_cols", "_p_coef",
                      "_p_branch", "_p_comfort", "_p_progress_slot", "_p_progress_branch",
                      "_a_matrix", "_rows",
-                     "_lower_template", "_upper_template", "_p_initial")
+                     "_lower_template", "_upper_template", "_p_initial", "_active_set")
 _STRUCTURES: dict[tuple, dict] = {}
 
 
@@ -127,7 +139,7 @@ class ContingencyQp:
         self._solver.setup(self._p_initial.copy(), np.zeros(self.n_vars), self._a_matrix.copy(),
                            self._lower_template.copy(), self._upper_template.copy(),
                            verbose=False, eps_abs=tolerance, eps_rel=tolerance,
-                           max_iter=4000, polishing=True, warm_starting=True,
+                           max_iter=ROUND_ITER, polishing=True, warm_starting=True,
                            check_termination=10,
                            # a fixed rho-update interval: OSQP's default (0) times the setup
                            # and adapts on wall-clock time, which breaks bit-identical episodes
@@ -155,6 +167,7 @@ class ContingencyQp:
         self._build_cost_pattern()
         self._build_constraints(headway_s)
         self._p_initial = self._p_matrix(np.full(n_branches, 1.0 / n_branches))
+        self._active_set = ActiveSetSolver(self._p_rows, self._p_cols, self._a_matrix)
 
     # -- cost ---------------------------------------------------------------------------------
 
@@ -327,34 +340,74 @@ class ContingencyQp:
         lower, upper = self._bounds(v0, prev_accel, v_max, s_low, s_up, accel_min, accel_max,
                                     jerk_max, comfort_decel)
         if np.any(lower > upper + 1e-9):
-            return self._failed()
+            return self.failed()
         # osqp.OSQP.update's order: the vectors (bounds clipped to OSQP's infinity), then P
         np.maximum(lower, -_OSQP_INFTY, out=lower)
         np.minimum(upper, _OSQP_INFTY, out=upper)
         ext = self._ext
-        ext.update_data_vec(q=self._q_vector(weights, v_ref_mps, prev_accel, goal_weight, goal_m),
-                            l=lower, u=upper)
-        ext.update_data_mat(P_x=self._p_values(weights, comfort, goal_weight), P_i=None,
-                            A_x=None, A_i=None)
+        self._q_last = self._q_vector(weights, v_ref_mps, prev_accel, goal_weight, goal_m)
+        ext.update_data_vec(q=self._q_last, l=lower, u=upper)
+        p_values = self._p_values(weights, comfort, goal_weight)
+        ext.update_data_mat(P_x=p_values, P_i=None, A_x=None, A_i=None)
         ext.solve()
-        for _ in range(3):  # a cold start may need more iterations: go on from where it stopped
-            if ext.info.status_val != _MAX_ITER:
-                break
-            ext.solve()
+        if ext.info.status_val in _STOPPED:
+            # stopped short of the tolerance: the iterate's active set may give the optimum
+            exact = self._exact(p_values, lower, upper)
+            if exact is None:
+                exact = self._go_on(p_values, lower, upper)
+            if exact is not None:
+                return exact
         info = ext.info
         if info.status_val not in _OK:
-            return self._failed()
+            return self.failed()
         x = ext.solution.x
         if x is None:
-            return self._failed()
+            return self.failed()
         ax = self._a_matrix @ x
         violation = max(float(np.max(lower - ax)), float(np.max(ax - upper)))
         if not np.all(np.isfinite(x)) or violation > 1e-3:
-            return self._failed()
+            return self.failed()
         return QpSolution(True, float(info.obj_val), x[self._a_idx], x[self._v_idx],
                           x[self._s_idx])
 
-    def _failed(self) -> QpSolution:
+    def _go_on(self, p_values: np.ndarray, lower: np.ndarray,
+               upper: np.ndarray) -> QpSolution | None:
+        """More rounds of iterations, twice as many each (at most MAX_ITER), then exact solves.
+
+        Returns the exact solution, or None with OSQP's own result in its info (solved,
+        infeasible, or stopped).
+        """
+        try:
+            for round_ in range(1, MAX_ROUNDS):
+                self._solver.update_settings(max_iter=min(ROUND_ITER << round_, MAX_ITER))
+                self._ext.solve()
+                status = self._ext.info.status_val
+                if status not in _STOPPED:
+                    return None
+                exact = self._exact(p_values, lower, upper)
+                if exact is not None or status != _MAX_ITER:
+                    return exact
+            return None
+        finally:
+            self._solver.update_settings(max_iter=ROUND_ITER)
+
+    def _exact(self, p_values: np.ndarray, lower: np.ndarray,
+               upper: np.ndarray) -> QpSolution | None:
+        """The optimum from the stopped iterate's active set (active_set.py), or None.
+
+        On success OSQP is warm-started from it: the next solve starts at this optimum.
+        """
+        solution = self._ext.solution
+        exact = self._active_set.solve(p_values, self._q_last, lower, upper, solution.x,
+                                       solution.y)
+        if exact is None:
+            return None
+        x, y, cost = exact
+        self._ext.warm_start(x=x, y=y)
+        return QpSolution(True, cost, x[self._a_idx], x[self._v_idx], x[self._s_idx])
+
+    def failed(self) -> QpSolution:
+        """An unsolved QpSolution (NaN plans, infinite cost)."""
         shape = (self.n_branches, self.n_steps)
         nan = np.full(shape, np.nan)
         return QpSolution(False, np.inf, nan, nan.copy(), nan.copy())

@@ -363,7 +363,8 @@ def test_project_xy_is_route_project_bit_for_bit(n_segments):
 
 class _PublicOsqp:
     """osqp.OSQP's public update/solve behind the calls ContingencyQp makes on the compiled
-    solver (update_data_vec, update_data_mat, solve, info, solution): the reference path."""
+    solver (update_data_vec, update_data_mat, solve, info, solution, warm_start): the
+    reference path."""
 
     def __init__(self, solver):
         self.solver, self._vec, self._res = solver, {}, None
@@ -376,6 +377,9 @@ class _PublicOsqp:
 
     def solve(self):
         self._res = self.solver.solve(raise_error=False)
+
+    def warm_start(self, x, y):
+        self.solver.warm_start(x=x, y=y)
 
     @property
     def info(self):
