@@ -24,8 +24,10 @@ it can, flagged in MpcResult.feasible.
 Comfort (Alsterda & Gerdes): a contingency branch (a hypothesis not seen to be true) may brake
 harder than `comfort_decel_mps2` only at the price w_c c^2, c the deceleration beyond it (a
 soft bound, so that feasibility is that of the vehicle's limits); what the robot sees is met
-by the nominal cost (w_a, w_j: a smooth onset) alone. A likely contingency that would need hard braking therefore slows the shared
-trunk early: the branch "the pedestrian on the curb steps off now" (agents/robot/curb.py), or a
+by the nominal cost (w_a, w_j: a smooth onset) alone, except a pedestrian that steps off the
+curb as a branch prepared for (agents/robot/curb.py, `prepared_comfort`: the comfort weight,
+by how long it was prepared for). A likely contingency that would need hard braking
+therefore slows the shared trunk early: the branch "the pedestrian on the curb steps off now" (agents/robot/curb.py), or a
 hidden pedestrian the belief gives weight to, is met with a comfortable stop if it comes true.
 The robot also stays behind the stop line of a stop sign it has not yet stopped at
 (agents/robot/stop.py, `stop_at_m`); at rest it may always stay where it stands (noise that
@@ -39,7 +41,7 @@ jerk bound 15 m/s^3 is the brake actuator's; the time headway 1 s is ramped in o
 already short stays feasible) and grows to 1.5 s on the last step (room to stop beyond the
 horizon). Pedestrians have the right of way: one walking towards the robot's path is in its
 way from the next lane on, and the robot passes in front of one only if it cannot stop.
-Comfort: 2.5 m/s^2 (margin for replanning: the oracle then brakes <= 3 m/s^2 in 86-96 % of seeds)
+Comfort: 2.5 m/s^2 (margin for replanning: the oracle then brakes <= 3 m/s^2 in 150 of 150 seeds)
 with w_c = 100 / (m/s^2)^2: 1 m/s^2 beyond it for a second, in a branch of weight 0.2, costs 20,
 as much as driving 2 m/s slower for 5 s.
 """
