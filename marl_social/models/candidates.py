@@ -429,8 +429,8 @@ def evaluate_candidates(cands: CandidateSet, theta: np.ndarray, v_ref_mps: float
         feature_args["yield_zones"] = tuple(
             (polygon, to_cand(zone_claims(scene, polygon, priority, yield_margin_s, dt)))
             for polygon, priority in yield_zones)
-    cost = step_cost(theta, **feature_args) * (dt / DT_S)
-    if cost.shape != (len(scene.mask),) + v.shape:
+    cost = step_cost(theta, **feature_args) * (dt / DT_S)  # a float 0.0 if every weight is 0
+    if np.shape(cost) != (len(scene.mask),) + v.shape:
         cost = np.broadcast_to(cost, (len(scene.mask),) + v.shape)
     totals = None
     if features:
