@@ -73,6 +73,8 @@ class CurbConfig:
             raise ValueError(f"CurbConfig.p_step_off: {self.p_step_off} not in (0, 1)")
         if min(self.walk_speed_mps, self.yield_decel_mps2) <= 0.0:
             raise ValueError("CurbConfig: walk_speed_mps and yield_decel_mps2 must be > 0")
+        if not self.prepared_full_s > 0.0:
+            raise ValueError(f"CurbConfig.prepared_full_s: {self.prepared_full_s} must be > 0 s")
 
 
 def _crossings(route: Route, crosswalks: tuple[Crosswalk, ...]) -> list[tuple[int, float]]:

@@ -268,9 +268,11 @@ class ContingencyMpc:
             static_boxes: (S, 4) bounding boxes [xmin, ymin, xmax, ymax] of static polygons [m].
             stop_at_m: the arc length the robot's centre must stay behind (a stop line not yet
                 stopped at, agents/robot/stop.py; inf: none) [m].
-            contingent: (L,) bool, the hypotheses whose branches must brake comfortably (soft
-                bound, config.comfort_decel_mps2): those not seen to be true, a pedestrian
-                that may be hidden or may step off; None: every one.
+            contingent: (L,) bool or factor in [0, 1] of the comfort weight: the hypotheses
+                whose branches must brake comfortably (soft bound, config.comfort_decel_mps2):
+                those not seen to be true, a pedestrian that may be hidden or may step off, or
+                one that stepped off as prepared for (curb.py, `prepared_comfort`); None: every
+                one.
             extra_objects: per hypothesis (L lists), objects on the path besides the scene's,
                 e.g. the zone claims of cars with the right of way (agents/robot/
                 right_of_way.py; None: none).
@@ -488,7 +490,8 @@ def plan(config: MpcConfig, vehicle: VehicleParams, route: Route, s0: float, v0:
         beliefs: (L,) probability of each hypothesis.
         static_boxes: (S, 4) bounding boxes of the static polygons [m].
         stop_at_m: the arc length the robot's centre must stay behind (inf: none) [m].
-        contingent: (L,) bool, the branches that must brake comfortably (None: every one).
+        contingent: (L,) bool or comfort factor in [0, 1], the branches that must brake
+            comfortably (None: every one).
     """
     return ContingencyMpc(config, vehicle).plan(route, s0, v0, prev_accel, v_ref_mps,
                                                 speed_limit_mps, scene, beliefs, static_boxes,

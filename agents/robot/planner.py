@@ -307,7 +307,8 @@ class RobotPlanner:
             self.belief.update(obs)  # own tracks (+ negative / social information by variant)
             tracks = self.belief.tracks
         weights = self.hypothesis_weights()
-        # contingencies (comfortable braking): a hidden agent, a pedestrian stepping off the curb
+        # contingencies (comfortable braking, a factor of the comfort weight per branch): a
+        # hidden agent, a pedestrian stepping off the curb
         contingent = np.array([h.present for h in self.belief.hypotheses])
         # the tracked objects in every branch, each hypothesis' hidden agent in its own (a
         # hypothesised vehicle as a car on its lane)

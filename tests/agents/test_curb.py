@@ -184,3 +184,9 @@ def test_the_comfort_bound_on_a_pedestrian_that_stepped_off_caps_the_stop_gently
         assert result.feasible
         peak[factor] = -result.accel_plan.min()
     assert peak[1.0] <= 3.0 < peak[0.0], peak
+
+
+@pytest.mark.parametrize("bad", [0.0, -1.0, float("nan")])
+def test_a_non_positive_preparation_time_is_refused_by_name(bad):
+    with pytest.raises(ValueError, match="prepared_full_s"):
+        CurbConfig(prepared_full_s=bad)
