@@ -216,6 +216,9 @@ class ContingencyMpc:
         self._headway = config.headway_s()
         self._plan_times = config.plan_times_s
         self._reach = np.zeros(config.n_steps)  # _braking_reach(v0), set by plan
+        # reachable_progress of this plan's state per (speed bound array, jerk bound): every
+        # mode and joint QP of one curvature iteration shares them (reset by plan)
+        self._reachable: list[tuple[np.ndarray, float, np.ndarray]] = []
         self._comfort = np.ones(0)  # (L,) comfort weight factor per hypothesis, set by plan
         self._goal = (0.0, 0.0)  # the pull-up term (weight, progress to the line), set by plan
 
@@ -314,6 +317,7 @@ class ContingencyMpc:
         live_idx = np.flatnonzero(live)
         margin = round(c.pass_margin_s / c.plan_dt_s)
         self._reach = self._braking_reach(v0)  # _branch_bounds' room, for this v0
+        self._reachable = []
         # the curvature bound needs the positions, which the plan decides: guess them (constant
         # speed), solve, and widen the guess to the solution's positions until it holds them
         # or the wider guess bounds the speed as before (the same QP again)
@@ -424,8 +428,12 @@ class ContingencyMpc:
         jerk_max = jerk_max or self.config.jerk_max_mps3
         # a QP that reachability shows infeasible is not solved: OSQP may need thousands of
         # iterations to find that out
-        reachable = reachable_progress(v0, prev, veh.accel_max_mps2, jerk_max, DT_S,
-                                       self.config.plan_dt_s, v_max)
+        reachable = next((r for bound, jerk, r in self._reachable
+                          if bound is v_max and jerk == jerk_max), None)
+        if reachable is None:
+            reachable = reachable_progress(v0, prev, veh.accel_max_mps2, jerk_max, DT_S,
+                                           self.config.plan_dt_s, v_max)
+            self._reachable.append((v_max, jerk_max, reachable))
         if provably_infeasible(s_low, s_up, reachable, INFEASIBLE_MARGIN_M):
             return qp.failed()
         v_max_b = np.broadcast_to(v_max, s_low.shape)
