@@ -20,10 +20,10 @@ from __future__ import annotations
 from typing import Protocol, runtime_checkable
 
 import numpy as np
-from marl_social.perception.tracking import Tracker, TrackSet
 
 from marl_social.models.boltzmann import boltzmann
 from marl_social.models.candidates import ScenePrediction
+from marl_social.perception.tracking import Tracker, TrackSet
 from marl_social.sim.agent_spec import AgentSpec
 from marl_social.sim.observation import Measurements, ObservationLayout
 from marl_social.sim.road_map import RoadMap

@@ -19,8 +19,8 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
-from marl_social.agents.params import PedestrianPlannerParams, parse_planner_params
 
+from marl_social.agents.params import PedestrianPlannerParams, parse_planner_params
 from marl_social.models.steering import pure_pursuit, walk_along
 from marl_social.sim.agent_spec import AgentSpec
 from marl_social.sim.dynamics import DT_S

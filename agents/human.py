@@ -49,9 +49,9 @@ import itertools
 import math
 
 import numpy as np
+
 from marl_social.agents.base import BoltzmannPolicy
 from marl_social.agents.params import DriverParams, parse_planner_params
-
 from marl_social.models.candidates import ScenePrediction
 from marl_social.models.driver import (
     DriverModel,

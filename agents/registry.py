@@ -34,7 +34,6 @@ from marl_social.agents.params import (
 )
 from marl_social.agents.pedestrian import BoltzmannPedestrian
 from marl_social.agents.robot.planner import ROBOT_VARIANTS, RobotPlanner
-
 from marl_social.sim.agent_spec import AgentSpec
 from marl_social.sim.observation import ObservationLayout
 from marl_social.sim.road_map import RoadMap

@@ -31,10 +31,10 @@ from __future__ import annotations
 import time
 
 import numpy as np
-from marl_social.agents.irl.laplace import FITTABLE, IrlResult
 from scipy.optimize import minimize
 from scipy.special import logsumexp
 
+from marl_social.agents.irl.laplace import FITTABLE, IrlResult
 from marl_social.data.decisions import DecisionSet
 from marl_social.sim.costs import FEATURE_NAMES, N_FEATURES
 

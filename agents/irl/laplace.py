@@ -42,10 +42,10 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
-from marl_social.agents.irl.fit_file import check_fit, load_fit  # noqa: F401 (load_fit public here)
-from marl_social.agents.irl.jets import Jet
 from scipy.optimize import minimize
 
+from marl_social.agents.irl.fit_file import check_fit, load_fit  # noqa: F401 (load_fit public here)
+from marl_social.agents.irl.jets import Jet
 from marl_social.data.demonstrations import Demonstration
 from marl_social.sim.costs import FEATURE_NAMES, N_FEATURES, CostWeights, _feature_terms
 from marl_social.sim.dynamics import DT_S

@@ -18,8 +18,8 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from marl_social.agents.irl.laplace import sample_demonstration
 
+from marl_social.agents.irl.laplace import sample_demonstration
 from marl_social.data.demonstrations import Demonstration
 from marl_social.sim.road_map import Crosswalk
 

@@ -32,8 +32,8 @@ from __future__ import annotations
 from dataclasses import dataclass, replace
 
 import numpy as np
-from marl_social.perception.tracking import TrackSet
 
+from marl_social.perception.tracking import TrackSet
 from marl_social.sim.road_map import Crosswalk, Route
 
 

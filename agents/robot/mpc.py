@@ -52,6 +52,7 @@ import itertools
 from dataclasses import dataclass, replace
 
 import numpy as np
+
 from marl_social.agents.robot.corridor import (
     BEHIND,
     PAST,
@@ -66,7 +67,6 @@ from marl_social.agents.robot.corridor import (
     route_curvature,
 )
 from marl_social.agents.robot.qp import ContingencyQp, QpSolution, QpWeights
-
 from marl_social.models.candidates import ScenePrediction
 from marl_social.sim.agent_spec import VehicleParams
 from marl_social.sim.dynamics import DT_S

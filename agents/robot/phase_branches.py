@@ -22,11 +22,11 @@ car is the tracked car (the hidden-agent belief holds the bin where it sees one)
 from __future__ import annotations
 
 import numpy as np
+
+from marl_social.models.candidates import ScenePrediction
 from marl_social.perception.belief.paths import LanePaths
 from marl_social.perception.belief.phase import SignalledCar, signalled_cars, stops_per_phase
 from marl_social.perception.tracking import TrackSet
-
-from marl_social.models.candidates import ScenePrediction
 from marl_social.sim.road_map import RoadMap
 from marl_social.sim.signal_rules import route_signal_lines
 

@@ -46,6 +46,7 @@ import math
 from dataclasses import dataclass, replace
 
 import numpy as np
+
 from marl_social.agents.params import RobotModelParams, parse_planner_params
 from marl_social.agents.robot.curb import CurbConfig, CurbPedestrians
 from marl_social.agents.robot.mpc import ContingencyMpc, MpcConfig, MpcResult
@@ -53,12 +54,11 @@ from marl_social.agents.robot.phase_branches import PhaseBranches
 from marl_social.agents.robot.right_of_way import RightOfWay, RightOfWayConfig
 from marl_social.agents.robot.signal_stop import SignalStops
 from marl_social.agents.robot.stop import StopSignConfig, StopSigns, pull_up_target
+from marl_social.models.candidates import ScenePrediction
+from marl_social.models.steering import pure_pursuit
 from marl_social.perception.belief import BeliefConfig, PedestrianBelief
 from marl_social.perception.belief.phase import SignalPhaseBelief
 from marl_social.perception.tracking import TrackSet
-
-from marl_social.models.candidates import ScenePrediction
-from marl_social.models.steering import pure_pursuit
 from marl_social.sim.agent_spec import AgentSpec
 from marl_social.sim.dynamics import DT_S
 from marl_social.sim.observation import ObservationLayout

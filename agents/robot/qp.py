@@ -42,6 +42,7 @@ from dataclasses import dataclass
 import numpy as np
 import osqp
 import scipy.sparse as sp
+
 from marl_social.agents.robot.active_set import ActiveSetSolver
 
 _OK = frozenset(int(s) for s in (osqp.SolverStatus.OSQP_SOLVED,

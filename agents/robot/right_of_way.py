@@ -38,8 +38,8 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-from marl_social.agents.robot.corridor import PathObject
 
+from marl_social.agents.robot.corridor import PathObject
 from marl_social.models.candidates import ScenePrediction
 from marl_social.sim.road_map import RoadMap, Route
 from marl_social.sim.route_rules import RouteConflict, on_lanes, priority_mask, route_conflicts

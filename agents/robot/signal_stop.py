@@ -19,8 +19,8 @@ moving (it could not stop) it does not stop for in the middle of the junction.
 from __future__ import annotations
 
 import numpy as np
-from marl_social.agents.robot.stop import StopSignConfig, stop_wall, stopped_at_line
 
+from marl_social.agents.robot.stop import StopSignConfig, stop_wall, stopped_at_line
 from marl_social.sim.road_map import RoadMap, Route
 from marl_social.sim.signal_rules import must_stop, route_signal_lines
 from marl_social.sim.signals import RED, YELLOW

@@ -22,8 +22,8 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
-from marl_social.perception.belief.hypotheses import Hypothesis
 
+from marl_social.perception.belief.hypotheses import Hypothesis
 from marl_social.sim.agent_spec import VehicleParams
 from marl_social.sim.road_map import Lane, RoadMap, Route
 

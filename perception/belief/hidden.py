@@ -50,6 +50,8 @@ track drives in, paths.py) -- none is read from the scenario's truth or an agent
 from __future__ import annotations
 
 import numpy as np
+
+from marl_social.models.candidates import ScenePrediction
 from marl_social.perception.belief.bayes import (
     TrafficSpeedBelief,
     bayes_step,
@@ -68,8 +70,6 @@ from marl_social.perception.belief.hypotheses import (
 from marl_social.perception.belief.own_sensors import OwnSensors
 from marl_social.perception.belief.social import SocialLikelihood
 from marl_social.perception.tracking import Tracker
-
-from marl_social.models.candidates import ScenePrediction
 from marl_social.sim.dynamics import DT_S
 from marl_social.sim.observation import DecodedObservation, ObservationLayout
 from marl_social.sim.road_map import RoadMap, Route

@@ -13,11 +13,11 @@ import math
 from dataclasses import fields
 
 import numpy as np
+
+from marl_social.models.candidates import ScenePrediction
 from marl_social.perception.belief.config import BeliefConfig
 from marl_social.perception.belief.hypotheses import Hypothesis, hypothesis_objects
 from marl_social.perception.tracking import TrackSet
-
-from marl_social.models.candidates import ScenePrediction
 from marl_social.sim.agent_spec import VehicleParams
 from marl_social.sim.observation import EGO_INDEX, DecodedObservation
 

@@ -14,6 +14,7 @@ from __future__ import annotations
 import math
 
 import numpy as np
+
 from marl_social.perception.belief.config import BeliefConfig
 from marl_social.perception.belief.hypotheses import (
     MATCH_MARGIN_M,
@@ -23,7 +24,6 @@ from marl_social.perception.belief.hypotheses import (
 )
 from marl_social.perception.fov import depth_ray_angles
 from marl_social.perception.tracking import TrackSet
-
 from marl_social.sim.observation import EGO_INDEX, DecodedObservation
 
 PROBABILITY_MIN = 1e-12  # probabilities are clipped to [this, 1 - this] before the log

@@ -34,6 +34,10 @@ import math
 from dataclasses import dataclass, replace
 
 import numpy as np
+
+from marl_social.models.candidates import ScenePrediction
+from marl_social.models.driver import RoadRules, rule_abiding_totals
+from marl_social.models.gap_evaluation import vehicle_gap_evaluation
 from marl_social.perception.belief.action_model import (
     action_log_likelihood,
     bounded_log_likelihood,
@@ -43,10 +47,6 @@ from marl_social.perception.belief.config import BeliefConfig
 from marl_social.perception.belief.paths import LanePaths
 from marl_social.perception.belief.social import SocialLikelihood
 from marl_social.perception.tracking import TrackSet
-
-from marl_social.models.candidates import ScenePrediction
-from marl_social.models.driver import RoadRules, rule_abiding_totals
-from marl_social.models.gap_evaluation import vehicle_gap_evaluation
 from marl_social.sim.dynamics import DT_S
 from marl_social.sim.observation import DecodedObservation
 from marl_social.sim.road_map import RoadMap, Route

@@ -55,6 +55,10 @@ import math
 from dataclasses import dataclass, field, replace
 
 import numpy as np
+
+from marl_social.models.candidates import ScenePrediction
+from marl_social.models.driver import DriverModel, RoadRules, rule_abiding_totals
+from marl_social.models.gap_evaluation import vehicle_gap_evaluation
 from marl_social.perception.belief.action_model import (
     action_log_likelihood,
     bounded_log_likelihood,
@@ -66,10 +70,6 @@ from marl_social.perception.belief.human_scene import HumanScenes
 from marl_social.perception.belief.hypotheses import Hypothesis
 from marl_social.perception.belief.paths import LanePaths
 from marl_social.perception.tracking import TrackSet
-
-from marl_social.models.candidates import ScenePrediction
-from marl_social.models.driver import DriverModel, RoadRules, rule_abiding_totals
-from marl_social.models.gap_evaluation import vehicle_gap_evaluation
 from marl_social.sim.agent_spec import VehicleParams
 from marl_social.sim.dynamics import DT_S
 from marl_social.sim.observation import DecodedObservation

@@ -5,14 +5,14 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+
+import marl_social
 from marl_social.agents.irl.choice import (
     choice_log_likelihood,
     choice_neg_log_likelihood,
     fit_choice_theta,
 )
 from marl_social.agents.irl.laplace import cosine_similarity
-
-import marl_social
 from marl_social.cli import main
 from marl_social.data.decisions import DecisionSet, load_decisions, save_decisions
 from marl_social.evaluation.record import record_decisions

@@ -4,11 +4,11 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+
 from marl_social.agents.robot.curb import CurbConfig, CurbPedestrians
 from marl_social.agents.robot.mpc import MpcConfig, plan
-from marl_social.perception.tracking import TrackSet
-
 from marl_social.models.candidates import ScenePrediction
+from marl_social.perception.tracking import TrackSet
 from marl_social.sim.agent_spec import VehicleParams
 from marl_social.sim.dynamics import DT_S
 from marl_social.sim.road_map import Crosswalk, Route

@@ -8,11 +8,11 @@ import types
 
 import numpy as np
 import pytest
-from marl_social.agents.human import BoltzmannDriver
-from marl_social.agents.pedestrian import BoltzmannPedestrian
 from scipy import stats
 
 import marl_social
+from marl_social.agents.human import BoltzmannDriver
+from marl_social.agents.pedestrian import BoltzmannPedestrian
 from marl_social.envs.parallel import SocialDrivingEnv
 from marl_social.envs.world import World
 from marl_social.models.boltzmann import boltzmann

@@ -7,9 +7,9 @@ import dataclasses
 
 import numpy as np
 import pytest
-from marl_social.agents.human import STOP_REACH_M
 
 import marl_social
+from marl_social.agents.human import STOP_REACH_M
 from marl_social.scenarios import SCENARIOS
 from marl_social.scenarios.t_intersection import STOP_LINE_Y_M, TIntersection
 from marl_social.sim.road_map import Route

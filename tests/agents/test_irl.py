@@ -9,10 +9,10 @@ from dataclasses import replace
 
 import numpy as np
 import pytest
+
 from marl_social.agents.irl import laplace as irl
 from marl_social.agents.irl.jets import Jet
 from marl_social.agents.irl.synthetic import near_rational_demonstrations
-
 from marl_social.data.demonstrations import Demonstration, load_demonstrations, save_demonstrations
 from marl_social.sim.costs import FEATURE_NAMES, CostWeights
 from marl_social.sim.road_map import Crosswalk

@@ -4,9 +4,9 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+
 from marl_social.agents.robot.corridor import mode_bounds, objects_on_path
 from marl_social.agents.robot.mpc import ContingencyMpc, MpcConfig, plan
-
 from marl_social.models.candidates import ScenePrediction
 from marl_social.sim.agent_spec import VehicleParams
 from marl_social.sim.dynamics import DT_S, bicycle_step
@@ -248,7 +248,6 @@ def test_car_stopped_in_the_next_lane_does_not_block_the_robot():
     to the direction of the noise (across the road), the 4.5 m car would reach into the
     robot's lane and force it to brake."""
     from marl_social.perception.tracking import Tracker
-
     from marl_social.sim.observation import EGO_DIM, SLOT_FIELDS, SLOT_INDEX, ObservationLayout
 
     layout = ObservationLayout(n_slots=2, n_rays=4)

@@ -6,10 +6,10 @@ import numpy as np
 import osqp
 import pytest
 import scipy.sparse as sp
+
 from marl_social.agents.robot import active_set, qp
 from marl_social.agents.robot.corridor import provably_infeasible, reachable_progress
 from marl_social.agents.robot.mpc import MpcConfig
-
 from marl_social.sim.agent_spec import VehicleParams
 from marl_social.sim.dynamics import DT_S
 

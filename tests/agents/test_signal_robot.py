@@ -5,10 +5,10 @@ from __future__ import annotations
 import math
 
 import numpy as np
+
 from marl_social.agents.robot.phase_branches import stopping_prediction
 from marl_social.agents.robot.signal_stop import SignalStops, turns_right_after
 from marl_social.perception.belief.phase import SignalledCar, stops_per_phase
-
 from marl_social.scenarios.signalized_intersection import SignalizedIntersection
 from marl_social.sim.road_map import Route
 from marl_social.sim.signals import GREEN, RED, YELLOW
@@ -85,10 +85,9 @@ def test_phase_branches_split_by_pattern_and_stop_the_cars_at_their_lines():
     splits into "stops" and "drives on" by the phase belief (weights multiply), the stopping
     car ends at its line, and the duplicate of the tracked car is left out."""
     from marl_social.agents.robot.phase_branches import PhaseBranches
+    from marl_social.models.candidates import ScenePrediction
     from marl_social.perception.belief.paths import LanePaths
     from marl_social.perception.tracking import TrackSet
-
-    from marl_social.models.candidates import ScenePrediction
 
     layout = SignalizedIntersection().build(np.random.default_rng(0))
     rm = layout.road_map

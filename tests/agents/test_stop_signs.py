@@ -4,9 +4,9 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+
 from marl_social.agents.robot.planner import RobotPlanner
 from marl_social.agents.robot.stop import StopSigns, stop_sign_arc_lengths
-
 from marl_social.envs.world import World
 from marl_social.scenarios.base import ScenarioLayout, ScenarioParams
 from marl_social.scenarios.roads import straight_lane, straight_route

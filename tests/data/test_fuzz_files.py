@@ -10,8 +10,8 @@ import numpy as np
 import pytest
 from hypothesis import given
 from hypothesis import strategies as st
-from marl_social.agents.irl.laplace import load_fit
 
+from marl_social.agents.irl.laplace import load_fit
 from marl_social.data.decisions import is_decision_file, load_decisions
 from marl_social.data.demonstrations import load_demonstrations, save_demonstrations
 from marl_social.data.interaction import read_interaction_csv

@@ -8,6 +8,8 @@ from dataclasses import replace
 
 import numpy as np
 import pytest
+
+import marl_social
 from marl_social.agents.base import Policy
 from marl_social.agents.params import DriverParams, PedestrianPlannerParams, RobotModelParams
 from marl_social.agents.registry import (
@@ -18,8 +20,6 @@ from marl_social.agents.registry import (
     planner_params,
 )
 from marl_social.agents.robot.planner import RobotPlanner
-
-import marl_social
 from marl_social.envs.parallel import SocialDrivingEnv
 from marl_social.envs.policies import make_policy
 from marl_social.envs.world import World

@@ -39,7 +39,6 @@ def learned_model(tmp_path_factory):
     """theta.json fitted to near-rational demonstrations of the humans' true weights."""
     from marl_social.agents.irl.laplace import cosine_similarity, fit_theta
     from marl_social.agents.irl.synthetic import near_rational_demonstrations
-
     from marl_social.sim.costs import CostWeights
 
     truth = CostWeights().as_array()

@@ -8,12 +8,12 @@ array formula.
 import numpy as np
 from hypothesis import given, settings
 from hypothesis import strategies as st
-from marl_social.agents.pedestrian import vehicles_expected_to_yield
-from marl_social.perception.tracking import TrackSet
 
+from marl_social.agents.pedestrian import vehicles_expected_to_yield
 from marl_social.models.candidates import ScenePrediction
 from marl_social.models.circle_gaps import circle_pair_gap, scene_circles
 from marl_social.models.pedestrian import PedestrianModel, pedestrian_q_values
+from marl_social.perception.tracking import TrackSet
 from marl_social.sim.costs import CostWeights, step_cost
 from marl_social.sim.dynamics import DT_S
 from marl_social.sim.footprint import circle_layout
@@ -103,9 +103,8 @@ def test_vehicles_expected_to_yield_equal_the_array_formula(seed, n):
 @settings(max_examples=60, deadline=None)
 @given(seed=st.integers(0, 2**32 - 1), n=st.integers(1, 8), one_hot=st.booleans())
 def test_pedestrian_sampler_equals_generator_choice(seed, n, one_hot):
-    from marl_social.agents.pedestrian import BoltzmannPedestrian
-
     import marl_social
+    from marl_social.agents.pedestrian import BoltzmannPedestrian
 
     env = marl_social.parallel_env(pedestrian="crossing")
     ped = BoltzmannPedestrian(env.agent_specs["pedestrian_0"], env.obs_layout, env.road_map)

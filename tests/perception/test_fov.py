@@ -4,9 +4,9 @@ from __future__ import annotations
 
 import numpy as np
 import pymunk
-from marl_social.perception.fov import depth_ray_angles, target_sample_points
 
 import marl_social
+from marl_social.perception.fov import depth_ray_angles, target_sample_points
 from tests.helpers import box, make_world, pedestrian, vehicle, zero_actions
 
 

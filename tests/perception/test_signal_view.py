@@ -6,9 +6,9 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from marl_social.perception.signal_view import visible_heads
 
 import marl_social
+from marl_social.perception.signal_view import visible_heads
 from marl_social.sim.geometry import GeometryMirror
 from marl_social.sim.observation import EGO_DIM, SLOT_DIM, ObservationLayout
 from marl_social.sim.signals import SignalHead

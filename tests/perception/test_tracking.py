@@ -6,8 +6,8 @@ import math
 
 import numpy as np
 import pytest
-from marl_social.perception.tracking import Tracker
 
+from marl_social.perception.tracking import Tracker
 from marl_social.sim.observation import EGO_DIM, SLOT_FIELDS, SLOT_INDEX, ObservationLayout
 
 LAYOUT = ObservationLayout(n_slots=4, n_rays=4)
@@ -94,6 +94,7 @@ def test_velocity_change_covariance_matches_the_track_error():
 
 def test_inlined_kalman_steps_are_filterpy_bit_for_bit():
     from filterpy.kalman import predict, update
+
     from marl_social.perception.tracking import kf_predict, kf_update
 
     rng = np.random.default_rng()

@@ -4,9 +4,9 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from marl_social.agents.cruise import cruise_policies
 
 import marl_social
+from marl_social.agents.cruise import cruise_policies
 
 
 def _cruise_episode(**overrides):

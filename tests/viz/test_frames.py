@@ -8,10 +8,10 @@ import sys
 
 import numpy as np
 import pytest
-from marl_social.perception.fov import FovResult
 
 import marl_social
 from marl_social.envs.world import World
+from marl_social.perception.fov import FovResult
 from marl_social.scenarios import make_scenario
 from marl_social.viz.frames import Renderer
 from marl_social.viz.style import RenderConfig

@@ -6,10 +6,10 @@ import functools
 import math
 
 import numpy as np
-from marl_social.agents.cruise import CruiseVehiclePolicy
-from marl_social.perception.belief import PedestrianBelief
 
 import marl_social
+from marl_social.agents.cruise import CruiseVehiclePolicy
+from marl_social.perception.belief import PedestrianBelief
 from marl_social.sim.observation import EGO_DIM, SLOT_DIM, SLOT_INDEX, ObservationLayout
 from marl_social.sim.road_map import Lane, RoadMap, Route
 

@@ -6,6 +6,7 @@ from __future__ import annotations
 import numpy as np
 from hypothesis import given, settings
 from hypothesis import strategies as st
+
 from marl_social.perception.belief import TrafficSpeedBelief, bayes_step, markov_transition
 from marl_social.perception.belief.bayes import bayes_update, normalize
 

@@ -4,13 +4,13 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+
 from marl_social.perception.belief import (
     BeliefConfig,
     crosswalk_hypotheses,
     motion_transition,
     stationary_distribution,
 )
-
 from tests.perception.belief.episodes import CROSSWALK_X_M, paper_env
 
 

@@ -5,10 +5,10 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from marl_social.perception.belief import PedestrianBelief
 
 import marl_social
 from marl_social.envs.policies import policies
+from marl_social.perception.belief import PedestrianBelief
 from tests.perception.belief.episodes import hyp_index, robot_episode, run_beliefs
 
 

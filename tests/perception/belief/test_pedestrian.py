@@ -4,8 +4,8 @@ product over humans (eq. 12), the epsilon threshold and robustness to absurd inp
 from __future__ import annotations
 
 import numpy as np
-from marl_social.perception.belief import BeliefConfig, PedestrianBelief
 
+from marl_social.perception.belief import BeliefConfig, PedestrianBelief
 from marl_social.sim.observation import EGO_DIM, EGO_INDEX, SLOT_DIM, SLOT_INDEX
 from marl_social.sim.road_map import RoadMap
 from tests.perception.belief.episodes import paper_env, synthetic_world
@@ -65,9 +65,8 @@ def test_belief_never_nan_or_all_zero_with_absurd_inputs():
 
 def test_the_robot_tracks_with_its_own_sensor_noise():
     """robot_configs hands the robot's sensor noise to its belief's Kalman tracker."""
-    from marl_social.agents.robot.planner import robot_configs
-
     import marl_social
+    from marl_social.agents.robot.planner import robot_configs
 
     env = paper_env(robot_pos_noise_m=1.0)
     spec = env.agent_specs["robot_0"]

@@ -4,9 +4,9 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from marl_social.perception.belief.phase import phase_transition
 
 from marl_social.evaluation.run import run_episode
+from marl_social.perception.belief.phase import phase_transition
 from marl_social.scenarios.signalized_intersection import SignalizedIntersection
 from marl_social.sim.observation import SIGNAL_DIM, DecodedObservation
 

@@ -7,6 +7,8 @@ import math
 
 import numpy as np
 import pytest
+
+from marl_social.models.driver import DriverModel, driver_q_values
 from marl_social.perception.belief import (
     BeliefConfig,
     PedestrianBelief,
@@ -14,8 +16,6 @@ from marl_social.perception.belief import (
     bayes_step,
     markov_transition,
 )
-
-from marl_social.models.driver import DriverModel, driver_q_values
 from tests.perception.belief.episodes import (
     CROSSWALK_X_M,
     SEEDS,
@@ -163,7 +163,6 @@ def test_one_extreme_observation_moves_the_log_odds_by_at_most_the_bound():
     import copy
 
     from marl_social.perception.belief.action_model import bounded_log_likelihood
-
     from marl_social.sim.observation import EGO_DIM, SLOT_DIM, SLOT_INDEX
 
     bound = BeliefConfig().max_log_likelihood_ratio

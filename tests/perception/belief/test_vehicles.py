@@ -9,6 +9,8 @@ import math
 
 import numpy as np
 import pytest
+
+from marl_social.models.driver import DriverModel, driver_q_values
 from marl_social.perception.belief import (
     BeliefConfig,
     HiddenAgentBelief,
@@ -17,8 +19,6 @@ from marl_social.perception.belief import (
     motion_transition,
     vehicle_hypotheses,
 )
-
-from marl_social.models.driver import DriverModel, driver_q_values
 from marl_social.sim.dynamics import DT_S
 from marl_social.sim.observation import EGO_DIM, SLOT_DIM, SLOT_INDEX, ObservationLayout
 from marl_social.sim.road_map import ConflictZone, Lane, RoadMap, Route
