@@ -2,8 +2,8 @@
 
 The single-agent autopilot env (`AutopilotGymEnv`: the robot is the user's, every other agent
 runs its built-in planner) is stepped with seeded random robot actions, first alone in this
-process, then as n copies of a vector_env on 2 worker processes: 2 copies (one per process, a
-Gymnasium AsyncVectorEnv) and 16 copies (blocks of 8 per process, marl_social/envs/batched.py).
+process, then as n copies of a vector_env on 2 processes (this one and a child,
+marl_social/envs/batched.py): 2 copies (one per process) and 16 copies (blocks of 8 per process).
 Every rate counts env steps (one copy advancing one step = one step) per wall-clock second,
 resets included.
 """

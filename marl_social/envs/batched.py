@@ -1,4 +1,4 @@
-"""Env copies batched over a few worker processes: fewer processes than copies.
+"""Env copies batched over a few processes: fewer processes than copies.
 
     venv = BatchedVectorEnv(8, 2, functools.partial(AutopilotGymEnv, ["robot_0"]))
 
@@ -10,7 +10,9 @@ the slower of two copies takes ~1.2 times a mean step), so two copies on two cor
 twice one copy's rate. Here each worker process steps a contiguous block of copies one after the
 other and answers with the whole block in one message: a block's total varies relatively less
 than one copy's step, so the wait for the slower worker shrinks, and there is one round trip per
-worker instead of per copy.
+worker instead of per copy. This process is the first worker (`in_process`): it steps its own
+block while the child processes step theirs, so on 2 cores two workers keep both cores busy with
+env steps, and no third process waits for them.
 
 Each copy behaves exactly as in Gymnasium's SyncVectorEnv (next-step autoreset, `reset(seed=s)`
 seeds copy i with s + i, infos merged with the same `_add_info`), so a batched, an asynchronous
@@ -28,51 +30,72 @@ from gymnasium.vector import VectorEnv
 from gymnasium.vector.utils import batch_space, concatenate, create_empty_array, iterate
 
 
+class _Block:
+    """A block of env copies and what a command does to them (in a worker or this process)."""
+
+    def __init__(self, env_fn, n_copies: int):
+        """Build the copies."""
+        self.envs = []
+        for _ in range(n_copies):
+            self.envs.append(env_fn())
+        self.done = np.zeros(n_copies, dtype=bool)
+
+    def answer(self, command: str, data):
+        """The block's answer to one command (raises what a copy raises)."""
+        envs, done = self.envs, self.done
+        if command == "reset":
+            seeds, options = data
+            out = [env.reset(seed=s, options=options) for env, s in zip(envs, seeds)]
+            done[:] = False
+            return out
+        if command == "step":
+            out = []
+            for i, (env, action) in enumerate(zip(envs, data)):
+                if done[i]:  # next-step autoreset, as SyncVectorEnv
+                    obs, info = env.reset()
+                    out.append((obs, 0.0, False, False, info))
+                    done[i] = False
+                else:
+                    obs, reward, term, trunc, info = env.step(action)
+                    out.append((obs, reward, term, trunc, info))
+                    done[i] = term or trunc
+            return out
+        if command == "call":
+            name, args, kwargs = data
+            results = []
+            for env in envs:
+                attr = getattr(env, name)
+                results.append(attr(*args, **kwargs) if callable(attr) else attr)
+            return results
+        if command == "close":
+            return None
+        raise ValueError(f"batched vector env: unknown command {command!r}")
+
+    def close(self) -> None:
+        """Close the copies."""
+        for env in self.envs:
+            env.close()
+
+
 def _worker(pipe, parent_pipe, env_fn, n_copies: int) -> None:
-    """Run a block of env copies; answer (ok, payload) to each command."""
+    """Run a block of env copies in a worker process; answer (ok, payload) to each command."""
     parent_pipe.close()
-    envs, done = [], np.zeros(n_copies, dtype=bool)
+    block = None
     try:
-        envs = [env_fn() for _ in range(n_copies)]
+        block = _Block(env_fn, n_copies)
         while True:
             command, data = pipe.recv()
             try:
-                if command == "reset":
-                    seeds, options = data
-                    out = [env.reset(seed=s, options=options) for env, s in zip(envs, seeds)]
-                    done[:] = False
-                    pipe.send((True, out))
-                elif command == "step":
-                    out = []
-                    for i, (env, action) in enumerate(zip(envs, data)):
-                        if done[i]:  # next-step autoreset, as SyncVectorEnv
-                            obs, info = env.reset()
-                            out.append((obs, 0.0, False, False, info))
-                            done[i] = False
-                        else:
-                            obs, reward, term, trunc, info = env.step(action)
-                            out.append((obs, reward, term, trunc, info))
-                            done[i] = term or trunc
-                    pipe.send((True, out))
-                elif command == "call":
-                    name, args, kwargs = data
-                    results = []
-                    for env in envs:
-                        attr = getattr(env, name)
-                        results.append(attr(*args, **kwargs) if callable(attr) else attr)
-                    pipe.send((True, results))
-                elif command == "close":
-                    pipe.send((True, None))
-                    return
-                else:
-                    raise ValueError(f"batched vector env: unknown command {command!r}")
+                pipe.send((True, block.answer(command, data)))
             except Exception:  # noqa: BLE001 -- reported to the main process, which raises
                 pipe.send((False, traceback.format_exc()))
+            if command == "close":
+                return
     except Exception:  # noqa: BLE001 -- building the copies failed
         pipe.send((False, traceback.format_exc()))
     finally:
-        for env in envs:
-            env.close()
+        if block is not None:
+            block.close()
         pipe.close()
 
 
@@ -81,16 +104,21 @@ class BatchedVectorEnv(VectorEnv):
 
     Args:
         n: number of copies.
-        workers: worker processes (1 <= workers <= n); worker w steps copies
+        workers: processes that step copies (1 <= workers <= n); process w steps copies
             w * n // workers up to (w + 1) * n // workers.
         env_fn: a picklable callable that builds one copy (e.g. a functools.partial of an
             env class).
         context: multiprocessing start method ("fork", "spawn", "forkserver"); None for the
             platform default.
+        in_process: True: this process is worker 0 -- it steps the first block while the
+            workers - 1 child processes step theirs (on 2 cores, 2 workers use both cores
+            without a third process waiting on them, and the first block's observations
+            cross no pipe); False: every block in a child process.
     """
 
-    def __init__(self, n: int, workers: int, env_fn, context=None):
+    def __init__(self, n: int, workers: int, env_fn, context=None, in_process: bool = True):
         """Start the workers; the spaces are those of one copy built in this process."""
+        self._local, self._pipes, self._processes = None, [], []
         if not 1 <= workers <= n:
             raise ValueError(f"batched vector env: need 1 <= workers <= n, got workers={workers}"
                              f", n={n}")
@@ -107,10 +135,10 @@ class BatchedVectorEnv(VectorEnv):
         bounds = [(w * n) // workers for w in range(workers + 1)]
         self._blocks = [range(bounds[w], bounds[w + 1]) for w in range(workers)]
         self._observations = create_empty_array(self.single_observation_space, self.num_envs)
-        ctx = multiprocessing.get_context(context)
-        self._pipes, self._processes = [], []
         self.closed = False
-        for block in self._blocks:
+        self._local = _Block(env_fn, len(self._blocks[0])) if in_process else None
+        ctx = multiprocessing.get_context(context)
+        for block in self._blocks[1 if in_process else 0:]:
             parent, child = ctx.Pipe()
             process = ctx.Process(target=_worker, daemon=True,
                                   args=(child, parent, env_fn, len(block)))
@@ -120,13 +148,26 @@ class BatchedVectorEnv(VectorEnv):
             self._processes.append(process)
 
     def _answers(self, messages):
-        """Send one message to every worker, then yield their answers in worker order.
+        """Send one message to every block, then yield their answers in block order.
 
-        The caller handles a worker's answer while the later workers are still busy. If one
-        failed, every answer is read (the pipes stay in step) and a RuntimeError raised.
+        The child processes get theirs first; this process then answers for its own block
+        (in_process) while they work, and the caller handles each answer while the later
+        workers are still busy. If a block failed, every answer is read (the pipes stay in
+        step) and a RuntimeError raised.
         """
+        if self._local is not None:
+            (command, data), messages = messages[0], messages[1:]
         for pipe, message in zip(self._pipes, messages):
             pipe.send(message)
+        if self._local is not None:
+            try:
+                local = self._local.answer(command, data)
+            except Exception:  # noqa: BLE001 -- raised below, once the pipes are read
+                for pipe in self._pipes:
+                    pipe.recv()
+                raise RuntimeError("batched vector env: a copy in this process failed:\n"
+                                   + traceback.format_exc()) from None
+            yield local
         for w, pipe in enumerate(self._pipes):
             ok, payload = pipe.recv()
             if not ok:
@@ -136,7 +177,7 @@ class BatchedVectorEnv(VectorEnv):
             yield payload
 
     def _ask(self, messages) -> list:
-        """Send one message to every worker; their answers in worker order."""
+        """Send one message to every block; their answers in block order."""
         return list(self._answers(messages))
 
     def reset(self, *, seed=None, options=None):
@@ -185,7 +226,9 @@ class BatchedVectorEnv(VectorEnv):
         return self.call("render")
 
     def close_extras(self, **kwargs) -> None:
-        """Stop the workers."""
+        """Stop the workers and close this process's copies."""
+        if self._local is not None:
+            self._local.close()
         for pipe, process in zip(self._pipes, self._processes):
             try:
                 if process.is_alive():

@@ -6,10 +6,10 @@
 
 Each copy is an `AutopilotGymEnv`: a single-agent Gymnasium view of
 `autopilot(parallel_env(...), controlled)`, in which every agent the user does not control is
-driven by its built-in planner. The copies run in worker processes (by default one per CPU
-core: a Gymnasium `AsyncVectorEnv` when there is a process per copy, else a `BatchedVectorEnv`
-whose workers each step a block of copies, marl_social/envs/batched.py) or, with
-``asynchronous=False``, a `SyncVectorEnv` in this process; finished copies reset themselves on
+driven by its built-in planner. The copies run in blocks, one per CPU core by default (a
+`BatchedVectorEnv`, marl_social/envs/batched.py: this process steps the first block while
+child processes step the others) or, with ``asynchronous=False``, all in a Gymnasium
+`SyncVectorEnv` in this process; finished copies reset themselves on
 the next step (Gymnasium's default next-step autoreset).
 
 Determinism: ``reset(seed=s)`` seeds copy i with s + i; every later episode of a copy draws its
@@ -152,10 +152,11 @@ def vector_env(n: int, controlled=("robot_0",), asynchronous: bool = True, conte
             SyncVectorEnv in this process (same results).
         context: multiprocessing start method of the workers ("fork", "spawn",
             "forkserver"); None for the platform default.
-        workers: worker processes (asynchronous only); None for min(n, CPU cores). With one
-            worker per copy, a Gymnasium AsyncVectorEnv; with fewer, each worker steps a block
-            of copies and answers for the block at once (marl_social/envs/batched.py: less
-            waiting for the slowest copy and one round trip per worker; `marl-social bench env`
+        workers: processes that step the copies, this one included (asynchronous only); None
+            for min(n, CPU cores). Each steps a contiguous block of copies: this process the
+            first while workers - 1 child processes step theirs and answer for their block in
+            one message (marl_social/envs/batched.py: less waiting for the slowest copy, one
+            round trip per child, no process idling on the others; `marl-social bench env`
             measures it).
         **env_kwargs: arguments of `marl_social.parallel_env` (scenario, max_cycles, overrides).
     """
@@ -167,12 +168,10 @@ def vector_env(n: int, controlled=("robot_0",), asynchronous: bool = True, conte
             or not 1 <= workers <= n:
         raise ValueError(f"vector_env: workers must be an integer in [1, n={n}], got {workers!r}")
     controlled = [controlled] if isinstance(controlled, str) else list(controlled)
-    if asynchronous and workers < n:
+    if asynchronous:
         return BatchedVectorEnv(int(n), int(workers),
                                 functools.partial(AutopilotGymEnv, controlled, **env_kwargs),
                                 context=context)
-    AutopilotGymEnv(controlled, **env_kwargs).close()  # bad arguments fail here, not in a worker
+    AutopilotGymEnv(controlled, **env_kwargs).close()  # bad arguments fail here
     fns = [_make(controlled, env_kwargs) for _ in range(int(n))]
-    if asynchronous:
-        return gymnasium.vector.AsyncVectorEnv(fns, context=context)
     return gymnasium.vector.SyncVectorEnv(fns)

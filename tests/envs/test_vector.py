@@ -140,6 +140,41 @@ def test_copies_batched_on_fewer_workers_give_the_same_episodes_and_infos():
                    for x, y in zip(a, c))
 
 
+def test_every_block_in_a_child_process_gives_the_same_episodes():
+    """in_process=False (no block in this process) = the default (the first block here)."""
+    import functools
+
+    from marl_social.envs.batched import BatchedVectorEnv
+
+    seed = int(np.random.default_rng().integers(1000))
+    kwargs = {"scenario": "occluded_crosswalk", "max_cycles": MAX_CYCLES}
+    make = functools.partial(AutopilotGymEnv, ["robot_0"], **kwargs)
+    runs = []
+    for in_process in (True, False):
+        venv = BatchedVectorEnv(3, 2, make, in_process=in_process)
+        try:
+            assert len(venv._processes) == (1 if in_process else 2)
+            runs.append(_rollout_with_infos(venv, seed, MAX_CYCLES + 3, 3))
+        finally:
+            venv.close()
+    for a, b in zip(*runs):
+        assert all(np.array_equal(x, y) if isinstance(x, np.ndarray) else x == y
+                   for x, y in zip(a, b))
+
+
+def test_a_failing_call_in_this_process_is_one_error_and_the_copies_step_on():
+    kwargs = {"scenario": "occluded_crosswalk", "max_cycles": MAX_CYCLES}
+    venv = marl_social.vector_env(3, workers=2, **kwargs)
+    try:
+        venv.reset(seed=3)
+        with pytest.raises(RuntimeError, match="(?s)in this process failed.*no_such_method"):
+            venv.call("no_such_method")
+        obs, reward, *_ = venv.step(np.zeros((3, 2)))  # every pipe is still in step
+        assert obs.shape[0] == 3 and reward.shape == (3,)
+    finally:
+        venv.close()
+
+
 def test_workers_are_checked():
     with pytest.raises(ValueError, match="workers"):
         marl_social.vector_env(2, workers=3, scenario="occluded_crosswalk")
