@@ -162,3 +162,42 @@ def test_provably_infeasible_when_a_pass_must_end_behind_a_bound_or_out_of_reach
     far = s_low.copy()
     far[0, 3] = reach[3] + 1.0  # further than the robot can get
     assert provably_infeasible(far, s_up, reach, 0.5)
+
+
+def test_kkt_template_gives_the_matrix_scipy_assembles_for_any_active_set(monkeypatch):
+    """The KKT matrix cut from the template: scipy.sparse's assembly, entry for entry (so that
+    its factorization, and every exact solve, are those of the direct assembly)."""
+    problem = _qp(3)
+    solver = problem._active_set
+    rng = np.random.default_rng(7)
+    p_values = problem._p_values(np.array([0.5, 0.3, 0.2]), np.array([1.0, 0.0, 0.5]), 30.0)
+    kkt_values = solver._t_constant.copy()
+    kkt_values[solver._t_p_pos] = p_values[solver._p_take]
+    kkt_values[solver._t_x_diagonal] += active_set.REGULARIZATION
+    n = solver.n_vars
+    built, splu = [], active_set.spla.splu
+
+    def recorded(kkt):
+        built.append(kkt)
+        return splu(kkt)
+
+    monkeypatch.setattr(active_set.spla, "splu", recorded)
+    for _ in range(5):
+        active = rng.random(solver.n_rows) < 0.4
+        built.clear()
+        solver._kkt_solve(solver._p_full, kkt_values, np.zeros(n), active,
+                          np.zeros(solver.n_rows))
+        rank = np.cumsum(active) - 1 + n
+        keep = active[solver._a_i]
+        a_i, a_j, a_v = rank[solver._a_i[keep]], solver._a_j[keep], solver._a_v[keep]
+        size = n + int(active.sum())
+        diag = np.arange(size)
+        reg = np.where(diag < n, active_set.REGULARIZATION, -active_set.REGULARIZATION)
+        direct = sp.csc_matrix(
+            (np.concatenate([p_values[solver._p_take], a_v, a_v, reg]),
+             (np.concatenate([solver._p_i, a_i, a_j, diag]),
+              np.concatenate([solver._p_j, a_j, a_i, diag]))), shape=(size, size))
+        (kkt,) = built
+        assert np.array_equal(kkt.indptr, direct.indptr)
+        assert np.array_equal(kkt.indices, direct.indices)
+        assert np.array_equal(kkt.data, direct.data)  # bit for bit
