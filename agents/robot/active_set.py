@@ -17,7 +17,10 @@ condition of the full problem, which makes it the optimum whatever the guess was
 feasibility, stationarity Px + q + A'y = 0, and multipliers of the right sign (>= 0 at an
 upper bound, <= 0 at a lower one; OSQP's convention). A wrong guess is corrected a few times
 (a row whose multiplier has the wrong sign leaves the set, a violated row joins it); if it
-still fails, None, and the caller goes on iterating.
+still fails, a second guess takes every row within NEAR_BOUND of a bound as active (at a
+degenerate optimum the iterate's multipliers are the slowest to settle: its position already
+shows the active rows), corrected the same way; if that fails too, None, and the caller goes on
+iterating.
 """
 
 from __future__ import annotations
@@ -31,6 +34,7 @@ REFINEMENT_STEPS = 3  # iterative refinement against the unregularized system
 CORRECTIONS = 4  # active-set corrections after the first guess
 PRIMAL_TOL = 1e-7  # largest violation of a bound accepted [the row's unit: m, m/s, m/s^2]
 DUAL_TOL = 1e-7  # stationarity residual and wrong-sign multiplier accepted, relative to |q|
+NEAR_BOUND = 1e-2  # the second guess: the rows this close to a bound [the row's unit]
 
 
 class ActiveSetSolver:
@@ -116,10 +120,42 @@ class ActiveSetSolver:
         kkt_values[self._t_x_diagonal] += REGULARIZATION
         equality = lower == upper
         z = self._a @ x_guess
+        tol = DUAL_TOL * max(1.0, float(np.max(np.abs(q))))
         # OSQP's polishing rule: a row is active at the bound its multiplier pushes against
         at_lower = equality | (z - lower < -y_guess)
         at_upper = ~at_lower & (upper - z < y_guess)
-        tol = DUAL_TOL * max(1.0, float(np.max(np.abs(q))))
+        exact = self._corrected(p_full, kkt_values, q, lower, upper, equality, tol, at_lower,
+                                at_upper)
+        if exact is not None:
+            return exact
+        # the second guess: every row within NEAR_BOUND of a bound, whatever its multiplier (a
+        # degenerate optimum, whose multipliers the iterate has not sorted out yet)
+        near_lower = equality | (z - lower < NEAR_BOUND)
+        near_upper = ~near_lower & (upper - z < NEAR_BOUND)
+        if np.array_equal(near_lower, at_lower) and np.array_equal(near_upper, at_upper):
+            return None
+        return self._corrected(p_full, kkt_values, q, lower, upper, equality, tol, near_lower,
+                               near_upper)
+
+    def _corrected(self, p_full: sp.csr_matrix, kkt_values: np.ndarray, q: np.ndarray,
+                   lower: np.ndarray, upper: np.ndarray, equality: np.ndarray, tol: float,
+                   at_lower: np.ndarray, at_upper: np.ndarray
+                   ) -> tuple[np.ndarray, np.ndarray, float] | None:
+        """The verified optimum from one guess, corrected up to CORRECTIONS times; or None.
+
+        The guess: the rows at their lower bound and those at their upper bound.
+
+        Args:
+            p_full: (n, n) P, both triangles.
+            kkt_values: the KKT template's values (_build_kkt_template), regularized.
+            q: (n,) the linear cost.
+            lower: (m,) lower bounds.
+            upper: (m,) upper bounds.
+            equality: (m,) bool, the rows with lower == upper.
+            tol: the dual tolerance (DUAL_TOL relative to |q|).
+            at_lower: (m,) bool, the rows guessed at their lower bound.
+            at_upper: (m,) bool, those at their upper bound (none of at_lower).
+        """
         for _ in range(CORRECTIONS + 1):
             active = at_lower | at_upper
             bound = np.where(at_lower, lower, upper)

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from pathlib import Path
+
 import numpy as np
 import osqp
 import pytest
@@ -116,6 +118,43 @@ def test_active_set_gives_nothing_for_an_infeasible_qp():
     solver = active_set.ActiveSetSolver(upper_p.indices, np.arange(2), a)
     assert solver.solve(upper_p.data, np.zeros(2), lower, upper, np.array([0.5, 0.0]),
                         np.array([-1.0, 1.0])) is None
+
+
+def test_second_guess_solves_a_degenerate_qp_the_iterates_multipliers_get_wrong(monkeypatch):
+    """A T-intersection QP of two branches (near hidden car, seed 1) that OSQP left after
+    ROUND_ITER iterations: the active set its multipliers give is wrong and CORRECTIONS
+    corrections do not fix it (the MPC iterated on for 10 000 more); the rows within
+    NEAR_BOUND of a bound give the optimum, which OSQP at a tight tolerance confirms."""
+    data = np.load(Path(__file__).parent / "data" / "degenerate_qp.npz")
+    a = sp.csc_matrix((data["a_data"], data["a_indices"], data["a_indptr"]),
+                      shape=tuple(data["a_shape"]))
+    solver = active_set.ActiveSetSolver(data["p_rows"], data["p_cols"], a)
+    p_values, q, lower, upper = data["p_values"], data["q"], data["lower"], data["upper"]
+    guesses = []
+    corrected = active_set.ActiveSetSolver._corrected
+
+    def recorded(self, *args):
+        out = corrected(self, *args)
+        guesses.append(out is not None)
+        return out
+
+    monkeypatch.setattr(active_set.ActiveSetSolver, "_corrected", recorded)
+    exact = solver.solve(p_values, q, lower, upper, data["x_guess"], data["y_guess"])
+    assert guesses == [False, True]  # the first guess fails, the second holds
+    x, y, cost = exact
+    n = len(q)
+    p = sp.csc_matrix((p_values, (data["p_rows"], data["p_cols"])), shape=(n, n))
+    p_sym = p + sp.triu(p, k=1).T
+    ax = a @ x
+    assert np.all(ax >= lower - 1e-7) and np.all(ax <= upper + 1e-7)
+    assert np.allclose(p_sym @ x + q + a.T @ y, 0.0, atol=1e-6)
+    reference = osqp.OSQP()
+    reference.setup(p, q, a, lower, upper, verbose=False, eps_abs=1e-10, eps_rel=1e-10,
+                    max_iter=500_000, polishing=True, adaptive_rho_interval=25)
+    res = reference.solve(raise_error=False)
+    assert res.info.status_val == osqp.SolverStatus.OSQP_SOLVED
+    assert np.allclose(x, res.x, atol=1e-5)
+    assert cost <= float(res.info.obj_val) + 1e-6
 
 
 @pytest.mark.parametrize("seed", range(5))
