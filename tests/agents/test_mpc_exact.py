@@ -8,6 +8,7 @@ import numpy as np
 import osqp
 import pytest
 import scipy.sparse as sp
+import scipy.sparse.linalg as spla
 
 from marl_social.agents.robot import active_set, qp
 from marl_social.agents.robot.corridor import provably_infeasible, reachable_progress
@@ -120,6 +121,25 @@ def test_active_set_gives_nothing_for_an_infeasible_qp():
                         np.array([-1.0, 1.0])) is None
 
 
+def test_lu_factor_and_matvec_are_scipys_public_calls_bit_for_bit():
+    """_lu_factor is spla.splu (the same permutations and solves), _matvec is `@`."""
+    rng = np.random.default_rng(5)
+    n = 40
+    dense = rng.normal(size=(n, n)) * (rng.random((n, n)) < 0.15) + 3.0 * np.eye(n)
+    matrix = sp.csc_matrix(dense)
+    ours = active_set._lu_factor(matrix.data, matrix.indices, matrix.indptr, n)
+    theirs = spla.splu(matrix)
+    assert np.array_equal(ours.perm_c, theirs.perm_c)
+    assert np.array_equal(ours.perm_r, theirs.perm_r)
+    rhs = rng.normal(size=n)
+    assert np.array_equal(ours.solve(rhs), theirs.solve(rhs))
+    x = rng.normal(size=n)
+    assert np.array_equal(active_set._matvec(matrix.tocsr(), x), matrix.tocsr() @ x)
+    singular = sp.csc_matrix(np.diag([1.0, 0.0, 2.0]))
+    with pytest.raises(RuntimeError):
+        active_set._lu_factor(singular.data, singular.indices, singular.indptr, 3)
+
+
 def test_second_guess_solves_a_degenerate_qp_the_iterates_multipliers_get_wrong(monkeypatch):
     """A T-intersection QP of two branches (near hidden car, seed 1) that OSQP left after
     ROUND_ITER iterations: the active set its multipliers give is wrong and CORRECTIONS
@@ -214,13 +234,13 @@ def test_kkt_template_gives_the_matrix_scipy_assembles_for_any_active_set(monkey
     kkt_values[solver._t_p_pos] = p_values[solver._p_take]
     kkt_values[solver._t_x_diagonal] += active_set.REGULARIZATION
     n = solver.n_vars
-    built, splu = [], active_set.spla.splu
+    built, lu_factor = [], active_set._lu_factor
 
-    def recorded(kkt):
-        built.append(kkt)
-        return splu(kkt)
+    def recorded(values, indices, indptr, size):
+        built.append(sp.csc_matrix((values, indices, indptr), shape=(size, size)))
+        return lu_factor(values, indices, indptr, size)
 
-    monkeypatch.setattr(active_set.spla, "splu", recorded)
+    monkeypatch.setattr(active_set, "_lu_factor", recorded)
     for _ in range(5):
         active = rng.random(solver.n_rows) < 0.4
         built.clear()
