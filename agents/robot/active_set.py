@@ -57,7 +57,7 @@ def _matvec(matrix: sp.csr_matrix, x: np.ndarray) -> np.ndarray:
         matrix: (m, n) float64 CSR matrix.
         x: (n,) float64 vector.
     """
-    if _sparsetools is None:  # pragma: no cover
+    if _sparsetools is None:
         return matrix @ x
     out = np.zeros(matrix.shape[0])
     _sparsetools.csr_matvec(matrix.shape[0], matrix.shape[1], matrix.indptr, matrix.indices,
@@ -77,7 +77,7 @@ def _lu_factor(values: np.ndarray, indices: np.ndarray, indptr: np.ndarray, size
         indptr: (size + 1,) where each column starts in values.
         size: the matrix is (size, size).
     """
-    if _superlu is None:  # pragma: no cover
+    if _superlu is None:
         return spla.splu(sp.csc_matrix((values, indices, indptr), shape=(size, size)))
     return _superlu.gstrf(size, len(values), values, indices.astype(np.intc),
                           indptr.astype(np.intc), csc_construct_func=sp.csc_array, ilu=False,

@@ -121,8 +121,13 @@ def test_active_set_gives_nothing_for_an_infeasible_qp():
                         np.array([-1.0, 1.0])) is None
 
 
-def test_lu_factor_and_matvec_are_scipys_public_calls_bit_for_bit():
-    """_lu_factor is spla.splu (the same permutations and solves), _matvec is `@`."""
+@pytest.mark.parametrize("kernels", [True, False])
+def test_lu_factor_and_matvec_are_scipys_public_calls_bit_for_bit(kernels, monkeypatch):
+    """_lu_factor is spla.splu (the same permutations and solves), _matvec is `@`; also
+    through their fallbacks (a scipy without the private kernel modules)."""
+    if not kernels:
+        monkeypatch.setattr(active_set, "_superlu", None)
+        monkeypatch.setattr(active_set, "_sparsetools", None)
     rng = np.random.default_rng(5)
     n = 40
     dense = rng.normal(size=(n, n)) * (rng.random((n, n)) < 0.15) + 3.0 * np.eye(n)
