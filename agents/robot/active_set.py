@@ -17,7 +17,10 @@ condition of the full problem, which makes it the optimum whatever the guess was
 feasibility, stationarity Px + q + A'y = 0, and multipliers of the right sign (>= 0 at an
 upper bound, <= 0 at a lower one; OSQP's convention). A wrong guess is corrected a few times
 (a row whose multiplier has the wrong sign leaves the set, a violated row joins it); if it
-still fails, None, and the caller goes on iterating.
+still fails, a second guess takes every row within NEAR_BOUND of a bound as active (at a
+degenerate optimum the iterate's multipliers are the slowest to settle: its position already
+shows the active rows), corrected the same way; if that fails too, None, and the caller goes on
+iterating.
 """
 
 from __future__ import annotations
@@ -26,15 +29,69 @@ import numpy as np
 import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
+try:  # the compiled kernels behind scipy's `csr @ x` and spla.splu, called without their
+    # per-call Python checks and dispatch (_matvec, _lu_factor); the public calls otherwise
+    from scipy.sparse import _sparsetools
+    from scipy.sparse.linalg._dsolve import _superlu
+except ImportError:  # pragma: no cover - a scipy without these modules
+    _sparsetools = _superlu = None
+
 REGULARIZATION = 1e-9  # on the KKT system's diagonal (dependent active rows)
 REFINEMENT_STEPS = 3  # iterative refinement against the unregularized system
 CORRECTIONS = 4  # active-set corrections after the first guess
 PRIMAL_TOL = 1e-7  # largest violation of a bound accepted [the row's unit: m, m/s, m/s^2]
 DUAL_TOL = 1e-7  # stationarity residual and wrong-sign multiplier accepted, relative to |q|
+NEAR_BOUND = 1e-2  # the second guess: the rows this close to a bound [the row's unit]
+
+
+# spla.splu's defaults, as it hands them to gstrf (COLAMD ordering, SuperLU's pivoting)
+_SPLU_OPTIONS = {"DiagPivotThresh": None, "ColPerm": None, "PanelSize": None, "Relax": None}
+
+
+def _matvec(matrix: sp.csr_matrix, x: np.ndarray) -> np.ndarray:
+    """(m,) matrix @ x by scipy's own kernel: the same sums in the same order as `@`.
+
+    Without the ~10 us of `@`'s Python dispatch.
+
+    Args:
+        matrix: (m, n) float64 CSR matrix.
+        x: (n,) float64 vector.
+    """
+    if _sparsetools is None:
+        return matrix @ x
+    out = np.zeros(matrix.shape[0])
+    _sparsetools.csr_matvec(matrix.shape[0], matrix.shape[1], matrix.indptr, matrix.indices,
+                            matrix.data, x, out)
+    return out
+
+
+def _lu_factor(values: np.ndarray, indices: np.ndarray, indptr: np.ndarray, size: int):
+    """SuperLU factorization of a canonical CSC matrix: spla.splu's call of gstrf.
+
+    The same call with splu's defaults, without building a sparse matrix object and its format
+    checks. Raises RuntimeError if the matrix is singular (as splu).
+
+    Args:
+        values: (nnz,) float64 entries, by column, rows sorted in each column, no duplicates.
+        indices: (nnz,) their rows.
+        indptr: (size + 1,) where each column starts in values.
+        size: the matrix is (size, size).
+    """
+    if _superlu is None:
+        return spla.splu(sp.csc_matrix((values, indices, indptr), shape=(size, size)))
+    return _superlu.gstrf(size, len(values), values, indices.astype(np.intc),
+                          indptr.astype(np.intc), csc_construct_func=sp.csc_array, ilu=False,
+                          options=_SPLU_OPTIONS)
 
 
 class ActiveSetSolver:
     """Solves the QPs of one sparsity pattern from an active-set guess (module docstring).
+
+    The KKT matrix of every active set is a part of one template, the KKT matrix with every row
+    of A active, in compressed sparse column form (rows sorted in each column, P's diagonal and
+    the regularization summed: what scipy.sparse makes of the same entries): dropping the
+    inactive rows and columns keeps that order, so that each solve selects its entries with a
+    few array operations instead of assembling and sorting a sparse matrix.
 
     Args:
         p_rows: (nnz,) row of each entry of P's upper triangle.
@@ -44,6 +101,7 @@ class ActiveSetSolver:
 
     def __init__(self, p_rows: np.ndarray, p_cols: np.ndarray, a_matrix: sp.csc_matrix):
         self.n_vars, self.n_rows = a_matrix.shape[1], a_matrix.shape[0]
+        n = self.n_vars
         off = p_rows != p_cols  # the lower triangle mirrors these
         self._p_i = np.concatenate([p_rows, p_cols[off]])
         self._p_j = np.concatenate([p_cols, p_rows[off]])
@@ -52,6 +110,42 @@ class ActiveSetSolver:
         self._a_i, self._a_j, self._a_v = coo.row, coo.col, coo.data
         self._a = a_matrix.tocsr()
         self._a_t = a_matrix.T.tocsr()
+        # the full P (both triangles) as scipy builds it from these entries; solve sets its
+        # values: entry k of its data is p_values[_p_full_take[k]]
+        self._p_full = sp.csr_matrix((np.arange(1.0, len(self._p_i) + 1.0),
+                                      (self._p_i, self._p_j)), shape=(n, n))
+        self._p_full_take = self._p_take[self._p_full.data.astype(np.intp) - 1]
+        self._build_kkt_template()
+
+    def _build_kkt_template(self) -> None:
+        """The (n + m)-square KKT matrix of every row active, by column, rows sorted.
+
+        Entries: P (both triangles; a diagonal entry of value 0 where P has none, which the
+        regularization then makes the entry scipy would make of it alone), A' below P, A to the
+        right of P, -REGULARIZATION on the multipliers' diagonal; +REGULARIZATION is added to
+        P's diagonal (solve).
+        """
+        n, m = self.n_vars, self.n_rows
+        missing = np.setdiff1d(np.arange(n), self._p_i[self._p_i == self._p_j])
+        p_i = np.concatenate([self._p_i, missing])
+        p_j = np.concatenate([self._p_j, missing])
+        n_p, n_a = len(p_i), len(self._a_i)
+        rows = np.concatenate([p_i, n + self._a_i, self._a_j, n + np.arange(m)])
+        cols = np.concatenate([p_j, self._a_j, n + self._a_i, n + np.arange(m)])
+        order = np.lexsort((rows, cols))  # by column, then row
+        if np.any((np.diff(cols[order]) == 0) & (np.diff(rows[order]) == 0)):
+            raise ValueError("ActiveSetSolver: duplicate entries in P or A")
+        self._t_rows, self._t_cols = rows[order], cols[order]
+        source = np.argsort(order)  # template position of each entry above
+        # the entries of P's values: template position and index into p_values
+        self._t_p_pos = source[:len(self._p_i)]
+        constant = np.zeros(len(rows))
+        constant[source[n_p:n_p + n_a]] = self._a_v
+        constant[source[n_p + n_a:n_p + 2 * n_a]] = self._a_v
+        constant[source[n_p + 2 * n_a:]] = -REGULARIZATION
+        self._t_constant = constant
+        diagonal = (self._t_rows == self._t_cols) & (self._t_rows < n)
+        self._t_x_diagonal = np.flatnonzero(diagonal)
 
     def solve(self, p_values: np.ndarray, q: np.ndarray, lower: np.ndarray, upper: np.ndarray,
               x_guess: np.ndarray, y_guess: np.ndarray
@@ -66,50 +160,91 @@ class ActiveSetSolver:
             x_guess: (n,) the iterate's primal variables.
             y_guess: (m,) its multipliers (> 0 pushing against an upper bound).
         """
-        n = self.n_vars
-        p_full = sp.csr_matrix((p_values[self._p_take], (self._p_i, self._p_j)), shape=(n, n))
+        p_full = self._p_full
+        p_full.data = p_values[self._p_full_take]
+        kkt_values = self._t_constant.copy()
+        kkt_values[self._t_p_pos] = p_values[self._p_take]
+        kkt_values[self._t_x_diagonal] += REGULARIZATION
         equality = lower == upper
-        z = self._a @ x_guess
+        z = _matvec(self._a, x_guess)
+        tol = DUAL_TOL * max(1.0, float(np.max(np.abs(q))))
         # OSQP's polishing rule: a row is active at the bound its multiplier pushes against
         at_lower = equality | (z - lower < -y_guess)
         at_upper = ~at_lower & (upper - z < y_guess)
-        tol = DUAL_TOL * max(1.0, float(np.max(np.abs(q))))
+        exact = self._corrected(p_full, kkt_values, q, lower, upper, equality, tol, at_lower,
+                                at_upper)
+        if exact is not None:
+            return exact
+        # the second guess: every row within NEAR_BOUND of a bound, whatever its multiplier (a
+        # degenerate optimum, whose multipliers the iterate has not sorted out yet)
+        near_lower = equality | (z - lower < NEAR_BOUND)
+        near_upper = ~near_lower & (upper - z < NEAR_BOUND)
+        if np.array_equal(near_lower, at_lower) and np.array_equal(near_upper, at_upper):
+            return None
+        return self._corrected(p_full, kkt_values, q, lower, upper, equality, tol, near_lower,
+                               near_upper)
+
+    def _corrected(self, p_full: sp.csr_matrix, kkt_values: np.ndarray, q: np.ndarray,
+                   lower: np.ndarray, upper: np.ndarray, equality: np.ndarray, tol: float,
+                   at_lower: np.ndarray, at_upper: np.ndarray
+                   ) -> tuple[np.ndarray, np.ndarray, float] | None:
+        """The verified optimum from one guess, corrected up to CORRECTIONS times; or None.
+
+        The guess: the rows at their lower bound and those at their upper bound.
+
+        Args:
+            p_full: (n, n) P, both triangles.
+            kkt_values: the KKT template's values (_build_kkt_template), regularized.
+            q: (n,) the linear cost.
+            lower: (m,) lower bounds.
+            upper: (m,) upper bounds.
+            equality: (m,) bool, the rows with lower == upper.
+            tol: the dual tolerance (DUAL_TOL relative to |q|).
+            at_lower: (m,) bool, the rows guessed at their lower bound.
+            at_upper: (m,) bool, those at their upper bound (none of at_lower).
+        """
         for _ in range(CORRECTIONS + 1):
             active = at_lower | at_upper
             bound = np.where(at_lower, lower, upper)
-            solved = self._kkt_solve(p_full, p_values, q, active, bound)
+            solved = self._kkt_solve(p_full, kkt_values, q, active, bound)
             if solved is None:
                 return None
             x, y = solved
-            ax = self._a @ x
+            ax = _matvec(self._a, x)
             violated_low = ax < lower - PRIMAL_TOL
             violated_up = ax > upper + PRIMAL_TOL
             wrong_sign = ~equality & ((at_lower & (y > tol)) | (at_upper & (y < -tol)))
-            stationarity = p_full @ x + q + self._a_t @ y
             if not (violated_low.any() or violated_up.any() or wrong_sign.any()):
+                px = _matvec(p_full, x)
+                stationarity = px + q + _matvec(self._a_t, y)
                 if float(np.max(np.abs(stationarity))) > tol:
                     return None
-                return x, y, 0.5 * float(x @ (p_full @ x)) + float(q @ x)
+                return x, y, 0.5 * float(x @ px) + float(q @ x)
             at_lower = (at_lower & ~wrong_sign) | violated_low
             at_upper = (at_upper & ~wrong_sign & ~at_lower) | violated_up
         return None
 
-    def _kkt_solve(self, p_full: sp.csr_matrix, p_values: np.ndarray, q: np.ndarray,
+    def _kkt_solve(self, p_full: sp.csr_matrix, kkt_values: np.ndarray, q: np.ndarray,
                    active: np.ndarray, bound: np.ndarray
                    ) -> tuple[np.ndarray, np.ndarray] | None:
-        """(x, y) of the QP with the active rows as equalities, y zero on the others."""
+        """(x, y) of the QP with the active rows as equalities, y zero on the others.
+
+        Args:
+            p_full: (n, n) P, both triangles.
+            kkt_values: the template's values (_build_kkt_template), regularized.
+            q: (n,) the linear cost.
+            active: (m,) bool, the rows held at a bound.
+            bound: (m,) the bound each row is held at.
+        """
         n = self.n_vars
-        rank = np.cumsum(active) - 1 + n  # KKT index of each active row
-        keep = active[self._a_i]
-        a_i, a_j, a_v = rank[self._a_i[keep]], self._a_j[keep], self._a_v[keep]
-        size = n + int(active.sum())
-        diag = np.arange(size)
-        reg = np.where(diag < n, REGULARIZATION, -REGULARIZATION)
-        kkt = sp.csc_matrix((np.concatenate([p_values[self._p_take], a_v, a_v, reg]),
-                             (np.concatenate([self._p_i, a_i, a_j, diag]),
-                              np.concatenate([self._p_j, a_j, a_i, diag]))), shape=(size, size))
+        kept = np.concatenate([np.ones(n, bool), active])
+        index = np.cumsum(kept) - 1  # KKT index of each template row / column
+        keep = kept[self._t_rows] & kept[self._t_cols]
+        size = int(index[-1]) + 1
+        per_column = np.bincount(index[self._t_cols[keep]], minlength=size)
+        indptr = np.concatenate([[0], np.cumsum(per_column)])
         try:
-            factor = spla.splu(kkt)
+            factor = _lu_factor(kkt_values[keep], index[self._t_rows[keep]], indptr, size)
         except RuntimeError:  # singular even with the regularization
             return None
         b = bound[active]
@@ -119,7 +254,8 @@ class ActiveSetSolver:
         for _ in range(REFINEMENT_STEPS):  # against the unregularized system
             y[active] = sol[n:]
             x = sol[:n]
-            residual = np.concatenate([-q - p_full @ x - self._a_t @ y, b - (self._a @ x)[active]])
+            residual = np.concatenate([-q - _matvec(p_full, x) - _matvec(self._a_t, y),
+                                       b - _matvec(self._a, x)[active]])
             sol = sol + factor.solve(residual)
         if not np.all(np.isfinite(sol)):
             return None

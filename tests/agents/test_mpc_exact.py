@@ -2,10 +2,13 @@
 
 from __future__ import annotations
 
+from pathlib import Path
+
 import numpy as np
 import osqp
 import pytest
 import scipy.sparse as sp
+import scipy.sparse.linalg as spla
 
 from marl_social.agents.robot import active_set, qp
 from marl_social.agents.robot.corridor import provably_infeasible, reachable_progress
@@ -118,6 +121,67 @@ def test_active_set_gives_nothing_for_an_infeasible_qp():
                         np.array([-1.0, 1.0])) is None
 
 
+@pytest.mark.parametrize("kernels", [True, False])
+def test_lu_factor_and_matvec_are_scipys_public_calls_bit_for_bit(kernels, monkeypatch):
+    """_lu_factor is spla.splu (the same permutations and solves), _matvec is `@`; also
+    through their fallbacks (a scipy without the private kernel modules)."""
+    if not kernels:
+        monkeypatch.setattr(active_set, "_superlu", None)
+        monkeypatch.setattr(active_set, "_sparsetools", None)
+    rng = np.random.default_rng(5)
+    n = 40
+    dense = rng.normal(size=(n, n)) * (rng.random((n, n)) < 0.15) + 3.0 * np.eye(n)
+    matrix = sp.csc_matrix(dense)
+    ours = active_set._lu_factor(matrix.data, matrix.indices, matrix.indptr, n)
+    theirs = spla.splu(matrix)
+    assert np.array_equal(ours.perm_c, theirs.perm_c)
+    assert np.array_equal(ours.perm_r, theirs.perm_r)
+    rhs = rng.normal(size=n)
+    assert np.array_equal(ours.solve(rhs), theirs.solve(rhs))
+    x = rng.normal(size=n)
+    assert np.array_equal(active_set._matvec(matrix.tocsr(), x), matrix.tocsr() @ x)
+    singular = sp.csc_matrix(np.diag([1.0, 0.0, 2.0]))
+    with pytest.raises(RuntimeError):
+        active_set._lu_factor(singular.data, singular.indices, singular.indptr, 3)
+
+
+def test_second_guess_solves_a_degenerate_qp_the_iterates_multipliers_get_wrong(monkeypatch):
+    """A T-intersection QP of two branches (near hidden car, seed 1) that OSQP left after
+    ROUND_ITER iterations: the active set its multipliers give is wrong and CORRECTIONS
+    corrections do not fix it (the MPC iterated on for 10 000 more); the rows within
+    NEAR_BOUND of a bound give the optimum, which OSQP at a tight tolerance confirms."""
+    data = np.load(Path(__file__).parent / "data" / "degenerate_qp.npz")
+    a = sp.csc_matrix((data["a_data"], data["a_indices"], data["a_indptr"]),
+                      shape=tuple(data["a_shape"]))
+    solver = active_set.ActiveSetSolver(data["p_rows"], data["p_cols"], a)
+    p_values, q, lower, upper = data["p_values"], data["q"], data["lower"], data["upper"]
+    guesses = []
+    corrected = active_set.ActiveSetSolver._corrected
+
+    def recorded(self, *args):
+        out = corrected(self, *args)
+        guesses.append(out is not None)
+        return out
+
+    monkeypatch.setattr(active_set.ActiveSetSolver, "_corrected", recorded)
+    exact = solver.solve(p_values, q, lower, upper, data["x_guess"], data["y_guess"])
+    assert guesses == [False, True]  # the first guess fails, the second holds
+    x, y, cost = exact
+    n = len(q)
+    p = sp.csc_matrix((p_values, (data["p_rows"], data["p_cols"])), shape=(n, n))
+    p_sym = p + sp.triu(p, k=1).T
+    ax = a @ x
+    assert np.all(ax >= lower - 1e-7) and np.all(ax <= upper + 1e-7)
+    assert np.allclose(p_sym @ x + q + a.T @ y, 0.0, atol=1e-6)
+    reference = osqp.OSQP()
+    reference.setup(p, q, a, lower, upper, verbose=False, eps_abs=1e-10, eps_rel=1e-10,
+                    max_iter=500_000, polishing=True, adaptive_rho_interval=25)
+    res = reference.solve(raise_error=False)
+    assert res.info.status_val == osqp.SolverStatus.OSQP_SOLVED
+    assert np.allclose(x, res.x, atol=1e-5)
+    assert cost <= float(res.info.obj_val) + 1e-6
+
+
 @pytest.mark.parametrize("seed", range(5))
 def test_reachable_progress_bounds_every_admissible_plan(seed):
     """Random plans within the acceleration, jerk and speed bounds never get further."""
@@ -162,3 +226,42 @@ def test_provably_infeasible_when_a_pass_must_end_behind_a_bound_or_out_of_reach
     far = s_low.copy()
     far[0, 3] = reach[3] + 1.0  # further than the robot can get
     assert provably_infeasible(far, s_up, reach, 0.5)
+
+
+def test_kkt_template_gives_the_matrix_scipy_assembles_for_any_active_set(monkeypatch):
+    """The KKT matrix cut from the template: scipy.sparse's assembly, entry for entry (so that
+    its factorization, and every exact solve, are those of the direct assembly)."""
+    problem = _qp(3)
+    solver = problem._active_set
+    rng = np.random.default_rng(7)
+    p_values = problem._p_values(np.array([0.5, 0.3, 0.2]), np.array([1.0, 0.0, 0.5]), 30.0)
+    kkt_values = solver._t_constant.copy()
+    kkt_values[solver._t_p_pos] = p_values[solver._p_take]
+    kkt_values[solver._t_x_diagonal] += active_set.REGULARIZATION
+    n = solver.n_vars
+    built, lu_factor = [], active_set._lu_factor
+
+    def recorded(values, indices, indptr, size):
+        built.append(sp.csc_matrix((values, indices, indptr), shape=(size, size)))
+        return lu_factor(values, indices, indptr, size)
+
+    monkeypatch.setattr(active_set, "_lu_factor", recorded)
+    for _ in range(5):
+        active = rng.random(solver.n_rows) < 0.4
+        built.clear()
+        solver._kkt_solve(solver._p_full, kkt_values, np.zeros(n), active,
+                          np.zeros(solver.n_rows))
+        rank = np.cumsum(active) - 1 + n
+        keep = active[solver._a_i]
+        a_i, a_j, a_v = rank[solver._a_i[keep]], solver._a_j[keep], solver._a_v[keep]
+        size = n + int(active.sum())
+        diag = np.arange(size)
+        reg = np.where(diag < n, active_set.REGULARIZATION, -active_set.REGULARIZATION)
+        direct = sp.csc_matrix(
+            (np.concatenate([p_values[solver._p_take], a_v, a_v, reg]),
+             (np.concatenate([solver._p_i, a_i, a_j, diag]),
+              np.concatenate([solver._p_j, a_j, a_i, diag]))), shape=(size, size))
+        (kkt,) = built
+        assert np.array_equal(kkt.indptr, direct.indptr)
+        assert np.array_equal(kkt.indices, direct.indices)
+        assert np.array_equal(kkt.data, direct.data)  # bit for bit
