@@ -1,0 +1,410 @@
+"""Compiled (numba) loops for the candidates' rollouts, vehicle gaps and step costs (issue 17).
+
+`models/gap_evaluation.vehicle_gap_evaluation` (a driver's Q*, the robot's model of a human)
+and `models/pedestrian.pedestrian_q_values` evaluate a few hundred plan steps per decision;
+in numpy that is some 150 calls of a few microseconds each. These kernels do the same
+arithmetic in a few fused loops, bit for bit (tests/models/test_gap_kernels.py,
+tests/models/test_gap_evaluation.py):
+
+* every value is computed by the same IEEE operations (+, -, *, /, sqrt) in the same order
+  as the numpy reference (models/candidates.py); numba's defaults do not contract a * b + c
+  into a fused multiply-add and this module never asks for fastmath;
+* minima and maxima propagate NaN as np.minimum / np.maximum do (their order cannot matter
+  otherwise: no signed zero reaches them, see the functions' docstrings);
+* sums over the objects follow np.sum's pairwise order along a contiguous axis
+  (`_pairwise_sum`), cumulative sums np.cumsum's sequential one;
+* the transcendental functions (np.exp of the safety feature, np.tanh of the crosswalk
+  occupancy) stay in numpy: numpy's SIMD exp differs from libm's in the last bit. The kernels
+  hand numpy the array to exponentiate and take the result back.
+
+The module is imported at the first evaluation (importing numba takes a few tenths of a
+second); `cache=True` keeps the machine code next to it (__pycache__), so only the first
+process after a change compiles. Every kernel has one signature: read-only C-contiguous
+arrays (writable ones convert to them), so one compilation serves every call.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numba
+import numpy as np
+from numba import types
+
+_F8 = types.float64
+_I8 = types.int64
+_B1 = types.boolean
+
+
+def _array(ndim: int, dtype=_F8):
+    """The numba type of a read-only C-contiguous array (a writable one converts to it)."""
+    return types.Array(dtype, ndim, "C", readonly=True)
+
+
+_JIT = {"cache": True, "nogil": True, "error_model": "numpy"}
+
+
+@numba.njit(cache=True)
+def _nan_min(a, b):
+    """np.minimum(a, b) of two floats: the smaller, NaN if either is NaN."""
+    return b if (b < a or math.isnan(b)) else a
+
+
+@numba.njit(cache=True)
+def _nan_max(a, b):
+    """np.maximum(a, b) of two floats: the larger, NaN if either is NaN."""
+    return b if (b > a or math.isnan(b)) else a
+
+
+@numba.njit(cache=True)
+def _pairwise_block(values, start, n):
+    """The pairwise_sum of numpy of values[start:start + n] for n <= 128 (no further split).
+
+    Fewer than 8 values: added one by one to -0.0; else eight running sums, combined
+    ((r0 + r1) + (r2 + r3)) + ((r4 + r5) + (r6 + r7)), then the rest one by one.
+    """
+    if n < 8:
+        total = -0.0
+        for i in range(start, start + n):
+            total += values[i]
+        return total
+    r0, r1, r2, r3 = values[start], values[start + 1], values[start + 2], values[start + 3]
+    r4, r5, r6, r7 = values[start + 4], values[start + 5], values[start + 6], values[start + 7]
+    i = 8
+    while i < n - (n % 8):
+        b = start + i
+        r0 += values[b]
+        r1 += values[b + 1]
+        r2 += values[b + 2]
+        r3 += values[b + 3]
+        r4 += values[b + 4]
+        r5 += values[b + 5]
+        r6 += values[b + 6]
+        r7 += values[b + 7]
+        i += 8
+    total = ((r0 + r1) + (r2 + r3)) + ((r4 + r5) + (r6 + r7))
+    while i < n:
+        total += values[start + i]
+        i += 1
+    return total
+
+
+@numba.njit(cache=True)
+def _pairwise_sum(values, start, n):
+    """The pairwise_sum of numpy of values[start:start + n] (its add reduction's inner loop).
+
+    Up to 128 values `_pairwise_block`; more: the sum of the two halves' sums, the first half
+    n // 2 rounded down to a multiple of 8 -- numpy's recursion, walked with an explicit
+    stack (numba's on-disk cache does not take recursive functions). np.sum along a
+    contiguous axis is 0.0 + this (tests/models/test_gap_kernels.py checks it).
+    """
+    if n <= 128:
+        return _pairwise_block(values, start, n)
+    # post-order walk of the split tree: (start, n, halves pushed) per pending node
+    node_start = np.empty(128, dtype=np.int64)
+    node_n = np.empty(128, dtype=np.int64)
+    node_split = np.zeros(128, dtype=np.bool_)
+    sums = np.empty(128)
+    depth, n_sums = 1, 0
+    node_start[0], node_n[0] = start, n
+    while depth:
+        depth -= 1
+        first, count = node_start[depth], node_n[depth]
+        if count <= 128:
+            sums[n_sums] = _pairwise_block(values, first, count)
+            n_sums += 1
+        elif node_split[depth]:
+            n_sums -= 1
+            sums[n_sums - 1] = sums[n_sums - 1] + sums[n_sums]
+        else:
+            half = count // 2
+            half -= half % 8
+            node_split[depth] = True  # this node again, to add its halves' sums
+            node_start[depth + 1], node_n[depth + 1] = first + half, count - half
+            node_split[depth + 1] = False
+            node_start[depth + 2], node_n[depth + 2] = first, half
+            node_split[depth + 2] = False
+            depth += 3
+    return sums[0]
+
+
+@numba.njit(cache=True)
+def _curve_cap(s, v_max, step_m):
+    """route_rules.CurveSpeed.at of one arc length s [m] (|s / step_m| far below 2**63)."""
+    k = np.int64(np.rint(s / step_m))
+    if k < 0:
+        k = 0
+    elif k > len(v_max) - 1:
+        k = len(v_max) - 1
+    return v_max[k]
+
+
+@numba.njit(cache=True)
+def _segment(s, cum_s, n_seg):
+    """Route.pose_at's segment of arc length s: searchsorted(cum_s, s, 'right') - 1, clamped."""
+    if n_seg == 1:
+        return 0
+    lo, hi = 0, len(cum_s)  # the first index whose cum_s exceeds s
+    while lo < hi:
+        mid = (lo + hi) // 2
+        if cum_s[mid] <= s:
+            lo = mid + 1
+        else:
+            hi = mid
+    k = lo - 1
+    return 0 if k < 0 else (min(k, n_seg - 1))
+
+
+@numba.njit([(_array(2), _I8, _F8, _F8, _F8, _array(1), _I8, _B1, _array(1), _F8, _array(1),
+              _array(2), _array(1))], **_JIT)
+def plan_poses(increments, n_cont, v0, s0, dt_s, continuations, n_first, has_curve, v_max,
+               curve_step_m, cum_s, pose_table, along):
+    """The candidates' rollouts and the ego's covering circles along the route.
+
+    What models/candidates.evaluate_candidates computes before the scene: _rollout (the v >= 0
+    limit), with a curve speed _governed and the excess over the curve speed, Route.pose_at
+    of s0 + ds and the covering circles x + along cos(h), y + along sin(h). For a finite v0
+    that is not -0.0 (then no signed zero reaches a minimum) and |s0|, |v0| small enough that
+    the curve-speed grid index fits an int64.
+
+    Args:
+        increments: (P, T) cumsum(accel * dt_s) of the P = A x C plans [m/s], plan p having
+            continuation p % n_cont.
+        n_cont: C, the number of continuations.
+        v0: initial speed [m/s].
+        s0: initial arc length [m].
+        dt_s: rollout step [s].
+        continuations: (C,) continuation accelerations [m/s^2].
+        n_first: steps of the first segment (>= 1).
+        has_curve: whether a curve speed is given (v_max, curve_step_m: its grid).
+        v_max: (G,) CurveSpeed.v_max_mps [m/s] (unused without a curve speed).
+        curve_step_m: its grid step [m].
+        cum_s: (S + 1,) the route's cumulative segment lengths [m].
+        pose_table: (S, 6) per segment: start x, y [m], unit direction, cos and sin of the
+            heading.
+        along: (K,) offsets of the ego's covering circles along its heading [m].
+
+    Returns:
+        v, ds, a_eff (P, T) [m/s, m, m/s^2]; curve_excess (P,) [m/s] (empty without a curve
+        speed); xy (P, T, 2) [m]; ego_x, ego_y (K, P, T) [m].
+    """
+    n_plans, n_t = increments.shape
+    v = np.empty((n_plans, n_t))
+    ds = np.empty((n_plans, n_t))
+    a_eff = np.empty((n_plans, n_t))
+    v_start = v0 - _nan_min(0.0, v0)  # v_full[..., 0] of _rollout
+    for p in range(n_plans):
+        running_min = v0
+        previous = v_start
+        distance = 0.0
+        for t in range(n_t):
+            s_full = v0 + increments[p, t]
+            running_min = _nan_min(running_min, s_full)
+            speed = s_full - _nan_min(0.0, running_min)
+            step = 0.5 * (speed + previous) * dt_s
+            distance = step if t == 0 else distance + step
+            v[p, t] = speed
+            ds[p, t] = distance
+            a_eff[p, t] = (speed - previous) / dt_s
+            previous = speed
+    excess = np.empty(n_plans if has_curve else 0)
+    if has_curve:
+        ceiling = np.inf
+        for p in range(n_plans):
+            for t in range(n_t):
+                ceiling = _nan_min(ceiling, _curve_cap(s0 + ds[p, t], v_max, curve_step_m))
+        if math.isfinite(ceiling) or not v0 > 0.0:  # candidates._governed
+            for p in range(n_plans):
+                rising = continuations[p % n_cont] > 0.0 and math.isfinite(ceiling)
+                bound = _nan_max(v[p, n_first - 1], ceiling)
+                previous = v0
+                distance = 0.0
+                for t in range(n_t):
+                    speed = v[p, t]
+                    if rising and t >= n_first:
+                        speed = _nan_min(speed, bound)
+                    if math.isfinite(ceiling):
+                        step = 0.5 * (speed + previous) * dt_s
+                        distance = step if t == 0 else distance + step
+                        ds[p, t] = distance
+                    v[p, t] = speed
+                    a_eff[p, t] = (speed - previous) / dt_s
+                    previous = speed
+        for p in range(n_plans):
+            largest = -np.inf
+            for t in range(n_t):
+                cap = _curve_cap(s0 + ds[p, t], v_max, curve_step_m)
+                largest = _nan_max(largest, v[p, t] - cap) if t else v[p, t] - cap
+            excess[p] = largest
+    n_seg, n_circles = len(pose_table), len(along)
+    xy = np.empty((n_plans, n_t, 2))
+    ego_x = np.empty((n_circles, n_plans, n_t))
+    ego_y = np.empty((n_circles, n_plans, n_t))
+    for p in range(n_plans):
+        for t in range(n_t):
+            s = s0 + ds[p, t]
+            k = _segment(s, cum_s, n_seg)
+            local = s - cum_s[k]
+            x = pose_table[k, 0] + local * pose_table[k, 2]
+            y = pose_table[k, 1] + local * pose_table[k, 3]
+            xy[p, t, 0] = x
+            xy[p, t, 1] = y
+            for c in range(n_circles):
+                ego_x[c, p, t] = x + along[c] * pose_table[k, 4]
+                ego_y[c, p, t] = y + along[c] * pose_table[k, 5]
+    return v, ds, a_eff, excess, xy, ego_x, ego_y
+
+
+@numba.njit([(_array(3), _array(3), _F8, _array(4), _array(4), _array(2), _array(2, _B1), _B1)],
+            **_JIT)
+def circle_gaps(ego_x, ego_y, ego_r, other_x, other_y, other_r, vehicles, clipped):
+    """circle_gaps.circle_pair_gap of every plan step and object, and the vehicle clearance.
+
+    Per (hypothesis, object, plan step): the smallest squared centre distance dx^2 + dy^2
+    over the circle pairs (NaN if any is NaN), its square root minus the ego's radius minus
+    the object's. An object whose circles coincide (a disc) is compared through its first
+    one, an object that equals hypothesis 0's copies its gaps: the same values.
+
+    Args:
+        ego_x: (K, P, T) x of the ego's covering circles along its P plans [m].
+        ego_y: (K, P, T) their y [m].
+        ego_r: their radius [m].
+        other_x: (J, L, M, T) x of the objects' covering circles [m].
+        other_y: (J, L, M, T) their y [m].
+        other_r: (L, M) their radii [m].
+        vehicles: (L, M) the objects that are a present vehicle.
+        clipped: return -max(gap, 0), the argument of the safety feature's exp, rather
+            than the gaps.
+
+    Returns:
+        the gaps (L, P, T, M) [m], or -max(gap, 0) with `clipped`; the clearance (L, P): the
+        smallest gap to a present vehicle over the plan (inf without one) [m]; and its
+        max(., 0), the vehicle gap [m].
+    """
+    n_circles, n_plans, n_t = ego_x.shape
+    n_obj_circles, n_hyp, n_obj = other_x.shape[0], other_x.shape[1], other_x.shape[2]
+    gap = np.empty((n_hyp, n_plans, n_t, n_obj))
+    nearest = np.empty((n_plans, n_t))
+    for h in range(n_hyp):
+        for m in range(n_obj):
+            shared = h > 0 and other_r[h, m] == other_r[0, m]
+            disc = True
+            for j in range(n_obj_circles):
+                for t in range(n_t):
+                    if shared and (other_x[j, h, m, t] != other_x[j, 0, m, t]
+                                   or other_y[j, h, m, t] != other_y[j, 0, m, t]):
+                        shared = False
+                    if j and (other_x[j, h, m, t] != other_x[0, h, m, t]
+                              or other_y[j, h, m, t] != other_y[0, h, m, t]):
+                        disc = False
+            if shared:
+                gap[h, :, :, m] = gap[0, :, :, m]
+                continue
+            nearest[:] = np.inf
+            for k in range(n_circles):
+                for j in range(1 if disc else n_obj_circles):
+                    obj_x, obj_y = other_x[j, h, m], other_y[j, h, m]  # (T,)
+                    for p in range(n_plans):
+                        for t in range(n_t):
+                            dx = ego_x[k, p, t] - obj_x[t]
+                            dy = ego_y[k, p, t] - obj_y[t]
+                            nearest[p, t] = _nan_min(nearest[p, t], dx * dx + dy * dy)
+            radius = other_r[h, m]
+            for p in range(n_plans):
+                for t in range(n_t):
+                    gap[h, p, t, m] = math.sqrt(nearest[p, t]) - ego_r - radius
+    clearance = np.full((n_hyp, n_plans), np.inf)
+    for h in range(n_hyp):
+        for m in range(n_obj):
+            if vehicles[h, m]:
+                for p in range(n_plans):
+                    smallest = clearance[h, p]
+                    for t in range(n_t):
+                        smallest = _nan_min(smallest, gap[h, p, t, m])
+                    clearance[h, p] = smallest
+    vehicle_gap = np.empty((n_hyp, n_plans))
+    for h in range(n_hyp):
+        for p in range(n_plans):
+            vehicle_gap[h, p] = _nan_max(clearance[h, p], 0.0)
+    if clipped:
+        for h in range(n_hyp):
+            for p in range(n_plans):
+                for t in range(n_t):
+                    for m in range(n_obj):
+                        gap[h, p, t, m] = -_nan_max(gap[h, p, t, m], 0.0)
+    return gap, clearance, vehicle_gap
+
+
+@numba.njit([(_array(2), _array(2), _F8, _F8, _array(1), _array(4), _array(2, _B1),
+              _array(3), _F8)], **_JIT)
+def step_costs(v, a_eff, v_ref_mps, prev_accel, weights, safety_exp, present, conflict,
+               scale):
+    """sim/costs.step_cost of the candidates, times scale, as vehicle_gap_evaluation sums it.
+
+    The terms w_speed (v - v_ref)^2, w_accel a^2, w_jerk (a_k - a_{k-1})^2, w_safety times the
+    sum over the present objects of exp(-max(gap, 0)) (np.sum's order) and w_conflict times
+    the conflict, each only if its weight is not zero, added in that order (the first three,
+    the same in every hypothesis, once); the total of no term is 0.0.
+
+    Args:
+        v: (P, T) speeds of the plans [m/s].
+        a_eff: (P, T) their effective accelerations [m/s^2].
+        v_ref_mps: the reference speed [m/s].
+        prev_accel: the acceleration before the plans [m/s^2].
+        weights: (5,) the weights of speed, accel, jerk, safety and conflict.
+        safety_exp: (L, P, T, M) exp(-max(gap, 0)) (unused with a zero safety weight).
+        present: (L, M) the objects present in each hypothesis.
+        conflict: (L, P, T) the conflict feature (empty: none to add).
+        scale: plan_dt / DT_S.
+
+    Returns:
+        (L, P, T) the step costs.
+    """
+    w_speed, w_accel, w_jerk, w_safety, w_conflict = (weights[0], weights[1], weights[2],
+                                                      weights[3], weights[4])
+    n_hyp, n_obj = present.shape
+    n_plans, n_t = v.shape
+    own = np.zeros((n_plans, n_t))  # the scene-independent terms' total
+    started = False
+    if w_speed != 0.0:
+        for p in range(n_plans):
+            for t in range(n_t):
+                term = v[p, t] - v_ref_mps
+                own[p, t] = term * term * w_speed
+        started = True
+    if w_accel != 0.0:
+        for p in range(n_plans):
+            for t in range(n_t):
+                term = a_eff[p, t] * a_eff[p, t] * w_accel
+                own[p, t] = own[p, t] + term if started else term
+        started = True
+    if w_jerk != 0.0:
+        for p in range(n_plans):
+            for t in range(n_t):
+                term = a_eff[p, t] - (a_eff[p, t - 1] if t else prev_accel)
+                term = term * term * w_jerk
+                own[p, t] = own[p, t] + term if started else term
+        started = True
+    add_conflict = conflict.shape[0] > 0 and w_conflict != 0.0
+    row = np.empty(n_obj)
+    cost = np.empty((n_hyp, n_plans, n_t))
+    for h in range(n_hyp):
+        for p in range(n_plans):
+            for t in range(n_t):
+                total = own[p, t]
+                if w_safety != 0.0:
+                    if n_obj < 8:  # _pairwise_block's one-by-one sum
+                        summed = -0.0
+                        for m in range(n_obj):
+                            summed += safety_exp[h, p, t, m] if present[h, m] else 0.0
+                    else:
+                        for m in range(n_obj):
+                            row[m] = safety_exp[h, p, t, m] if present[h, m] else 0.0
+                        summed = _pairwise_sum(row, 0, n_obj)
+                    term = (0.0 + summed) * w_safety
+                    total = total + term if started else term
+                if add_conflict:
+                    term = w_conflict * conflict[h, p, t]
+                    total = total + term if (started or w_safety != 0.0) else term
+                cost[h, p, t] = total * scale
+    return cost
