@@ -11,10 +11,13 @@ order. What stays in numpy:
 
 * np.exp of the safety feature (numpy's SIMD exp and libm's differ in the last bit): the
   kernels hand it the clipped, negated gaps in one array and sum its result;
-* the conflict feature (np.tanh of the crosswalk and zone occupancies, `_conflict`), summed
-  in sim/costs' order; without crosswalks or zones, or without a pair of a vehicle and a
-  pedestrian on a crosswalk, it is all +0.0 and not added (every feature is >= +0, and
-  x + 0.0 == x for x >= +0), as the tracking feature of a plan along its route (lateral 0).
+* np.tanh of the ego's crosswalk and zone occupancies (the kernels compute its arguments and
+  finish the occupancies), and the scene's side of the conflict feature (the objects'
+  crosswalk occupancies and zone claims summed over the objects, `_conflict_rows`).
+
+Crosswalks without a pair of the ego (a vehicle) and a present pedestrian add +0.0 and are
+left out (every feature is >= +0, and x + 0.0 == x for x >= +0), as is the tracking feature
+of a plan along its route (lateral offset 0).
 """
 
 import math
@@ -32,7 +35,7 @@ from marl_social.models.candidates import (
 )
 from marl_social.models.circle_gaps import scene_circles, scene_crosswalk_occupancy
 from marl_social.sim.agent_spec import VehicleParams
-from marl_social.sim.costs import _crosswalk_conflict, crosswalk_occupancy, zone_occupancy
+from marl_social.sim.costs import OCCUPANCY_SOFTNESS_M, _cos_sin, _polygon_edges
 from marl_social.sim.dynamics import DT_S
 from marl_social.sim.road_map import Crosswalk, Route
 from marl_social.sim.route_rules import CURVE_PROFILE_STEP_M, CurveSpeed
@@ -52,9 +55,8 @@ def vehicle_gap_evaluation(cands: CandidateSet, theta: np.ndarray, v_ref_mps: fl
     (L, A, C) [m], curve_excess_mps (A, C) [m/s] with curve_speed; the other fields None.
 
     The rollouts, the gaps and the step costs are compiled loops (models/gap_kernels.py);
-    np.exp of the safety feature and the conflict feature stay in numpy. An initial state the
-    kernels do not take (a non-finite or -0.0 speed, a huge speed or arc length) takes
-    evaluate_candidates itself.
+    np.exp and np.tanh stay in numpy. An initial state the kernels do not take (a non-finite
+    or -0.0 speed, a huge speed or arc length) takes evaluate_candidates itself.
     """
     if not (abs(v0) < _LARGEST_SPEED_MPS and abs(s0) < _LARGEST_ARC_LENGTH_M) or (
             v0 == 0.0 and math.copysign(1.0, v0) < 0.0):
@@ -67,35 +69,30 @@ def vehicle_gap_evaluation(cands: CandidateSet, theta: np.ndarray, v_ref_mps: fl
     plan = _plan_constants(cands)
     n_first_actions, n_cont, n_t = plan.increments.shape
     along, ego_circle_r = _vehicle_circles(vehicle.length_m, vehicle.width_m)
-    v_max = _NO_CURVE if curve_speed is None else curve_speed.v_max_mps
-    v, ds, a_eff, excess, xy, ego_x, ego_y = kernels.plan_poses(
-        plan.increments.reshape(-1, n_t), n_cont, float(v0), float(s0), float(dt),
-        plan.continuations, cands.n_first, curve_speed is not None, v_max, CURVE_PROFILE_STEP_M,
-        route._cum_s, route._pose_table, along)
     ox, oy, other_r = scene_circles(scene)  # (J, L, M, T) x 2, (L, M)
     n_hyp = len(scene.mask)
     weights = theta[1:6].astype(np.float64)  # speed, accel, jerk, safety, conflict
     w_safety, w_conflict = weights[3], weights[4]
     present = np.ascontiguousarray(scene.mask)
-    exp_arg, clearance, vehicle_gap = kernels.circle_gaps(
-        ego_x, ego_y, ego_circle_r, np.ascontiguousarray(ox), np.ascontiguousarray(oy),
-        np.ascontiguousarray(other_r),
-        present & ~scene.is_pedestrian, w_safety != 0.0)
+    crosswalk_rows, zone_rows, zone_sizes, scene_sums = _conflict_rows(
+        scene, crosswalks if w_conflict != 0.0 else (), yield_zones if w_conflict != 0.0 else (),
+        yield_margin_s, dt)
+    v, ds, a_eff, excess, exp_arg, clearance, vehicle_gap, occupancy = kernels.plan_evaluation(
+        plan.increments.reshape(-1, n_t), n_cont, float(v0), float(s0), float(dt),
+        plan.continuations, cands.n_first, curve_speed is not None,
+        _NO_CURVE if curve_speed is None else curve_speed.v_max_mps, CURVE_PROFILE_STEP_M,
+        route._cum_s, route._pose_table, along, ego_circle_r, np.ascontiguousarray(ox),
+        np.ascontiguousarray(oy), np.ascontiguousarray(other_r),
+        present & ~scene.is_pedestrian, w_safety != 0.0,
+        0.5 * math.hypot(vehicle.length_m, vehicle.width_m), crosswalk_rows, zone_rows,
+        zone_sizes, OCCUPANCY_SOFTNESS_M)
     if w_safety != 0.0:
         np.exp(exp_arg, out=exp_arg)
-    plan_shape = (n_first_actions, n_cont, n_t)
-    conflict = _NO_CONFLICT
-    if w_conflict != 0.0:
-        shape = (n_hyp,) + plan_shape
-        conflict, zeros = _conflict(xy.reshape(plan_shape + (2,)), 0.5 * math.hypot(
-            vehicle.length_m, vehicle.width_m), ego_x.reshape((-1,) + plan_shape),
-            ego_y.reshape((-1,) + plan_shape), ego_circle_r, scene, crosswalks, yield_zones,
-            yield_margin_s, dt)
-        # adding +0.0 changes nothing (every term is >= +0)
-        conflict = _NO_CONFLICT if zeros else np.ascontiguousarray(
-            np.broadcast_to(conflict, shape)).reshape(n_hyp, -1, n_t)
+    if len(occupancy):
+        np.tanh(occupancy, out=occupancy)
     cost = kernels.step_costs(v, a_eff, float(v_ref_mps), float(prev_accel), weights, exp_arg,
-                              present, conflict, dt / DT_S)
+                              present, occupancy, scene_sums, dt / DT_S)
+    plan_shape = (n_first_actions, n_cont, n_t)
     hyp_shape = (n_hyp, n_first_actions, n_cont)
     return CandidateEvaluation(
         cost.reshape((n_hyp,) + plan_shape), v.reshape(plan_shape), a_eff.reshape(plan_shape),
@@ -107,7 +104,7 @@ def vehicle_gap_evaluation(cands: CandidateSet, theta: np.ndarray, v_ref_mps: fl
 _LARGEST_SPEED_MPS = 1e6  # the kernels' v0 and s0 bounds (the curve-speed grid index of any
 _LARGEST_ARC_LENGTH_M = 1e12  # arc length along the plans then fits an int64 by far)
 _NO_CURVE = np.zeros(1)
-_NO_CONFLICT = np.zeros((0, 0, 0))
+_NO_ROWS = (np.zeros((0, 6)), np.zeros((0, 1, 5)), np.zeros(0, dtype=np.int64))
 _KERNELS = []  # [models.gap_kernels] once imported
 
 
@@ -119,33 +116,42 @@ def _kernels():
     return _KERNELS[0]
 
 
-def _conflict(xy, ego_radius, ego_x, ego_y, ego_circle_r, scene, crosswalks, yield_zones,
-              yield_margin_s, dt) -> tuple:
-    """sim/costs' conflict feature of the candidates, and whether it is all zeros.
+def _conflict_rows(scene: ScenePrediction, crosswalks: tuple, yield_zones: tuple,
+                   yield_margin_s: float, dt: float) -> tuple:
+    """What the kernels need of the conflict feature's crosswalks and zones (W + Z rows).
+
+    The crosswalks count only with a pair of the ego (a vehicle) and a present pedestrian:
+    without one each adds occupancy x 0.0, +0.0 (sim/costs._feature_terms).
 
     Returns:
-        (conflict (L, A, C, T), False); (zeros (L, A, C, T), True) for crosswalks without a
-        pair of a vehicle and a pedestrian (they may broadcast the total to that shape);
-        (0.0, True) without crosswalks and zones.
+        (W, 6) the crosswalks' centre x, y [m], cos and sin of the walk heading, half length
+        and half width [m]; (Z, V, 5) the zones' edges (sim/costs._polygon_edges) and (Z,)
+        their numbers; (W + Z, L, T) per row the sum over the objects of the pedestrians'
+        crosswalk occupancy or the present objects' claim on the zone, as sim/costs sums them
+        (np.sum of np.where over the objects' axis).
     """
-    conflict, zeros = 0.0, True
-    if crosswalks:
-        pair_mask = (scene.mask & scene.is_pedestrian)[:, None, None, None, :]  # the ego: a car
-        if not pair_mask.any():
-            conflict = np.zeros((len(scene.mask),) + xy.shape[:-1])
-        else:
-            zeros = False
-            for cw, occ_other in zip(crosswalks, scene_crosswalk_occupancy(scene, crosswalks)):
-                conflict = conflict + _crosswalk_conflict(
-                    crosswalk_occupancy(xy, ego_radius, cw), occ_other, pair_mask)
-    if yield_zones:
-        ego_circles = np.moveaxis(np.stack((ego_x, ego_y), axis=-1), 0, -2)  # (A, C, T, K, 2)
-        ego_r = np.broadcast_to(ego_circle_r, ego_circles.shape[:-1])
-        zeros = False
-        for polygon, priority in yield_zones:
-            claim = zone_claims(scene, polygon, priority, yield_margin_s, dt)  # (L, M, T)
-            claim = claim.swapaxes(1, 2)[:, None, None]  # (L, 1, 1, T, M)
-            occ_ego = zone_occupancy(ego_circles, ego_r, polygon)
-            conflict = conflict + occ_ego * np.sum(
-                np.where(scene.mask[:, None, None, None, :], claim, 0.0), axis=-1)
-    return conflict, zeros
+    pair_mask = (scene.mask & scene.is_pedestrian)[:, None, None, None, :]  # the ego: a car
+    if crosswalks and not pair_mask.any():
+        crosswalks = ()
+    if not crosswalks and not yield_zones:
+        return _NO_ROWS + (np.zeros((0,) + scene.heading.shape[::2]),)
+    sums = [np.sum(np.where(pair_mask, occ_other, 0.0), axis=-1)  # (L, 1, 1, T)
+            for occ_other in scene_crosswalk_occupancy(scene, crosswalks)] if crosswalks else []
+    crosswalk_rows = np.array([_crosswalk_row(cw) for cw in crosswalks]).reshape(-1, 6)
+    edges = [_polygon_edges(polygon) for polygon, _ in yield_zones]
+    zone_rows = np.zeros((len(edges), max((len(e) for e in edges), default=1), 5))
+    for row, zone_edges in zip(zone_rows, edges):
+        row[:len(zone_edges)] = zone_edges
+    mask = scene.mask[:, None, None, None, :]
+    for polygon, priority in yield_zones:
+        claim = zone_claims(scene, polygon, priority, yield_margin_s, dt)  # (L, M, T)
+        sums.append(np.sum(np.where(mask, claim.swapaxes(1, 2)[:, None, None], 0.0), axis=-1))
+    return (crosswalk_rows, zone_rows, np.array([len(e) for e in edges], dtype=np.int64),
+            np.stack(sums).reshape(len(sums), len(scene.mask), -1))
+
+
+def _crosswalk_row(crosswalk: Crosswalk) -> tuple:
+    """(centre x, y, cos, sin of the walk heading, half length, half width) of a crosswalk."""
+    c, s = _cos_sin(crosswalk.walk_heading_rad)
+    return (crosswalk.center[0], crosswalk.center[1], c, s, 0.5 * crosswalk.length_m,
+            0.5 * crosswalk.width_m)

@@ -155,8 +155,7 @@ def _segment(s, cum_s, n_seg):
     return 0 if k < 0 else (min(k, n_seg - 1))
 
 
-@numba.njit([(_array(2), _I8, _F8, _F8, _F8, _array(1), _I8, _B1, _array(1), _F8, _array(1),
-              _array(2), _array(1))], **_JIT)
+@numba.njit(**_JIT)
 def plan_poses(increments, n_cont, v0, s0, dt_s, continuations, n_first, has_curve, v_max,
                curve_step_m, cum_s, pose_table, along):
     """The candidates' rollouts and the ego's covering circles along the route.
@@ -255,8 +254,7 @@ def plan_poses(increments, n_cont, v0, s0, dt_s, continuations, n_first, has_cur
     return v, ds, a_eff, excess, xy, ego_x, ego_y
 
 
-@numba.njit([(_array(3), _array(3), _F8, _array(4), _array(4), _array(2), _array(2, _B1), _B1)],
-            **_JIT)
+@numba.njit(**_JIT)
 def circle_gaps(ego_x, ego_y, ego_r, other_x, other_y, other_r, vehicles, clipped):
     """circle_gaps.circle_pair_gap of every plan step and object, and the vehicle clearance.
 
@@ -335,16 +333,98 @@ def circle_gaps(ego_x, ego_y, ego_r, other_x, other_y, other_r, vehicles, clippe
     return gap, clearance, vehicle_gap
 
 
+@numba.njit(**_JIT)
+def occupancy_arguments(xy, ego_x, ego_y, ego_r, ego_radius, crosswalks, zones, zone_sizes,
+                        softness_m):
+    """The arguments of np.tanh of the ego's crosswalk and zone occupancies (sim/costs.py).
+
+    crosswalk_occupancy(xy, ego_radius, cw) is 0.5 (1 + tanh(0.5 depth / softness)), depth =
+    min(half length - |u|, half width - |w| + ego_radius), u = rx c + ry s, w = ry c - rx s;
+    zone_occupancy of the covering circles the same of the largest over the circles of the
+    smallest signed distance inside the zone's edges plus the circles' radius. A signed zero
+    in a depth cannot change the occupancy (1.0 + tanh(-0.0) == 1.0 + tanh(+0.0)).
+
+    Args:
+        xy: (P, T, 2) the ego's positions along its plans [m].
+        ego_x: (K, P, T) x of its covering circles [m].
+        ego_y: (K, P, T) their y [m].
+        ego_r: their radius [m].
+        ego_radius: the ego's bounding radius [m].
+        crosswalks: (W, 6) per crosswalk: centre x, y [m], cos and sin of the walk heading,
+            half length, half width [m].
+        zones: (Z, V, 5) per zone edge: start x, y [m], edge vector x, y [m], its length [m].
+        zone_sizes: (Z,) the number of edges of each zone.
+        softness_m: sim/costs.OCCUPANCY_SOFTNESS_M [m].
+
+    Returns:
+        (W + Z, P, T) 0.5 depth / softness, the crosswalks' rows first.
+    """
+    n_circles, n_plans, n_t = ego_x.shape
+    n_cw = len(crosswalks)
+    out = np.empty((n_cw + len(zones), n_plans, n_t))
+    for i in range(n_cw):
+        cx, cy, c, s, half_length, half_width = crosswalks[i]
+        for p in range(n_plans):
+            for t in range(n_t):
+                rx = xy[p, t, 0] - cx
+                ry = xy[p, t, 1] - cy
+                u = half_length - abs(rx * c + ry * s)
+                w = half_width - abs(ry * c - rx * s) + ego_radius
+                out[i, p, t] = 0.5 * _nan_min(u, w) / softness_m
+    for z in range(len(zones)):
+        edges = zones[z]
+        for p in range(n_plans):
+            for t in range(n_t):
+                depth = 0.0
+                for k in range(n_circles):
+                    x, y = ego_x[k, p, t], ego_y[k, p, t]
+                    inside = 0.0
+                    for e in range(zone_sizes[z]):
+                        px, py, ex, ey, length = edges[e]
+                        d = (ex * (y - py) - ey * (x - px)) / length
+                        inside = _nan_min(inside, d) if e else d
+                    depth = _nan_max(depth, inside + ego_r) if k else inside + ego_r
+                out[n_cw + z, p, t] = 0.5 * depth / softness_m
+    return out
+
+
+@numba.njit([(_array(2), _I8, _F8, _F8, _F8, _array(1), _I8, _B1, _array(1), _F8, _array(1),
+              _array(2), _array(1), _F8, _array(4), _array(4), _array(2), _array(2, _B1), _B1,
+              _F8, _array(2), _array(3), _array(1, _I8), _F8)], **_JIT)
+def plan_evaluation(increments, n_cont, v0, s0, dt_s, continuations, n_first, has_curve, v_max,
+                    curve_step_m, cum_s, pose_table, along, ego_r, other_x, other_y, other_r,
+                    vehicles, clipped, ego_radius, crosswalks, zones, zone_sizes, softness_m):
+    """`plan_poses`, then `circle_gaps` and `occupancy_arguments` of its plans, in one call.
+
+    The arguments are theirs (see them); ego_x and ego_y come from plan_poses.
+
+    Returns:
+        v, ds, a_eff (P, T), curve_excess (P,) of plan_poses; the gaps or -max(gap, 0)
+        (L, P, T, M), the clearance and the vehicle gap (L, P) of circle_gaps; the tanh
+        arguments (W + Z, P, T) of occupancy_arguments.
+    """
+    v, ds, a_eff, excess, xy, ego_x, ego_y = plan_poses(
+        increments, n_cont, v0, s0, dt_s, continuations, n_first, has_curve, v_max,
+        curve_step_m, cum_s, pose_table, along)
+    gap, clearance, vehicle_gap = circle_gaps(ego_x, ego_y, ego_r, other_x, other_y, other_r,
+                                              vehicles, clipped)
+    soft = occupancy_arguments(xy, ego_x, ego_y, ego_r, ego_radius, crosswalks, zones,
+                               zone_sizes, softness_m)
+    return v, ds, a_eff, excess, gap, clearance, vehicle_gap, soft
+
+
 @numba.njit([(_array(2), _array(2), _F8, _F8, _array(1), _array(4), _array(2, _B1),
-              _array(3), _F8)], **_JIT)
-def step_costs(v, a_eff, v_ref_mps, prev_accel, weights, safety_exp, present, conflict,
-               scale):
+              _array(3), _array(3), _F8)], **_JIT)
+def step_costs(v, a_eff, v_ref_mps, prev_accel, weights, safety_exp, present, occupancy_tanh,
+               scene_sums, scale):
     """sim/costs.step_cost of the candidates, times scale, as vehicle_gap_evaluation sums it.
 
     The terms w_speed (v - v_ref)^2, w_accel a^2, w_jerk (a_k - a_{k-1})^2, w_safety times the
     sum over the present objects of exp(-max(gap, 0)) (np.sum's order) and w_conflict times
     the conflict, each only if its weight is not zero, added in that order (the first three,
-    the same in every hypothesis, once); the total of no term is 0.0.
+    the same in every hypothesis, once); the total of no term is 0.0. The conflict is
+    0.0 + the ego's occupancy 0.5 (1 + tanh) times the scene's sum, crosswalk by crosswalk,
+    then zone by zone (sim/costs._feature_terms).
 
     Args:
         v: (P, T) speeds of the plans [m/s].
@@ -354,7 +434,10 @@ def step_costs(v, a_eff, v_ref_mps, prev_accel, weights, safety_exp, present, co
         weights: (5,) the weights of speed, accel, jerk, safety and conflict.
         safety_exp: (L, P, T, M) exp(-max(gap, 0)) (unused with a zero safety weight).
         present: (L, M) the objects present in each hypothesis.
-        conflict: (L, P, T) the conflict feature (empty: none to add).
+        occupancy_tanh: (R, P, T) tanh of `occupancy_arguments` of the crosswalks with a pair
+            of a vehicle and a pedestrian and of the zones (R = 0: no conflict to add).
+        scene_sums: (R, L, T) per row, the sum over the objects of their crosswalk
+            occupancy (the pedestrians present) or zone claim (the objects present).
         scale: plan_dt / DT_S.
 
     Returns:
@@ -385,7 +468,7 @@ def step_costs(v, a_eff, v_ref_mps, prev_accel, weights, safety_exp, present, co
                 term = term * term * w_jerk
                 own[p, t] = own[p, t] + term if started else term
         started = True
-    add_conflict = conflict.shape[0] > 0 and w_conflict != 0.0
+    add_conflict = len(occupancy_tanh) > 0 and w_conflict != 0.0
     row = np.empty(n_obj)
     cost = np.empty((n_hyp, n_plans, n_t))
     for h in range(n_hyp):
@@ -404,7 +487,11 @@ def step_costs(v, a_eff, v_ref_mps, prev_accel, weights, safety_exp, present, co
                     term = (0.0 + summed) * w_safety
                     total = total + term if started else term
                 if add_conflict:
-                    term = w_conflict * conflict[h, p, t]
+                    conflict = 0.0
+                    for r in range(len(occupancy_tanh)):
+                        occupancy = 0.5 * (1.0 + occupancy_tanh[r, p, t])
+                        conflict = conflict + occupancy * scene_sums[r, h, t]
+                    term = w_conflict * conflict
                     total = total + term if (started or w_safety != 0.0) else term
                 cost[h, p, t] = total * scale
     return cost

@@ -125,11 +125,13 @@ def test_circle_gaps_is_circle_pair_gap(seed, n_hyp, n_obj, p_ped, shared, nan):
 
 @settings(max_examples=40, deadline=None)
 @given(seed=st.integers(0, 2**32 - 1), n_hyp=st.integers(1, 5), n_obj=st.integers(7, 20),
-       crosswalk=st.booleans(), p_absent=st.sampled_from([0.0, 0.3]))
-def test_vehicle_gap_evaluation_with_many_objects(seed, n_hyp, n_obj, crosswalk, p_absent):
-    """Eight objects and more: the safety feature's sum over them is np.sum's pairwise one."""
+       crosswalk=st.booleans(), p_absent=st.sampled_from([0.0, 0.3]), zones=st.integers(0, 2),
+       bent=st.booleans())
+def test_vehicle_gap_evaluation_with_many_objects(seed, n_hyp, n_obj, crosswalk, p_absent,
+                                                  zones, bent):
+    """Seven objects and more: the sums over them are in np.sum's order (pairwise from 8)."""
     rng = np.random.default_rng(seed)
-    route = _route(rng, False)
+    route = _route(rng, bent)
     n_t = CANDIDATES.n_steps
     is_ped = rng.random((n_hyp, n_obj)) < 0.4
     length = np.where(is_ped, 0.6, rng.uniform(3.5, 5.5, (n_hyp, n_obj)))
@@ -144,10 +146,14 @@ def test_vehicle_gap_evaluation_with_many_objects(seed, n_hyp, n_obj, crosswalk,
     args = (CANDIDATES, rng.uniform(0.0, 3.0, 6), rng.uniform(5.0, 12.0), VehicleParams(),
             route, rng.uniform(0.0, 40.0), rng.uniform(0.0, 12.0), rng.uniform(-3.0, 2.0),
             scene, crosswalks)
-    want = evaluate_candidates(*args, geometry=True, vehicle_gaps_only=True)
-    got = vehicle_gap_evaluation(*args)
+    polygon = np.array([[10.0, -5.0], [25.0, -5.0], [25.0, 5.0], [10.0, 5.0]])
+    extra = {"yield_zones": tuple((polygon + 3.0 * k, rng.random((n_hyp, n_obj)) < 0.6)
+                                  for k in range(zones)), "yield_margin_s": 1.5,
+             "curve_speed": CurveSpeed(route, 2.5, 2.3) if bent else None}
+    want = evaluate_candidates(*args, geometry=True, vehicle_gaps_only=True, **extra)
+    got = vehicle_gap_evaluation(*args, **extra)
     for name in ("step_cost", "v", "a_eff", "travel_m", "min_vehicle_gap_m",
-                 "vehicle_clearance_m"):
+                 "vehicle_clearance_m") + (("curve_excess_mps",) if bent else ()):
         assert _same(getattr(got, name), np.asarray(getattr(want, name))), name
         assert np.array_equal(getattr(got, name).sum(axis=-1),
                               getattr(want, name).sum(axis=-1), equal_nan=True), name
