@@ -33,7 +33,11 @@ from marl_social.models.candidates import (
     evaluate_candidates,
     zone_claims,
 )
-from marl_social.models.circle_gaps import scene_circles, scene_crosswalk_occupancy
+from marl_social.models.circle_gaps import (
+    MAX_KERNEL_OBJECTS,
+    scene_circles,
+    scene_crosswalk_occupancy,
+)
 from marl_social.sim.agent_spec import VehicleParams
 from marl_social.sim.costs import OCCUPANCY_SOFTNESS_M, _cos_sin, _polygon_edges
 from marl_social.sim.dynamics import DT_S
@@ -55,11 +59,13 @@ def vehicle_gap_evaluation(cands: CandidateSet, theta: np.ndarray, v_ref_mps: fl
     (L, A, C) [m], curve_excess_mps (A, C) [m/s] with curve_speed; the other fields None.
 
     The rollouts, the gaps and the step costs are compiled loops (models/gap_kernels.py);
-    np.exp and np.tanh stay in numpy. An initial state the kernels do not take (a non-finite
-    or -0.0 speed, a huge speed or arc length) takes evaluate_candidates itself.
+    np.exp and np.tanh stay in numpy. What the kernels do not take takes evaluate_candidates
+    itself: a non-finite or -0.0 speed, a huge speed or arc length, and a safety feature of
+    MAX_KERNEL_OBJECTS or more objects (see models/gap_kernels.py).
     """
     if not (abs(v0) < _LARGEST_SPEED_MPS and abs(s0) < _LARGEST_ARC_LENGTH_M) or (
-            v0 == 0.0 and math.copysign(1.0, v0) < 0.0):
+            v0 == 0.0 and math.copysign(1.0, v0) < 0.0) or (
+            scene.mask.shape[1] >= MAX_KERNEL_OBJECTS and theta[4] != 0.0):
         return evaluate_candidates(cands, theta, v_ref_mps, vehicle, route, s0, v0, prev_accel,
                                    scene, crosswalks, geometry=True, yield_zones=yield_zones,
                                    yield_margin_s=yield_margin_s, curve_speed=curve_speed,

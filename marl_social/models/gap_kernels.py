@@ -11,8 +11,11 @@ tests/models/test_gap_evaluation.py):
   into a fused multiply-add and this module never asks for fastmath;
 * minima and maxima propagate NaN as np.minimum / np.maximum do (their order cannot matter
   otherwise: no signed zero reaches them, see the functions' docstrings);
-* sums over the objects follow np.sum's pairwise order along a contiguous axis
-  (`_pairwise_sum`), cumulative sums np.cumsum's sequential one;
+* sums follow np.sum's order: pairwise along a contiguous axis (`_pairwise_sum`), which
+  for fewer than 8 values >= +0 is the one-by-one sum along any axis -- the safety feature's
+  sum over the objects is compiled for fewer than circle_gaps.MAX_KERNEL_OBJECTS objects
+  only, as the reference's memory layout (and so its order) varies beyond; cumulative sums
+  are np.cumsum's sequential ones;
 * the transcendental functions (np.exp of the safety feature, np.tanh of the crosswalk
   occupancy) stay in numpy: numpy's SIMD exp differs from libm's in the last bit. The kernels
   hand numpy the array to exponentiate and take the result back.
@@ -432,7 +435,8 @@ def step_costs(v, a_eff, v_ref_mps, prev_accel, weights, safety_exp, present, oc
         v_ref_mps: the reference speed [m/s].
         prev_accel: the acceleration before the plans [m/s^2].
         weights: (5,) the weights of speed, accel, jerk, safety and conflict.
-        safety_exp: (L, P, T, M) exp(-max(gap, 0)) (unused with a zero safety weight).
+        safety_exp: (L, P, T, M) exp(-max(gap, 0)), M < circle_gaps.MAX_KERNEL_OBJECTS
+            (unused with a zero safety weight).
         present: (L, M) the objects present in each hypothesis.
         occupancy_tanh: (R, P, T) tanh of `occupancy_arguments` of the crosswalks with a pair
             of a vehicle and a pedestrian and of the zones (R = 0: no conflict to add).
@@ -469,21 +473,15 @@ def step_costs(v, a_eff, v_ref_mps, prev_accel, weights, safety_exp, present, oc
                 own[p, t] = own[p, t] + term if started else term
         started = True
     add_conflict = len(occupancy_tanh) > 0 and w_conflict != 0.0
-    row = np.empty(n_obj)
     cost = np.empty((n_hyp, n_plans, n_t))
     for h in range(n_hyp):
         for p in range(n_plans):
             for t in range(n_t):
                 total = own[p, t]
-                if w_safety != 0.0:
-                    if n_obj < 8:  # _pairwise_block's one-by-one sum
-                        summed = -0.0
-                        for m in range(n_obj):
-                            summed += safety_exp[h, p, t, m] if present[h, m] else 0.0
-                    else:
-                        for m in range(n_obj):
-                            row[m] = safety_exp[h, p, t, m] if present[h, m] else 0.0
-                        summed = _pairwise_sum(row, 0, n_obj)
+                if w_safety != 0.0:  # np.sum of fewer than 8 values >= +0
+                    summed = -0.0
+                    for m in range(n_obj):
+                        summed += safety_exp[h, p, t, m] if present[h, m] else 0.0
                     term = (0.0 + summed) * w_safety
                     total = total + term if started else term
                 if add_conflict:

@@ -7,13 +7,20 @@ the features every agent shares.
 from __future__ import annotations
 
 import functools
+import math
 from dataclasses import dataclass, field
 
 import numpy as np
 
 from marl_social.models.candidates import ScenePrediction
-from marl_social.models.circle_gaps import circle_pair_gap, scene_circles
-from marl_social.sim.costs import CostWeights, _crosswalk_conflict, crosswalk_occupancy
+from marl_social.models.circle_gaps import MAX_KERNEL_OBJECTS, circle_pair_gap, scene_circles
+from marl_social.sim.costs import (
+    OCCUPANCY_SOFTNESS_M,
+    CostWeights,
+    _cos_sin,
+    _crosswalk_conflict,
+    crosswalk_occupancy,
+)
 from marl_social.sim.dynamics import DT_S
 from marl_social.sim.footprint import circle_layout
 from marl_social.sim.road_map import Crosswalk, Route
@@ -88,7 +95,71 @@ def pedestrian_q_values(model: PedestrianModel, route: Route, s0: float, v_ref: 
     coincide with its centre (offset 0 along its heading; the sign of a zero offset cannot
     change a squared distance), so its centre stands for them
     (tests/models/test_pedestrian_costs.py checks it against step_cost bit for bit).
+    Compiled loops (models/walk_kernels.py, `_compiled_q_values`) compute it for a finite s0
+    and fewer than MAX_KERNEL_OBJECTS objects (or a zero safety weight); numpy the rest.
     """
+    if math.isfinite(s0) and not (scene.mask.shape[1] >= MAX_KERNEL_OBJECTS
+                                  and model.theta.safety != 0.0):
+        return _compiled_q_values(model, route, s0, v_ref, prev_speed, scene, crosswalks)
+    return _numpy_q_values(model, route, s0, v_ref, prev_speed, scene, crosswalks)
+
+
+_KERNELS = []  # [models.walk_kernels] once imported
+
+
+def _compiled_q_values(model: PedestrianModel, route: Route, s0: float, v_ref: float,
+                       prev_speed: float, scene: ScenePrediction,
+                       crosswalks: tuple[Crosswalk, ...]) -> np.ndarray:
+    """`_numpy_q_values` in two compiled loops (models/walk_kernels.py), the same bits.
+
+    np.exp of the safety feature, np.tanh of the crosswalk occupancies and the scene's side
+    of the conflict feature (the vehicles' crosswalk occupancies summed over them) in numpy.
+    """
+    if not _KERNELS:
+        from marl_social.models import walk_kernels
+        _KERNELS.append(walk_kernels)
+    kernels = _KERNELS[0]
+    _, speeds, theta, ego_radius, speed_times = _model_constants(model)
+    weights = theta[1:6].astype(np.float64)  # speed, accel, jerk, safety, conflict
+    w_safety, w_conflict = weights[3], weights[4]
+    ox, oy, other_r = scene_circles(scene)
+    pair_mask = scene.mask[:, None, None, :] & ~scene.is_pedestrian[:, None, None, :]
+    n_hyp, n_t = len(scene.mask), speed_times.shape[1]
+    sums = []
+    if w_conflict != 0.0 and crosswalks and pair_mask.any():
+        other_xy = scene.xy.swapaxes(1, 2)[:, None]  # (L, 1, T, M, 2)
+        other_radius = scene.radius_m[:, None, None, :]
+        sums = [np.sum(np.where(pair_mask, crosswalk_occupancy(other_xy, other_radius, cw),
+                                0.0), axis=-1) for cw in crosswalks]  # (L, 1, T) each
+    rows = np.array([_crosswalk_row(cw) for cw in crosswalks] if sums else ()).reshape(-1, 6)
+    exp_arg, occupancy = kernels.walk_geometry(
+        speed_times, float(s0), route.length_m, route._cum_s, route._pose_table,
+        float(ego_radius[0]), np.ascontiguousarray(ox), np.ascontiguousarray(oy),
+        np.ascontiguousarray(other_r), w_safety != 0.0, float(model.radius_m), rows,
+        OCCUPANCY_SOFTNESS_M)
+    if w_safety != 0.0:
+        np.exp(exp_arg, out=exp_arg)
+    if len(occupancy):
+        np.tanh(occupancy, out=occupancy)
+    scene_sums = np.stack(sums).reshape(len(sums), n_hyp, n_t) if sums else np.zeros(
+        (0, n_hyp, n_t))
+    return kernels.walk_costs(speeds, n_t, float(v_ref), float(prev_speed),
+                              float(model.plan_dt_s), weights, exp_arg,
+                              np.ascontiguousarray(scene.mask), occupancy, scene_sums,
+                              model.plan_dt_s / DT_S)
+
+
+def _crosswalk_row(crosswalk: Crosswalk) -> tuple:
+    """(centre x, y, cos, sin of the walk heading, half length, half width) of a crosswalk."""
+    c, s = _cos_sin(crosswalk.walk_heading_rad)
+    return (crosswalk.center[0], crosswalk.center[1], c, s, 0.5 * crosswalk.length_m,
+            0.5 * crosswalk.width_m)
+
+
+def _numpy_q_values(model: PedestrianModel, route: Route, s0: float, v_ref: float,
+                    prev_speed: float, scene: ScenePrediction,
+                    crosswalks: tuple[Crosswalk, ...]) -> np.ndarray:
+    """pedestrian_q_values in numpy (the reference of the compiled loops; any s0)."""
     dt = model.plan_dt_s
     _, speeds, theta, ego_radius, speed_times = _model_constants(model)
     s = np.minimum(s0 + speed_times, route.length_m)  # (A, T)

@@ -3,7 +3,7 @@
 np.sum's pairwise order (every length, incl. more than 128 values), the candidates' rollouts
 with and without a curve speed, the gaps of every plan step to every object (discs, vehicles,
 objects shared by the hypotheses, M >= 8 objects, L > 1 hypotheses, NaN), and
-vehicle_gap_evaluation on many objects and hypotheses (the safety sum's pairwise order).
+vehicle_gap_evaluation on many objects and hypotheses.
 """
 
 import numpy as np
@@ -129,7 +129,7 @@ def test_circle_gaps_is_circle_pair_gap(seed, n_hyp, n_obj, p_ped, shared, nan):
        bent=st.booleans())
 def test_vehicle_gap_evaluation_with_many_objects(seed, n_hyp, n_obj, crosswalk, p_absent,
                                                   zones, bent):
-    """Seven objects and more: the sums over them are in np.sum's order (pairwise from 8)."""
+    """Seven objects and more (from MAX_KERNEL_OBJECTS on evaluate_candidates computes them)."""
     rng = np.random.default_rng(seed)
     route = _route(rng, bent)
     n_t = CANDIDATES.n_steps
