@@ -161,6 +161,32 @@ def _scene_circles(scene) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
             scene.xy[..., 1] + along * np.sin(scene.heading), radius[..., 0])
 
 
+_last_kernel_inputs: list = [None, None]  # [(scene,), scene_circle_inputs(scene)], read-only
+
+
+def scene_circle_inputs(scene) -> tuple[np.ndarray, ...]:
+    """What the compiled kernels build `scene_circles` from (models/gap_kernels.scene_circles).
+
+    Remembered for a scene of arrays nobody can write to, as scene_circles is.
+
+    Args:
+        scene: models.candidates.ScenePrediction (L hypotheses, M objects, T steps).
+
+    Returns:
+        C-contiguous float arrays: xy (L, M, T, 2) [m], np.cos and np.sin of the headings
+        (L, M, T), footprint.circle_layout's offsets along them (L, M, C) [m] and the circles'
+        radii (L, M) [m].
+    """
+    def compute():
+        along, radius = _scene_layout(scene.length_m, scene.width_m, scene.is_pedestrian)
+        return tuple(np.ascontiguousarray(a, dtype=np.float64) for a in (
+            scene.xy, np.cos(scene.heading), np.sin(scene.heading), along, radius[..., 0]))
+
+    return _remembered(_last_kernel_inputs, (scene,), compute,
+                       (scene.xy, scene.heading, scene.length_m, scene.width_m,
+                        scene.is_pedestrian))
+
+
 # [(scene, crosswalks), scene_crosswalk_occupancy(scene, crosswalks)] of a read-only scene
 _last_occupancy: list = [None, None]
 

@@ -35,7 +35,7 @@ from marl_social.models.candidates import (
 )
 from marl_social.models.circle_gaps import (
     MAX_KERNEL_OBJECTS,
-    scene_circles,
+    scene_circle_inputs,
     scene_crosswalk_occupancy,
 )
 from marl_social.sim.agent_spec import VehicleParams
@@ -75,7 +75,7 @@ def vehicle_gap_evaluation(cands: CandidateSet, theta: np.ndarray, v_ref_mps: fl
     plan = _plan_constants(cands)
     n_first_actions, n_cont, n_t = plan.increments.shape
     along, ego_circle_r = _vehicle_circles(vehicle.length_m, vehicle.width_m)
-    ox, oy, other_r = scene_circles(scene)  # (J, L, M, T) x 2, (L, M)
+    scene_xy, cos_heading, sin_heading, scene_along, other_r = scene_circle_inputs(scene)
     n_hyp = len(scene.mask)
     weights = theta[1:6].astype(np.float64)  # speed, accel, jerk, safety, conflict
     w_safety, w_conflict = weights[3], weights[4]
@@ -87,9 +87,8 @@ def vehicle_gap_evaluation(cands: CandidateSet, theta: np.ndarray, v_ref_mps: fl
         plan.increments.reshape(-1, n_t), n_cont, float(v0), float(s0), float(dt),
         plan.continuations, cands.n_first, curve_speed is not None,
         _NO_CURVE if curve_speed is None else curve_speed.v_max_mps, CURVE_PROFILE_STEP_M,
-        route._cum_s, route._pose_table, along, ego_circle_r, np.ascontiguousarray(ox),
-        np.ascontiguousarray(oy), np.ascontiguousarray(other_r),
-        present & ~scene.is_pedestrian, w_safety != 0.0,
+        route._cum_s, route._pose_table, along, ego_circle_r, scene_xy, cos_heading,
+        sin_heading, scene_along, other_r, present & ~scene.is_pedestrian, w_safety != 0.0,
         0.5 * math.hypot(vehicle.length_m, vehicle.width_m), crosswalk_rows, zone_rows,
         zone_sizes, OCCUPANCY_SOFTNESS_M)
     if w_safety != 0.0:

@@ -11,7 +11,7 @@ tests/models/test_gap_evaluation.py):
   into a fused multiply-add and this module never asks for fastmath;
 * minima and maxima propagate NaN as np.minimum / np.maximum do (their order cannot matter
   otherwise: no signed zero reaches them, see the functions' docstrings);
-* sums follow np.sum's order: pairwise along a contiguous axis (`_pairwise_sum`), which
+* sums follow np.sum's order: pairwise along a contiguous axis (walk_kernels._pairwise_sum), which
   for fewer than 8 values >= +0 is the one-by-one sum along any axis -- the safety feature's
   sum over the objects is compiled for fewer than circle_gaps.MAX_KERNEL_OBJECTS objects
   only, as the reference's memory layout (and so its order) varies beyond; cumulative sums
@@ -57,78 +57,6 @@ def _nan_min(a, b):
 def _nan_max(a, b):
     """np.maximum(a, b) of two floats: the larger, NaN if either is NaN."""
     return b if (b > a or math.isnan(b)) else a
-
-
-@numba.njit(cache=True)
-def _pairwise_block(values, start, n):
-    """The pairwise_sum of numpy of values[start:start + n] for n <= 128 (no further split).
-
-    Fewer than 8 values: added one by one to -0.0; else eight running sums, combined
-    ((r0 + r1) + (r2 + r3)) + ((r4 + r5) + (r6 + r7)), then the rest one by one.
-    """
-    if n < 8:
-        total = -0.0
-        for i in range(start, start + n):
-            total += values[i]
-        return total
-    r0, r1, r2, r3 = values[start], values[start + 1], values[start + 2], values[start + 3]
-    r4, r5, r6, r7 = values[start + 4], values[start + 5], values[start + 6], values[start + 7]
-    i = 8
-    while i < n - (n % 8):
-        b = start + i
-        r0 += values[b]
-        r1 += values[b + 1]
-        r2 += values[b + 2]
-        r3 += values[b + 3]
-        r4 += values[b + 4]
-        r5 += values[b + 5]
-        r6 += values[b + 6]
-        r7 += values[b + 7]
-        i += 8
-    total = ((r0 + r1) + (r2 + r3)) + ((r4 + r5) + (r6 + r7))
-    while i < n:
-        total += values[start + i]
-        i += 1
-    return total
-
-
-@numba.njit(cache=True)
-def _pairwise_sum(values, start, n):
-    """The pairwise_sum of numpy of values[start:start + n] (its add reduction's inner loop).
-
-    Up to 128 values `_pairwise_block`; more: the sum of the two halves' sums, the first half
-    n // 2 rounded down to a multiple of 8 -- numpy's recursion, walked with an explicit
-    stack (numba's on-disk cache does not take recursive functions). np.sum along a
-    contiguous axis is 0.0 + this (tests/models/test_gap_kernels.py checks it).
-    """
-    if n <= 128:
-        return _pairwise_block(values, start, n)
-    # post-order walk of the split tree: (start, n, halves pushed) per pending node
-    node_start = np.empty(128, dtype=np.int64)
-    node_n = np.empty(128, dtype=np.int64)
-    node_split = np.zeros(128, dtype=np.bool_)
-    sums = np.empty(128)
-    depth, n_sums = 1, 0
-    node_start[0], node_n[0] = start, n
-    while depth:
-        depth -= 1
-        first, count = node_start[depth], node_n[depth]
-        if count <= 128:
-            sums[n_sums] = _pairwise_block(values, first, count)
-            n_sums += 1
-        elif node_split[depth]:
-            n_sums -= 1
-            sums[n_sums - 1] = sums[n_sums - 1] + sums[n_sums]
-        else:
-            half = count // 2
-            half -= half % 8
-            node_split[depth] = True  # this node again, to add its halves' sums
-            node_start[depth + 1], node_n[depth + 1] = first + half, count - half
-            node_split[depth + 1] = False
-            node_start[depth + 2], node_n[depth + 2] = first, half
-            node_split[depth + 2] = False
-            depth += 3
-    return sums[0]
 
 
 @numba.njit(cache=True)
@@ -255,6 +183,37 @@ def plan_poses(increments, n_cont, v0, s0, dt_s, continuations, n_first, has_cur
                 ego_x[c, p, t] = x + along[c] * pose_table[k, 4]
                 ego_y[c, p, t] = y + along[c] * pose_table[k, 5]
     return v, ds, a_eff, excess, xy, ego_x, ego_y
+
+
+@numba.njit(**_JIT)
+def scene_circles(scene_xy, cos_heading, sin_heading, along):
+    """circle_gaps.scene_circles: the objects' covering circles, x + along cos(h), y + ...
+
+    Args:
+        scene_xy: (L, M, T, 2) the objects' predicted positions [m].
+        cos_heading: (L, M, T) np.cos of their headings.
+        sin_heading: (L, M, T) np.sin of their headings.
+        along: (L, M, C) footprint.circle_layout's offsets along the heading [m].
+
+    Returns:
+        x and y (J, L, M, T) of the circles' centres [m]; J = 1 when every offset is 0 (only
+        discs: the circles coincide), else C.
+    """
+    n_hyp, n_obj, n_t = cos_heading.shape
+    n_circles = 1
+    for value in along.ravel():
+        if value != 0.0:
+            n_circles = along.shape[2]
+    other_x = np.empty((n_circles, n_hyp, n_obj, n_t))
+    other_y = np.empty((n_circles, n_hyp, n_obj, n_t))
+    for j in range(n_circles):
+        for h in range(n_hyp):
+            for m in range(n_obj):
+                offset = along[h, m, j]
+                for t in range(n_t):
+                    other_x[j, h, m, t] = scene_xy[h, m, t, 0] + offset * cos_heading[h, m, t]
+                    other_y[j, h, m, t] = scene_xy[h, m, t, 1] + offset * sin_heading[h, m, t]
+    return other_x, other_y
 
 
 @numba.njit(**_JIT)
@@ -392,14 +351,17 @@ def occupancy_arguments(xy, ego_x, ego_y, ego_r, ego_radius, crosswalks, zones, 
 
 
 @numba.njit([(_array(2), _I8, _F8, _F8, _F8, _array(1), _I8, _B1, _array(1), _F8, _array(1),
-              _array(2), _array(1), _F8, _array(4), _array(4), _array(2), _array(2, _B1), _B1,
-              _F8, _array(2), _array(3), _array(1, _I8), _F8)], **_JIT)
+              _array(2), _array(1), _F8, _array(4), _array(3), _array(3), _array(3), _array(2),
+              _array(2, _B1), _B1, _F8, _array(2), _array(3), _array(1, _I8), _F8)], **_JIT)
 def plan_evaluation(increments, n_cont, v0, s0, dt_s, continuations, n_first, has_curve, v_max,
-                    curve_step_m, cum_s, pose_table, along, ego_r, other_x, other_y, other_r,
-                    vehicles, clipped, ego_radius, crosswalks, zones, zone_sizes, softness_m):
+                    curve_step_m, cum_s, pose_table, along, ego_r, scene_xy, cos_heading,
+                    sin_heading, scene_along, other_r, vehicles, clipped, ego_radius,
+                    crosswalks, zones, zone_sizes, softness_m):
     """`plan_poses`, then `circle_gaps` and `occupancy_arguments` of its plans, in one call.
 
-    The arguments are theirs (see them); ego_x and ego_y come from plan_poses.
+    The arguments are theirs (see them); ego_x and ego_y come from plan_poses, other_x and
+    other_y from `scene_circles` (scene_xy, cos_heading, sin_heading, scene_along: its
+    arguments).
 
     Returns:
         v, ds, a_eff (P, T), curve_excess (P,) of plan_poses; the gaps or -max(gap, 0)
@@ -409,6 +371,7 @@ def plan_evaluation(increments, n_cont, v0, s0, dt_s, continuations, n_first, ha
     v, ds, a_eff, excess, xy, ego_x, ego_y = plan_poses(
         increments, n_cont, v0, s0, dt_s, continuations, n_first, has_curve, v_max,
         curve_step_m, cum_s, pose_table, along)
+    other_x, other_y = scene_circles(scene_xy, cos_heading, sin_heading, scene_along)
     gap, clearance, vehicle_gap = circle_gaps(ego_x, ego_y, ego_r, other_x, other_y, other_r,
                                               vehicles, clipped)
     soft = occupancy_arguments(xy, ego_x, ego_y, ego_r, ego_radius, crosswalks, zones,

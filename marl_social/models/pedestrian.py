@@ -13,7 +13,12 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from marl_social.models.candidates import ScenePrediction
-from marl_social.models.circle_gaps import MAX_KERNEL_OBJECTS, circle_pair_gap, scene_circles
+from marl_social.models.circle_gaps import (
+    MAX_KERNEL_OBJECTS,
+    circle_pair_gap,
+    scene_circle_inputs,
+    scene_circles,
+)
 from marl_social.sim.costs import (
     OCCUPANCY_SOFTNESS_M,
     CostWeights,
@@ -122,7 +127,6 @@ def _compiled_q_values(model: PedestrianModel, route: Route, s0: float, v_ref: f
     _, speeds, theta, ego_radius, speed_times = _model_constants(model)
     weights = theta[1:6].astype(np.float64)  # speed, accel, jerk, safety, conflict
     w_safety, w_conflict = weights[3], weights[4]
-    ox, oy, other_r = scene_circles(scene)
     pair_mask = scene.mask[:, None, None, :] & ~scene.is_pedestrian[:, None, None, :]
     n_hyp, n_t = len(scene.mask), speed_times.shape[1]
     sums = []
@@ -134,9 +138,8 @@ def _compiled_q_values(model: PedestrianModel, route: Route, s0: float, v_ref: f
     rows = np.array([_crosswalk_row(cw) for cw in crosswalks] if sums else ()).reshape(-1, 6)
     exp_arg, occupancy = kernels.walk_geometry(
         speed_times, float(s0), route.length_m, route._cum_s, route._pose_table,
-        float(ego_radius[0]), np.ascontiguousarray(ox), np.ascontiguousarray(oy),
-        np.ascontiguousarray(other_r), w_safety != 0.0, float(model.radius_m), rows,
-        OCCUPANCY_SOFTNESS_M)
+        float(ego_radius[0]), *scene_circle_inputs(scene), w_safety != 0.0,
+        float(model.radius_m), rows, OCCUPANCY_SOFTNESS_M)
     if w_safety != 0.0:
         np.exp(exp_arg, out=exp_arg)
     if len(occupancy):

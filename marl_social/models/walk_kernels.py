@@ -21,22 +21,95 @@ from marl_social.models.gap_kernels import (
     _JIT,
     _array,
     _nan_min,
-    _pairwise_sum,
     _segment,
     circle_gaps,
     occupancy_arguments,
+    scene_circles,
 )
 
 
-@numba.njit([(_array(2), _F8, _F8, _array(1), _array(2), _F8, _array(4), _array(4), _array(2),
-              _B1, _F8, _array(2), _F8)], **_JIT)
-def walk_geometry(speed_times, s0, route_length_m, cum_s, pose_table, ego_r, other_x, other_y,
-                  other_r, clipped, own_radius_m, crosswalks, softness_m):
+@numba.njit(cache=True)
+def _pairwise_block(values, start, n):
+    """The pairwise_sum of numpy of values[start:start + n] for n <= 128 (no further split).
+
+    Fewer than 8 values: added one by one to -0.0; else eight running sums, combined
+    ((r0 + r1) + (r2 + r3)) + ((r4 + r5) + (r6 + r7)), then the rest one by one.
+    """
+    if n < 8:
+        total = -0.0
+        for i in range(start, start + n):
+            total += values[i]
+        return total
+    r0, r1, r2, r3 = values[start], values[start + 1], values[start + 2], values[start + 3]
+    r4, r5, r6, r7 = values[start + 4], values[start + 5], values[start + 6], values[start + 7]
+    i = 8
+    while i < n - (n % 8):
+        b = start + i
+        r0 += values[b]
+        r1 += values[b + 1]
+        r2 += values[b + 2]
+        r3 += values[b + 3]
+        r4 += values[b + 4]
+        r5 += values[b + 5]
+        r6 += values[b + 6]
+        r7 += values[b + 7]
+        i += 8
+    total = ((r0 + r1) + (r2 + r3)) + ((r4 + r5) + (r6 + r7))
+    while i < n:
+        total += values[start + i]
+        i += 1
+    return total
+
+
+@numba.njit(cache=True)
+def _pairwise_sum(values, start, n):
+    """The pairwise_sum of numpy of values[start:start + n] (its add reduction's inner loop).
+
+    Up to 128 values `_pairwise_block`; more: the sum of the two halves' sums, the first half
+    n // 2 rounded down to a multiple of 8 -- numpy's recursion, walked with an explicit
+    stack (numba's on-disk cache does not take recursive functions). np.sum along a
+    contiguous axis is 0.0 + this (tests/models/test_gap_kernels.py checks it).
+    """
+    if n <= 128:
+        return _pairwise_block(values, start, n)
+    # post-order walk of the split tree: (start, n, halves pushed) per pending node
+    node_start = np.empty(128, dtype=np.int64)
+    node_n = np.empty(128, dtype=np.int64)
+    node_split = np.zeros(128, dtype=np.bool_)
+    sums = np.empty(128)
+    depth, n_sums = 1, 0
+    node_start[0], node_n[0] = start, n
+    while depth:
+        depth -= 1
+        first, count = node_start[depth], node_n[depth]
+        if count <= 128:
+            sums[n_sums] = _pairwise_block(values, first, count)
+            n_sums += 1
+        elif node_split[depth]:
+            n_sums -= 1
+            sums[n_sums - 1] = sums[n_sums - 1] + sums[n_sums]
+        else:
+            half = count // 2
+            half -= half % 8
+            node_split[depth] = True  # this node again, to add its halves' sums
+            node_start[depth + 1], node_n[depth + 1] = first + half, count - half
+            node_split[depth + 1] = False
+            node_start[depth + 2], node_n[depth + 2] = first, half
+            node_split[depth + 2] = False
+            depth += 3
+    return sums[0]
+
+
+@numba.njit([(_array(2), _F8, _F8, _array(1), _array(2), _F8, _array(4), _array(3), _array(3),
+              _array(3), _array(2), _B1, _F8, _array(2), _F8)], **_JIT)
+def walk_geometry(speed_times, s0, route_length_m, cum_s, pose_table, ego_r, scene_xy,
+                  cos_heading, sin_heading, scene_along, other_r, clipped, own_radius_m,
+                  crosswalks, softness_m):
     """The walks' positions, their gaps to the scene's objects and crosswalk tanh arguments.
 
     s = min(s0 + speed x time, route length) (np.minimum), its Route.pose_at position; then
-    gap_kernels.circle_gaps of the disc there (one circle) and gap_kernels.occupancy_arguments
-    of its crosswalks (no zones).
+    gap_kernels.circle_gaps of the disc there (one circle) to gap_kernels.scene_circles, and
+    gap_kernels.occupancy_arguments of its crosswalks (no zones).
 
     Args:
         speed_times: (A, T) candidate speed x plan time [m].
@@ -45,9 +118,11 @@ def walk_geometry(speed_times, s0, route_length_m, cum_s, pose_table, ego_r, oth
         cum_s: (S + 1,) the route's cumulative segment lengths [m].
         pose_table: (S, 6) Route.pose_at's per-segment table.
         ego_r: the radius of the pedestrian's covering circle [m].
-        other_x: (J, L, M, T) x of the objects' covering circles [m].
-        other_y: (J, L, M, T) their y [m].
-        other_r: (L, M) their radii [m].
+        scene_xy: (L, M, T, 2) the objects' predicted positions [m].
+        cos_heading: (L, M, T) np.cos of their headings.
+        sin_heading: (L, M, T) np.sin of their headings.
+        scene_along: (L, M, C) their covering circles' offsets (footprint.circle_layout) [m].
+        other_r: (L, M) their circles' radii [m].
         clipped: return -max(gap, 0) (the safety feature's exp argument) rather than the gaps.
         own_radius_m: the pedestrian's radius, for the crosswalk occupancy [m].
         crosswalks: (W, 6) as gap_kernels.occupancy_arguments takes them.
@@ -71,6 +146,7 @@ def walk_geometry(speed_times, s0, route_length_m, cum_s, pose_table, ego_r, oth
             xy[a, t, 0] = ego_x[0, a, t] = x
             xy[a, t, 1] = ego_y[0, a, t] = y
     n_hyp = other_r.shape[0]
+    other_x, other_y = scene_circles(scene_xy, cos_heading, sin_heading, scene_along)
     gap, _, _ = circle_gaps(ego_x, ego_y, ego_r, other_x, other_y, other_r,
                             np.zeros((n_hyp, other_r.shape[1]), dtype=np.bool_), clipped)
     soft = occupancy_arguments(xy, ego_x, ego_y, ego_r, own_radius_m, crosswalks,

@@ -1,7 +1,8 @@
 """The compiled kernels (models/gap_kernels.py) against the numpy they stand for, bit for bit.
 
 np.sum's pairwise order (every length, incl. more than 128 values), the candidates' rollouts
-with and without a curve speed, the gaps of every plan step to every object (discs, vehicles,
+with and without a curve speed, the scene's covering circles, the gaps of every plan step to
+every object (discs, vehicles,
 objects shared by the hypotheses, M >= 8 objects, L > 1 hypotheses, NaN), and
 vehicle_gap_evaluation on many objects and hypotheses.
 """
@@ -10,7 +11,7 @@ import numpy as np
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from marl_social.models import gap_kernels
+from marl_social.models import gap_kernels, walk_kernels
 from marl_social.models.candidates import (
     CandidateSet,
     ScenePrediction,
@@ -19,7 +20,7 @@ from marl_social.models.candidates import (
     _rollout,
     evaluate_candidates,
 )
-from marl_social.models.circle_gaps import circle_pair_gap, scene_circles
+from marl_social.models.circle_gaps import circle_pair_gap, scene_circle_inputs, scene_circles
 from marl_social.models.gap_evaluation import vehicle_gap_evaluation
 from marl_social.sim.agent_spec import VehicleParams
 from marl_social.sim.road_map import Crosswalk, Route
@@ -40,7 +41,7 @@ def test_pairwise_sum_is_np_sum(seed, n, rows):
     # magnitudes 1e-17..1: the order of the additions shows in the last bits
     values = rng.random((rows, n)) * 10.0 ** rng.integers(-17, 1, (rows, n))
     want = np.sum(values, axis=-1)
-    got = np.array([0.0 + gap_kernels._pairwise_sum(row, 0, n) for row in values])
+    got = np.array([0.0 + walk_kernels._pairwise_sum(row, 0, n) for row in values])
     assert _same(got, want)
 
 
@@ -107,6 +108,10 @@ def test_circle_gaps_is_circle_pair_gap(seed, n_hyp, n_obj, p_ped, shared, nan):
     if nan:
         ego_x[1, 2, 3] = np.nan
     ox, oy, other_r = scene_circles(scene)
+    inputs = scene_circle_inputs(scene)
+    compiled_x, compiled_y = gap_kernels.scene_circles(*inputs[:4])
+    assert _same(compiled_x, ox) and _same(compiled_y, oy)
+    assert _same(inputs[4], other_r)
     want = circle_pair_gap(ego_x, ego_y, 1.1, ox, oy, other_r)  # (L, P, T, M)
     vehicles = mask & ~is_ped
     gap, clearance, vehicle_gap = gap_kernels.circle_gaps(
