@@ -6,7 +6,7 @@ model of a human evaluates (perception/belief) -- bit for bit (tests/models/test
 A decision's plans are a few hundred values, so in numpy the time goes to the number of calls,
 not to the arithmetic; here the rollouts (with the curve speed), the route's poses, the
 covering circles, their gaps to the scene's objects and the step costs are numba loops
-(models/gap_kernels.py, imported at the first call) that do the reference's arithmetic in its
+(models/gap_kernels.py, cost_kernels.py, imported at the first call) that do the reference's arithmetic in its
 order. What stays in numpy:
 
 * np.exp of the safety feature (numpy's SIMD exp and libm's differ in the last bit): the
@@ -58,7 +58,8 @@ def vehicle_gap_evaluation(cands: CandidateSet, theta: np.ndarray, v_ref_mps: fl
     (L, A, C, T), v, a_eff and travel_m (A, C, T), min_vehicle_gap_m and vehicle_clearance_m
     (L, A, C) [m], curve_excess_mps (A, C) [m/s] with curve_speed; the other fields None.
 
-    The rollouts, the gaps and the step costs are compiled loops (models/gap_kernels.py);
+    The rollouts, the gaps and the step costs are compiled loops (models/gap_kernels.py,
+    cost_kernels.py);
     np.exp and np.tanh stay in numpy. What the kernels do not take takes evaluate_candidates
     itself: a non-finite or -0.0 speed, a huge speed or arc length, and a safety feature of
     MAX_KERNEL_OBJECTS or more objects (see models/gap_kernels.py).
@@ -70,7 +71,7 @@ def vehicle_gap_evaluation(cands: CandidateSet, theta: np.ndarray, v_ref_mps: fl
                                    scene, crosswalks, geometry=True, yield_zones=yield_zones,
                                    yield_margin_s=yield_margin_s, curve_speed=curve_speed,
                                    vehicle_gaps_only=True)
-    kernels = _kernels()
+    kernels, cost_kernels = _kernels()
     dt = cands.plan_dt_s
     plan = _plan_constants(cands)
     n_first_actions, n_cont, n_t = plan.increments.shape
@@ -95,7 +96,7 @@ def vehicle_gap_evaluation(cands: CandidateSet, theta: np.ndarray, v_ref_mps: fl
         np.exp(exp_arg, out=exp_arg)
     if len(occupancy):
         np.tanh(occupancy, out=occupancy)
-    cost = kernels.step_costs(v, a_eff, float(v_ref_mps), float(prev_accel), weights, exp_arg,
+    cost = cost_kernels.step_costs(v, a_eff, float(v_ref_mps), float(prev_accel), weights, exp_arg,
                               present, occupancy, scene_sums, dt / DT_S)
     plan_shape = (n_first_actions, n_cont, n_t)
     hyp_shape = (n_hyp, n_first_actions, n_cont)
@@ -110,15 +111,15 @@ _LARGEST_SPEED_MPS = 1e6  # the kernels' v0 and s0 bounds (the curve-speed grid 
 _LARGEST_ARC_LENGTH_M = 1e12  # arc length along the plans then fits an int64 by far)
 _NO_CURVE = np.zeros(1)
 _NO_ROWS = (np.zeros((0, 6)), np.zeros((0, 1, 5)), np.zeros(0, dtype=np.int64))
-_KERNELS = []  # [models.gap_kernels] once imported
+_KERNELS = []  # [models.gap_kernels, models.cost_kernels] once imported
 
 
-def _kernels():
-    """models.gap_kernels, imported at the first call (importing numba takes a while)."""
+def _kernels() -> list:
+    """[gap_kernels, cost_kernels], imported at the first call (importing numba takes a while)."""
     if not _KERNELS:
-        from marl_social.models import gap_kernels
-        _KERNELS.append(gap_kernels)
-    return _KERNELS[0]
+        from marl_social.models import cost_kernels, gap_kernels
+        _KERNELS.extend((gap_kernels, cost_kernels))
+    return _KERNELS
 
 
 def _conflict_rows(scene: ScenePrediction, crosswalks: tuple, yield_zones: tuple,

@@ -100,7 +100,7 @@ def pedestrian_q_values(model: PedestrianModel, route: Route, s0: float, v_ref: 
     coincide with its centre (offset 0 along its heading; the sign of a zero offset cannot
     change a squared distance), so its centre stands for them
     (tests/models/test_pedestrian_costs.py checks it against step_cost bit for bit).
-    Compiled loops (models/walk_kernels.py, `_compiled_q_values`) compute it for a finite s0
+    Compiled loops (models/gap_kernels.py, cost_kernels.py: `_compiled_q_values`) compute it for a finite s0
     and fewer than MAX_KERNEL_OBJECTS objects (or a zero safety weight); numpy the rest.
     """
     if math.isfinite(s0) and not (scene.mask.shape[1] >= MAX_KERNEL_OBJECTS
@@ -109,21 +109,21 @@ def pedestrian_q_values(model: PedestrianModel, route: Route, s0: float, v_ref: 
     return _numpy_q_values(model, route, s0, v_ref, prev_speed, scene, crosswalks)
 
 
-_KERNELS = []  # [models.walk_kernels] once imported
+_KERNELS = []  # [models.gap_kernels, models.cost_kernels] once imported
 
 
 def _compiled_q_values(model: PedestrianModel, route: Route, s0: float, v_ref: float,
                        prev_speed: float, scene: ScenePrediction,
                        crosswalks: tuple[Crosswalk, ...]) -> np.ndarray:
-    """`_numpy_q_values` in two compiled loops (models/walk_kernels.py), the same bits.
+    """`_numpy_q_values` in compiled loops (gap_kernels, then cost_kernels), the same bits.
 
     np.exp of the safety feature, np.tanh of the crosswalk occupancies and the scene's side
     of the conflict feature (the vehicles' crosswalk occupancies summed over them) in numpy.
     """
     if not _KERNELS:
-        from marl_social.models import walk_kernels
-        _KERNELS.append(walk_kernels)
-    kernels = _KERNELS[0]
+        from marl_social.models import cost_kernels, gap_kernels
+        _KERNELS.extend((gap_kernels, cost_kernels))
+    gap_kernels, kernels = _KERNELS
     _, speeds, theta, ego_radius, speed_times = _model_constants(model)
     weights = theta[1:6].astype(np.float64)  # speed, accel, jerk, safety, conflict
     w_safety, w_conflict = weights[3], weights[4]
@@ -136,7 +136,7 @@ def _compiled_q_values(model: PedestrianModel, route: Route, s0: float, v_ref: f
         sums = [np.sum(np.where(pair_mask, crosswalk_occupancy(other_xy, other_radius, cw),
                                 0.0), axis=-1) for cw in crosswalks]  # (L, 1, T) each
     rows = np.array([_crosswalk_row(cw) for cw in crosswalks] if sums else ()).reshape(-1, 6)
-    exp_arg, occupancy = kernels.walk_geometry(
+    exp_arg, occupancy = gap_kernels.walk_geometry(
         speed_times, float(s0), route.length_m, route._cum_s, route._pose_table,
         float(ego_radius[0]), *scene_circle_inputs(scene), w_safety != 0.0,
         float(model.radius_m), rows, OCCUPANCY_SOFTNESS_M)

@@ -11,7 +11,7 @@ import numpy as np
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from marl_social.models import gap_kernels, walk_kernels
+from marl_social.models import cost_kernels, gap_kernels
 from marl_social.models.candidates import (
     CandidateSet,
     ScenePrediction,
@@ -41,7 +41,7 @@ def test_pairwise_sum_is_np_sum(seed, n, rows):
     # magnitudes 1e-17..1: the order of the additions shows in the last bits
     values = rng.random((rows, n)) * 10.0 ** rng.integers(-17, 1, (rows, n))
     want = np.sum(values, axis=-1)
-    got = np.array([0.0 + walk_kernels._pairwise_sum(row, 0, n) for row in values])
+    got = np.array([0.0 + cost_kernels._pairwise_sum(row, 0, n) for row in values])
     assert _same(got, want)
 
 

@@ -1,4 +1,4 @@
-"""The pedestrian's compiled Q values (models/walk_kernels.py) equal its numpy ones, bit for bit.
+"""The pedestrian's compiled Q values (models/gap_kernels.py, cost_kernels.py) equal its numpy ones, bit for bit.
 
 Up to 20 objects (from MAX_KERNEL_OBJECTS on numpy), several hypotheses, absent objects, vehicles
 on the crosswalk, weights with zeros, straight and bent crossing routes; and a non-finite

@@ -1,12 +1,13 @@
-"""Compiled (numba) loops of the pedestrian's decision (models/pedestrian.pedestrian_q_values).
+"""Compiled (numba) step costs of the candidates and of the pedestrian's walks (issue 17).
 
-The same arithmetic as the numpy reference, in its order, bit for bit
-(tests/models/test_pedestrian_costs.py): the walk along the crossing route at each candidate
-speed, the gaps of the pedestrian's disc to the scene's covering circles
-(gap_kernels.circle_gaps), the arguments of np.tanh of its crosswalk occupancies
-(gap_kernels.occupancy_arguments), then the step costs summed over the horizon in np.sum's
-pairwise order. np.exp and np.tanh stay in numpy (see models/gap_kernels.py), between the
-two kernels. Imported at the first decision; `cache=True` as there.
+`step_costs` (models/gap_evaluation.vehicle_gap_evaluation) and `walk_costs`
+(models/pedestrian.pedestrian_q_values, summed over the horizon in np.sum's pairwise order,
+`_pairwise_sum`) cost what models/gap_kernels.py laid out, with the same arithmetic as the
+numpy reference in its order, bit for bit (tests/models/test_gap_evaluation.py,
+test_walk_kernels.py, test_pedestrian_costs.py); np.exp and np.tanh stay in numpy, between
+the two kernels (see gap_kernels.py). Imported at the first decision; `cache=True` as there (and,
+as there, a compiled function calls only compiled functions of its own module: numba's cache
+notices changes of that file only).
 """
 
 from __future__ import annotations
@@ -14,18 +15,7 @@ from __future__ import annotations
 import numba
 import numpy as np
 
-from marl_social.models.gap_kernels import (
-    _B1,
-    _F8,
-    _I8,
-    _JIT,
-    _array,
-    _nan_min,
-    _segment,
-    circle_gaps,
-    occupancy_arguments,
-    scene_circles,
-)
+from marl_social.models.gap_kernels import _B1, _F8, _I8, _JIT, _array
 
 
 @numba.njit(cache=True)
@@ -100,60 +90,6 @@ def _pairwise_sum(values, start, n):
     return sums[0]
 
 
-@numba.njit([(_array(2), _F8, _F8, _array(1), _array(2), _F8, _array(4), _array(3), _array(3),
-              _array(3), _array(2), _B1, _F8, _array(2), _F8)], **_JIT)
-def walk_geometry(speed_times, s0, route_length_m, cum_s, pose_table, ego_r, scene_xy,
-                  cos_heading, sin_heading, scene_along, other_r, clipped, own_radius_m,
-                  crosswalks, softness_m):
-    """The walks' positions, their gaps to the scene's objects and crosswalk tanh arguments.
-
-    s = min(s0 + speed x time, route length) (np.minimum), its Route.pose_at position; then
-    gap_kernels.circle_gaps of the disc there (one circle) to gap_kernels.scene_circles, and
-    gap_kernels.occupancy_arguments of its crosswalks (no zones).
-
-    Args:
-        speed_times: (A, T) candidate speed x plan time [m].
-        s0: arc length now [m].
-        route_length_m: the crossing route's length [m].
-        cum_s: (S + 1,) the route's cumulative segment lengths [m].
-        pose_table: (S, 6) Route.pose_at's per-segment table.
-        ego_r: the radius of the pedestrian's covering circle [m].
-        scene_xy: (L, M, T, 2) the objects' predicted positions [m].
-        cos_heading: (L, M, T) np.cos of their headings.
-        sin_heading: (L, M, T) np.sin of their headings.
-        scene_along: (L, M, C) their covering circles' offsets (footprint.circle_layout) [m].
-        other_r: (L, M) their circles' radii [m].
-        clipped: return -max(gap, 0) (the safety feature's exp argument) rather than the gaps.
-        own_radius_m: the pedestrian's radius, for the crosswalk occupancy [m].
-        crosswalks: (W, 6) as gap_kernels.occupancy_arguments takes them.
-        softness_m: sim/costs.OCCUPANCY_SOFTNESS_M [m].
-
-    Returns:
-        the gaps or -max(gap, 0) (L, A, T, M) [m]; the tanh arguments (W, A, T).
-    """
-    n_speeds, n_t = speed_times.shape
-    n_seg = len(pose_table)
-    xy = np.empty((n_speeds, n_t, 2))
-    ego_x = np.empty((1, n_speeds, n_t))
-    ego_y = np.empty((1, n_speeds, n_t))
-    for a in range(n_speeds):
-        for t in range(n_t):
-            s = _nan_min(s0 + speed_times[a, t], route_length_m)
-            k = _segment(s, cum_s, n_seg)
-            local = s - cum_s[k]
-            x = pose_table[k, 0] + local * pose_table[k, 2]
-            y = pose_table[k, 1] + local * pose_table[k, 3]
-            xy[a, t, 0] = ego_x[0, a, t] = x
-            xy[a, t, 1] = ego_y[0, a, t] = y
-    n_hyp = other_r.shape[0]
-    other_x, other_y = scene_circles(scene_xy, cos_heading, sin_heading, scene_along)
-    gap, _, _ = circle_gaps(ego_x, ego_y, ego_r, other_x, other_y, other_r,
-                            np.zeros((n_hyp, other_r.shape[1]), dtype=np.bool_), clipped)
-    soft = occupancy_arguments(xy, ego_x, ego_y, ego_r, own_radius_m, crosswalks,
-                               np.zeros((0, 1, 5)), np.zeros(0, dtype=np.int64), softness_m)
-    return gap, soft
-
-
 @numba.njit([(_array(1), _I8, _F8, _F8, _F8, _array(1), _array(4), _array(2, _B1), _array(3),
               _array(3), _F8)], **_JIT)
 def walk_costs(speeds, n_t, v_ref_mps, prev_speed, dt_s, weights, safety_exp, present,
@@ -225,4 +161,83 @@ def walk_costs(speeds, n_t, v_ref_mps, prev_speed, dt_s, weights, safety_exp, pr
                     total = total + term if started else term
                 steps[t] = total
             cost[h, a] = (0.0 + _pairwise_sum(steps, 0, n_t)) * scale
+    return cost
+
+
+@numba.njit([(_array(2), _array(2), _F8, _F8, _array(1), _array(4), _array(2, _B1),
+              _array(3), _array(3), _F8)], **_JIT)
+def step_costs(v, a_eff, v_ref_mps, prev_accel, weights, safety_exp, present, occupancy_tanh,
+               scene_sums, scale):
+    """sim/costs.step_cost of the candidates, times scale, as vehicle_gap_evaluation sums it.
+
+    The terms w_speed (v - v_ref)^2, w_accel a^2, w_jerk (a_k - a_{k-1})^2, w_safety times the
+    sum over the present objects of exp(-max(gap, 0)) (np.sum's order) and w_conflict times
+    the conflict, each only if its weight is not zero, added in that order (the first three,
+    the same in every hypothesis, once); the total of no term is 0.0. The conflict is
+    0.0 + the ego's occupancy 0.5 (1 + tanh) times the scene's sum, crosswalk by crosswalk,
+    then zone by zone (sim/costs._feature_terms).
+
+    Args:
+        v: (P, T) speeds of the plans [m/s].
+        a_eff: (P, T) their effective accelerations [m/s^2].
+        v_ref_mps: the reference speed [m/s].
+        prev_accel: the acceleration before the plans [m/s^2].
+        weights: (5,) the weights of speed, accel, jerk, safety and conflict.
+        safety_exp: (L, P, T, M) exp(-max(gap, 0)), M < circle_gaps.MAX_KERNEL_OBJECTS
+            (unused with a zero safety weight).
+        present: (L, M) the objects present in each hypothesis.
+        occupancy_tanh: (R, P, T) tanh of `occupancy_arguments` of the crosswalks with a pair
+            of a vehicle and a pedestrian and of the zones (R = 0: no conflict to add).
+        scene_sums: (R, L, T) per row, the sum over the objects of their crosswalk
+            occupancy (the pedestrians present) or zone claim (the objects present).
+        scale: plan_dt / DT_S.
+
+    Returns:
+        (L, P, T) the step costs.
+    """
+    w_speed, w_accel, w_jerk, w_safety, w_conflict = (weights[0], weights[1], weights[2],
+                                                      weights[3], weights[4])
+    n_hyp, n_obj = present.shape
+    n_plans, n_t = v.shape
+    own = np.zeros((n_plans, n_t))  # the scene-independent terms' total
+    started = False
+    if w_speed != 0.0:
+        for p in range(n_plans):
+            for t in range(n_t):
+                term = v[p, t] - v_ref_mps
+                own[p, t] = term * term * w_speed
+        started = True
+    if w_accel != 0.0:
+        for p in range(n_plans):
+            for t in range(n_t):
+                term = a_eff[p, t] * a_eff[p, t] * w_accel
+                own[p, t] = own[p, t] + term if started else term
+        started = True
+    if w_jerk != 0.0:
+        for p in range(n_plans):
+            for t in range(n_t):
+                term = a_eff[p, t] - (a_eff[p, t - 1] if t else prev_accel)
+                term = term * term * w_jerk
+                own[p, t] = own[p, t] + term if started else term
+        started = True
+    add_conflict = len(occupancy_tanh) > 0 and w_conflict != 0.0
+    cost = np.empty((n_hyp, n_plans, n_t))
+    for h in range(n_hyp):
+        for p in range(n_plans):
+            for t in range(n_t):
+                total = own[p, t]
+                if w_safety != 0.0:  # np.sum of fewer than 8 values >= +0
+                    summed = -0.0
+                    for m in range(n_obj):
+                        summed += safety_exp[h, p, t, m] if present[h, m] else 0.0
+                    term = (0.0 + summed) * w_safety
+                    total = total + term if started else term
+                if add_conflict:
+                    conflict = 0.0
+                    for r in range(len(occupancy_tanh)):
+                        occupancy = 0.5 * (1.0 + occupancy_tanh[r, p, t])
+                        conflict = conflict + occupancy * scene_sums[r, h, t]
+                    term = w_conflict * conflict
+                    total = total + term if (started or w_safety != 0.0) else term
+                cost[h, p, t] = total * scale
     return cost
