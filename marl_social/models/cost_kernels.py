@@ -15,7 +15,10 @@ from __future__ import annotations
 import numba
 import numpy as np
 
-from marl_social.models.gap_kernels import _B1, _F8, _I8, _JIT, _array
+from marl_social.models.gap_kernels import _B1, _F8, _I8, _array
+
+# gap_kernels' options, written out: a change of them here must change this file for the cache
+_JIT = {"cache": True, "nogil": True, "error_model": "numpy"}
 
 
 @numba.njit(cache=True)
@@ -90,10 +93,37 @@ def _pairwise_sum(values, start, n):
     return sums[0]
 
 
+@numba.njit(cache=True)
+def _scene_sums(scene_tanh, pair, zone_sums):
+    """(W + Z, L, T) the objects' summed crosswalk occupancies, then the zones' given sums.
+
+    Per crosswalk the sum over the paired objects of their occupancy 0.5 (1 + tanh), as
+    sim/costs._crosswalk_conflict's np.sum of np.where: over fewer than 8 objects
+    (circle_gaps.MAX_KERNEL_OBJECTS) np.sum adds them one by one, along any axis, to 0.0.
+
+    Args:
+        scene_tanh: (W, L, T, M) tanh of gap_kernels.scene_occupancy_arguments.
+        pair: (L, M) the objects of the other kind (pedestrian / vehicle), present.
+        zone_sums: (Z, L, T) the present objects' summed claims on each zone.
+    """
+    n_cw, n_hyp, n_t, n_obj = scene_tanh.shape
+    sums = np.empty((n_cw + len(zone_sums), n_hyp, n_t))
+    for i in range(n_cw):
+        for h in range(n_hyp):
+            for t in range(n_t):
+                summed = -0.0
+                for m in range(n_obj):
+                    summed += 0.5 * (1.0 + scene_tanh[i, h, t, m]) if pair[h, m] else 0.0
+                sums[i, h, t] = 0.0 + summed
+    for z in range(len(zone_sums)):
+        sums[n_cw + z] = zone_sums[z]
+    return sums
+
+
 @numba.njit([(_array(1), _I8, _F8, _F8, _F8, _array(1), _array(4), _array(2, _B1), _array(3),
-              _array(3), _F8)], **_JIT)
+              _array(4), _array(2, _B1), _F8)], **_JIT)
 def walk_costs(speeds, n_t, v_ref_mps, prev_speed, dt_s, weights, safety_exp, present,
-               occupancy_tanh, scene_sums, scale):
+               occupancy_tanh, scene_tanh, pair, scale):
     """pedestrian_q_values: the step costs of the walks summed over the horizon, times scale.
 
     Per step, as models/pedestrian.py adds them: w_speed (v - v_ref)^2, w_accel a^2 and
@@ -115,7 +145,8 @@ def walk_costs(speeds, n_t, v_ref_mps, prev_speed, dt_s, weights, safety_exp, pr
         present: (L, M) the objects present in each hypothesis.
         occupancy_tanh: (W, A, T) tanh of walk_geometry's arguments of the crosswalks with a
             pair of the pedestrian and a present vehicle (W = 0: no conflict to add).
-        scene_sums: (W, L, T) per crosswalk the vehicles' summed crosswalk occupancy.
+        scene_tanh: (W, L, T, M) tanh of the objects' crosswalk occupancy arguments.
+        pair: (L, M) the vehicles present.
         scale: plan_dt / DT_S.
 
     Returns:
@@ -125,6 +156,7 @@ def walk_costs(speeds, n_t, v_ref_mps, prev_speed, dt_s, weights, safety_exp, pr
                                                       weights[3], weights[4])
     n_hyp, n_obj = present.shape
     add_conflict = len(occupancy_tanh) > 0 and w_conflict != 0.0
+    scene_sums = _scene_sums(scene_tanh, pair, np.zeros((0, n_hyp, n_t)))
     steps = np.empty(n_t)
     cost = np.empty((n_hyp, len(speeds)))
     for h in range(n_hyp):
@@ -165,9 +197,9 @@ def walk_costs(speeds, n_t, v_ref_mps, prev_speed, dt_s, weights, safety_exp, pr
 
 
 @numba.njit([(_array(2), _array(2), _F8, _F8, _array(1), _array(4), _array(2, _B1),
-              _array(3), _array(3), _F8)], **_JIT)
+              _array(3), _array(4), _array(2, _B1), _array(3), _F8)], **_JIT)
 def step_costs(v, a_eff, v_ref_mps, prev_accel, weights, safety_exp, present, occupancy_tanh,
-               scene_sums, scale):
+               scene_tanh, pair, zone_sums, scale):
     """sim/costs.step_cost of the candidates, times scale, as vehicle_gap_evaluation sums it.
 
     The terms w_speed (v - v_ref)^2, w_accel a^2, w_jerk (a_k - a_{k-1})^2, w_safety times the
@@ -188,8 +220,10 @@ def step_costs(v, a_eff, v_ref_mps, prev_accel, weights, safety_exp, present, oc
         present: (L, M) the objects present in each hypothesis.
         occupancy_tanh: (R, P, T) tanh of `occupancy_arguments` of the crosswalks with a pair
             of a vehicle and a pedestrian and of the zones (R = 0: no conflict to add).
-        scene_sums: (R, L, T) per row, the sum over the objects of their crosswalk
-            occupancy (the pedestrians present) or zone claim (the objects present).
+        scene_tanh: (W, L, T, M) tanh of the objects' crosswalk occupancy arguments
+            (gap_kernels.scene_occupancy_arguments), M < circle_gaps.MAX_KERNEL_OBJECTS.
+        pair: (L, M) the pedestrians present.
+        zone_sums: (Z, L, T) per zone the present objects' summed claims on it.
         scale: plan_dt / DT_S.
 
     Returns:
@@ -221,6 +255,7 @@ def step_costs(v, a_eff, v_ref_mps, prev_accel, weights, safety_exp, present, oc
                 own[p, t] = own[p, t] + term if started else term
         started = True
     add_conflict = len(occupancy_tanh) > 0 and w_conflict != 0.0
+    scene_sums = _scene_sums(scene_tanh, pair, zone_sums)
     cost = np.empty((n_hyp, n_plans, n_t))
     for h in range(n_hyp):
         for p in range(n_plans):

@@ -11,9 +11,9 @@ order. What stays in numpy:
 
 * np.exp of the safety feature (numpy's SIMD exp and libm's differ in the last bit): the
   kernels hand it the clipped, negated gaps in one array and sum its result;
-* np.tanh of the ego's crosswalk and zone occupancies (the kernels compute its arguments and
-  finish the occupancies), and the scene's side of the conflict feature (the objects'
-  crosswalk occupancies and zone claims summed over the objects, `_conflict_rows`).
+* np.tanh of the ego's and the objects' crosswalk occupancies and of the ego's zone
+  occupancies (the kernels compute its arguments and finish the occupancies), and the objects'
+  claims on the zones (candidates.zone_claims) summed over them (`_conflict_rows`).
 
 Crosswalks without a pair of the ego (a vehicle) and a present pedestrian add +0.0 and are
 left out (every feature is >= +0, and x + 0.0 == x for x >= +0), as is the tracking feature
@@ -36,7 +36,6 @@ from marl_social.models.candidates import (
 from marl_social.models.circle_gaps import (
     MAX_KERNEL_OBJECTS,
     scene_circle_inputs,
-    scene_crosswalk_occupancy,
 )
 from marl_social.sim.agent_spec import VehicleParams
 from marl_social.sim.costs import OCCUPANCY_SOFTNESS_M, _cos_sin, _polygon_edges
@@ -61,12 +60,12 @@ def vehicle_gap_evaluation(cands: CandidateSet, theta: np.ndarray, v_ref_mps: fl
     The rollouts, the gaps and the step costs are compiled loops (models/gap_kernels.py,
     cost_kernels.py);
     np.exp and np.tanh stay in numpy. What the kernels do not take takes evaluate_candidates
-    itself: a non-finite or -0.0 speed, a huge speed or arc length, and a safety feature of
-    MAX_KERNEL_OBJECTS or more objects (see models/gap_kernels.py).
+    itself: a non-finite or -0.0 speed, a huge speed or arc length, and MAX_KERNEL_OBJECTS or
+    more objects (models/circle_gaps.py).
     """
     if not (abs(v0) < _LARGEST_SPEED_MPS and abs(s0) < _LARGEST_ARC_LENGTH_M) or (
             v0 == 0.0 and math.copysign(1.0, v0) < 0.0) or (
-            scene.mask.shape[1] >= MAX_KERNEL_OBJECTS and theta[4] != 0.0):
+            scene.mask.shape[1] >= MAX_KERNEL_OBJECTS):
         return evaluate_candidates(cands, theta, v_ref_mps, vehicle, route, s0, v0, prev_accel,
                                    scene, crosswalks, geometry=True, yield_zones=yield_zones,
                                    yield_margin_s=yield_margin_s, curve_speed=curve_speed,
@@ -81,23 +80,27 @@ def vehicle_gap_evaluation(cands: CandidateSet, theta: np.ndarray, v_ref_mps: fl
     weights = theta[1:6].astype(np.float64)  # speed, accel, jerk, safety, conflict
     w_safety, w_conflict = weights[3], weights[4]
     present = np.ascontiguousarray(scene.mask)
-    crosswalk_rows, zone_rows, zone_sizes, scene_sums = _conflict_rows(
+    crosswalk_rows, zone_rows, zone_sizes, zone_sums = _conflict_rows(
         scene, crosswalks if w_conflict != 0.0 else (), yield_zones if w_conflict != 0.0 else (),
         yield_margin_s, dt)
-    v, ds, a_eff, excess, exp_arg, clearance, vehicle_gap, occupancy = kernels.plan_evaluation(
+    (v, ds, a_eff, excess, exp_arg, clearance, vehicle_gap, occupancy,
+     scene_occupancy) = kernels.plan_evaluation(
         plan.increments.reshape(-1, n_t), n_cont, float(v0), float(s0), float(dt),
         plan.continuations, cands.n_first, curve_speed is not None,
         _NO_CURVE if curve_speed is None else curve_speed.v_max_mps, CURVE_PROFILE_STEP_M,
         route._cum_s, route._pose_table, along, ego_circle_r, scene_xy, cos_heading,
-        sin_heading, scene_along, other_r, present & ~scene.is_pedestrian, w_safety != 0.0,
+        sin_heading, scene_along, other_r, np.ascontiguousarray(scene.radius_m, dtype=float),
+        present & ~scene.is_pedestrian, w_safety != 0.0,
         0.5 * math.hypot(vehicle.length_m, vehicle.width_m), crosswalk_rows, zone_rows,
         zone_sizes, OCCUPANCY_SOFTNESS_M)
     if w_safety != 0.0:
         np.exp(exp_arg, out=exp_arg)
     if len(occupancy):
         np.tanh(occupancy, out=occupancy)
-    cost = cost_kernels.step_costs(v, a_eff, float(v_ref_mps), float(prev_accel), weights, exp_arg,
-                              present, occupancy, scene_sums, dt / DT_S)
+        np.tanh(scene_occupancy, out=scene_occupancy)
+    cost = cost_kernels.step_costs(v, a_eff, float(v_ref_mps), float(prev_accel), weights,
+                                   exp_arg, present, occupancy, scene_occupancy,
+                                   present & scene.is_pedestrian, zone_sums, dt / DT_S)
     plan_shape = (n_first_actions, n_cont, n_t)
     hyp_shape = (n_hyp, n_first_actions, n_cont)
     return CandidateEvaluation(
@@ -110,7 +113,7 @@ def vehicle_gap_evaluation(cands: CandidateSet, theta: np.ndarray, v_ref_mps: fl
 _LARGEST_SPEED_MPS = 1e6  # the kernels' v0 and s0 bounds (the curve-speed grid index of any
 _LARGEST_ARC_LENGTH_M = 1e12  # arc length along the plans then fits an int64 by far)
 _NO_CURVE = np.zeros(1)
-_NO_ROWS = (np.zeros((0, 6)), np.zeros((0, 1, 5)), np.zeros(0, dtype=np.int64))
+_NO_ZONES = (np.zeros((0, 1, 5)), np.zeros(0, dtype=np.int64))
 _KERNELS = []  # [models.gap_kernels, models.cost_kernels] once imported
 
 
@@ -124,7 +127,7 @@ def _kernels() -> list:
 
 def _conflict_rows(scene: ScenePrediction, crosswalks: tuple, yield_zones: tuple,
                    yield_margin_s: float, dt: float) -> tuple:
-    """What the kernels need of the conflict feature's crosswalks and zones (W + Z rows).
+    """What the kernels need of the conflict feature's crosswalks and zones.
 
     The crosswalks count only with a pair of the ego (a vehicle) and a present pedestrian:
     without one each adds occupancy x 0.0, +0.0 (sim/costs._feature_terms).
@@ -132,26 +135,22 @@ def _conflict_rows(scene: ScenePrediction, crosswalks: tuple, yield_zones: tuple
     Returns:
         (W, 6) the crosswalks' centre x, y [m], cos and sin of the walk heading, half length
         and half width [m]; (Z, V, 5) the zones' edges (sim/costs._polygon_edges) and (Z,)
-        their numbers; (W + Z, L, T) per row the sum over the objects of the pedestrians'
-        crosswalk occupancy or the present objects' claim on the zone, as sim/costs sums them
-        (np.sum of np.where over the objects' axis).
+        their numbers; (Z, L, T) per zone the present objects' claims on it (zone_claims)
+        summed over them as sim/costs sums them (np.sum of np.where over the objects' axis).
     """
-    pair_mask = (scene.mask & scene.is_pedestrian)[:, None, None, None, :]  # the ego: a car
-    if crosswalks and not pair_mask.any():
+    if crosswalks and not (scene.mask & scene.is_pedestrian).any():  # the ego: a car
         crosswalks = ()
-    if not crosswalks and not yield_zones:
-        return _NO_ROWS + (np.zeros((0,) + scene.heading.shape[::2]),)
-    sums = [np.sum(np.where(pair_mask, occ_other, 0.0), axis=-1)  # (L, 1, 1, T)
-            for occ_other in scene_crosswalk_occupancy(scene, crosswalks)] if crosswalks else []
     crosswalk_rows = np.array([_crosswalk_row(cw) for cw in crosswalks]).reshape(-1, 6)
+    if not yield_zones:
+        return (crosswalk_rows,) + _NO_ZONES + (np.zeros((0,) + scene.heading.shape[::2]),)
     edges = [_polygon_edges(polygon) for polygon, _ in yield_zones]
-    zone_rows = np.zeros((len(edges), max((len(e) for e in edges), default=1), 5))
+    zone_rows = np.zeros((len(edges), max(len(e) for e in edges), 5))
     for row, zone_edges in zip(zone_rows, edges):
         row[:len(zone_edges)] = zone_edges
     mask = scene.mask[:, None, None, None, :]
-    for polygon, priority in yield_zones:
-        claim = zone_claims(scene, polygon, priority, yield_margin_s, dt)  # (L, M, T)
-        sums.append(np.sum(np.where(mask, claim.swapaxes(1, 2)[:, None, None], 0.0), axis=-1))
+    sums = [np.sum(np.where(mask, zone_claims(scene, polygon, priority, yield_margin_s, dt)
+                            .swapaxes(1, 2)[:, None, None], 0.0), axis=-1)  # (L, 1, 1, T)
+            for polygon, priority in yield_zones]
     return (crosswalk_rows, zone_rows, np.array([len(e) for e in edges], dtype=np.int64),
             np.stack(sums).reshape(len(sums), len(scene.mask), -1))
 

@@ -353,23 +353,54 @@ def occupancy_arguments(xy, ego_x, ego_y, ego_r, ego_radius, crosswalks, zones, 
     return out
 
 
+@numba.njit(**_JIT)
+def scene_occupancy_arguments(scene_xy, scene_radius, crosswalks, softness_m):
+    """The arguments of np.tanh of the objects' crosswalk occupancies (see occupancy_arguments).
+
+    Args:
+        scene_xy: (L, M, T, 2) the objects' predicted positions [m].
+        scene_radius: (L, M) their bounding radii [m].
+        crosswalks: (W, 6) as occupancy_arguments takes them.
+        softness_m: sim/costs.OCCUPANCY_SOFTNESS_M [m].
+
+    Returns:
+        (W, L, T, M) 0.5 depth / softness.
+    """
+    n_hyp, n_obj, n_t = scene_xy.shape[0], scene_xy.shape[1], scene_xy.shape[2]
+    out = np.empty((len(crosswalks), n_hyp, n_t, n_obj))
+    for i in range(len(crosswalks)):
+        cx, cy, c, s, half_length, half_width = crosswalks[i]
+        for h in range(n_hyp):
+            for m in range(n_obj):
+                for t in range(n_t):
+                    rx = scene_xy[h, m, t, 0] - cx
+                    ry = scene_xy[h, m, t, 1] - cy
+                    u = half_length - abs(rx * c + ry * s)
+                    w = half_width - abs(ry * c - rx * s) + scene_radius[h, m]
+                    out[i, h, t, m] = 0.5 * _nan_min(u, w) / softness_m
+    return out
+
+
 @numba.njit([(_array(2), _I8, _F8, _F8, _F8, _array(1), _I8, _B1, _array(1), _F8, _array(1),
               _array(2), _array(1), _F8, _array(4), _array(3), _array(3), _array(3), _array(2),
-              _array(2, _B1), _B1, _F8, _array(2), _array(3), _array(1, _I8), _F8)], **_JIT)
+              _array(2), _array(2, _B1), _B1, _F8, _array(2), _array(3), _array(1, _I8), _F8)],
+            **_JIT)
 def plan_evaluation(increments, n_cont, v0, s0, dt_s, continuations, n_first, has_curve, v_max,
                     curve_step_m, cum_s, pose_table, along, ego_r, scene_xy, cos_heading,
-                    sin_heading, scene_along, other_r, vehicles, clipped, ego_radius,
-                    crosswalks, zones, zone_sizes, softness_m):
+                    sin_heading, scene_along, other_r, scene_radius, vehicles, clipped,
+                    ego_radius, crosswalks, zones, zone_sizes, softness_m):
     """`plan_poses`, then `circle_gaps` and `occupancy_arguments` of its plans, in one call.
 
     The arguments are theirs (see them); ego_x and ego_y come from plan_poses, other_x and
     other_y from `scene_circles` (scene_xy, cos_heading, sin_heading, scene_along: its
-    arguments).
+    arguments); and `scene_occupancy_arguments` of the crosswalks (scene_radius (L, M): the
+    objects' bounding radii [m]).
 
     Returns:
         v, ds, a_eff (P, T), curve_excess (P,) of plan_poses; the gaps or -max(gap, 0)
         (L, P, T, M), the clearance and the vehicle gap (L, P) of circle_gaps; the tanh
-        arguments (W + Z, P, T) of occupancy_arguments.
+        arguments (W + Z, P, T) of occupancy_arguments and (W, L, T, M) of
+        scene_occupancy_arguments.
     """
     v, ds, a_eff, excess, xy, ego_x, ego_y = plan_poses(
         increments, n_cont, v0, s0, dt_s, continuations, n_first, has_curve, v_max,
@@ -379,14 +410,15 @@ def plan_evaluation(increments, n_cont, v0, s0, dt_s, continuations, n_first, ha
                                               vehicles, clipped)
     soft = occupancy_arguments(xy, ego_x, ego_y, ego_r, ego_radius, crosswalks, zones,
                                zone_sizes, softness_m)
-    return v, ds, a_eff, excess, gap, clearance, vehicle_gap, soft
+    scene_soft = scene_occupancy_arguments(scene_xy, scene_radius, crosswalks, softness_m)
+    return v, ds, a_eff, excess, gap, clearance, vehicle_gap, soft, scene_soft
 
 
 @numba.njit([(_array(2), _F8, _F8, _array(1), _array(2), _F8, _array(4), _array(3), _array(3),
-              _array(3), _array(2), _B1, _F8, _array(2), _F8)], **_JIT)
+              _array(3), _array(2), _array(2), _B1, _F8, _array(2), _F8)], **_JIT)
 def walk_geometry(speed_times, s0, route_length_m, cum_s, pose_table, ego_r, scene_xy,
-                  cos_heading, sin_heading, scene_along, other_r, clipped, own_radius_m,
-                  crosswalks, softness_m):
+                  cos_heading, sin_heading, scene_along, other_r, scene_radius, clipped,
+                  own_radius_m, crosswalks, softness_m):
     """The walks' positions, their gaps to the scene's objects and crosswalk tanh arguments.
 
     s = min(s0 + speed x time, route length) (np.minimum), its Route.pose_at position; then
@@ -405,13 +437,15 @@ def walk_geometry(speed_times, s0, route_length_m, cum_s, pose_table, ego_r, sce
         sin_heading: (L, M, T) np.sin of their headings.
         scene_along: (L, M, C) their covering circles' offsets (footprint.circle_layout) [m].
         other_r: (L, M) their circles' radii [m].
+        scene_radius: (L, M) their bounding radii [m].
         clipped: return -max(gap, 0) (the safety feature's exp argument) rather than the gaps.
         own_radius_m: the pedestrian's radius, for the crosswalk occupancy [m].
         crosswalks: (W, 6) as gap_kernels.occupancy_arguments takes them.
         softness_m: sim/costs.OCCUPANCY_SOFTNESS_M [m].
 
     Returns:
-        the gaps or -max(gap, 0) (L, A, T, M) [m]; the tanh arguments (W, A, T).
+        the gaps or -max(gap, 0) (L, A, T, M) [m]; the tanh arguments (W, A, T) of its
+        crosswalk occupancies and (W, L, T, M) of the objects'.
     """
     n_speeds, n_t = speed_times.shape
     n_seg = len(pose_table)
@@ -433,4 +467,4 @@ def walk_geometry(speed_times, s0, route_length_m, cum_s, pose_table, ego_r, sce
                             np.zeros((n_hyp, other_r.shape[1]), dtype=np.bool_), clipped)
     soft = occupancy_arguments(xy, ego_x, ego_y, ego_r, own_radius_m, crosswalks,
                                np.zeros((0, 1, 5)), np.zeros(0, dtype=np.int64), softness_m)
-    return gap, soft
+    return gap, soft, scene_occupancy_arguments(scene_xy, scene_radius, crosswalks, softness_m)

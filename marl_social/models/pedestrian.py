@@ -100,11 +100,10 @@ def pedestrian_q_values(model: PedestrianModel, route: Route, s0: float, v_ref: 
     coincide with its centre (offset 0 along its heading; the sign of a zero offset cannot
     change a squared distance), so its centre stands for them
     (tests/models/test_pedestrian_costs.py checks it against step_cost bit for bit).
-    Compiled loops (models/gap_kernels.py, cost_kernels.py: `_compiled_q_values`) compute it for a finite s0
-    and fewer than MAX_KERNEL_OBJECTS objects (or a zero safety weight); numpy the rest.
+    Compiled loops (models/gap_kernels.py, cost_kernels.py: `_compiled_q_values`) compute it
+    for a finite s0 and fewer than MAX_KERNEL_OBJECTS objects; numpy the rest.
     """
-    if math.isfinite(s0) and not (scene.mask.shape[1] >= MAX_KERNEL_OBJECTS
-                                  and model.theta.safety != 0.0):
+    if math.isfinite(s0) and scene.mask.shape[1] < MAX_KERNEL_OBJECTS:
         return _compiled_q_values(model, route, s0, v_ref, prev_speed, scene, crosswalks)
     return _numpy_q_values(model, route, s0, v_ref, prev_speed, scene, crosswalks)
 
@@ -117,8 +116,7 @@ def _compiled_q_values(model: PedestrianModel, route: Route, s0: float, v_ref: f
                        crosswalks: tuple[Crosswalk, ...]) -> np.ndarray:
     """`_numpy_q_values` in compiled loops (gap_kernels, then cost_kernels), the same bits.
 
-    np.exp of the safety feature, np.tanh of the crosswalk occupancies and the scene's side
-    of the conflict feature (the vehicles' crosswalk occupancies summed over them) in numpy.
+    np.exp of the safety feature and np.tanh of the crosswalk occupancies in numpy.
     """
     if not _KERNELS:
         from marl_social.models import cost_kernels, gap_kernels
@@ -127,29 +125,24 @@ def _compiled_q_values(model: PedestrianModel, route: Route, s0: float, v_ref: f
     _, speeds, theta, ego_radius, speed_times = _model_constants(model)
     weights = theta[1:6].astype(np.float64)  # speed, accel, jerk, safety, conflict
     w_safety, w_conflict = weights[3], weights[4]
-    pair_mask = scene.mask[:, None, None, :] & ~scene.is_pedestrian[:, None, None, :]
-    n_hyp, n_t = len(scene.mask), speed_times.shape[1]
-    sums = []
-    if w_conflict != 0.0 and crosswalks and pair_mask.any():
-        other_xy = scene.xy.swapaxes(1, 2)[:, None]  # (L, 1, T, M, 2)
-        other_radius = scene.radius_m[:, None, None, :]
-        sums = [np.sum(np.where(pair_mask, crosswalk_occupancy(other_xy, other_radius, cw),
-                                0.0), axis=-1) for cw in crosswalks]  # (L, 1, T) each
-    rows = np.array([_crosswalk_row(cw) for cw in crosswalks] if sums else ()).reshape(-1, 6)
-    exp_arg, occupancy = gap_kernels.walk_geometry(
+    pair = scene.mask & ~scene.is_pedestrian  # (L, M) the vehicles present
+    use_crosswalks = w_conflict != 0.0 and crosswalks and pair.any()
+    rows = np.array([_crosswalk_row(cw) for cw in crosswalks] if use_crosswalks else ()
+                    ).reshape(-1, 6)
+    exp_arg, occupancy, scene_occupancy = gap_kernels.walk_geometry(
         speed_times, float(s0), route.length_m, route._cum_s, route._pose_table,
-        float(ego_radius[0]), *scene_circle_inputs(scene), w_safety != 0.0,
+        float(ego_radius[0]), *scene_circle_inputs(scene),
+        np.ascontiguousarray(scene.radius_m, dtype=float), w_safety != 0.0,
         float(model.radius_m), rows, OCCUPANCY_SOFTNESS_M)
     if w_safety != 0.0:
         np.exp(exp_arg, out=exp_arg)
     if len(occupancy):
         np.tanh(occupancy, out=occupancy)
-    scene_sums = np.stack(sums).reshape(len(sums), n_hyp, n_t) if sums else np.zeros(
-        (0, n_hyp, n_t))
-    return kernels.walk_costs(speeds, n_t, float(v_ref), float(prev_speed),
+        np.tanh(scene_occupancy, out=scene_occupancy)
+    return kernels.walk_costs(speeds, speed_times.shape[1], float(v_ref), float(prev_speed),
                               float(model.plan_dt_s), weights, exp_arg,
-                              np.ascontiguousarray(scene.mask), occupancy, scene_sums,
-                              model.plan_dt_s / DT_S)
+                              np.ascontiguousarray(scene.mask), occupancy, scene_occupancy,
+                              pair, model.plan_dt_s / DT_S)
 
 
 def _crosswalk_row(crosswalk: Crosswalk) -> tuple:
