@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from marl_social.sim.costs import crosswalk_occupancy
+from marl_social.sim.costs import _cos_sin, crosswalk_occupancy
 from marl_social.sim.footprint import circle_layout
 
 # The compiled kernels (models/gap_kernels.py, cost_kernels.py) take scenes of fewer objects
@@ -213,3 +213,14 @@ def scene_crosswalk_occupancy(scene, crosswalks: tuple) -> tuple[np.ndarray, ...
 
     return _remembered(_last_occupancy, (scene, crosswalks), compute,
                        (scene.xy, scene.radius_m))
+
+
+def crosswalk_row(crosswalk) -> tuple:
+    """(centre x, y [m], cos and sin of the walk heading, half length, half width [m]).
+
+    What the compiled kernels (models/gap_kernels.occupancy_arguments) take of a crosswalk:
+    the values sim/costs.crosswalk_occupancy computes with (its cached cos and sin).
+    """
+    c, s = _cos_sin(crosswalk.walk_heading_rad)
+    return (crosswalk.center[0], crosswalk.center[1], c, s, 0.5 * crosswalk.length_m,
+            0.5 * crosswalk.width_m)

@@ -33,12 +33,9 @@ from marl_social.models.candidates import (
     evaluate_candidates,
     zone_claims,
 )
-from marl_social.models.circle_gaps import (
-    MAX_KERNEL_OBJECTS,
-    scene_circle_inputs,
-)
+from marl_social.models.circle_gaps import MAX_KERNEL_OBJECTS, crosswalk_row, scene_circle_inputs
 from marl_social.sim.agent_spec import VehicleParams
-from marl_social.sim.costs import OCCUPANCY_SOFTNESS_M, _cos_sin, _polygon_edges
+from marl_social.sim.costs import OCCUPANCY_SOFTNESS_M, _polygon_edges
 from marl_social.sim.dynamics import DT_S
 from marl_social.sim.road_map import Crosswalk, Route
 from marl_social.sim.route_rules import CURVE_PROFILE_STEP_M, CurveSpeed
@@ -58,10 +55,10 @@ def vehicle_gap_evaluation(cands: CandidateSet, theta: np.ndarray, v_ref_mps: fl
     (L, A, C) [m], curve_excess_mps (A, C) [m/s] with curve_speed; the other fields None.
 
     The rollouts, the gaps and the step costs are compiled loops (models/gap_kernels.py,
-    cost_kernels.py);
-    np.exp and np.tanh stay in numpy. What the kernels do not take takes evaluate_candidates
-    itself: a non-finite or -0.0 speed, a huge speed or arc length, and MAX_KERNEL_OBJECTS or
-    more objects (models/circle_gaps.py).
+    cost_kernels.py; they read the route's per-segment pose table, Route._pose_table and
+    _cum_s); np.exp and np.tanh stay in numpy. What the kernels do not take takes
+    evaluate_candidates itself: a non-finite or -0.0 speed, a huge speed or arc length, and
+    MAX_KERNEL_OBJECTS or more objects (models/circle_gaps.py).
     """
     if not (abs(v0) < _LARGEST_SPEED_MPS and abs(s0) < _LARGEST_ARC_LENGTH_M) or (
             v0 == 0.0 and math.copysign(1.0, v0) < 0.0) or (
@@ -140,7 +137,7 @@ def _conflict_rows(scene: ScenePrediction, crosswalks: tuple, yield_zones: tuple
     """
     if crosswalks and not (scene.mask & scene.is_pedestrian).any():  # the ego: a car
         crosswalks = ()
-    crosswalk_rows = np.array([_crosswalk_row(cw) for cw in crosswalks]).reshape(-1, 6)
+    crosswalk_rows = np.array([crosswalk_row(cw) for cw in crosswalks]).reshape(-1, 6)
     if not yield_zones:
         return (crosswalk_rows,) + _NO_ZONES + (np.zeros((0,) + scene.heading.shape[::2]),)
     edges = [_polygon_edges(polygon) for polygon, _ in yield_zones]
@@ -153,10 +150,3 @@ def _conflict_rows(scene: ScenePrediction, crosswalks: tuple, yield_zones: tuple
             for polygon, priority in yield_zones]
     return (crosswalk_rows, zone_rows, np.array([len(e) for e in edges], dtype=np.int64),
             np.stack(sums).reshape(len(sums), len(scene.mask), -1))
-
-
-def _crosswalk_row(crosswalk: Crosswalk) -> tuple:
-    """(centre x, y, cos, sin of the walk heading, half length, half width) of a crosswalk."""
-    c, s = _cos_sin(crosswalk.walk_heading_rad)
-    return (crosswalk.center[0], crosswalk.center[1], c, s, 0.5 * crosswalk.length_m,
-            0.5 * crosswalk.width_m)

@@ -16,13 +16,13 @@ from marl_social.models.candidates import ScenePrediction
 from marl_social.models.circle_gaps import (
     MAX_KERNEL_OBJECTS,
     circle_pair_gap,
+    crosswalk_row,
     scene_circle_inputs,
     scene_circles,
 )
 from marl_social.sim.costs import (
     OCCUPANCY_SOFTNESS_M,
     CostWeights,
-    _cos_sin,
     _crosswalk_conflict,
     crosswalk_occupancy,
 )
@@ -127,7 +127,7 @@ def _compiled_q_values(model: PedestrianModel, route: Route, s0: float, v_ref: f
     w_safety, w_conflict = weights[3], weights[4]
     pair = scene.mask & ~scene.is_pedestrian  # (L, M) the vehicles present
     use_crosswalks = w_conflict != 0.0 and crosswalks and pair.any()
-    rows = np.array([_crosswalk_row(cw) for cw in crosswalks] if use_crosswalks else ()
+    rows = np.array([crosswalk_row(cw) for cw in crosswalks] if use_crosswalks else ()
                     ).reshape(-1, 6)
     exp_arg, occupancy, scene_occupancy = gap_kernels.walk_geometry(
         speed_times, float(s0), route.length_m, route._cum_s, route._pose_table,
@@ -143,13 +143,6 @@ def _compiled_q_values(model: PedestrianModel, route: Route, s0: float, v_ref: f
                               float(model.plan_dt_s), weights, exp_arg,
                               np.ascontiguousarray(scene.mask), occupancy, scene_occupancy,
                               pair, model.plan_dt_s / DT_S)
-
-
-def _crosswalk_row(crosswalk: Crosswalk) -> tuple:
-    """(centre x, y, cos, sin of the walk heading, half length, half width) of a crosswalk."""
-    c, s = _cos_sin(crosswalk.walk_heading_rad)
-    return (crosswalk.center[0], crosswalk.center[1], c, s, 0.5 * crosswalk.length_m,
-            0.5 * crosswalk.width_m)
 
 
 def _numpy_q_values(model: PedestrianModel, route: Route, s0: float, v_ref: float,
