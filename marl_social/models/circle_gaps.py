@@ -10,8 +10,15 @@ from __future__ import annotations
 
 import numpy as np
 
-from marl_social.sim.costs import crosswalk_occupancy
+from marl_social.sim.costs import _cos_sin, crosswalk_occupancy
 from marl_social.sim.footprint import circle_layout
+
+# The compiled kernels (models/gap_kernels.py, cost_kernels.py) take scenes of fewer objects
+# than this, as they sum the safety feature and the crosswalk occupancies over them: np.sum
+# of values >= +0 adds fewer than 8 one by one whatever the memory layout; from 8 on it is
+# pairwise along a contiguous axis and sequential along a strided one, and which one the
+# reference's broadcasts produce depends on the shapes.
+MAX_KERNEL_OBJECTS = 8
 
 
 def circle_pair_gap(ego_x, ego_y, ego_r: float, other_x, other_y, other_r) -> np.ndarray:
@@ -155,6 +162,32 @@ def _scene_circles(scene) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
             scene.xy[..., 1] + along * np.sin(scene.heading), radius[..., 0])
 
 
+_last_kernel_inputs: list = [None, None]  # [(scene,), scene_circle_inputs(scene)], read-only
+
+
+def scene_circle_inputs(scene) -> tuple[np.ndarray, ...]:
+    """What the compiled kernels build `scene_circles` from (models/gap_kernels.scene_circles).
+
+    Remembered for a scene of arrays nobody can write to, as scene_circles is.
+
+    Args:
+        scene: models.candidates.ScenePrediction (L hypotheses, M objects, T steps).
+
+    Returns:
+        C-contiguous float arrays: xy (L, M, T, 2) [m], np.cos and np.sin of the headings
+        (L, M, T), footprint.circle_layout's offsets along them (L, M, C) [m] and the circles'
+        radii (L, M) [m].
+    """
+    def compute():
+        along, radius = _scene_layout(scene.length_m, scene.width_m, scene.is_pedestrian)
+        return tuple(np.ascontiguousarray(a, dtype=np.float64) for a in (
+            scene.xy, np.cos(scene.heading), np.sin(scene.heading), along, radius[..., 0]))
+
+    return _remembered(_last_kernel_inputs, (scene,), compute,
+                       (scene.xy, scene.heading, scene.length_m, scene.width_m,
+                        scene.is_pedestrian))
+
+
 # [(scene, crosswalks), scene_crosswalk_occupancy(scene, crosswalks)] of a read-only scene
 _last_occupancy: list = [None, None]
 
@@ -180,3 +213,14 @@ def scene_crosswalk_occupancy(scene, crosswalks: tuple) -> tuple[np.ndarray, ...
 
     return _remembered(_last_occupancy, (scene, crosswalks), compute,
                        (scene.xy, scene.radius_m))
+
+
+def crosswalk_row(crosswalk) -> tuple:
+    """(centre x, y [m], cos and sin of the walk heading, half length, half width [m]).
+
+    What the compiled kernels (models/gap_kernels.occupancy_arguments) take of a crosswalk:
+    the values sim/costs.crosswalk_occupancy computes with (its cached cos and sin).
+    """
+    c, s = _cos_sin(crosswalk.walk_heading_rad)
+    return (crosswalk.center[0], crosswalk.center[1], c, s, 0.5 * crosswalk.length_m,
+            0.5 * crosswalk.width_m)

@@ -7,13 +7,25 @@ the features every agent shares.
 from __future__ import annotations
 
 import functools
+import math
 from dataclasses import dataclass, field
 
 import numpy as np
 
 from marl_social.models.candidates import ScenePrediction
-from marl_social.models.circle_gaps import circle_pair_gap, scene_circles
-from marl_social.sim.costs import CostWeights, _crosswalk_conflict, crosswalk_occupancy
+from marl_social.models.circle_gaps import (
+    MAX_KERNEL_OBJECTS,
+    circle_pair_gap,
+    crosswalk_row,
+    scene_circle_inputs,
+    scene_circles,
+)
+from marl_social.sim.costs import (
+    OCCUPANCY_SOFTNESS_M,
+    CostWeights,
+    _crosswalk_conflict,
+    crosswalk_occupancy,
+)
 from marl_social.sim.dynamics import DT_S
 from marl_social.sim.footprint import circle_layout
 from marl_social.sim.road_map import Crosswalk, Route
@@ -88,7 +100,55 @@ def pedestrian_q_values(model: PedestrianModel, route: Route, s0: float, v_ref: 
     coincide with its centre (offset 0 along its heading; the sign of a zero offset cannot
     change a squared distance), so its centre stands for them
     (tests/models/test_pedestrian_costs.py checks it against step_cost bit for bit).
+    Compiled loops (models/gap_kernels.py, cost_kernels.py: `_compiled_q_values`) compute it
+    for a finite s0 and fewer than MAX_KERNEL_OBJECTS objects; numpy the rest.
     """
+    if math.isfinite(s0) and scene.mask.shape[1] < MAX_KERNEL_OBJECTS:
+        return _compiled_q_values(model, route, s0, v_ref, prev_speed, scene, crosswalks)
+    return _numpy_q_values(model, route, s0, v_ref, prev_speed, scene, crosswalks)
+
+
+_KERNELS = []  # [models.gap_kernels, models.cost_kernels] once imported
+
+
+def _compiled_q_values(model: PedestrianModel, route: Route, s0: float, v_ref: float,
+                       prev_speed: float, scene: ScenePrediction,
+                       crosswalks: tuple[Crosswalk, ...]) -> np.ndarray:
+    """`_numpy_q_values` in compiled loops (gap_kernels, then cost_kernels), the same bits.
+
+    np.exp of the safety feature and np.tanh of the crosswalk occupancies in numpy.
+    """
+    if not _KERNELS:
+        from marl_social.models import cost_kernels, gap_kernels
+        _KERNELS.extend((gap_kernels, cost_kernels))
+    gap_kernels, kernels = _KERNELS
+    _, speeds, theta, ego_radius, speed_times = _model_constants(model)
+    weights = theta[1:6].astype(np.float64)  # speed, accel, jerk, safety, conflict
+    w_safety, w_conflict = weights[3], weights[4]
+    pair = scene.mask & ~scene.is_pedestrian  # (L, M) the vehicles present
+    use_crosswalks = w_conflict != 0.0 and crosswalks and pair.any()
+    rows = np.array([crosswalk_row(cw) for cw in crosswalks] if use_crosswalks else ()
+                    ).reshape(-1, 6)
+    exp_arg, occupancy, scene_occupancy = gap_kernels.walk_geometry(
+        speed_times, float(s0), route.length_m, route._cum_s, route._pose_table,
+        float(ego_radius[0]), *scene_circle_inputs(scene),
+        np.ascontiguousarray(scene.radius_m, dtype=float), w_safety != 0.0,
+        float(model.radius_m), rows, OCCUPANCY_SOFTNESS_M)
+    if w_safety != 0.0:
+        np.exp(exp_arg, out=exp_arg)
+    if len(occupancy):
+        np.tanh(occupancy, out=occupancy)
+        np.tanh(scene_occupancy, out=scene_occupancy)
+    return kernels.walk_costs(speeds, speed_times.shape[1], float(v_ref), float(prev_speed),
+                              float(model.plan_dt_s), weights, exp_arg,
+                              np.ascontiguousarray(scene.mask), occupancy, scene_occupancy,
+                              pair, model.plan_dt_s / DT_S)
+
+
+def _numpy_q_values(model: PedestrianModel, route: Route, s0: float, v_ref: float,
+                    prev_speed: float, scene: ScenePrediction,
+                    crosswalks: tuple[Crosswalk, ...]) -> np.ndarray:
+    """pedestrian_q_values in numpy (the reference of the compiled loops; any s0)."""
     dt = model.plan_dt_s
     _, speeds, theta, ego_radius, speed_times = _model_constants(model)
     s = np.minimum(s0 + speed_times, route.length_m)  # (A, T)

@@ -1,0 +1,278 @@
+"""Compiled (numba) step costs of the candidates and of the pedestrian's walks (issue 17).
+
+`step_costs` (models/gap_evaluation.vehicle_gap_evaluation) and `walk_costs`
+(models/pedestrian.pedestrian_q_values, summed over the horizon in np.sum's pairwise order,
+`_pairwise_sum`) cost what models/gap_kernels.py laid out, with the same arithmetic as the
+numpy reference in its order, bit for bit (tests/models/test_gap_evaluation.py,
+test_walk_kernels.py, test_pedestrian_costs.py); np.exp and np.tanh stay in numpy, between
+the two kernels (see gap_kernels.py). Imported at the first decision; `cache=True` as there (and,
+as there, a compiled function calls only compiled functions of its own module: numba's cache
+notices changes of that file only).
+"""
+
+from __future__ import annotations
+
+import numba
+import numpy as np
+
+from marl_social.models.gap_kernels import _B1, _F8, _I8, _array
+
+# gap_kernels' options, written out: a change of them here must change this file for the cache
+_JIT = {"cache": True, "nogil": True, "error_model": "numpy"}
+
+
+@numba.njit(cache=True)
+def _pairwise_block(values, start, n):
+    """The pairwise_sum of numpy of values[start:start + n] for n <= 128 (no further split).
+
+    Fewer than 8 values: added one by one to -0.0; else eight running sums, combined
+    ((r0 + r1) + (r2 + r3)) + ((r4 + r5) + (r6 + r7)), then the rest one by one.
+    """
+    if n < 8:
+        total = -0.0
+        for i in range(start, start + n):
+            total += values[i]
+        return total
+    r0, r1, r2, r3 = values[start], values[start + 1], values[start + 2], values[start + 3]
+    r4, r5, r6, r7 = values[start + 4], values[start + 5], values[start + 6], values[start + 7]
+    i = 8
+    while i < n - (n % 8):
+        b = start + i
+        r0 += values[b]
+        r1 += values[b + 1]
+        r2 += values[b + 2]
+        r3 += values[b + 3]
+        r4 += values[b + 4]
+        r5 += values[b + 5]
+        r6 += values[b + 6]
+        r7 += values[b + 7]
+        i += 8
+    total = ((r0 + r1) + (r2 + r3)) + ((r4 + r5) + (r6 + r7))
+    while i < n:
+        total += values[start + i]
+        i += 1
+    return total
+
+
+@numba.njit(cache=True)
+def _pairwise_sum(values, start, n):
+    """The pairwise_sum of numpy of values[start:start + n] (its add reduction's inner loop).
+
+    Up to 128 values `_pairwise_block`; more: the sum of the two halves' sums, the first half
+    n // 2 rounded down to a multiple of 8 -- numpy's recursion, walked with an explicit
+    stack (numba's on-disk cache does not take recursive functions). np.sum along a
+    contiguous axis is 0.0 + this (tests/models/test_gap_kernels.py checks it).
+    """
+    if n <= 128:
+        return _pairwise_block(values, start, n)
+    # post-order walk of the split tree: (start, n, halves pushed) per pending node
+    node_start = np.empty(128, dtype=np.int64)
+    node_n = np.empty(128, dtype=np.int64)
+    node_split = np.zeros(128, dtype=np.bool_)
+    sums = np.empty(128)
+    depth, n_sums = 1, 0
+    node_start[0], node_n[0] = start, n
+    while depth:
+        depth -= 1
+        first, count = node_start[depth], node_n[depth]
+        if count <= 128:
+            sums[n_sums] = _pairwise_block(values, first, count)
+            n_sums += 1
+        elif node_split[depth]:
+            n_sums -= 1
+            sums[n_sums - 1] = sums[n_sums - 1] + sums[n_sums]
+        else:
+            half = count // 2
+            half -= half % 8
+            node_split[depth] = True  # this node again, to add its halves' sums
+            node_start[depth + 1], node_n[depth + 1] = first + half, count - half
+            node_split[depth + 1] = False
+            node_start[depth + 2], node_n[depth + 2] = first, half
+            node_split[depth + 2] = False
+            depth += 3
+    return sums[0]
+
+
+@numba.njit(cache=True)
+def _scene_sums(scene_tanh, pair, zone_sums):
+    """(W + Z, L, T) the objects' summed crosswalk occupancies, then the zones' given sums.
+
+    Per crosswalk the sum over the paired objects of their occupancy 0.5 (1 + tanh), as
+    sim/costs._crosswalk_conflict's np.sum of np.where: over fewer than 8 objects
+    (circle_gaps.MAX_KERNEL_OBJECTS) np.sum adds them one by one, along any axis, to 0.0.
+
+    Args:
+        scene_tanh: (W, L, T, M) tanh of gap_kernels.scene_occupancy_arguments.
+        pair: (L, M) the objects of the other kind (pedestrian / vehicle), present.
+        zone_sums: (Z, L, T) the present objects' summed claims on each zone.
+    """
+    n_cw, n_hyp, n_t, n_obj = scene_tanh.shape
+    sums = np.empty((n_cw + len(zone_sums), n_hyp, n_t))
+    for i in range(n_cw):
+        for h in range(n_hyp):
+            for t in range(n_t):
+                summed = -0.0
+                for m in range(n_obj):
+                    summed += 0.5 * (1.0 + scene_tanh[i, h, t, m]) if pair[h, m] else 0.0
+                sums[i, h, t] = 0.0 + summed
+    for z in range(len(zone_sums)):
+        sums[n_cw + z] = zone_sums[z]
+    return sums
+
+
+@numba.njit([(_array(1), _I8, _F8, _F8, _F8, _array(1), _array(4), _array(2, _B1), _array(3),
+              _array(4), _array(2, _B1), _F8)], **_JIT)
+def walk_costs(speeds, n_t, v_ref_mps, prev_speed, dt_s, weights, safety_exp, present,
+               occupancy_tanh, scene_tanh, pair, scale):
+    """pedestrian_q_values: the step costs of the walks summed over the horizon, times scale.
+
+    Per step, as models/pedestrian.py adds them: w_speed (v - v_ref)^2, w_accel a^2 and
+    w_jerk a^2 (a = (v - prev_speed) / dt on the first step, 0 after it), w_safety times the
+    sum over the present objects of exp(-max(gap, 0)) (np.sum's order: one by one, fewer
+    than circle_gaps.MAX_KERNEL_OBJECTS), w_conflict
+    times 0.0 + the occupancy 0.5 (1 + tanh) times the scene's sum, crosswalk by crosswalk;
+    each only if its weight is not zero; then np.sum's pairwise sum over the steps.
+
+    Args:
+        speeds: (A,) candidate speeds [m/s].
+        n_t: T, the number of steps.
+        v_ref_mps: the reference speed [m/s].
+        prev_speed: the speed before the plans [m/s].
+        dt_s: the rollout step [s].
+        weights: (5,) the weights of speed, accel, jerk, safety and conflict.
+        safety_exp: (L, A, T, M) exp(-max(gap, 0)), M < circle_gaps.MAX_KERNEL_OBJECTS
+            (unused with a zero safety weight).
+        present: (L, M) the objects present in each hypothesis.
+        occupancy_tanh: (W, A, T) tanh of walk_geometry's arguments of the crosswalks with a
+            pair of the pedestrian and a present vehicle (W = 0: no conflict to add).
+        scene_tanh: (W, L, T, M) tanh of the objects' crosswalk occupancy arguments.
+        pair: (L, M) the vehicles present.
+        scale: plan_dt / DT_S.
+
+    Returns:
+        (L, A) the costs.
+    """
+    w_speed, w_accel, w_jerk, w_safety, w_conflict = (weights[0], weights[1], weights[2],
+                                                      weights[3], weights[4])
+    n_hyp, n_obj = present.shape
+    add_conflict = len(occupancy_tanh) > 0 and w_conflict != 0.0
+    scene_sums = _scene_sums(scene_tanh, pair, np.zeros((0, n_hyp, n_t)))
+    steps = np.empty(n_t)
+    cost = np.empty((n_hyp, len(speeds)))
+    for h in range(n_hyp):
+        for a in range(len(speeds)):
+            for t in range(n_t):
+                total = 0.0
+                started = False
+                if w_speed != 0.0:
+                    term = speeds[a] - v_ref_mps
+                    total = term * term * w_speed
+                    started = True
+                if w_accel != 0.0 or w_jerk != 0.0:
+                    accel = (speeds[a] - prev_speed) / dt_s if t == 0 else 0.0
+                    squared = accel * accel
+                    if w_accel != 0.0:
+                        total = total + w_accel * squared if started else w_accel * squared
+                        started = True
+                    if w_jerk != 0.0:
+                        total = total + w_jerk * squared if started else w_jerk * squared
+                        started = True
+                if w_safety != 0.0:  # np.sum of fewer than 8 values >= +0
+                    summed = -0.0
+                    for m in range(n_obj):
+                        summed += safety_exp[h, a, t, m] if present[h, m] else 0.0
+                    term = (0.0 + summed) * w_safety
+                    total = total + term if started else term
+                    started = True
+                if add_conflict:
+                    conflict = 0.0
+                    for r in range(len(occupancy_tanh)):
+                        occupancy = 0.5 * (1.0 + occupancy_tanh[r, a, t])
+                        conflict = conflict + occupancy * scene_sums[r, h, t]
+                    term = w_conflict * conflict
+                    total = total + term if started else term
+                steps[t] = total
+            cost[h, a] = (0.0 + _pairwise_sum(steps, 0, n_t)) * scale
+    return cost
+
+
+@numba.njit([(_array(2), _array(2), _F8, _F8, _array(1), _array(4), _array(2, _B1),
+              _array(3), _array(4), _array(2, _B1), _array(3), _F8)], **_JIT)
+def step_costs(v, a_eff, v_ref_mps, prev_accel, weights, safety_exp, present, occupancy_tanh,
+               scene_tanh, pair, zone_sums, scale):
+    """sim/costs.step_cost of the candidates, times scale, as vehicle_gap_evaluation sums it.
+
+    The terms w_speed (v - v_ref)^2, w_accel a^2, w_jerk (a_k - a_{k-1})^2, w_safety times the
+    sum over the present objects of exp(-max(gap, 0)) (np.sum's order) and w_conflict times
+    the conflict, each only if its weight is not zero, added in that order (the first three,
+    the same in every hypothesis, once); the total of no term is 0.0. The conflict is
+    0.0 + the ego's occupancy 0.5 (1 + tanh) times the scene's sum, crosswalk by crosswalk,
+    then zone by zone (sim/costs._feature_terms).
+
+    Args:
+        v: (P, T) speeds of the plans [m/s].
+        a_eff: (P, T) their effective accelerations [m/s^2].
+        v_ref_mps: the reference speed [m/s].
+        prev_accel: the acceleration before the plans [m/s^2].
+        weights: (5,) the weights of speed, accel, jerk, safety and conflict.
+        safety_exp: (L, P, T, M) exp(-max(gap, 0)), M < circle_gaps.MAX_KERNEL_OBJECTS
+            (unused with a zero safety weight).
+        present: (L, M) the objects present in each hypothesis.
+        occupancy_tanh: (R, P, T) tanh of `occupancy_arguments` of the crosswalks with a pair
+            of a vehicle and a pedestrian and of the zones (R = 0: no conflict to add).
+        scene_tanh: (W, L, T, M) tanh of the objects' crosswalk occupancy arguments
+            (gap_kernels.scene_occupancy_arguments), M < circle_gaps.MAX_KERNEL_OBJECTS.
+        pair: (L, M) the pedestrians present.
+        zone_sums: (Z, L, T) per zone the present objects' summed claims on it.
+        scale: plan_dt / DT_S.
+
+    Returns:
+        (L, P, T) the step costs.
+    """
+    w_speed, w_accel, w_jerk, w_safety, w_conflict = (weights[0], weights[1], weights[2],
+                                                      weights[3], weights[4])
+    n_hyp, n_obj = present.shape
+    n_plans, n_t = v.shape
+    own = np.zeros((n_plans, n_t))  # the scene-independent terms' total
+    started = False
+    if w_speed != 0.0:
+        for p in range(n_plans):
+            for t in range(n_t):
+                term = v[p, t] - v_ref_mps
+                own[p, t] = term * term * w_speed
+        started = True
+    if w_accel != 0.0:
+        for p in range(n_plans):
+            for t in range(n_t):
+                term = a_eff[p, t] * a_eff[p, t] * w_accel
+                own[p, t] = own[p, t] + term if started else term
+        started = True
+    if w_jerk != 0.0:
+        for p in range(n_plans):
+            for t in range(n_t):
+                term = a_eff[p, t] - (a_eff[p, t - 1] if t else prev_accel)
+                term = term * term * w_jerk
+                own[p, t] = own[p, t] + term if started else term
+        started = True
+    add_conflict = len(occupancy_tanh) > 0 and w_conflict != 0.0
+    scene_sums = _scene_sums(scene_tanh, pair, zone_sums)
+    cost = np.empty((n_hyp, n_plans, n_t))
+    for h in range(n_hyp):
+        for p in range(n_plans):
+            for t in range(n_t):
+                total = own[p, t]
+                if w_safety != 0.0:  # np.sum of fewer than 8 values >= +0
+                    summed = -0.0
+                    for m in range(n_obj):
+                        summed += safety_exp[h, p, t, m] if present[h, m] else 0.0
+                    term = (0.0 + summed) * w_safety
+                    total = total + term if started else term
+                if add_conflict:
+                    conflict = 0.0
+                    for r in range(len(occupancy_tanh)):
+                        occupancy = 0.5 * (1.0 + occupancy_tanh[r, p, t])
+                        conflict = conflict + occupancy * scene_sums[r, h, t]
+                    term = w_conflict * conflict
+                    total = total + term if (started or w_safety != 0.0) else term
+                cost[h, p, t] = total * scale
+    return cost

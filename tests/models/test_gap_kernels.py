@@ -1,0 +1,177 @@
+"""The compiled kernels (models/gap_kernels.py) against the numpy they stand for, bit for bit.
+
+np.sum's pairwise order (every length, incl. more than 128 values), the candidates' rollouts
+with and without a curve speed, the scene's covering circles, the gaps of every plan step to
+every object (discs, vehicles,
+objects shared by the hypotheses, M >= 8 objects, L > 1 hypotheses, NaN), and
+vehicle_gap_evaluation on many objects and hypotheses.
+"""
+
+import numpy as np
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from marl_social.models import cost_kernels, gap_kernels
+from marl_social.models.candidates import (
+    CandidateSet,
+    ScenePrediction,
+    _governed,
+    _plan_constants,
+    _rollout,
+    evaluate_candidates,
+)
+from marl_social.models.circle_gaps import circle_pair_gap, scene_circle_inputs, scene_circles
+from marl_social.models.gap_evaluation import vehicle_gap_evaluation
+from marl_social.sim.agent_spec import VehicleParams
+from marl_social.sim.road_map import Crosswalk, Route
+from marl_social.sim.route_rules import CURVE_PROFILE_STEP_M, CurveSpeed
+
+CANDIDATES = CandidateSet((-8.0, -4.0, -1.0, 0.0, 1.0, 2.0), (-2.0, 0.0, 1.0), 0.5, 3.0, 0.25)
+
+
+def _same(got, want) -> bool:
+    return got.shape == want.shape and np.array_equal(got, want, equal_nan=True) and (
+        np.array_equal(np.signbit(got), np.signbit(want)))
+
+
+@settings(max_examples=60, deadline=None)
+@given(seed=st.integers(0, 2**32 - 1), n=st.integers(0, 700), rows=st.integers(1, 3))
+def test_pairwise_sum_is_np_sum(seed, n, rows):
+    rng = np.random.default_rng(seed)
+    # magnitudes 1e-17..1: the order of the additions shows in the last bits
+    values = rng.random((rows, n)) * 10.0 ** rng.integers(-17, 1, (rows, n))
+    want = np.sum(values, axis=-1)
+    got = np.array([0.0 + cost_kernels._pairwise_sum(row, 0, n) for row in values])
+    assert _same(got, want)
+
+
+def _route(rng, bent: bool) -> Route:
+    if not bent:
+        return Route([[-60.0, -1.75], [120.0, -1.75]])
+    turn = np.linspace(0.0, 0.5 * np.pi, 12)
+    arc = np.column_stack([np.sin(turn), 1.0 - np.cos(turn)]) * rng.uniform(8.0, 15.0)
+    return Route(np.vstack([[[-40.0, 0.0]], arc, arc[-1] + [[0.0, 40.0]]]))
+
+
+@settings(max_examples=80, deadline=None)
+@given(seed=st.integers(0, 2**32 - 1), bent=st.booleans(), curve=st.booleans(),
+       v0=st.sampled_from([0.0, 0.3, 4.0, 11.0, -0.5]))
+def test_plan_poses_is_the_numpy_rollout_and_poses(seed, bent, curve, v0):
+    rng = np.random.default_rng(seed)
+    route = _route(rng, bent)
+    s0 = rng.uniform(-5.0, route.length_m)
+    plan = _plan_constants(CANDIDATES)
+    dt = CANDIDATES.plan_dt_s
+    along = np.array([-1.5, 0.0, 1.5])
+    speed = CurveSpeed(route, 2.5, 2.3) if curve else None
+    v, ds, a_eff, excess, xy, ego_x, ego_y = gap_kernels.plan_poses(
+        plan.increments.reshape(-1, CANDIDATES.n_steps), len(CANDIDATES.continuations_mps2),
+        v0, s0, dt, plan.continuations, CANDIDATES.n_first, speed is not None,
+        np.zeros(1) if speed is None else speed.v_max_mps, CURVE_PROFILE_STEP_M,
+        route._cum_s, route._pose_table, along)
+    want_v, want_ds, want_a = _rollout(v0, plan.increments, dt)
+    if speed is not None:  # evaluate_candidates' curve speed
+        want_v, want_ds, want_a = _governed(want_v, want_ds, v0, plan.continuations,
+                                            CANDIDATES.n_first, dt,
+                                            float(speed.at(s0 + want_ds).min()))
+        assert _same(excess, (want_v - speed.at(s0 + want_ds)).max(axis=-1).reshape(-1))
+    shape = want_v.shape
+    assert _same(v.reshape(shape), want_v)
+    assert _same(ds.reshape(shape), want_ds)
+    assert _same(a_eff.reshape(shape), want_a)
+    want_xy, heading = route.point_at(s0 + want_ds)
+    assert _same(xy.reshape(want_xy.shape), want_xy)
+    want_x = want_xy[..., 0] + along[:, None, None, None] * np.cos(heading)
+    want_y = want_xy[..., 1] + along[:, None, None, None] * np.sin(heading)
+    assert _same(ego_x.reshape(want_x.shape), want_x)
+    assert _same(ego_y.reshape(want_y.shape), want_y)
+
+
+@settings(max_examples=80, deadline=None)
+@given(seed=st.integers(0, 2**32 - 1), n_hyp=st.integers(1, 4), n_obj=st.integers(0, 11),
+       p_ped=st.sampled_from([0.0, 0.5, 1.0]), shared=st.booleans(), nan=st.booleans())
+def test_circle_gaps_is_circle_pair_gap(seed, n_hyp, n_obj, p_ped, shared, nan):
+    rng = np.random.default_rng(seed)
+    n_t, n_plans = 12, 7
+    rows = 1 if shared else n_hyp
+    is_ped = np.broadcast_to(rng.random((rows, n_obj)) < p_ped, (n_hyp, n_obj))
+    length = np.where(is_ped, 0.6, rng.uniform(3.5, 5.5, (rows, n_obj)))
+    width = np.where(is_ped, 0.6, rng.uniform(1.6, 2.2, (rows, n_obj)))
+    xy = rng.uniform(-10.0, 10.0, (rows, n_obj, n_t, 2))
+    heading = rng.uniform(-4.0, 4.0, (rows, n_obj, n_t))
+    full = lambda a: np.ascontiguousarray(np.broadcast_to(a, (n_hyp,) + a.shape[1:]))
+    mask = rng.random((n_hyp, n_obj)) < 0.7
+    scene = ScenePrediction(full(xy), full(heading), full(length), full(width),
+                            full(0.5 * np.hypot(length, width)), full(is_ped), mask)
+    ego_x = rng.uniform(-10.0, 10.0, (3, n_plans, n_t))
+    ego_y = rng.uniform(-10.0, 10.0, (3, n_plans, n_t))
+    if nan:
+        ego_x[1, 2, 3] = np.nan
+    ox, oy, other_r = scene_circles(scene)
+    inputs = scene_circle_inputs(scene)
+    compiled_x, compiled_y = gap_kernels.scene_circles(*inputs[:4])
+    assert _same(compiled_x, ox) and _same(compiled_y, oy)
+    assert _same(inputs[4], other_r)
+    want = circle_pair_gap(ego_x, ego_y, 1.1, ox, oy, other_r)  # (L, P, T, M)
+    vehicles = mask & ~is_ped
+    gap, clearance, vehicle_gap = gap_kernels.circle_gaps(
+        ego_x, ego_y, 1.1, np.ascontiguousarray(ox), np.ascontiguousarray(oy),
+        np.ascontiguousarray(other_r), vehicles, False)
+    assert _same(gap, want)
+    want_clearance = np.where(vehicles[:, None, None, :], want, np.inf).min(axis=(-1, -2),
+                                                                          initial=np.inf)
+    assert _same(clearance, want_clearance)
+    assert _same(vehicle_gap, np.maximum(want_clearance, 0.0))
+    clipped, _, _ = gap_kernels.circle_gaps(
+        ego_x, ego_y, 1.1, np.ascontiguousarray(ox), np.ascontiguousarray(oy),
+        np.ascontiguousarray(other_r), vehicles, True)
+    assert _same(np.exp(clipped), np.exp(-np.maximum(want, 0.0)))
+
+
+@settings(max_examples=40, deadline=None)
+@given(seed=st.integers(0, 2**32 - 1), n_hyp=st.integers(1, 5), n_obj=st.integers(7, 20),
+       crosswalk=st.booleans(), p_absent=st.sampled_from([0.0, 0.3]), zones=st.integers(0, 2),
+       bent=st.booleans())
+def test_vehicle_gap_evaluation_with_many_objects(seed, n_hyp, n_obj, crosswalk, p_absent,
+                                                  zones, bent):
+    """Seven objects and more (from MAX_KERNEL_OBJECTS on evaluate_candidates computes them)."""
+    rng = np.random.default_rng(seed)
+    route = _route(rng, bent)
+    n_t = CANDIDATES.n_steps
+    is_ped = rng.random((n_hyp, n_obj)) < 0.4
+    length = np.where(is_ped, 0.6, rng.uniform(3.5, 5.5, (n_hyp, n_obj)))
+    width = np.where(is_ped, 0.6, rng.uniform(1.6, 2.2, (n_hyp, n_obj)))
+    xy = rng.uniform(-5.0, 30.0, (n_hyp, n_obj, 1, 2)) + rng.normal(
+        size=(n_hyp, n_obj, 1, 2)) * np.arange(1, n_t + 1)[:, None]
+    heading = np.repeat(rng.uniform(-4, 4, (n_hyp, n_obj, 1)), n_t, axis=2)
+    scene = ScenePrediction(xy, heading, length, width, 0.5 * np.hypot(length, width), is_ped,
+                            rng.random((n_hyp, n_obj)) >= p_absent)
+    crosswalks = (Crosswalk(center=np.array([20.0, 0.0]), walk_heading_rad=0.5 * np.pi,
+                            length_m=10.0, width_m=4.0),) if crosswalk else ()
+    args = (CANDIDATES, rng.uniform(0.0, 3.0, 6), rng.uniform(5.0, 12.0), VehicleParams(),
+            route, rng.uniform(0.0, 40.0), rng.uniform(0.0, 12.0), rng.uniform(-3.0, 2.0),
+            scene, crosswalks)
+    polygon = np.array([[10.0, -5.0], [25.0, -5.0], [25.0, 5.0], [10.0, 5.0]])
+    extra = {"yield_zones": tuple((polygon + 3.0 * k, rng.random((n_hyp, n_obj)) < 0.6)
+                                  for k in range(zones)), "yield_margin_s": 1.5,
+             "curve_speed": CurveSpeed(route, 2.5, 2.3) if bent else None}
+    want = evaluate_candidates(*args, geometry=True, vehicle_gaps_only=True, **extra)
+    got = vehicle_gap_evaluation(*args, **extra)
+    for name in ("step_cost", "v", "a_eff", "travel_m", "min_vehicle_gap_m",
+                 "vehicle_clearance_m") + (("curve_excess_mps",) if bent else ()):
+        assert _same(getattr(got, name), np.asarray(getattr(want, name))), name
+        assert np.array_equal(getattr(got, name).sum(axis=-1),
+                              getattr(want, name).sum(axis=-1), equal_nan=True), name
+
+
+def test_initial_states_the_kernels_do_not_take_are_evaluated_by_the_reference():
+    route = Route([[-60.0, -1.75], [120.0, -1.75]])
+    scene = ScenePrediction(np.zeros((1, 0, 12, 2)), np.zeros((1, 0, 12)), np.zeros((1, 0)),
+                            np.zeros((1, 0)), np.zeros((1, 0)), np.zeros((1, 0), bool),
+                            np.zeros((1, 0), bool))
+    for v0, s0 in ((-0.0, 3.0), (np.inf, 3.0), (2.0, 1e13), (np.nan, 0.0)):
+        args = (CANDIDATES, np.ones(6), 8.0, VehicleParams(), route, s0, v0, 0.0, scene, ())
+        want = evaluate_candidates(*args, geometry=True, vehicle_gaps_only=True)
+        got = vehicle_gap_evaluation(*args)
+        for name in ("step_cost", "v", "a_eff", "travel_m"):
+            assert _same(np.asarray(getattr(got, name)), np.asarray(getattr(want, name)))
