@@ -221,6 +221,10 @@ def bench_planners(n_episodes: int = 3, robot_planner: str = "social", echo=prin
     if scenario not in PLANNER_BENCH_SITUATIONS:
         raise ValueError(f"bench planners: scenario {scenario!r} must be one of "
                          f"{tuple(PLANNER_BENCH_SITUATIONS)}")
+    # the planners' compiled kernels (models/gap_kernels.py, cost_kernels.py) load once per
+    # process (~0.7 s from numba's cache; a cold cache compiles them): not inside the timing
+    from marl_social.models import cost_kernels, gap_kernels  # noqa: F401
+
     decide: dict[str, list] = {}
     mpc_s: list[float] = []  # the robot's MPC solve alone, within its decision
     belief_s: list[float] = []  # the robot's belief update (tracking, own sensors, social)
