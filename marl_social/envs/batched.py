@@ -34,10 +34,14 @@ class _Block:
     """A block of env copies and what a command does to them (in a worker or this process)."""
 
     def __init__(self, env_fn, n_copies: int):
-        """Build the copies."""
+        """Build the copies (if one fails, those already built are closed)."""
         self.envs = []
-        for _ in range(n_copies):
-            self.envs.append(env_fn())
+        try:
+            for _ in range(n_copies):
+                self.envs.append(env_fn())
+        except BaseException:
+            self.close()
+            raise
         self.done = np.zeros(n_copies, dtype=bool)
 
     def answer(self, command: str, data):
