@@ -223,7 +223,9 @@ def bench_planners(n_episodes: int = 3, robot_planner: str = "social", echo=prin
                          f"{tuple(PLANNER_BENCH_SITUATIONS)}")
     # the planners' compiled kernels (models/gap_kernels.py, cost_kernels.py) load once per
     # process (~0.7 s from numba's cache; a cold cache compiles them): not inside the timing
-    from marl_social.models import cost_kernels, gap_kernels  # noqa: F401
+    from marl_social.models import kernel_loading
+
+    kernel_loading.load()
 
     decide: dict[str, list] = {}
     mpc_s: list[float] = []  # the robot's MPC solve alone, within its decision

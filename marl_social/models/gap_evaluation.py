@@ -111,15 +111,11 @@ _LARGEST_SPEED_MPS = 1e6  # the kernels' v0 and s0 bounds (the curve-speed grid 
 _LARGEST_ARC_LENGTH_M = 1e12  # arc length along the plans then fits an int64 by far)
 _NO_CURVE = np.zeros(1)
 _NO_ZONES = (np.zeros((0, 1, 5)), np.zeros(0, dtype=np.int64))
-_KERNELS = []  # [models.gap_kernels, models.cost_kernels] once imported
+def _kernels() -> tuple:
+    """(gap_kernels, cost_kernels), imported at the first call (importing numba takes a while)."""
+    from marl_social.models import kernel_loading
 
-
-def _kernels() -> list:
-    """[gap_kernels, cost_kernels], imported at the first call (importing numba takes a while)."""
-    if not _KERNELS:
-        from marl_social.models import cost_kernels, gap_kernels
-        _KERNELS.extend((gap_kernels, cost_kernels))
-    return _KERNELS
+    return kernel_loading.load()
 
 
 def _conflict_rows(scene: ScenePrediction, crosswalks: tuple, yield_zones: tuple,

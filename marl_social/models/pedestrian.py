@@ -108,9 +108,6 @@ def pedestrian_q_values(model: PedestrianModel, route: Route, s0: float, v_ref: 
     return _numpy_q_values(model, route, s0, v_ref, prev_speed, scene, crosswalks)
 
 
-_KERNELS = []  # [models.gap_kernels, models.cost_kernels] once imported
-
-
 def _compiled_q_values(model: PedestrianModel, route: Route, s0: float, v_ref: float,
                        prev_speed: float, scene: ScenePrediction,
                        crosswalks: tuple[Crosswalk, ...]) -> np.ndarray:
@@ -118,10 +115,9 @@ def _compiled_q_values(model: PedestrianModel, route: Route, s0: float, v_ref: f
 
     np.exp of the safety feature and np.tanh of the crosswalk occupancies in numpy.
     """
-    if not _KERNELS:
-        from marl_social.models import cost_kernels, gap_kernels
-        _KERNELS.extend((gap_kernels, cost_kernels))
-    gap_kernels, kernels = _KERNELS
+    from marl_social.models import kernel_loading
+
+    gap_kernels, kernels = kernel_loading.load()
     _, speeds, theta, ego_radius, speed_times = _model_constants(model)
     weights = theta[1:6].astype(np.float64)  # speed, accel, jerk, safety, conflict
     w_safety, w_conflict = weights[3], weights[4]

@@ -1,0 +1,53 @@
+"""Loading the compiled (numba) kernels once per process, with a word when they compile.
+
+`models/gap_kernels.py` and `models/cost_kernels.py` are compiled at their import (one fixed
+signature each, `cache=True`). From numba's on-disk cache that takes under a second; with no
+cache -- the first run after an install or after an edit of a kernel file -- numba compiles
+them, about 30 s on a 2-core machine, before the first decision. So that such a first run
+does not look hung, `load` then logs one warning (logger ``marl_social``; stderr when logging
+is not configured) before it compiles.
+"""
+
+from __future__ import annotations
+
+import logging
+import os
+from pathlib import Path
+
+_LOADED: list = []  # [gap_kernels, cost_kernels] once imported
+_KERNEL_FILES = ("gap_kernels", "cost_kernels")
+
+
+def load() -> tuple:
+    """(models.gap_kernels, models.cost_kernels), imported (and if need be compiled) once."""
+    if not _LOADED:
+        if _will_compile():
+            logging.getLogger("marl_social").warning(
+                "compiling the planners' numba kernels once (about 30 s; cached in %s for "
+                "later runs)", _cache_dir())
+        from marl_social.models import cost_kernels, gap_kernels
+        _LOADED.extend((gap_kernels, cost_kernels))
+    return tuple(_LOADED)
+
+
+def _cache_dir() -> Path:
+    """Where numba keeps the kernels' machine code when it can write there (__pycache__)."""
+    return Path(__file__).with_name("__pycache__")
+
+
+def _will_compile(here: Path | None = None) -> bool:
+    """Whether a kernel file in `here` (default: this package) has no cached code newer than it.
+
+    False when the cache folder cannot be written: numba then caches elsewhere
+    (NUMBA_CACHE_DIR or the user's cache) and this cannot tell.
+    """
+    here = Path(__file__).parent if here is None else here
+    cache = here / "__pycache__"
+    if os.environ.get("NUMBA_CACHE_DIR") or (cache.exists() and not os.access(cache, os.W_OK)):
+        return False
+    for name in _KERNEL_FILES:
+        source = (here / f"{name}.py").stat().st_mtime
+        index = list(cache.glob(f"{name}.*.nbi")) if cache.exists() else []
+        if not index or min(p.stat().st_mtime for p in index) < source:
+            return True
+    return False
