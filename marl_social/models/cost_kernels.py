@@ -94,6 +94,19 @@ def _pairwise_sum(values, start, n):
 
 
 @numba.njit(cache=True)
+def _present_sum(values, present, n_obj):
+    """np.sum of values[m] over the present objects m < n_obj (absent ones add 0.0).
+
+    np.sum's order for fewer than 8 values >= +0 (the one-by-one sum, from -0.0); the result
+    plus 0.0, as the reference's sum of an all-zero row is +0.0.
+    """
+    summed = -0.0
+    for m in range(n_obj):
+        summed += values[m] if present[m] else 0.0
+    return 0.0 + summed
+
+
+@numba.njit(cache=True)
 def _scene_sums(scene_tanh, pair, zone_sums):
     """(W + Z, L, T) the objects' summed crosswalk occupancies, then the zones' given sums.
 
@@ -178,10 +191,7 @@ def walk_costs(speeds, n_t, v_ref_mps, prev_speed, dt_s, weights, safety_exp, pr
                         total = total + w_jerk * squared if started else w_jerk * squared
                         started = True
                 if w_safety != 0.0:  # np.sum of fewer than 8 values >= +0
-                    summed = -0.0
-                    for m in range(n_obj):
-                        summed += safety_exp[h, a, t, m] if present[h, m] else 0.0
-                    term = (0.0 + summed) * w_safety
+                    term = _present_sum(safety_exp[h, a, t], present[h], n_obj) * w_safety
                     total = total + term if started else term
                     started = True
                 if add_conflict:
@@ -262,10 +272,7 @@ def step_costs(v, a_eff, v_ref_mps, prev_accel, weights, safety_exp, present, oc
             for t in range(n_t):
                 total = own[p, t]
                 if w_safety != 0.0:  # np.sum of fewer than 8 values >= +0
-                    summed = -0.0
-                    for m in range(n_obj):
-                        summed += safety_exp[h, p, t, m] if present[h, m] else 0.0
-                    term = (0.0 + summed) * w_safety
+                    term = _present_sum(safety_exp[h, p, t], present[h], n_obj) * w_safety
                     total = total + term if started else term
                 if add_conflict:
                     conflict = 0.0

@@ -36,7 +36,7 @@ def _cache_dir() -> Path:
 
 
 def _will_compile(here: Path | None = None) -> bool:
-    """Whether a kernel file in `here` (default: this package) has no cached code newer than it.
+    """Whether a kernel file in `here` (default: this package) has no cache index newer than it.
 
     False when the cache folder cannot be written: numba then caches elsewhere
     (NUMBA_CACHE_DIR or the user's cache) and this cannot tell.
@@ -48,6 +48,7 @@ def _will_compile(here: Path | None = None) -> bool:
     for name in _KERNEL_FILES:
         source = (here / f"{name}.py").stat().st_mtime
         index = list(cache.glob(f"{name}.*.nbi")) if cache.exists() else []
-        if not index or min(p.stat().st_mtime for p in index) < source:
+        # index files of functions at old line numbers stay behind: the newest one counts
+        if not index or max(p.stat().st_mtime for p in index) < source:
             return True
     return False

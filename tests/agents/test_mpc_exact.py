@@ -58,16 +58,21 @@ def _reference(problem: qp.ContingencyQp, args: dict) -> tuple[np.ndarray, float
     return res.x[problem._a_idx], float(res.info.obj_val)
 
 
-def test_a_degenerate_qp_is_solved_exactly_from_the_iterates_active_set(monkeypatch):
-    calls = []
-    solve = active_set.ActiveSetSolver.solve
+def _record_success(monkeypatch, method: str) -> list:
+    """A list that gets, per call of ActiveSetSolver.<method>, whether it returned a solution."""
+    calls, original = [], getattr(active_set.ActiveSetSolver, method)
 
-    def counted(self, *args):
-        out = solve(self, *args)
+    def recorded(self, *args):
+        out = original(self, *args)
         calls.append(out is not None)
         return out
 
-    monkeypatch.setattr(active_set.ActiveSetSolver, "solve", counted)
+    monkeypatch.setattr(active_set.ActiveSetSolver, method, recorded)
+    return calls
+
+
+def test_a_degenerate_qp_is_solved_exactly_from_the_iterates_active_set(monkeypatch):
+    calls = _record_success(monkeypatch, "solve")
     problem, args = _qp(2), _at_rest_behind_a_close_bound()
     sol = problem.solve(**args)
     assert sol.solved and calls and calls[-1]  # the exact path gave the answer
@@ -155,15 +160,7 @@ def test_second_guess_solves_a_degenerate_qp_the_iterates_multipliers_get_wrong(
                       shape=tuple(data["a_shape"]))
     solver = active_set.ActiveSetSolver(data["p_rows"], data["p_cols"], a)
     p_values, q, lower, upper = data["p_values"], data["q"], data["lower"], data["upper"]
-    guesses = []
-    corrected = active_set.ActiveSetSolver._corrected
-
-    def recorded(self, *args):
-        out = corrected(self, *args)
-        guesses.append(out is not None)
-        return out
-
-    monkeypatch.setattr(active_set.ActiveSetSolver, "_corrected", recorded)
+    guesses = _record_success(monkeypatch, "_corrected")
     exact = solver.solve(p_values, q, lower, upper, data["x_guess"], data["y_guess"])
     assert guesses == [False, True]  # the first guess fails, the second holds
     x, y, cost = exact

@@ -25,6 +25,7 @@ from marl_social.models.gap_evaluation import vehicle_gap_evaluation
 from marl_social.sim.agent_spec import VehicleParams
 from marl_social.sim.road_map import Crosswalk, Route
 from marl_social.sim.route_rules import CURVE_PROFILE_STEP_M, CurveSpeed
+from tests.models.test_gap_evaluation import _route
 
 CANDIDATES = CandidateSet((-8.0, -4.0, -1.0, 0.0, 1.0, 2.0), (-2.0, 0.0, 1.0), 0.5, 3.0, 0.25)
 
@@ -43,14 +44,6 @@ def test_pairwise_sum_is_np_sum(seed, n, rows):
     want = np.sum(values, axis=-1)
     got = np.array([0.0 + cost_kernels._pairwise_sum(row, 0, n) for row in values])
     assert _same(got, want)
-
-
-def _route(rng, bent: bool) -> Route:
-    if not bent:
-        return Route([[-60.0, -1.75], [120.0, -1.75]])
-    turn = np.linspace(0.0, 0.5 * np.pi, 12)
-    arc = np.column_stack([np.sin(turn), 1.0 - np.cos(turn)]) * rng.uniform(8.0, 15.0)
-    return Route(np.vstack([[[-40.0, 0.0]], arc, arc[-1] + [[0.0, 40.0]]]))
 
 
 @settings(max_examples=80, deadline=None)

@@ -17,6 +17,9 @@ def _kernel_files(folder, cached: bool, cache_older: bool = False):
             index.write_bytes(b"")
             stamp = source.stat().st_mtime + (-60 if cache_older else 60)
             os.utime(index, (stamp, stamp))
+            orphan = folder / "__pycache__" / f"{name}.plan-3.py311.nbi"  # before an edit
+            orphan.write_bytes(b"")
+            os.utime(orphan, (stamp - 600, stamp - 600))
 
 
 def test_a_cold_or_stale_cache_is_told_apart_from_a_fresh_one(tmp_path, monkeypatch):

@@ -51,6 +51,23 @@ def _reference_q(model, route, s0, v_ref, prev_speed, scene, crosswalks):
     return cost.sum(axis=-1) * (dt / DT_S)
 
 
+def random_walk_case(rng, model, n_hyp: int, n_obj: int, p_ped: float, p_absent: float):
+    """(route, scene): a straight or bent walk and L x M random cars and pedestrians over the
+    model's plan steps, a share p_absent of them absent."""
+    route = Route([[0.0, -5.0], [0.0, 5.0]]) if rng.random() < 0.5 else Route(
+        [[0.0, -5.0], [0.0, 0.0], [3.0, 4.0]])
+    n_t = len(model.plan_times_s)
+    is_ped = rng.random((n_hyp, n_obj)) < p_ped
+    length = np.where(is_ped, 0.6, rng.uniform(3.5, 5.5, (n_hyp, n_obj)))
+    width = np.where(is_ped, 0.6, rng.uniform(1.6, 2.2, (n_hyp, n_obj)))
+    xy = rng.uniform(-15.0, 15.0, (n_hyp, n_obj, 1, 2)) + rng.normal(
+        size=(n_hyp, n_obj, 1, 2)) * np.arange(1, n_t + 1)[:, None]
+    heading = np.repeat(rng.uniform(-4, 4, (n_hyp, n_obj, 1)), n_t, axis=2)
+    scene = ScenePrediction(xy, heading, length, width, 0.5 * np.hypot(length, width), is_ped,
+                            rng.random((n_hyp, n_obj)) >= p_absent)
+    return route, scene
+
+
 @settings(max_examples=120, deadline=None)
 @given(seed=st.integers(0, 2**32 - 1), n_hyp=st.integers(1, 3), n_obj=st.integers(0, 4),
        crosswalk=st.booleans(), p_ped=st.sampled_from([0.0, 0.5, 1.0]),
@@ -63,17 +80,7 @@ def test_pedestrian_q_values_equal_step_cost(seed, n_hyp, n_obj, crosswalk, p_pe
         theta[rng.random(6) < 0.4] = 0.0
         theta[4] = theta[4] or 1.0  # keep a term that depends on the scene
     model = PedestrianModel(theta=CostWeights(*theta.tolist()), v_walk_mps=1.3)
-    route = Route([[0.0, -5.0], [0.0, 5.0]]) if rng.random() < 0.5 else Route(
-        [[0.0, -5.0], [0.0, 0.0], [3.0, 4.0]])
-    n_t = len(model.plan_times_s)
-    is_ped = rng.random((n_hyp, n_obj)) < p_ped
-    length = np.where(is_ped, 0.6, rng.uniform(3.5, 5.5, (n_hyp, n_obj)))
-    width = np.where(is_ped, 0.6, rng.uniform(1.6, 2.2, (n_hyp, n_obj)))
-    xy = rng.uniform(-15.0, 15.0, (n_hyp, n_obj, 1, 2)) + rng.normal(
-        size=(n_hyp, n_obj, 1, 2)) * np.arange(1, n_t + 1)[:, None]
-    heading = np.repeat(rng.uniform(-4, 4, (n_hyp, n_obj, 1)), n_t, axis=2)
-    scene = ScenePrediction(xy, heading, length, width, 0.5 * np.hypot(length, width), is_ped,
-                            rng.random((n_hyp, n_obj)) >= p_absent)
+    route, scene = random_walk_case(rng, model, n_hyp, n_obj, p_ped, p_absent)
     args = (model, route, rng.uniform(0.0, 9.0), rng.choice([0.0, 1.3]), rng.uniform(0.0, 2.0),
             scene, (CROSSWALK,) if crosswalk else ())
     want = _reference_q(*args)

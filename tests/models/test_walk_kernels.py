@@ -15,6 +15,7 @@ from marl_social.models.circle_gaps import MAX_KERNEL_OBJECTS
 from marl_social.models.pedestrian import PedestrianModel
 from marl_social.sim.costs import CostWeights
 from marl_social.sim.road_map import Crosswalk, Route
+from tests.models.test_pedestrian_costs import random_walk_case
 
 CROSSWALK = Crosswalk(center=np.array([0.0, 0.0]), walk_heading_rad=0.5 * np.pi,
                       length_m=10.0, width_m=4.0)
@@ -36,17 +37,7 @@ def test_compiled_q_values_equal_numpy(seed, n_hyp, n_obj, crosswalks, p_ped, p_
     if zero_weights:
         theta[rng.random(6) < 0.4] = 0.0
     model = PedestrianModel(theta=CostWeights(*theta.tolist()), v_walk_mps=1.3)
-    route = Route([[0.0, -5.0], [0.0, 5.0]]) if rng.random() < 0.5 else Route(
-        [[0.0, -5.0], [0.0, 0.0], [3.0, 4.0]])
-    n_t = len(model.plan_times_s)
-    is_ped = rng.random((n_hyp, n_obj)) < p_ped
-    length = np.where(is_ped, 0.6, rng.uniform(3.5, 5.5, (n_hyp, n_obj)))
-    width = np.where(is_ped, 0.6, rng.uniform(1.6, 2.2, (n_hyp, n_obj)))
-    xy = rng.uniform(-15.0, 15.0, (n_hyp, n_obj, 1, 2)) + rng.normal(
-        size=(n_hyp, n_obj, 1, 2)) * np.arange(1, n_t + 1)[:, None]
-    heading = np.repeat(rng.uniform(-4, 4, (n_hyp, n_obj, 1)), n_t, axis=2)
-    scene = ScenePrediction(xy, heading, length, width, 0.5 * np.hypot(length, width), is_ped,
-                            rng.random((n_hyp, n_obj)) >= p_absent)
+    route, scene = random_walk_case(rng, model, n_hyp, n_obj, p_ped, p_absent)
     shifted = Crosswalk(center=np.array([1.0, 2.0]), walk_heading_rad=1.3, length_m=8.0,
                         width_m=3.0)
     args = (model, route, rng.uniform(-1.0, 12.0), rng.choice([0.0, 1.3]),
