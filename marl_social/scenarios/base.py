@@ -25,7 +25,12 @@ from marl_social.sim.signals import SignalController
 MAX_SLOTS = 64  # largest observation slot count K
 MAX_RAYS = 1024  # largest depth ray count per observation
 MAX_COLLISION_PENALTY = 1e9  # largest collision penalty (finite: inf * False is NaN)
-FLOAT_MAX = float(np.finfo(np.float64).max)  # a Python float: compares exactly with any int
+FLOAT_MAX = float(np.finfo(np.float64).max)
+# physical limits of the scenarios' parameters
+MAX_VEHICLE_SPEED_MPS = 20.0  # largest allowed initial / desired car speed [m/s]
+MAX_SENSOR_RANGE_M = 1000.0  # longest sensor range [m]
+MAX_POS_NOISE_M = 10.0  # largest measurement noise std [m]
+MAX_SPEED_LIMIT_MPS = 50.0  # highest legal speed limit [m/s]  # a Python float: compares exactly with any int
 # theta_R: the robot values comfort more than the default driver model (smooth, early braking)
 THETA_ROBOT = CostWeights(accel=0.5, jerk=0.5)
 

@@ -1,29 +1,94 @@
-"""The agents every intersection scenario builds the same way: human drivers and the robot.
+"""What every intersection scenario shares: the humans' and the robot's parameters, and the agents.
 
-The scenarios' parameter dataclasses (t_intersection, signalized_intersection) share the field
-names these read: human_theta, human_beta, human_sensor_range_m, human_half_fov_deg,
-human_pos_noise_m; robot_speed_mps, robot_sensor_range_m, robot_half_fov_deg,
-robot_pos_noise_m, robot_desired_speed_mps, robot_beta_hat, robot_epsilon. Positions are
-metres, headings radians, speeds m/s.
+`IntersectionParams` holds the parameters of the human drivers and of the robot that the
+intersection scenarios (t_intersection, signalized_intersection) have in common, with their
+checks; each scenario's dataclass adds its own fields (and may change a default).
+`human_spec` and `robot_spec` build the agents from them. Positions are metres, headings
+radians, speeds m/s.
 """
 
 from __future__ import annotations
 
 import math
+from dataclasses import dataclass
 
 import numpy as np
 
-from marl_social.scenarios.base import THETA_ROBOT, ScenarioParams
+from marl_social.scenarios.base import (
+    MAX_POS_NOISE_M,
+    MAX_SENSOR_RANGE_M,
+    MAX_SPEED_LIMIT_MPS,
+    MAX_VEHICLE_SPEED_MPS,
+    THETA_ROBOT,
+    ScenarioParams,
+)
 from marl_social.sim.agent_spec import AgentSpec, SensorParams, VehicleParams
 from marl_social.sim.costs import CostWeights
 
 
-def human_spec(params: ScenarioParams, name: str, state, v_desired_mps: float,
+@dataclass(frozen=True)
+class IntersectionParams(ScenarioParams):
+    """The human drivers' and the robot's parameters of an intersection scenario (SI units).
+
+    Attributes:
+        human_beta: rationality of every human driver.
+        human_theta: their cost weights (a mapping of feature names or 6 numbers in
+            marl_social.sim.costs.FEATURE_NAMES order); empty = the default CostWeights.
+        human_blind: the left-turners cannot see the eastbound lane(s) west of the junction
+            (they turn whatever comes; they cannot act as sensors).
+        human_sensor_range_m, human_half_fov_deg, human_pos_noise_m: every human's view.
+        robot_speed_mps, robot_desired_speed_mps: the robot's initial and cruise speeds [m/s].
+        robot_sensor_range_m, robot_half_fov_deg, robot_pos_noise_m: its view.
+        robot_beta_hat, robot_epsilon: its model of the humans' rationality and its tail
+            threshold on beliefs.
+        speed_limit_mps: legal limit [m/s].
+    """
+
+    human_beta: float = 5.0
+    human_theta: tuple = ()
+    human_blind: bool = False
+    human_sensor_range_m: float = 80.0
+    human_half_fov_deg: float = 60.0
+    human_pos_noise_m: float = 0.05
+    robot_speed_mps: float = 0.0
+    robot_desired_speed_mps: float = 10.0
+    robot_sensor_range_m: float = 80.0
+    robot_half_fov_deg: float = 110.0
+    robot_pos_noise_m: float = 0.05
+    robot_beta_hat: float = 0.3
+    robot_epsilon: float = 0.05
+    speed_limit_mps: float = 13.9
+
+    def __post_init__(self):
+        super().__post_init__()
+        if self.human_theta in ((), None):
+            object.__setattr__(self, "human_theta", ())
+        else:
+            try:
+                theta = CostWeights.from_any(self.human_theta).as_array()
+            except (TypeError, ValueError) as err:
+                raise ValueError(f"{type(self).__name__}.human_theta: {err}") from None
+            object.__setattr__(self, "human_theta", tuple(theta.tolist()))
+        for name in ("robot_speed_mps", "robot_desired_speed_mps"):
+            self._check_range(name, 0.0, MAX_VEHICLE_SPEED_MPS, "m/s")
+        self._check(self.human_beta >= 0.0, "human_beta", "must be >= 0 (inf allowed)")
+        self._check(self.robot_beta_hat >= 0.0, "robot_beta_hat", "must be >= 0 (inf allowed)")
+        self._check(0.0 <= self.robot_epsilon < 1.0, "robot_epsilon", "must be in [0, 1)")
+        for name in ("human_sensor_range_m", "robot_sensor_range_m"):
+            self._check_range(name, 0.0, MAX_SENSOR_RANGE_M, "m", low_open=True)
+        for name in ("human_half_fov_deg", "robot_half_fov_deg"):
+            self._check_range(name, 0.0, 180.0, "deg", low_open=True)
+        for name in ("human_pos_noise_m", "robot_pos_noise_m"):
+            self._check_range(name, 0.0, MAX_POS_NOISE_M, "m")
+        self._check_range("speed_limit_mps", 0.0, MAX_SPEED_LIMIT_MPS, "m/s", low_open=True)
+
+
+def human_spec(params: IntersectionParams, name: str, state, v_desired_mps: float,
                blind: tuple = ()) -> AgentSpec:
     """A human driver with the scenario's human cost weights, rationality and sensor.
 
     Args:
-        params: the scenario's parameters (module docstring).
+        params: the scenario's parameters.
         name: the agent's name.
         state: (4,) [x m, y m, heading rad, speed m/s] at reset.
         v_desired_mps: its desired speed [m/s].
@@ -40,11 +105,11 @@ def human_spec(params: ScenarioParams, name: str, state, v_desired_mps: float,
     )
 
 
-def robot_spec(params: ScenarioParams, x_m: float, front_y_m: float) -> AgentSpec:
+def robot_spec(params: IntersectionParams, x_m: float, front_y_m: float) -> AgentSpec:
     """robot_0 heading north (+y) in its lane, its front at front_y_m [m], centre at x_m [m].
 
     Args:
-        params: the scenario's parameters (module docstring).
+        params: the scenario's parameters.
         x_m: the lane's centre [m].
         front_y_m: where its front stands at reset [m].
     """

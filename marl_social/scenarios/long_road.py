@@ -12,7 +12,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from marl_social.scenarios.base import Scenario, ScenarioLayout, ScenarioParams
+from marl_social.scenarios.base import MAX_SENSOR_RANGE_M, Scenario, ScenarioLayout, ScenarioParams
 from marl_social.scenarios.roads import (
     LANE_WIDTH_M,
     lane_centres_y,
@@ -31,7 +31,6 @@ MIN_SPACING_M = 6.0  # closer cars in a lane would overlap [m]
 MAX_SPEED_MPS = 20.0  # largest allowed speed_mps [m/s]
 MAX_VEHICLES = 1000  # most cars on the road
 MAX_SPACING_M = 1000.0  # largest gap between cars in a lane [m]
-MAX_SENSOR_RANGE_M = 1000.0  # longest sensor range [m]
 
 
 @dataclass(frozen=True)

@@ -21,7 +21,16 @@ from pathlib import Path
 
 import numpy as np
 
-from marl_social.scenarios.base import THETA_ROBOT, Scenario, ScenarioLayout, ScenarioParams
+from marl_social.scenarios.base import (
+    MAX_POS_NOISE_M,
+    MAX_SENSOR_RANGE_M,
+    MAX_SPEED_LIMIT_MPS,
+    MAX_VEHICLE_SPEED_MPS,
+    THETA_ROBOT,
+    Scenario,
+    ScenarioLayout,
+    ScenarioParams,
+)
 from marl_social.scenarios.roads import (
     LANE_WIDTH_M,
     road_extent,
@@ -50,13 +59,9 @@ THETA_PEDESTRIAN = CostWeights(tracking=1.0, speed=1.0, accel=0.01, jerk=0.0, sa
                                crosswalk=1000.0)
 MAX_HUMANS = 4
 HUMAN_SPACING_M = 20.0  # gap between successive human cars' start positions [m]
-MAX_VEHICLE_SPEED_MPS = 20.0  # largest allowed initial / desired car speed [m/s]
 MAX_ROAD_END_X_M = 2000.0  # longest road (about 230 houses) [m]
 MAX_CROSSWALK_WIDTH_M = 20.0  # widest crosswalk (along the road) [m]
 MAX_START_DELAY_S = 3600.0  # latest time a crossing pedestrian steps off the curb [s]
-MAX_SENSOR_RANGE_M = 1000.0  # longest sensor range [m]
-MAX_POS_NOISE_M = 10.0  # largest measurement noise std [m]
-MAX_SPEED_LIMIT_MPS = 50.0  # highest legal speed limit [m/s]
 
 
 @dataclass(frozen=True)

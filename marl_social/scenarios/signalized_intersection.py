@@ -37,12 +37,15 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from marl_social.scenarios.base import Scenario, ScenarioLayout, ScenarioParams
-from marl_social.scenarios.intersection_agents import human_spec, robot_spec
+from marl_social.scenarios.base import MAX_VEHICLE_SPEED_MPS, Scenario, ScenarioLayout
+from marl_social.scenarios.intersection_agents import (
+    IntersectionParams,
+    human_spec,
+    robot_spec,
+)
 from marl_social.scenarios.intersections import arc_points, box, polyline
 from marl_social.scenarios.roads import LANE_WIDTH_M
 from marl_social.sim.agent_spec import AgentSpec, VehicleParams
-from marl_social.sim.costs import CostWeights
 from marl_social.sim.road_map import ConflictZone, Lane, RoadMap, Route, StopLine
 from marl_social.sim.signals import SignalController, SignalHead, SignalPhase, SignalPlan
 
@@ -77,16 +80,12 @@ HUMAN_SPACING_M = 7.5  # queue pitch of the left-turners (front to front) [m]
 PHASES = ("protected_left", "cross_green")
 MAX_HUMANS = 3
 MAX_CROSS = 2
-MAX_VEHICLE_SPEED_MPS = 20.0  # largest allowed initial / desired car speed [m/s]
-MAX_SENSOR_RANGE_M = 1000.0  # [m]
-MAX_POS_NOISE_M = 10.0  # [m]
-MAX_SPEED_LIMIT_MPS = 50.0  # [m/s]
 MAX_PHASE_S = 120.0  # longest phase [s]
 EXTENT = (-60.0, 40.0, -40.0, 40.0)  # the area worth drawing [m]
 
 
 @dataclass(frozen=True)
-class SignalizedIntersectionParams(ScenarioParams):
+class SignalizedIntersectionParams(IntersectionParams):
     """Signalized intersection parameters (SI units).
 
     Attributes:
@@ -103,17 +102,9 @@ class SignalizedIntersectionParams(ScenarioParams):
             before its stop line, V4 cross_gap_m (front to front) behind it.
         cross_start_m, cross_gap_m: [m]; cross_speed_mps: their initial and desired speed
             [m/s].
-        human_beta: rationality of every human driver.
-        human_theta: their cost weights (a mapping or 6 numbers in FEATURE_NAMES order);
-            empty = the default CostWeights.
-        human_blind: the left-turners cannot see the eastbound lanes west of the junction.
-        human_sensor_range_m, human_half_fov_deg, human_pos_noise_m: every human's view.
         robot_start_back_m: how far the robot's front starts before its stop line [m].
-        robot_speed_mps, robot_desired_speed_mps: its initial and cruise speeds [m/s].
-        robot_sensor_range_m, robot_half_fov_deg, robot_pos_noise_m: its view.
-        robot_beta_hat, robot_epsilon: its model of the humans' rationality and its tail
-            threshold on beliefs.
-        speed_limit_mps: legal limit [m/s].
+        The humans' (left-turners and cross cars) and the robot's: IntersectionParams
+        (scenarios/intersection_agents.py).
     """
 
     phase: str = "protected_left"
@@ -131,32 +122,10 @@ class SignalizedIntersectionParams(ScenarioParams):
     cross_start_m: float = 40.0
     cross_gap_m: float = 18.0
     cross_speed_mps: float = 12.0
-    human_beta: float = 5.0
-    human_theta: tuple = ()
-    human_blind: bool = False
-    human_sensor_range_m: float = 80.0
-    human_half_fov_deg: float = 60.0
-    human_pos_noise_m: float = 0.05
     robot_start_back_m: float = 0.5
-    robot_speed_mps: float = 0.0
-    robot_desired_speed_mps: float = 10.0
-    robot_sensor_range_m: float = 80.0
-    robot_half_fov_deg: float = 110.0
-    robot_pos_noise_m: float = 0.05
-    robot_beta_hat: float = 0.3
-    robot_epsilon: float = 0.05
-    speed_limit_mps: float = 13.9
 
     def __post_init__(self):
         super().__post_init__()
-        if self.human_theta in ((), None):
-            object.__setattr__(self, "human_theta", ())
-        else:
-            try:
-                theta = CostWeights.from_any(self.human_theta).as_array()
-            except (TypeError, ValueError) as err:
-                raise ValueError(f"SignalizedIntersectionParams.human_theta: {err}") from None
-            object.__setattr__(self, "human_theta", tuple(theta.tolist()))
         self._check(self.phase in PHASES, "phase", f"must be one of {PHASES}")
         for name in ("left_green_s", "ns_green_s", "cross_green_s", "yellow_s", "all_red_s"):
             self._check_range(name, 0.0, MAX_PHASE_S, "s", low_open=True)
@@ -173,21 +142,10 @@ class SignalizedIntersectionParams(ScenarioParams):
         self._check(self.cross_start_m + (MAX_CROSS - 1) * self.cross_gap_m <= cross_room,
                     "cross_gap_m", f"puts V4 beyond the road's west end (cross_start_m + "
                     f"cross_gap_m must be <= {cross_room:g} m)")
-        for name in ("human_speed_mps", "human_desired_speed_mps", "cross_speed_mps",
-                     "robot_speed_mps", "robot_desired_speed_mps"):
+        for name in ("human_speed_mps", "human_desired_speed_mps", "cross_speed_mps"):
             self._check_range(name, 0.0, MAX_VEHICLE_SPEED_MPS, "m/s")
-        self._check(self.human_beta >= 0.0, "human_beta", "must be >= 0 (inf allowed)")
-        self._check(self.robot_beta_hat >= 0.0, "robot_beta_hat", "must be >= 0 (inf allowed)")
-        self._check(0.0 <= self.robot_epsilon < 1.0, "robot_epsilon", "must be in [0, 1)")
-        for name in ("human_sensor_range_m", "robot_sensor_range_m"):
-            self._check_range(name, 0.0, MAX_SENSOR_RANGE_M, "m", low_open=True)
-        for name in ("human_half_fov_deg", "robot_half_fov_deg"):
-            self._check_range(name, 0.0, 180.0, "deg", low_open=True)
-        for name in ("human_pos_noise_m", "robot_pos_noise_m"):
-            self._check_range(name, 0.0, MAX_POS_NOISE_M, "m")
         self._check_range("robot_start_back_m", 0.0,
                           ROAD_END_M + ROBOT_LINE_Y_M - 10.0, "m")
-        self._check_range("speed_limit_mps", 0.0, MAX_SPEED_LIMIT_MPS, "m/s", low_open=True)
 
 
 # lane indices of the map

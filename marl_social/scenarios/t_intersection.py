@@ -30,12 +30,15 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from marl_social.scenarios.base import Scenario, ScenarioLayout, ScenarioParams
-from marl_social.scenarios.intersection_agents import human_spec, robot_spec
+from marl_social.scenarios.base import MAX_VEHICLE_SPEED_MPS, Scenario, ScenarioLayout
+from marl_social.scenarios.intersection_agents import (
+    IntersectionParams,
+    human_spec,
+    robot_spec,
+)
 from marl_social.scenarios.intersections import arc_points, box, parked_row, polyline
 from marl_social.scenarios.roads import LANE_WIDTH_M
 from marl_social.sim.agent_spec import AgentSpec, VehicleParams
-from marl_social.sim.costs import CostWeights
 from marl_social.sim.road_map import ConflictZone, Lane, RoadMap, Route, StopLine
 
 # -- the main road (y = 0 is its centre line between the two directions)
@@ -70,16 +73,12 @@ HUMAN_SPACING_M = 12.0  # gap between successive left-turners' start positions [
 EXTENT = (-70.0, 45.0, -35.0, 15.0)  # the area worth drawing [m]
 HIDDEN_VARIANTS = ("none", "near", "far")
 MAX_HUMANS = 3
-MAX_VEHICLE_SPEED_MPS = 20.0  # largest allowed initial / desired car speed [m/s]
-MAX_SENSOR_RANGE_M = 1000.0  # longest sensor range [m]
-MAX_POS_NOISE_M = 10.0  # largest measurement noise std [m]
-MAX_SPEED_LIMIT_MPS = 50.0  # highest legal speed limit [m/s]
 MAX_PARKED_GAP_M = 20.0  # largest gap between parked cars [m]
 # theta_R: the robot values comfort more than the default driver model (as in the crosswalk)
 
 
 @dataclass(frozen=True)
-class TIntersectionParams(ScenarioParams):
+class TIntersectionParams(IntersectionParams):
     """T-intersection parameters (SI units).
 
     Attributes:
@@ -91,19 +90,11 @@ class TIntersectionParams(ScenarioParams):
             ones HUMAN_SPACING_M apart behind it.
         human_start_m: how far before the start of its turn human_0 starts [m].
         human_speed_mps, human_desired_speed_mps: left-turners' initial and cruise speeds [m/s].
-        human_beta: rationality of every human driver (left-turners and V3).
-        human_theta: their cost weights (a mapping of feature names or 6 numbers in
-            marl_social.sim.costs.FEATURE_NAMES order); empty = the default CostWeights.
-        human_blind: the left-turners cannot see the eastbound lane west of the junction (they
-            turn whatever comes; they cannot act as sensors).
-        human_sensor_range_m, human_half_fov_deg, human_pos_noise_m: every human's view.
         parked_gap_m: free space between two parked cars [m].
         robot_start_back_m: how far the robot's front starts behind the stop line [m].
-        robot_speed_mps, robot_desired_speed_mps: its initial and cruise speeds [m/s].
-        robot_sensor_range_m, robot_half_fov_deg, robot_pos_noise_m: its view.
-        robot_beta_hat, robot_epsilon: the robot's model of the humans' rationality and its
-            tail threshold on beliefs.
-        speed_limit_mps: legal limit [m/s].
+        The humans' (left-turners and V3) and the robot's: IntersectionParams
+        (scenarios/intersection_agents.py); here the robot's cruise speed is 11 m/s and its
+        sensor range 60 m.
     """
 
     hidden_vehicle: str = "near"
@@ -114,36 +105,17 @@ class TIntersectionParams(ScenarioParams):
     human_start_m: float = 12.0
     human_speed_mps: float = 6.0
     human_desired_speed_mps: float = 11.0
-    human_beta: float = 5.0
-    human_theta: tuple = ()
-    human_blind: bool = False
-    human_sensor_range_m: float = 80.0
-    human_half_fov_deg: float = 60.0
-    human_pos_noise_m: float = 0.05
     parked_gap_m: float = 1.0
     robot_start_back_m: float = 0.5
-    robot_speed_mps: float = 0.0
     robot_desired_speed_mps: float = 11.0
     robot_sensor_range_m: float = 60.0
-    robot_half_fov_deg: float = 110.0
-    robot_pos_noise_m: float = 0.05
-    robot_beta_hat: float = 0.3
     # above one arrival bin's long-run belief (hidden cars arriving at 0.05/s dwell about 1 s
     # in a 10 m bin, split over 2 speed bins: ~0.025): with 0.02 the robot would wait forever
     # for cars arriving where nothing can tell it about them
     robot_epsilon: float = 0.05
-    speed_limit_mps: float = 13.9
 
     def __post_init__(self):
         super().__post_init__()
-        if self.human_theta in ((), None):
-            object.__setattr__(self, "human_theta", ())
-        else:
-            try:
-                theta = CostWeights.from_any(self.human_theta).as_array()
-            except (TypeError, ValueError) as err:
-                raise ValueError(f"TIntersectionParams.human_theta: {err}") from None
-            object.__setattr__(self, "human_theta", tuple(theta.tolist()))
         self._check(self.hidden_vehicle in HIDDEN_VARIANTS, "hidden_vehicle",
                     f"must be one of {HIDDEN_VARIANTS}")
         self._check(0 <= self.n_humans <= MAX_HUMANS, "n_humans", f"must be in [0, {MAX_HUMANS}]")
@@ -154,21 +126,10 @@ class TIntersectionParams(ScenarioParams):
                     f"must be greater than hidden_near_m ({self.hidden_near_m:g} m)")
         max_start = LEFT_TURN_LANE_START_X_M - LEFT_TURN_START_X_M - HUMAN_SPACING_M * MAX_HUMANS
         self._check_range("human_start_m", 0.0, max_start, "m")
-        for name in ("hidden_speed_mps", "human_speed_mps", "human_desired_speed_mps",
-                     "robot_speed_mps", "robot_desired_speed_mps"):
+        for name in ("hidden_speed_mps", "human_speed_mps", "human_desired_speed_mps"):
             self._check_range(name, 0.0, MAX_VEHICLE_SPEED_MPS, "m/s")
-        self._check(self.human_beta >= 0.0, "human_beta", "must be >= 0 (inf allowed)")
-        self._check(self.robot_beta_hat >= 0.0, "robot_beta_hat", "must be >= 0 (inf allowed)")
-        self._check(0.0 <= self.robot_epsilon < 1.0, "robot_epsilon", "must be in [0, 1)")
-        for name in ("human_sensor_range_m", "robot_sensor_range_m"):
-            self._check_range(name, 0.0, MAX_SENSOR_RANGE_M, "m", low_open=True)
-        for name in ("human_half_fov_deg", "robot_half_fov_deg"):
-            self._check_range(name, 0.0, 180.0, "deg", low_open=True)
-        for name in ("human_pos_noise_m", "robot_pos_noise_m"):
-            self._check_range(name, 0.0, MAX_POS_NOISE_M, "m")
         self._check_range("parked_gap_m", 0.0, MAX_PARKED_GAP_M, "m")
         self._check_range("robot_start_back_m", 0.0, -STEM_SOUTH_Y_M + STOP_LINE_Y_M - 10.0, "m")
-        self._check_range("speed_limit_mps", 0.0, MAX_SPEED_LIMIT_MPS, "m/s", low_open=True)
 
 
 class TIntersection(Scenario):
