@@ -120,20 +120,37 @@ def _progress(iterable, total, enabled):
     return tqdm(iterable, total=total, desc="episodes")
 
 
-def format_table(rows: list[dict]) -> str:
-    header = ("| planner | pedestrian | n | collision | yielded | hard brake | time to pass [s] "
-              "| mean speed [m/s] |")
-    lines = [header, "|---|---|---|---|---|---|---|---|"]
+def markdown_table(rows: list[dict], variant_title: str, columns: list[tuple]) -> str:
+    """The rows of a reproduce table (`table_rows`) as a Markdown table.
+
+    Columns: planner, the variant (titled variant_title), n, then one per (title, render)
+    of `columns`, render(row) -> the cell's text. A row without episodes shows its first error.
+    """
+    titles = ["planner", variant_title, "n"] + [title for title, _ in columns]
+    lines = ["| " + " | ".join(titles) + " |", "|" + "---|" * len(titles)]
     for r in rows:
         if r["n"] == 0:
             lines.append(f"| {r['planner']} | {r['variant']} | 0 | errors: {r['errors'][:1]} "
-                         "| | | | |")
+                         + "| " * (len(columns) - 1) + "|")
             continue
-        lines.append(
-            f"| {r['planner']} | {r['variant']} | {r['n']} | {r['collision_rate']:.0%} | "
-            f"{r['yield_rate']:.0%} | {r['hard_brake_rate']:.0%} | {r['time_to_pass_s']:.2f} | "
-            f"{r['mean_speed_mps']:.2f} |")
+        cells = [r["planner"], r["variant"], str(r["n"])] + [render(r) for _, render in columns]
+        lines.append("| " + " | ".join(cells) + " |")
     return "\n".join(lines)
+
+
+# the reproduce tables' common columns (markdown_table's (title, render))
+COLLISION = ("collision", lambda r: f"{r['collision_rate']:.0%}")
+YIELDED = ("yielded", lambda r: f"{r['yield_rate']:.0%}")
+HARD_BRAKE = ("hard brake", lambda r: f"{r['hard_brake_rate']:.0%}")
+TIME_TO_PASS = ("time to pass [s]", lambda r: f"{r['time_to_pass_s']:.2f}")
+MEAN_SPEED = ("mean speed [m/s]", lambda r: f"{r['mean_speed_mps']:.2f}")
+FORCED_BRAKING = ("forced braking [m/s^2]", lambda r: f"{r['others_max_decel_mps2']:.2f}")
+
+
+def format_table(rows: list[dict]) -> str:
+    """The rows of run_table as a Markdown table."""
+    return markdown_table(rows, "pedestrian",
+                          [COLLISION, YIELDED, HARD_BRAKE, TIME_TO_PASS, MEAN_SPEED])
 
 
 def write_figures(out: Path, seed: int = 0) -> list[Path]:

@@ -17,7 +17,17 @@ from pathlib import Path
 
 import numpy as np
 
-from marl_social.evaluation.reproduce import map_jobs, table_rows
+from marl_social.evaluation.reproduce import (
+    COLLISION,
+    FORCED_BRAKING,
+    HARD_BRAKE,
+    MEAN_SPEED,
+    TIME_TO_PASS,
+    YIELDED,
+    map_jobs,
+    markdown_table,
+    table_rows,
+)
 
 SCENARIO = "t_intersection"
 PLANNERS = ("social", "aggressive", "conservative", "oracle")
@@ -139,21 +149,11 @@ def run_table(n_seeds: int, workers: int = 2, planners=PLANNERS, variants=VARIAN
 
 def format_table(rows: list[dict]) -> str:
     """The rows of run_table as a Markdown table."""
-    header = ("| planner | V3 | n | collision | yielded | hard brake | time to pass [s] | "
-              "mean speed [m/s] | forced braking [m/s^2] | human_0 let V3 pass |")
-    lines = [header, "|---|---|---|---|---|---|---|---|---|---|"]
-    for r in rows:
-        if r["n"] == 0:
-            lines.append(f"| {r['planner']} | {r['variant']} | 0 | errors: {r['errors'][:1]} "
-                         "| | | | | | |")
-            continue
-        waited = r["human_0_waited_rate"]
-        lines.append(
-            f"| {r['planner']} | {r['variant']} | {r['n']} | {r['collision_rate']:.0%} | "
-            f"{r['yield_rate']:.0%} | {r['hard_brake_rate']:.0%} | {r['time_to_pass_s']:.2f} | "
-            f"{r['mean_speed_mps']:.2f} | {r['others_max_decel_mps2']:.2f} | "
-            f"{'-' if np.isnan(waited) else f'{waited:.0%}'} |")
-    return "\n".join(lines)
+    def waited(r):
+        return "-" if np.isnan(r["human_0_waited_rate"]) else f"{r['human_0_waited_rate']:.0%}"
+
+    return markdown_table(rows, "V3", [COLLISION, YIELDED, HARD_BRAKE, TIME_TO_PASS, MEAN_SPEED,
+                                       FORCED_BRAKING, ("human_0 let V3 pass", waited)])
 
 
 def write_figures(out: Path, seed: int = 0) -> list[Path]:

@@ -23,7 +23,15 @@ from pathlib import Path
 
 import numpy as np
 
-from marl_social.evaluation.reproduce import map_jobs, table_rows
+from marl_social.evaluation.reproduce import (
+    COLLISION,
+    FORCED_BRAKING,
+    MEAN_SPEED,
+    TIME_TO_PASS,
+    map_jobs,
+    markdown_table,
+    table_rows,
+)
 from marl_social.sim.route_rules import route_conflicts
 from marl_social.sim.signal_rules import route_signal_lines
 
@@ -121,20 +129,11 @@ def run_table(n_seeds: int, workers: int = 2, planners=PLANNERS, variants=VARIAN
 
 def format_table(rows: list[dict]) -> str:
     """The rows of run_table as a Markdown table."""
-    header = ("| planner | phase | n | collision | forced braking > 3 m/s^2 | pulls out at [s] "
-              "(never) | time to pass [s] | mean speed [m/s] | forced braking [m/s^2] |")
-    lines = [header, "|---|---|---|---|---|---|---|---|---|"]
-    for r in rows:
-        if r["n"] == 0:
-            lines.append(f"| {r['planner']} | {r['variant']} | 0 | errors: {r['errors'][:1]} "
-                         "| | | | | |")
-            continue
-        lines.append(
-            f"| {r['planner']} | {r['variant']} | {r['n']} | {r['collision_rate']:.0%} | "
-            f"{r['forced_brake_rate']:.0%} | {r['turn_s']:.2f} ({r['never_turned']}) | "
-            f"{r['time_to_pass_s']:.2f} | "
-            f"{r['mean_speed_mps']:.2f} | {r['others_max_decel_mps2']:.2f} |")
-    return "\n".join(lines)
+    return markdown_table(rows, "phase", [
+        COLLISION,
+        ("forced braking > 3 m/s^2", lambda r: f"{r['forced_brake_rate']:.0%}"),
+        ("pulls out at [s] (never)", lambda r: f"{r['turn_s']:.2f} ({r['never_turned']})"),
+        TIME_TO_PASS, MEAN_SPEED, FORCED_BRAKING])
 
 
 def write_figures(out: Path, seed: int = 0) -> list[Path]:
