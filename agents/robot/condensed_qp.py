@@ -15,7 +15,8 @@ w_l x pull-up weight), so H is a weighted sum of blocks T'P_kT precomputed per l
 
 A comfort slack whose weight is zero this step (every branch sharing it has comfort factor 0)
 would make H singular: it is fixed at 0 with its comfort row dropped (braking beyond the
-comfortable deceleration is then free, as in the sparse QP, where such a slack is arbitrary).
+comfortable deceleration is then free, as in the sparse QP); the solution's slack is then set
+to the braking beyond it, which meets the sparse QP's comfort row at no cost.
 """
 
 from __future__ import annotations
@@ -96,6 +97,7 @@ class CondensedLayout:
         self._n_grid = int(trunk_first.sum())
         self._comfort_rows = slice(len(general) - n_a, len(general))
         self._accel_rows = rows["accel"]
+        self._slack_rows = rows["comfort"]  # a + c >= -comfort_decel, one per slack
         # which branches share each acceleration (and slack) variable
         member = np.zeros((n_a, L))
         member[qp._a_idx, np.arange(L)[:, None]] = 1.0
@@ -145,6 +147,10 @@ class CondensedLayout:
             return None
         z = np.zeros(2 * n_a)
         z[free] = z_free
+        # a slack of weight 0 takes the braking beyond the comfortable deceleration: the sparse
+        # QP's comfort row holds, at no cost
+        fixed = ~free[n_a:]
+        z[n_a:][fixed] = np.maximum(0.0, lower[self._slack_rows][fixed] - z[:n_a][fixed])
         x = self.t_matrix @ z + v0 * self.t_v0
         const = 0.5 * v0 * v0 * float(factors @ self.c_blocks) + v0 * float(q @ self.t_v0)
         return x, float(fval) + const
