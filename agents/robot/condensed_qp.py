@@ -85,6 +85,7 @@ class CondensedLayout:
             f_blocks[k] = t.T @ p_t0
             c_blocks[k] = t_v0 @ p_t0
         self.h_blocks, self.f_blocks, self.c_blocks = h_blocks, f_blocks, c_blocks
+        self._h_flat = h_blocks.reshape(3 * L, nz * nz)  # np.tensordot(factors, h_blocks, 1)
         # the condensed rows: speed, low, up (trunk once), jerk, comfort
         trunk_first = np.zeros((L, N), bool)
         trunk_first[0, :nt] = True
@@ -93,8 +94,6 @@ class CondensedLayout:
                                   rows["up"][trunk_first], rows["jerk"], rows["comfort"]])
         self.m_matrix = np.ascontiguousarray(a_matrix[general] @ t)
         self.m_v0 = a_matrix[general] @ t_v0
-        self._general = general
-        self._n_grid = int(trunk_first.sum())
         self._comfort_rows = slice(len(general) - n_a, len(general))
         self._accel_rows = rows["accel"]
         self._slack_rows = rows["comfort"]  # a + c >= -comfort_decel, one per slack
@@ -102,8 +101,18 @@ class CondensedLayout:
         member = np.zeros((n_a, L))
         member[qp._a_idx, np.arange(L)[:, None]] = 1.0
         self._member = member
-        self._grids = (rows["speed"], rows["low"], rows["up"])
         self.n_general = len(general)
+        # the condensed rows' sources: a trunk row has L (one per branch, in _trunk_rows'
+        # columns), every other row one
+        grids = (rows["speed"], rows["low"], rows["up"])
+        n_grid = int(trunk_first.sum())
+        position = np.arange(3 * n_grid).reshape(3, n_grid)
+        self._trunk_rows = np.concatenate([g[:, :nt] for g in grids], axis=1)  # (L, 3 nt)
+        self._trunk_pos = position[:, :nt].ravel()
+        self._single_rows = np.concatenate([g[:, nt:].ravel() for g in grids]
+                                           + [rows["jerk"], rows["comfort"]])
+        self._single_pos = np.concatenate([position[:, nt:].ravel(),
+                                           np.arange(3 * n_grid, len(general))])
         del n_rows
 
     def solve(self, weights: np.ndarray, comfort: np.ndarray | None, goal_weight: float,
@@ -129,14 +138,15 @@ class CondensedLayout:
         factors = np.concatenate([weights, comfort_w, weights * goal_weight])
         slack_weight = self._member @ comfort_w
         free = np.concatenate([np.ones(n_a, bool), slack_weight > 0.0])
-        h_full = np.tensordot(factors, self.h_blocks, 1)
+        h_full = np.dot(factors[None], self._h_flat).reshape(self.nz, self.nz)
         f_full = v0 * (factors @ self.f_blocks) + self.t_matrix.T @ q
         bl, bu = self.general_bounds(lower, upper, v0)
         bl[self._comfort_rows][~free[n_a:]] = -_DAQP_INF  # a slack fixed at 0: no comfort row
         rows = (bl > -_NO_BOUND) | (bu < _NO_BOUND)
         all_free = bool(free.all())
-        h = h_full if all_free else h_full[np.ix_(free, free)]
-        m = self.m_matrix[rows] if all_free else self.m_matrix[np.ix_(rows, free)]
+        kept = np.flatnonzero(free)
+        h = h_full if all_free else h_full.take(kept, axis=0).take(kept, axis=1)
+        m = self.m_matrix[rows] if all_free else self.m_matrix[rows].take(kept, axis=1)
         z_lower = np.concatenate([lower[self._accel_rows], np.zeros(n_a)])[free]
         z_upper = np.concatenate([upper[self._accel_rows], np.full(n_a, _DAQP_INF)])[free]
         b_lower = np.maximum(np.concatenate([z_lower, bl[rows]]), -_DAQP_INF)
@@ -157,15 +167,15 @@ class CondensedLayout:
 
     def general_bounds(self, lower: np.ndarray, upper: np.ndarray, v0: float
                        ) -> tuple[np.ndarray, np.ndarray]:
-        """The condensed rows' bounds from the sparse QP's (m,) bounds and v0 [m/s]."""
-        nt = self.n_trunk
-        lo, up = [], []
-        for grid in self._grids:
-            g_lo, g_up = lower[grid], upper[grid]
-            lo += [g_lo[:, :nt].max(axis=0), g_lo[:, nt:].ravel()]
-            up += [g_up[:, :nt].min(axis=0), g_up[:, nt:].ravel()]
-        rest = self._general[3 * self._n_grid:]
-        lo.append(lower[rest])
-        up.append(upper[rest])
+        """The condensed rows' bounds from the sparse QP's (m,) bounds and v0 [m/s].
+
+        A trunk step's row takes the tightest of its L copies' bounds.
+        """
+        lo = np.empty(self.n_general)
+        up = np.empty(self.n_general)
+        lo[self._trunk_pos] = lower[self._trunk_rows].max(axis=0)
+        up[self._trunk_pos] = upper[self._trunk_rows].min(axis=0)
+        lo[self._single_pos] = lower[self._single_rows]
+        up[self._single_pos] = upper[self._single_rows]
         shift = v0 * self.m_v0
-        return np.concatenate(lo) - shift, np.concatenate(up) - shift
+        return lo - shift, up - shift
