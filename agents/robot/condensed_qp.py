@@ -33,6 +33,13 @@ _SOLVED = (1, 2)  # DAQP's exit flags of an optimum (2: optimal, soft constraint
 class CondensedLayout:
     """T, t_v0, the cost blocks and the condensed rows of one ContingencyQp layout.
 
+    Attributes:
+        t_matrix: (n, nz) T, x = T z + v0 t_v0 (n: the sparse QP's variables, nz = 2 n_accel).
+        t_v0: (n,) the speeds [m/s per m/s] and positions [m per m/s] of a unit v0, a = c = 0.
+        h_blocks: (3L, nz, nz) T'P_kT per factor k (w_l; w_l x comfort_l; w_l x w_g).
+        f_blocks: (3L, nz) T'P_k t_v0; c_blocks: (3L,) t_v0'P_k t_v0.
+        m_matrix: (n_general, nz) the condensed rows M; m_v0: (n_general,) M's shift per v0.
+
     Args:
         qp: a ContingencyQp (its structure: index maps, P's triples, A, rows).
     """
@@ -46,7 +53,7 @@ class CondensedLayout:
         z_cols = np.concatenate([np.arange(n_a), qp._c_off + np.arange(n_a)])
         vs_cols = np.arange(qp._v_off, qp._c_off)
         dyn = np.concatenate([rows["dyn_v"].ravel(), rows["dyn_s"].ravel()])
-        rhs_v0 = np.zeros(n_rows := a_matrix.shape[0])
+        rhs_v0 = np.zeros(a_matrix.shape[0])  # the dynamics rows' right side per unit of v0
         rhs_v0[rows["dyn_v"][:, 0]] = 1.0
         rhs_v0[rows["dyn_s"][:, 0]] = dt
         e_vs = a_matrix[np.ix_(dyn, vs_cols)]
@@ -113,7 +120,6 @@ class CondensedLayout:
                                            + [rows["jerk"], rows["comfort"]])
         self._single_pos = np.concatenate([position[:, nt:].ravel(),
                                            np.arange(3 * n_grid, len(general))])
-        del n_rows
 
     def solve(self, weights: np.ndarray, comfort: np.ndarray | None, goal_weight: float,
               q: np.ndarray, lower: np.ndarray, upper: np.ndarray, v0: float

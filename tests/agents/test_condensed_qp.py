@@ -75,6 +75,18 @@ def test_daqp_agrees_with_a_tight_osqp_on_captured_qps(case):
     assert sol.cost <= cost + 1e-8  # exact: not above OSQP's optimum
 
 
+@pytest.mark.parametrize("case", [0, 7, 13])
+def test_daqp_agrees_with_a_tight_osqp_with_the_pull_up_term(case):
+    args = {**_captured()[case], "goal_weight": CONFIG.w_pull_up, "goal_m": 6.0}
+    problem = _qp(len(args["weights"]))
+    sol = problem.solve(**args)
+    assert sol.solved and problem.last_solver == "daqp"
+    x, cost = _reference(problem, args)
+    assert np.allclose(sol.progress_m, x[problem._s_idx], atol=1e-6)
+    assert np.allclose(sol.accel_mps2, x[problem._a_idx], atol=1e-6)
+    assert sol.cost == pytest.approx(cost, abs=1e-6)
+
+
 def test_daqp_solves_the_degenerate_qp_osqp_needs_thousands_of_iterations_on():
     """tests/agents/data/degenerate_qp.npz (T-intersection, two branches): its beliefs and
     comfort factors are read back from P's values, which the layout then reproduces."""
