@@ -44,6 +44,7 @@ import osqp
 import scipy.sparse as sp
 
 from marl_social.agents.robot.active_set import ActiveSetSolver
+from marl_social.agents.robot.condensed_qp import CondensedLayout
 
 _OK = frozenset(int(s) for s in (osqp.SolverStatus.OSQP_SOLVED,
                                   osqp.SolverStatus.OSQP_SOLVED_INACCURATE))
@@ -56,6 +57,10 @@ _STOPPED = frozenset((_MAX_ITER, int(osqp.SolverStatus.OSQP_SOLVED_INACCURATE)))
 ROUND_ITER = 200
 MAX_ITER = 4000
 MAX_ROUNDS = 8  # 18 200 iterations in all; then the QP has failed (unless solved inaccurately)
+# the QPs of at most this many branches are solved condensed by DAQP (condensed_qp.py), with
+# OSQP as the fallback; DAQP's dense setup grows as (rows x variables^2): beyond 3 branches
+# (180+ variables) OSQP's sparse solve is faster
+DAQP_MAX_BRANCHES = 3
 _INF = 1e20  # OSQP's infinity
 _OSQP_INFTY = 1e30  # what osqp.OSQP.update clips the bounds to (its OSQP_INFTY)
 # what a QP's layout needs, built once per (L, N, n_trunk, steps, weights, headway) and shared
@@ -65,7 +70,8 @@ _STRUCTURE_FIELDS = ("_a_off", "_v_off", "_s_off", "_c_off", "n_vars", "_a_idx",
                      "_s_idx", "_c_idx", "_p_slot", "_p_rows", "_p_cols", "_p_coef",
                      "_p_branch", "_p_comfort", "_p_progress_slot", "_p_progress_branch",
                      "_a_matrix", "_rows",
-                     "_lower_template", "_upper_template", "_p_initial", "_active_set")
+                     "_lower_template", "_upper_template", "_p_initial", "_active_set",
+                     "_condensed")
 _STRUCTURES: dict[tuple, dict] = {}
 
 
@@ -118,11 +124,13 @@ class ContingencyQp:
         weights: the cost weights.
         headway_s: (N,) time headway h[k] of the stay-behind rows [s].
         tolerance: OSQP's absolute and relative tolerance.
+        use_daqp: solve condensed by DAQP first when the layout allows it (at most
+            DAQP_MAX_BRANCHES branches); False: OSQP only.
     """
 
     def __init__(self, n_branches: int, n_steps: int, n_trunk: int, dt_s: float,
                  first_dt_s: float, weights: QpWeights, headway_s: np.ndarray,
-                 tolerance: float = 1e-5):
+                 tolerance: float = 1e-5, use_daqp: bool = True):
         if not (n_branches >= 1 and 1 <= n_trunk < n_steps):
             raise ValueError("ContingencyQp: need L >= 1 and 1 <= n_trunk < n_steps")
         self.n_branches, self.n_steps, self.n_trunk = n_branches, n_steps, n_trunk
@@ -135,6 +143,8 @@ class ContingencyQp:
             structure = {name: getattr(self, name) for name in _STRUCTURE_FIELDS}
             _STRUCTURES[key] = structure
         self.__dict__.update(structure)
+        if not use_daqp:
+            self._condensed = None
         self._solver = osqp.OSQP()
         # copies: OSQP keeps the arrays it is set up with and writes P's updates into them
         self._solver.setup(self._p_initial.copy(), np.zeros(self.n_vars), self._a_matrix.copy(),
@@ -150,6 +160,10 @@ class ContingencyQp:
         # through importlib, the derivative cache, the info namespace): the same calls with
         # the same data
         self._ext = self._solver._solver
+        # which solver gave each solve's answer: "daqp", "osqp" (or its exact active-set
+        # solve), or "" (failed); and the count of each
+        self.last_solver = ""
+        self.solver_counts = {"daqp": 0, "osqp": 0, "": 0}
 
     def _build_structure(self, headway_s: np.ndarray) -> None:
         """The index maps, P's pattern, A and the bound templates (_STRUCTURE_FIELDS)."""
@@ -169,6 +183,8 @@ class ContingencyQp:
         self._build_constraints(headway_s)
         self._p_initial = self._p_matrix(np.full(n_branches, 1.0 / n_branches))
         self._active_set = ActiveSetSolver(self._p_rows, self._p_cols, self._a_matrix)
+        self._condensed = (CondensedLayout(self) if self.n_branches <= DAQP_MAX_BRANCHES
+                           else None)
 
     # -- cost ---------------------------------------------------------------------------------
 
@@ -341,7 +357,29 @@ class ContingencyQp:
         lower, upper = self._bounds(v0, prev_accel, v_max, s_low, s_up, accel_min, accel_max,
                                     jerk_max, comfort_decel)
         if np.any(lower > upper + 1e-9):
-            return self.failed()
+            return self._count(self.failed(), "")
+        if self._condensed is not None:
+            self._q_last = self._q_vector(weights, v_ref_mps, prev_accel, goal_weight, goal_m)
+            dense = self._condensed.solve(weights, comfort, goal_weight, self._q_last, lower,
+                                          upper, v0)
+            if dense is not None:
+                x, cost = dense
+                return self._count(QpSolution(True, cost, x[self._a_idx], x[self._v_idx],
+                                              x[self._s_idx]), "daqp")
+        return self._count(self._solve_osqp(weights, v0, prev_accel, v_ref_mps, lower, upper,
+                                            comfort, goal_weight, goal_m), "osqp")
+
+    def _count(self, solution: QpSolution, solver: str) -> QpSolution:
+        """Record which solver answered (last_solver, solver_counts); the solution as is."""
+        solver = solver if solution.solved else ""
+        self.last_solver = solver
+        self.solver_counts[solver] += 1
+        return solution
+
+    def _solve_osqp(self, weights: np.ndarray, v0: float, prev_accel: float, v_ref_mps: float,
+                    lower: np.ndarray, upper: np.ndarray, comfort: np.ndarray | None,
+                    goal_weight: float, goal_m: float) -> QpSolution:
+        """OSQP's solve (and the exact solve from its iterate's active set); the fallback."""
         # osqp.OSQP.update's order: the vectors (bounds clipped to OSQP's infinity), then P
         np.maximum(lower, -_OSQP_INFTY, out=lower)
         np.minimum(upper, _OSQP_INFTY, out=upper)

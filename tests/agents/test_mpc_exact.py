@@ -22,9 +22,10 @@ WEIGHTS = qp.QpWeights(CONFIG.w_speed, CONFIG.w_accel, CONFIG.w_jerk, CONFIG.w_c
 N = CONFIG.n_steps
 
 
-def _qp(n_branches: int) -> qp.ContingencyQp:
+def _qp(n_branches: int, use_daqp: bool = False) -> qp.ContingencyQp:
+    """The QP of n_branches; OSQP only unless use_daqp (these tests are of its exact path)."""
     return qp.ContingencyQp(n_branches, N, CONFIG.n_trunk, CONFIG.plan_dt_s, DT_S, WEIGHTS,
-                            CONFIG.headway_s())
+                            CONFIG.headway_s(), use_daqp=use_daqp)
 
 
 def _at_rest_behind_a_close_bound():
