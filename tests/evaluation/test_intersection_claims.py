@@ -93,7 +93,9 @@ def test_social_is_much_faster_than_the_conservative_robot_without_hidden_car(ru
         "braking at 6 m/s^2: the social robot rolls out of the stop line at 0.4 s, before the "
         "left-turner (15 m from its turn) tells it anything; its belief in a hidden car is the "
         "prior, 0.10-0.14, spread over 12 progress x speed bins each below epsilon 0.05; "
-        "others_max_decel counts the robot rolling into V3's lane"))),
+        "others_max_decel counts the robot rolling into V3's lane. Tried (2026-12-01): epsilon "
+        "over a hidden car (drop the least likely bins while their total <= epsilon 0.05-0.10) "
+        "gives 0 of 50 here, but 7.6-10.4 s vs the oracle's 6.7 s with no hidden car"))),
     "oracle"])
 def test_robot_gives_way_to_a_near_hidden_car(runs, planner):
     """Never a collision, never forcing V3 (or a left-turner) to brake harder than 3 m/s^2."""
@@ -120,7 +122,10 @@ def test_aggressive_robot_pulls_out_in_front_of_a_near_hidden_car(runs):
 @pytest.mark.xfail(strict=False, reason=(
     "measured 72 % of the 50 seeds (0-49) where human_0 let V3 pass (80 % of seeds 0-29): "
     "in the others the robot sees V3 past the first parked car before the left-turner's "
-    "slowing down has moved its belief past 0.9"))
+    "slowing down has moved its belief past 0.9 (the same 13-14 seeds fail with beta_hat "
+    "0.3-3, theta_hat = the humans' weights, 5 m bins or a 100 m assumed view: slowing for the "
+    "bend and slowing to wait differ only once the human is below its curve speed, and one "
+    "step's acceleration is read with sigma ~1.2 m/s^2)"))
 def test_a_waiting_left_turner_tells_the_social_robot_of_the_hidden_car(runs):
     """In >= 90 % of the near seeds where the first left-turner lets V3 pass, the robot's belief
     in a hidden car exceeds 0.9 before it first sees V3."""
