@@ -61,9 +61,8 @@ def _reference(problem: qp.ContingencyQp, args: dict) -> tuple[np.ndarray, float
     return _tight(p, q, problem._a_matrix, lower, upper)
 
 
-@pytest.mark.parametrize("case", range(15))
-def test_daqp_agrees_with_a_tight_osqp_on_captured_qps(case):
-    args = _captured()[case]
+def _agrees_with_tight_osqp(args: dict):
+    """DAQP answers the QP of `args` with OSQP's optimum at 1e-10 (to 1e-6); its cost."""
     problem = _qp(len(args["weights"]))
     sol = problem.solve(**args)
     assert sol.solved and problem.last_solver == "daqp"
@@ -72,19 +71,19 @@ def test_daqp_agrees_with_a_tight_osqp_on_captured_qps(case):
     assert np.allclose(sol.speed_mps, x[problem._v_idx], atol=1e-6)
     assert np.allclose(sol.progress_m, x[problem._s_idx], atol=1e-6)
     assert sol.cost == pytest.approx(cost, abs=1e-6)
-    assert sol.cost <= cost + 1e-8  # exact: not above OSQP's optimum
+    return sol.cost, cost
+
+
+@pytest.mark.parametrize("case", range(15))
+def test_daqp_agrees_with_a_tight_osqp_on_captured_qps(case):
+    daqp_cost, osqp_cost = _agrees_with_tight_osqp(_captured()[case])
+    assert daqp_cost <= osqp_cost + 1e-8  # exact: not above OSQP's optimum
 
 
 @pytest.mark.parametrize("case", [0, 7, 13])
 def test_daqp_agrees_with_a_tight_osqp_with_the_pull_up_term(case):
-    args = {**_captured()[case], "goal_weight": CONFIG.w_pull_up, "goal_m": 6.0}
-    problem = _qp(len(args["weights"]))
-    sol = problem.solve(**args)
-    assert sol.solved and problem.last_solver == "daqp"
-    x, cost = _reference(problem, args)
-    assert np.allclose(sol.progress_m, x[problem._s_idx], atol=1e-6)
-    assert np.allclose(sol.accel_mps2, x[problem._a_idx], atol=1e-6)
-    assert sol.cost == pytest.approx(cost, abs=1e-6)
+    _agrees_with_tight_osqp({**_captured()[case], "goal_weight": CONFIG.w_pull_up,
+                             "goal_m": 6.0})
 
 
 def test_daqp_solves_the_degenerate_qp_osqp_needs_thousands_of_iterations_on():
