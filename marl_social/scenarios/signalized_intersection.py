@@ -88,6 +88,10 @@ EXTENT = (-60.0, 40.0, -40.0, 40.0)  # the area worth drawing [m]
 class SignalizedIntersectionParams(IntersectionParams):
     """Signalized intersection parameters (SI units).
 
+    The humans' (left-turners and cross cars) and the robot's parameters are
+    IntersectionParams' (scenarios/intersection_agents.py); the fields below are this
+    scenario's own.
+
     Attributes:
         phase: the phase running at t = 0: "protected_left" or "cross_green".
         phase_elapsed_s: how long it has run at t = 0 [s] (less than its duration).
@@ -103,8 +107,6 @@ class SignalizedIntersectionParams(IntersectionParams):
         cross_start_m, cross_gap_m: [m]; cross_speed_mps: their initial and desired speed
             [m/s].
         robot_start_back_m: how far the robot's front starts before its stop line [m].
-        The humans' (left-turners and cross cars) and the robot's: IntersectionParams
-        (scenarios/intersection_agents.py).
     """
 
     phase: str = "protected_left"

@@ -81,6 +81,9 @@ MAX_PARKED_GAP_M = 20.0  # largest gap between parked cars [m]
 class TIntersectionParams(IntersectionParams):
     """T-intersection parameters (SI units).
 
+    The humans' (left-turners and V3) and the robot's parameters are IntersectionParams'
+    (scenarios/intersection_agents.py); the fields below are this scenario's own.
+
     Attributes:
         hidden_vehicle: "none" (no eastbound car), "near" (it starts hidden_near_m west of the
             stem) or "far" (hidden_far_m west of it).
@@ -92,9 +95,8 @@ class TIntersectionParams(IntersectionParams):
         human_speed_mps, human_desired_speed_mps: left-turners' initial and cruise speeds [m/s].
         parked_gap_m: free space between two parked cars [m].
         robot_start_back_m: how far the robot's front starts behind the stop line [m].
-        The humans' (left-turners and V3) and the robot's: IntersectionParams
-        (scenarios/intersection_agents.py); here the robot's cruise speed is 11 m/s and its
-        sensor range 60 m.
+        robot_desired_speed_mps, robot_sensor_range_m, robot_epsilon: IntersectionParams'
+            fields with this scenario's defaults (11 m/s, 60 m, 0.05).
     """
 
     hidden_vehicle: str = "near"
