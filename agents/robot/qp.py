@@ -358,16 +358,16 @@ class ContingencyQp:
                                     jerk_max, comfort_decel)
         if np.any(lower > upper + 1e-9):
             return self._count(self.failed(), "")
+        self._q_last = self._q_vector(weights, v_ref_mps, prev_accel, goal_weight, goal_m)
         if self._condensed is not None:
-            self._q_last = self._q_vector(weights, v_ref_mps, prev_accel, goal_weight, goal_m)
             dense = self._condensed.solve(weights, comfort, goal_weight, self._q_last, lower,
                                           upper, v0)
             if dense is not None:
                 x, cost = dense
                 return self._count(QpSolution(True, cost, x[self._a_idx], x[self._v_idx],
                                               x[self._s_idx]), "daqp")
-        return self._count(self._solve_osqp(weights, v0, prev_accel, v_ref_mps, lower, upper,
-                                            comfort, goal_weight, goal_m), "osqp")
+        return self._count(self._solve_osqp(weights, lower, upper, comfort, goal_weight),
+                           "osqp")
 
     def _count(self, solution: QpSolution, solver: str) -> QpSolution:
         """Record which solver answered (last_solver, solver_counts); the solution as is."""
@@ -376,15 +376,16 @@ class ContingencyQp:
         self.solver_counts[solver] += 1
         return solution
 
-    def _solve_osqp(self, weights: np.ndarray, v0: float, prev_accel: float, v_ref_mps: float,
-                    lower: np.ndarray, upper: np.ndarray, comfort: np.ndarray | None,
-                    goal_weight: float, goal_m: float) -> QpSolution:
-        """OSQP's solve (and the exact solve from its iterate's active set); the fallback."""
+    def _solve_osqp(self, weights: np.ndarray, lower: np.ndarray, upper: np.ndarray,
+                    comfort: np.ndarray | None, goal_weight: float) -> QpSolution:
+        """OSQP's solve (and the exact solve from its iterate's active set); the fallback.
+
+        With this step's linear cost self._q_last (`solve`).
+        """
         # osqp.OSQP.update's order: the vectors (bounds clipped to OSQP's infinity), then P
         np.maximum(lower, -_OSQP_INFTY, out=lower)
         np.minimum(upper, _OSQP_INFTY, out=upper)
         ext = self._ext
-        self._q_last = self._q_vector(weights, v_ref_mps, prev_accel, goal_weight, goal_m)
         ext.update_data_vec(q=self._q_last, l=lower, u=upper)
         p_values = self._p_values(weights, comfort, goal_weight)
         ext.update_data_mat(P_x=p_values, P_i=None, A_x=None, A_i=None)

@@ -94,6 +94,20 @@ def _pairwise_sum(values, start, n):
 
 
 @numba.njit(cache=True)
+def _conflict(occupancy_tanh, scene_sums, plan, h, t):
+    """The conflict feature of plan `plan` in hypothesis h at step t (before its weight).
+
+    Per conflict row r the ego's occupancy 0.5 (1 + tanh) times the objects' summed claims
+    scene_sums[r, h, t], added up row by row from 0.0 (the reference's order).
+    """
+    conflict = 0.0
+    for r in range(len(occupancy_tanh)):
+        occupancy = 0.5 * (1.0 + occupancy_tanh[r, plan, t])
+        conflict = conflict + occupancy * scene_sums[r, h, t]
+    return conflict
+
+
+@numba.njit(cache=True)
 def _present_sum(values, present, n_obj):
     """np.sum of values[m] over the present objects m < n_obj (absent ones add 0.0).
 
@@ -195,11 +209,7 @@ def walk_costs(speeds, n_t, v_ref_mps, prev_speed, dt_s, weights, safety_exp, pr
                     total = total + term if started else term
                     started = True
                 if add_conflict:
-                    conflict = 0.0
-                    for r in range(len(occupancy_tanh)):
-                        occupancy = 0.5 * (1.0 + occupancy_tanh[r, a, t])
-                        conflict = conflict + occupancy * scene_sums[r, h, t]
-                    term = w_conflict * conflict
+                    term = w_conflict * _conflict(occupancy_tanh, scene_sums, a, h, t)
                     total = total + term if started else term
                 steps[t] = total
             cost[h, a] = (0.0 + _pairwise_sum(steps, 0, n_t)) * scale
@@ -275,11 +285,7 @@ def step_costs(v, a_eff, v_ref_mps, prev_accel, weights, safety_exp, present, oc
                     term = _present_sum(safety_exp[h, p, t], present[h], n_obj) * w_safety
                     total = total + term if started else term
                 if add_conflict:
-                    conflict = 0.0
-                    for r in range(len(occupancy_tanh)):
-                        occupancy = 0.5 * (1.0 + occupancy_tanh[r, p, t])
-                        conflict = conflict + occupancy * scene_sums[r, h, t]
-                    term = w_conflict * conflict
+                    term = w_conflict * _conflict(occupancy_tanh, scene_sums, p, h, t)
                     total = total + term if (started or w_safety != 0.0) else term
                 cost[h, p, t] = total * scale
     return cost

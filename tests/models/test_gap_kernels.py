@@ -26,6 +26,7 @@ from marl_social.sim.agent_spec import VehicleParams
 from marl_social.sim.road_map import Crosswalk, Route
 from marl_social.sim.route_rules import CURVE_PROFILE_STEP_M, CurveSpeed
 from tests.models.test_gap_evaluation import _route
+from tests.models.test_pedestrian_costs import random_scene
 
 CANDIDATES = CandidateSet((-8.0, -4.0, -1.0, 0.0, 1.0, 2.0), (-2.0, 0.0, 1.0), 0.5, 3.0, 0.25)
 
@@ -130,15 +131,7 @@ def test_vehicle_gap_evaluation_with_many_objects(seed, n_hyp, n_obj, crosswalk,
     """Seven objects and more (from MAX_KERNEL_OBJECTS on evaluate_candidates computes them)."""
     rng = np.random.default_rng(seed)
     route = _route(rng, bent)
-    n_t = CANDIDATES.n_steps
-    is_ped = rng.random((n_hyp, n_obj)) < 0.4
-    length = np.where(is_ped, 0.6, rng.uniform(3.5, 5.5, (n_hyp, n_obj)))
-    width = np.where(is_ped, 0.6, rng.uniform(1.6, 2.2, (n_hyp, n_obj)))
-    xy = rng.uniform(-5.0, 30.0, (n_hyp, n_obj, 1, 2)) + rng.normal(
-        size=(n_hyp, n_obj, 1, 2)) * np.arange(1, n_t + 1)[:, None]
-    heading = np.repeat(rng.uniform(-4, 4, (n_hyp, n_obj, 1)), n_t, axis=2)
-    scene = ScenePrediction(xy, heading, length, width, 0.5 * np.hypot(length, width), is_ped,
-                            rng.random((n_hyp, n_obj)) >= p_absent)
+    scene = random_scene(rng, n_hyp, n_obj, CANDIDATES.n_steps, 0.4, p_absent, (-5.0, 30.0))
     crosswalks = (Crosswalk(center=np.array([20.0, 0.0]), walk_heading_rad=0.5 * np.pi,
                             length_m=10.0, width_m=4.0),) if crosswalk else ()
     args = (CANDIDATES, rng.uniform(0.0, 3.0, 6), rng.uniform(5.0, 12.0), VehicleParams(),

@@ -56,16 +56,22 @@ def random_walk_case(rng, model, n_hyp: int, n_obj: int, p_ped: float, p_absent:
     model's plan steps, a share p_absent of them absent."""
     route = Route([[0.0, -5.0], [0.0, 5.0]]) if rng.random() < 0.5 else Route(
         [[0.0, -5.0], [0.0, 0.0], [3.0, 4.0]])
-    n_t = len(model.plan_times_s)
+    return route, random_scene(rng, n_hyp, n_obj, len(model.plan_times_s), p_ped, p_absent,
+                               (-15.0, 15.0))
+
+
+def random_scene(rng, n_hyp: int, n_obj: int, n_t: int, p_ped: float, p_absent: float,
+                 xy_range_m: tuple) -> ScenePrediction:
+    """L x M random cars and pedestrians (a share p_ped) over n_t steps, starting uniformly in
+    xy_range_m [m] on both axes and drifting randomly, a share p_absent of them absent."""
     is_ped = rng.random((n_hyp, n_obj)) < p_ped
     length = np.where(is_ped, 0.6, rng.uniform(3.5, 5.5, (n_hyp, n_obj)))
     width = np.where(is_ped, 0.6, rng.uniform(1.6, 2.2, (n_hyp, n_obj)))
-    xy = rng.uniform(-15.0, 15.0, (n_hyp, n_obj, 1, 2)) + rng.normal(
+    xy = rng.uniform(*xy_range_m, (n_hyp, n_obj, 1, 2)) + rng.normal(
         size=(n_hyp, n_obj, 1, 2)) * np.arange(1, n_t + 1)[:, None]
     heading = np.repeat(rng.uniform(-4, 4, (n_hyp, n_obj, 1)), n_t, axis=2)
-    scene = ScenePrediction(xy, heading, length, width, 0.5 * np.hypot(length, width), is_ped,
-                            rng.random((n_hyp, n_obj)) >= p_absent)
-    return route, scene
+    return ScenePrediction(xy, heading, length, width, 0.5 * np.hypot(length, width), is_ped,
+                           rng.random((n_hyp, n_obj)) >= p_absent)
 
 
 @settings(max_examples=120, deadline=None)
