@@ -21,6 +21,7 @@ import time
 import numpy as np
 import supersuit as ss
 from stable_baselines3 import PPO
+from stable_baselines3.common.logger import Logger
 from stable_baselines3.common.vec_env import VecEnvWrapper, VecMonitor, VecNormalize
 
 import marl_social
@@ -105,6 +106,8 @@ def train(steps: int, n_envs: int = 4, seed: int = 0, max_cycles: int = 200,
     vec = make_vec_env(n_envs, seed, max_cycles, **overrides)
     model = PPO("MlpPolicy", vec, n_steps=256, batch_size=256, n_epochs=10, learning_rate=3e-4,
                 gamma=0.99, gae_lambda=0.95, ent_coef=0.0, seed=seed, device="cpu", verbose=0)
+    # no log output: SB3's default logger makes an empty folder in the temp dir on every run
+    model.set_logger(Logger(folder=None, output_formats=[]))
     model.learn(total_timesteps=steps)
     return model, vec
 
