@@ -100,6 +100,58 @@ def bayes_step(prior, log_likelihoods, transition=None, floor: float = BELIEF_FL
     return normalize(np.maximum(posterior, floor))
 
 
+def joint_bayes_step(prior_l: np.ndarray, prior_v: np.ndarray, own_log_lik: np.ndarray,
+                     social_log_lik: np.ndarray, transition: np.ndarray, floor: float
+                     ) -> np.ndarray:
+    """`bayes_step` of the joint b(l, v) of a hidden-agent and a traffic-speed belief, the same bits.
+
+    The joint prior is outer(prior_l, prior_v) (both normalized beliefs with a floor: finite and
+    positive, so `bayes_step`'s check of the prior always passes and is left out); the sources
+    are the own sensors' (L,) log-likelihood, the same for every v (sanitized once over its L
+    entries: the maximum of its V copies is the same number), and each human's (L, V) one. The
+    summed log-likelihood adds the sources in bayes_step's order (own first, then the humans).
+
+    Args:
+        prior_l: (L,) belief over the hypotheses.
+        prior_v: (V,) belief over the traffic speeds.
+        own_log_lik: (L,) log P(own sensors | l).
+        social_log_lik: (H, L, V) log P(a_i | l, v) of H humans (H may be 0).
+        transition: (L V, L V) column-stochastic joint transition (kron(T_l, T_v)).
+        floor: every joint belief is raised to at least this before the final normalization.
+
+    Returns:
+        (L, V) posterior joint belief, finite, positive, summing to 1.
+    """
+    n, n_v = len(prior_l), len(prior_v)
+    prior = np.multiply.outer(prior_l, prior_v).ravel()
+    predicted = transition @ (prior / np.add.reduce(prior))
+    np.maximum(predicted, 0.0, out=predicted)
+    total = np.repeat(sanitize_log_likelihood(own_log_lik), n_v)
+    if len(social_log_lik):
+        for row in sanitize_log_likelihood(social_log_lik.reshape(len(social_log_lik), -1)):
+            total += row
+    posterior = predicted * np.exp(sanitize_log_likelihood(total))
+    posterior /= np.add.accumulate(posterior)[-1]
+    if not np.isfinite(posterior).all():
+        total_predicted = predicted.sum()
+        posterior = predicted / total_predicted if total_predicted > 0 else np.ones(len(prior))
+    np.maximum(posterior, floor, out=posterior)
+    posterior /= np.add.accumulate(posterior)[-1]
+    return posterior.reshape(n, n_v)
+
+
+def floored_marginals(joint: np.ndarray, floor: float) -> tuple[np.ndarray, np.ndarray]:
+    """The (L,) and (V,) marginals of a joint (L, V) belief, each floored and normalized.
+
+    `normalize(np.maximum(joint.sum(axis=k), floor))` for k = 1 and 0, the same bits.
+    """
+    by_l = np.maximum(joint.sum(axis=1), floor)
+    by_l /= np.add.accumulate(by_l)[-1]
+    by_v = np.maximum(joint.sum(axis=0), floor)
+    by_v /= np.add.accumulate(by_v)[-1]
+    return by_l, by_v
+
+
 class TrafficSpeedBelief:
     """Belief over the traffic speed v_traffic on a grid (social information, eq. 12).
 

@@ -28,6 +28,10 @@ from marl_social.sim.observation import EGO_INDEX, DecodedObservation
 
 PROBABILITY_MIN = 1e-12  # probabilities are clipped to [this, 1 - this] before the log
 CONE_TOLERANCE_RAD = 1e-9  # a region point on the edge of the sensor cone is inside it [rad]
+# the ego fields visible_fraction reads: position [m], heading's cos and sin, sensor range [m]
+# and half-angle [rad]
+_EGO_VIEW = [EGO_INDEX[k] for k in ("x", "y", "cos_psi", "sin_psi", "sensor_range",
+                                    "sensor_half_angle")]
 
 
 class OwnSensors:
@@ -47,6 +51,11 @@ class OwnSensors:
         self._has_vehicles = any(h.kind == "vehicle" for h in hypotheses)
         regions = [h.region() for h in hypotheses if h.present]
         self._region = np.array(regions) if regions else np.zeros((0, 1, 2))  # (P, K, 2)
+        self._region_x = np.ascontiguousarray(self._region[..., 0])  # (P, K) [m]
+        self._region_y = np.ascontiguousarray(self._region[..., 1])
+        p_fa = min(max(config.p_false_alarm, PROBABILITY_MIN), 1.0 - PROBABILITY_MIN)
+        self._p_false_alarm = p_fa
+        self._no_detection_lik = 1.0 - p_fa  # P(no false alarm)
         self._ray_cache: tuple | None = None
         self._paths = _path_groups(hypotheses)
 
@@ -60,31 +69,30 @@ class OwnSensors:
         Args:
             decoded: the robot's decoded observation (ego block and depth rays).
         """
-        ego, depth = decoded.ego, np.asarray(decoded.depth_m, dtype=np.float64)
+        depth = decoded.depth_m
         out = np.zeros(len(self.hypotheses))
         if len(self._present_idx) == 0 or len(depth) == 0:
             return out
-        x, y = float(ego[EGO_INDEX["x"]]), float(ego[EGO_INDEX["y"]])
-        c, s = float(ego[EGO_INDEX["cos_psi"]]), float(ego[EGO_INDEX["sin_psi"]])
-        rng = float(ego[EGO_INDEX["sensor_range"]])
-        half = float(ego[EGO_INDEX["sensor_half_angle"]])
+        depth = depth.astype(np.float64)
+        x, y, c, s, rng, half = decoded.ego[_EGO_VIEW].tolist()  # float32 -> Python floats
         angles = self._ray_angles(half, len(depth))
-        rel = self._region - np.array([x, y])
-        dist = np.hypot(rel[..., 0], rel[..., 1])
-        bearing = np.arctan2(rel[..., 1], rel[..., 0]) - math.atan2(s, c)
+        rel_x, rel_y = self._region_x - x, self._region_y - y  # (P, K)
+        dist = np.hypot(rel_x, rel_y)
+        bearing = np.arctan2(rel_y, rel_x) - math.atan2(s, c)
         bearing = (bearing + np.pi) % (2.0 * np.pi) - np.pi
         n_rays = len(angles)
         if half >= np.pi:
             i1 = np.searchsorted(angles, bearing) % n_rays
             i0 = (i1 - 1) % n_rays
-            in_cone = np.ones(bearing.shape, dtype=bool)
+            seen = dist <= rng
         else:
             i1 = np.minimum(np.searchsorted(angles, bearing), n_rays - 1)  # >= 0 already
             i0 = np.maximum(i1 - 1, 0)
-            in_cone = np.abs(bearing) <= half + CONE_TOLERANCE_RAD
+            seen = (np.abs(bearing) <= half + CONE_TOLERANCE_RAD) & (dist <= rng)
         reach = np.minimum(depth[i0], depth[i1])
-        seen = in_cone & (dist <= rng) & (reach >= dist - 0.5 * PEDESTRIAN_DIAMETER_M)
-        out[self._present_idx] = seen.mean(axis=1)
+        seen &= reach >= dist - 0.5 * PEDESTRIAN_DIAMETER_M
+        # the mean of each row's K booleans: an exact count over K, divided as np.mean divides
+        out[self._present_idx] = np.count_nonzero(seen, axis=1) / seen.shape[1]
         return out
 
     def _ray_angles(self, half: float, n_rays: int) -> np.ndarray:
@@ -147,21 +155,26 @@ class OwnSensors:
         Returns:
             (L,) log-likelihood, (L,) visible fraction, (L,) bool matched detections.
         """
-        cfg = self.config
-        seen_ped = tracks.is_pedestrian & tracks.seen
-        detected = self.match_pedestrians(tracks.xy[seen_ped], tracks.velocity[seen_ped])
-        if self._has_vehicles:
-            seen_veh = ~tracks.is_pedestrian & tracks.seen
-            detected |= self.match_vehicles(tracks.xy[seen_veh], tracks.velocity[seen_veh])
+        p_detect = self.config.p_detect
+        detected = np.zeros(len(self.hypotheses), dtype=bool)
+        if len(tracks):
+            seen_ped = tracks.is_pedestrian & tracks.seen
+            if seen_ped.any():
+                detected = self.match_pedestrians(tracks.xy[seen_ped], tracks.velocity[seen_ped])
+            if self._has_vehicles:
+                seen_veh = tracks.seen & ~tracks.is_pedestrian
+                if seen_veh.any():
+                    detected |= self.match_vehicles(tracks.xy[seen_veh],
+                                                    tracks.velocity[seen_veh])
         visible = self.visible_fraction(decoded)
-        miss = np.minimum(np.maximum(1.0 - cfg.p_detect * visible, PROBABILITY_MIN), 1.0)
-        p_fa = min(max(cfg.p_false_alarm, PROBABILITY_MIN), 1.0 - PROBABILITY_MIN)
+        miss = np.minimum(np.maximum(1.0 - p_detect * visible, PROBABILITY_MIN), 1.0)
+        miss[~self._present] = 1.0  # np.where(present, miss, 1.0)
         if detected.any():
             # the detection is explained by a matching hypothesis, or is a false alarm (then
             # any other hidden agent's region was missed)
-            lik = np.where(detected, cfg.p_detect, p_fa * np.where(self._present, miss, 1.0))
+            lik = np.where(detected, p_detect, self._p_false_alarm * miss)
         else:
-            lik = (1.0 - p_fa) * np.where(self._present, miss, 1.0)
+            lik = self._no_detection_lik * miss
         with np.errstate(divide="ignore"):
             return np.log(lik), visible, detected
 

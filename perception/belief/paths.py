@@ -12,6 +12,7 @@ car's choice would be one more hypothesis).
 
 from __future__ import annotations
 
+import bisect
 import math
 
 import numpy as np
@@ -30,6 +31,21 @@ _SAME_POINT_M = 1e-6  # a continuation's first point this close to the end is th
 def _angle_diff(a, b):
     """Wrapped difference a - b of angles [rad], in [-pi, pi)."""
     return (a - b + np.pi) % (2.0 * np.pi) - np.pi
+
+
+def route_pose(route: Route, s: float) -> tuple[float, float, float]:
+    """`route.point_at(s)` of one arc length s [m] on Python floats: x, y [m], heading [rad].
+
+    The same segment lookup (searchsorted side="right", clamped to the segments) and the same
+    arithmetic as Route.point_at / Route.point_at_float, bit for bit, without numpy's per-call
+    cost (the belief asks it for every tracked human every step). Reads the route's segment
+    tables (Route._cum_s_all_list, _seg_heading), as models/gap_evaluation reads its pose table.
+    """
+    x, y = route.point_at_float(s)
+    cum_s = route._cum_s_all_list
+    n_seg = len(cum_s) - 1
+    k = 0 if n_seg == 1 else min(max(bisect.bisect_right(cum_s, s) - 1, 0), n_seg - 1)
+    return x, y, float(route._seg_heading[k])
 
 
 class LanePaths:
