@@ -13,6 +13,8 @@ import math
 
 import numpy as np
 
+from marl_social.perception.belief import compiled
+
 BELIEF_FLOOR = 1e-6  # default: no belief drops below this before normalization
 TRAFFIC_HAZARD_PER_STEP = 0.002  # default mass moving between traffic speeds per step
 
@@ -100,16 +102,18 @@ def bayes_step(prior, log_likelihoods, transition=None, floor: float = BELIEF_FL
     return normalize(np.maximum(posterior, floor))
 
 
-def joint_bayes_step(prior_l: np.ndarray, prior_v: np.ndarray, own_log_lik: np.ndarray,
-                     social_log_lik: np.ndarray, transition: np.ndarray, floor: float
-                     ) -> np.ndarray:
+def joint_bayes_update(prior_l: np.ndarray, prior_v: np.ndarray, own_log_lik: np.ndarray,
+                       social_log_lik: np.ndarray, transition: np.ndarray, floor: float
+                       ) -> tuple:
     """`bayes_step` of the joint b(l, v) of a hidden-agent and a traffic-speed belief, the same bits.
 
     The joint prior is outer(prior_l, prior_v) (both normalized beliefs with a floor: finite and
     positive, so `bayes_step`'s check of the prior always passes and is left out); the sources
     are the own sensors' (L,) log-likelihood, the same for every v (sanitized once over its L
-    entries: the maximum of its V copies is the same number), and each human's (L, V) one. The
-    summed log-likelihood adds the sources in bayes_step's order (own first, then the humans).
+    entries: the maximum of its V copies is the same number), and each human's (L, V) one,
+    added in bayes_step's order (own first, then the humans). The steps between the matrix
+    product and np.exp, and after it, are compiled (belief_kernels.joint_log_likelihood,
+    joint_posterior), with numpy's arithmetic in its order.
 
     Args:
         prior_l: (L,) belief over the hypotheses.
@@ -120,24 +124,26 @@ def joint_bayes_step(prior_l: np.ndarray, prior_v: np.ndarray, own_log_lik: np.n
         floor: every joint belief is raised to at least this before the final normalization.
 
     Returns:
-        (L, V) posterior joint belief, finite, positive, summing to 1.
+        the (L, V) posterior joint belief (finite, positive, summing to 1); its marginals
+        (L,) and (V,), floored and normalized (`floored_marginals`); and, for the debugging
+        summaries, exp(sanitized sum of the humans' log-likelihoods) (L, V) and exp(sanitized
+        own log-likelihood) (L,).
     """
     n, n_v = len(prior_l), len(prior_v)
     prior = np.multiply.outer(prior_l, prior_v).ravel()
     predicted = transition @ (prior / np.add.reduce(prior))
-    np.maximum(predicted, 0.0, out=predicted)
-    total = np.repeat(sanitize_log_likelihood(own_log_lik), n_v)
-    if len(social_log_lik):
-        for row in sanitize_log_likelihood(social_log_lik.reshape(len(social_log_lik), -1)):
-            total += row
-    posterior = predicted * np.exp(sanitize_log_likelihood(total))
-    posterior /= np.add.accumulate(posterior)[-1]
-    if not np.isfinite(posterior).all():
+    kernels = compiled.kernels()
+    social = np.ascontiguousarray(social_log_lik, dtype=np.float64)
+    with np.errstate(invalid="ignore"):
+        evidence = np.exp(kernels.joint_log_likelihood(
+            predicted, np.ascontiguousarray(own_log_lik, dtype=np.float64), social, n_v))
+    joint, by_l, by_v = kernels.joint_posterior(predicted, evidence[:n * n_v], float(floor), n_v)
+    if not len(joint):  # bayes_step's fallback: the prediction alone
         total_predicted = predicted.sum()
-        posterior = predicted / total_predicted if total_predicted > 0 else np.ones(len(prior))
-    np.maximum(posterior, floor, out=posterior)
-    posterior /= np.add.accumulate(posterior)[-1]
-    return posterior.reshape(n, n_v)
+        joint = predicted / total_predicted if total_predicted > 0 else np.ones(len(prior))
+        joint = normalize(np.maximum(joint, floor)).reshape(n, n_v)
+        by_l, by_v = floored_marginals(joint, floor)
+    return joint, by_l, by_v, evidence[n * n_v:2 * n * n_v].reshape(n, n_v), evidence[2 * n * n_v:]
 
 
 def floored_marginals(joint: np.ndarray, floor: float) -> tuple[np.ndarray, np.ndarray]:

@@ -54,10 +54,8 @@ import numpy as np
 from marl_social.models.candidates import ScenePrediction
 from marl_social.perception.belief.bayes import (
     TrafficSpeedBelief,
-    floored_marginals,
-    joint_bayes_step,
+    joint_bayes_update,
     normalize,
-    sanitize_log_likelihood,
 )
 from marl_social.perception.belief.config import BeliefConfig
 from marl_social.perception.belief.conflicts import vehicle_hypotheses
@@ -148,8 +146,6 @@ class HiddenAgentBelief:
         self._joint_transition = np.kron(self.transition, self.traffic.transition)
         n_v = len(self.traffic.grid_mps)
         self._no_humans = np.zeros((0, len(self.hypotheses), n_v))  # (H = 0, L, V)
-        self._no_social_evidence = np.ones((len(self.hypotheses), n_v))
-        self._no_social_evidence.setflags(write=False)
         self.own_sensors = OwnSensors(self.hypotheses, config)
         self.social = SocialLikelihood(road_map, self.agent_names, self.hypotheses,
                                        self.traffic.grid_mps, config)
@@ -267,20 +263,14 @@ class HiddenAgentBelief:
                 seen = np.flatnonzero(detected)
                 best = seen[np.argmax(self.probabilities[seen])]
                 ll_social = np.broadcast_to(ll_social[:, best:best + 1, :], ll_social.shape)
-        floor = self.config.floor
-        joint = joint_bayes_step(self.probabilities, self.traffic.probabilities, ll_own,
-                                 ll_social, self._joint_transition, floor)
-        self.probabilities, self.traffic.probabilities = floored_marginals(joint, floor)
+        _, self.probabilities, self.traffic.probabilities, social, own = joint_bayes_update(
+            self.probabilities, self.traffic.probabilities, ll_own, ll_social,
+            self._joint_transition, self.config.floor)
         # per-source summaries for debugging: social evidence about l (about v) marginalized
         # over v (over l) with the predicted beliefs
-        if len(ll_social):
-            social = np.exp(sanitize_log_likelihood(ll_social.sum(axis=0).ravel()))
-            social = social.reshape(ll_social.shape[1:])
-        else:  # no human: exp(0) everywhere
-            social = self._no_social_evidence
         by_l, by_v = social @ pred_v, pred_l @ social
         self.last_likelihoods = {
-            "own": np.exp(sanitize_log_likelihood(ll_own)), "social": by_l / by_l.max(),
+            "own": own, "social": by_l / by_l.max(),
             "traffic": by_v / by_v.max(), "visible_fraction": visible, "detected": detected,
             "a_obs": a_obs,
         }

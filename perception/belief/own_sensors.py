@@ -15,6 +15,7 @@ import math
 
 import numpy as np
 
+from marl_social.perception.belief import compiled
 from marl_social.perception.belief.config import BeliefConfig
 from marl_social.perception.belief.hypotheses import (
     MATCH_MARGIN_M,
@@ -77,29 +78,21 @@ class OwnSensors:
         x, y, c, s, rng, half = decoded.ego[_EGO_VIEW].tolist()  # float32 -> Python floats
         angles = self._ray_angles(half, len(depth))
         rel_x, rel_y = self._region_x - x, self._region_y - y  # (P, K)
-        dist = np.hypot(rel_x, rel_y)
-        bearing = np.arctan2(rel_y, rel_x) - math.atan2(s, c)
-        bearing = (bearing + np.pi) % (2.0 * np.pi) - np.pi
-        n_rays = len(angles)
-        if half >= np.pi:
-            i1 = np.searchsorted(angles, bearing) % n_rays
-            i0 = (i1 - 1) % n_rays
-            seen = dist <= rng
-        else:
-            i1 = np.minimum(np.searchsorted(angles, bearing), n_rays - 1)  # >= 0 already
-            i0 = np.maximum(i1 - 1, 0)
-            seen = (np.abs(bearing) <= half + CONE_TOLERANCE_RAD) & (dist <= rng)
-        reach = np.minimum(depth[i0], depth[i1])
-        seen &= reach >= dist - 0.5 * PEDESTRIAN_DIAMETER_M
+        # np.hypot and np.arctan2 in numpy, the wrapping, the rays' lookup and the count
+        # compiled (belief_kernels.visible_counts: the same arithmetic)
+        counts = compiled.kernels().visible_counts(
+            np.hypot(rel_x, rel_y), np.arctan2(rel_y, rel_x), math.atan2(s, c), angles, depth,
+            rng, half, CONE_TOLERANCE_RAD, 0.5 * PEDESTRIAN_DIAMETER_M, half >= np.pi)
         # the mean of each row's K booleans: an exact count over K, divided as np.mean divides
-        out[self._present_idx] = np.count_nonzero(seen, axis=1) / seen.shape[1]
+        out[self._present_idx] = counts / self._region_x.shape[1]
         return out
 
     def _ray_angles(self, half: float, n_rays: int) -> np.ndarray:
         """The robot's depth-ray directions (n_rays,) [rad], cached per (half-angle, n_rays)."""
         key = (half, n_rays)
         if self._ray_cache is None or self._ray_cache[0] != key:
-            self._ray_cache = (key, depth_ray_angles(np.array([half]), n_rays)[0])
+            angles = depth_ray_angles(np.array([half]), n_rays)[0]
+            self._ray_cache = (key, np.ascontiguousarray(angles, dtype=np.float64))
         return self._ray_cache[1]
 
     def _match(self, kind: str, xy, velocity) -> np.ndarray:

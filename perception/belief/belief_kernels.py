@@ -1,0 +1,313 @@
+"""Compiled (numba) pieces of the belief update: numpy's arithmetic, in its order, in few calls.
+
+The robot's belief works on a few dozen numbers per step (L ~ 13 hypotheses, V = 4 traffic
+speeds, A ~ 11 actions), so in numpy its time goes to the number of calls, not to the
+arithmetic. These kernels do the additions, products, maxima and comparisons between the
+transcendental functions, which stay in numpy (np.exp, np.log, np.arctan2, np.hypot and
+np.logaddexp use numpy's own vectorized implementations, whose last bit libm's need not
+share), and between the matrix products (BLAS). Every kernel reproduces its numpy reference
+bit for bit (tests/perception/test_belief_kernels.py):
+
+* a sum along a contiguous axis is numpy's pairwise sum from 0.0 (`_pairwise_sum`: fewer
+  than 8 values one by one, else eight running sums; up to 128 values, which is all the
+  belief sums along a contiguous axis);
+* a sum over a non-contiguous axis, and np.cumsum, add one by one in index order;
+* np.max propagates NaN; np.maximum(x, c) is x unless c > x or c is NaN.
+
+One signature each, `cache=True`, no fastmath, error_model "numpy" (a division by zero gives
+inf or NaN as in numpy); a compiled function calls only compiled functions of this file
+(numba's cache notices changes of this file only). Imported at the first update
+(`compiled.kernels`).
+"""
+
+from __future__ import annotations
+
+import math
+
+import numba
+import numpy as np
+from numba import types
+
+_F8 = types.float64
+_I8 = types.int64
+_B1 = types.boolean
+_JIT = {"cache": True, "nogil": True, "error_model": "numpy"}
+
+
+def _array(ndim: int, dtype=_F8):
+    """The numba type of a read-only C-contiguous array (a writable one converts to it)."""
+    return types.Array(dtype, ndim, "C", readonly=True)
+
+
+def _writable(ndim: int, dtype=_F8):
+    """The numba type of a writable C-contiguous array (a kernel that writes into it)."""
+    return types.Array(dtype, ndim, "C")
+
+
+@numba.njit(cache=True)
+def _pairwise_sum(values, start, n):
+    """np.sum of values[start:start + n] along a contiguous axis, n <= 128 (compiled.PAIRWISE_MAX).
+
+    0.0 plus numpy's pairwise_sum: fewer than 8 values added one by one to -0.0; else eight
+    running sums, combined ((r0 + r1) + (r2 + r3)) + ((r4 + r5) + (r6 + r7)), then the rest
+    one by one.
+    """
+    if n < 8:
+        total = -0.0
+        for i in range(start, start + n):
+            total += values[i]
+        return 0.0 + total
+    r0, r1, r2, r3 = values[start], values[start + 1], values[start + 2], values[start + 3]
+    r4, r5, r6, r7 = values[start + 4], values[start + 5], values[start + 6], values[start + 7]
+    i = 8
+    while i < n - (n % 8):
+        b = start + i
+        r0 += values[b]
+        r1 += values[b + 1]
+        r2 += values[b + 2]
+        r3 += values[b + 3]
+        r4 += values[b + 4]
+        r5 += values[b + 5]
+        r6 += values[b + 6]
+        r7 += values[b + 7]
+        i += 8
+    total = ((r0 + r1) + (r2 + r3)) + ((r4 + r5) + (r6 + r7))
+    while i < n:
+        total += values[start + i]
+        i += 1
+    return 0.0 + total
+
+
+@numba.njit(cache=True)
+def _nan_max(values, start, n):
+    """np.max of values[start:start + n] (n >= 1): NaN if one is NaN."""
+    top = values[start]
+    for i in range(start, start + n):
+        v = values[i]
+        if math.isnan(v):
+            return v
+        top = max(top, v)
+    return top
+
+
+@numba.njit(cache=True)
+def _sanitized(values, start, n, out, out_start):
+    """bayes.sanitize_log_likelihood of values[start:start + n] into out[out_start:...]."""
+    top = _nan_max(values, start, n)
+    good = math.isfinite(top)
+    for i in range(n):
+        out[out_start + i] = values[start + i] - top if good else 0.0
+
+
+@numba.njit(cache=True)
+def _normalize(pdf):
+    """bayes.normalize in place: pdf / np.cumsum(pdf)[-1] (a sum one by one from pdf[0])."""
+    total = pdf[0]
+    for i in range(1, len(pdf)):
+        total += pdf[i]
+    for i in range(len(pdf)):
+        pdf[i] = pdf[i] / total
+
+
+@numba.njit((_array(2), _F8), **_JIT)
+def boltzmann_exponents(q, beta):
+    """-beta (q - q.min(axis=-1)) of Q-values q (R, A), or an empty array if one is not finite.
+
+    action_model.action_log_likelihood's exponent (its check of q first).
+    """
+    n_rows, n_act = q.shape
+    for r in range(n_rows):
+        for a in range(n_act):
+            if not math.isfinite(q[r, a]):
+                return np.empty((0, n_act))
+    z = np.empty((n_rows, n_act))
+    neg_beta = -beta
+    for r in range(n_rows):
+        low = q[r, 0]
+        for a in range(n_act):
+            low = min(low, q[r, a])
+        for a in range(n_act):
+            z[r, a] = neg_beta * (q[r, a] - low)
+    return z
+
+
+@numba.njit((_array(2),), **_JIT)
+def row_sums(values):
+    """values.sum(axis=-1) of values (R, A), A <= 128 (numpy's pairwise order)."""
+    n_rows, n_act = values.shape
+    flat = values.ravel()
+    out = np.empty(n_rows)
+    for r in range(n_rows):
+        out[r] = _pairwise_sum(flat, r * n_act, n_act)
+    return out
+
+
+@numba.njit((_array(2), _array(1), _F8, _array(1), _F8, _F8), **_JIT)
+def shifted_log_model_terms(z, log_norm, a_obs, actions, sigma, log_gauss_norm):
+    """The shifted terms of logsumexp(log_p + log_gauss) and its shift per row.
+
+    With log_p = z - log_norm[r] (the Boltzmann log-probabilities of the R rows (R, A)) and
+    log_gauss = -0.5 ((a_obs - actions) / sigma)^2 - log_gauss_norm (A,): x = log_p +
+    log_gauss, top = x.max(axis=-1) (0 where not finite); returns x - top (R, A) and top (R,).
+    """
+    n_rows, n_act = z.shape
+    log_gauss = np.empty(n_act)
+    for a in range(n_act):
+        d = (a_obs - actions[a]) / sigma
+        log_gauss[a] = -0.5 * (d * d) - log_gauss_norm
+    x = np.empty((n_rows, n_act))
+    top = np.empty(n_rows)
+    for r in range(n_rows):
+        for a in range(n_act):
+            x[r, a] = (z[r, a] - log_norm[r]) + log_gauss[a]
+        t = _nan_max(x[r], 0, n_act)
+        if not math.isfinite(t):
+            t = 0.0
+        top[r] = t
+        for a in range(n_act):
+            x[r, a] = x[r, a] - t
+    return x, top
+
+
+@numba.njit((_array(1), _F8), **_JIT)
+def bounded(log_lik, max_ratio):
+    """action_model.bounded_log_likelihood of a flat (N,) array (a copy)."""
+    n = len(log_lik)
+    out = log_lik.copy()
+    for i in range(n):
+        if not math.isfinite(log_lik[i]):
+            return out
+    floor = _nan_max(log_lik, 0, n) - max_ratio
+    for i in range(n):
+        if not out[i] >= floor:
+            out[i] = floor
+    return out
+
+
+@numba.njit((_writable(1), _array(1), _array(3), _I8), **_JIT)
+def joint_log_likelihood(predicted, own, social, n_v):
+    """The exponents of the joint update and of its debugging summaries, in one buffer.
+
+    joint_bayes_step's summed and sanitized log-likelihood (N = L V,) of the own sensors'
+    (L,) and the H humans' (H, L, V) sources (each sanitized, added own first), then the
+    humans' raw sum (N,) sanitized (HiddenAgentBelief.last_likelihoods' "social"), then the
+    own sensors' sanitized (L,): a (2 N + L,) buffer for one np.exp. Clips `predicted` (N,)
+    at 0 in place (np.maximum(predicted, 0.0)).
+    """
+    n_l = len(own)
+    n = n_l * n_v
+    n_h = social.shape[0]
+    for i in range(n):  # np.maximum(predicted, 0.0): NaN stays
+        predicted[i] = max(predicted[i], 0.0)
+    out = np.empty(2 * n + n_l)
+    _sanitized(own, 0, n_l, out, 2 * n)
+    total = np.empty(n)
+    for i in range(n):
+        total[i] = out[2 * n + i // n_v]
+    flat = social.ravel()
+    rows = np.empty(n)
+    raw = np.zeros(n)
+    for h in range(n_h):
+        _sanitized(flat, h * n, n, rows, 0)
+        for i in range(n):
+            total[i] += rows[i]
+            raw[i] += flat[h * n + i]
+    _sanitized(total, 0, n, out, 0)
+    _sanitized(raw, 0, n, out, n)
+    return out
+
+
+@numba.njit((_array(1), _array(1), _F8, _I8), **_JIT)
+def joint_posterior(predicted, exp_total, floor, n_v):
+    """The joint posterior (L, V) and its floored marginals, or an empty joint if not finite.
+
+    joint_bayes_step after np.exp: predicted * exp(total) normalized; if every entry is finite,
+    floored and normalized again; then `floored_marginals`: the sums over v (numpy's pairwise
+    order along the contiguous axis) and over l (one by one), floored and normalized. An empty
+    joint (0, V) means a non-finite posterior (the caller falls back as bayes_step does).
+    """
+    n = len(predicted)
+    n_l = n // n_v
+    posterior = np.empty(n)
+    for i in range(n):
+        posterior[i] = predicted[i] * exp_total[i]
+    _normalize(posterior)
+    for i in range(n):
+        if not math.isfinite(posterior[i]):
+            return np.empty((0, n_v)), np.empty(0), np.empty(0)
+    for i in range(n):
+        if not posterior[i] >= floor:
+            posterior[i] = floor
+    _normalize(posterior)
+    by_l = np.empty(n_l)
+    for i in range(n_l):
+        by_l[i] = max(_pairwise_sum(posterior, i * n_v, n_v), floor)
+    by_v = np.zeros(n_v)
+    for i in range(n_l):
+        for j in range(n_v):
+            by_v[j] += posterior[i * n_v + j]
+    for j in range(n_v):
+        by_v[j] = max(by_v[j], floor)
+    _normalize(by_l)
+    _normalize(by_v)
+    return posterior.reshape(n_l, n_v), by_l, by_v
+
+
+@numba.njit((_array(2), _array(2), _F8, _array(1), _array(1), _F8, _F8, _F8, _F8, _B1),
+            **_JIT)
+def visible_counts(dist, bearing, heading, angles, depth, rng, half, tolerance, radius,
+                   full_circle):
+    """(P,) how many of each region's K points (P, K) the depth rays show free.
+
+    own_sensors.OwnSensors.visible_fraction after np.hypot and np.arctan2: the bearing
+    (arctan2 - heading) wrapped with np.remainder's arithmetic, the two neighbouring rays
+    (np.searchsorted, side "left"), and the point seen if inside the cone and range and the
+    shorter ray reaches it less `radius`.
+
+    Args:
+        dist: (P, K) distances [m].
+        bearing: (P, K) np.arctan2 of the relative positions [rad].
+        heading: the robot's heading [rad] (subtracted from bearing).
+        angles: (R,) ray directions, ascending [rad].
+        depth: (R,) depth along each ray [m].
+        rng: sensor range [m].
+        half: sensor half-angle [rad].
+        tolerance: cone edge tolerance [rad].
+        radius: a point is free if the ray reaches its distance less this [m].
+        full_circle: half >= pi (the rays wrap around).
+    """
+    n_p, n_k = dist.shape
+    n_rays = len(angles)
+    two_pi = 2.0 * np.pi
+    counts = np.zeros(n_p, dtype=np.int64)
+    for p in range(n_p):
+        for k in range(n_k):
+            b = (bearing[p, k] - heading) + np.pi
+            m = np.fmod(b, two_pi)  # np.remainder(b, 2 pi): fmod, then the sign of 2 pi
+            if m != 0.0:
+                if m < 0.0:
+                    m += two_pi
+            else:
+                m = 0.0
+            b = m - np.pi
+            lo, hi = 0, n_rays  # np.searchsorted(angles, b): the first angles[i] >= b
+            while lo < hi:
+                mid = (lo + hi) // 2
+                if angles[mid] < b:
+                    lo = mid + 1
+                else:
+                    hi = mid
+            i1 = lo
+            d = dist[p, k]
+            if full_circle:
+                i1 = i1 % n_rays
+                i0 = (i1 - 1) % n_rays
+                inside = d <= rng
+            else:
+                i1 = min(i1, n_rays - 1)
+                i0 = max(i1 - 1, 0)
+                inside = (abs(b) <= half + tolerance) and (d <= rng)
+            reach = min(depth[i0], depth[i1])
+            if inside and reach >= d - radius:
+                counts[p] += 1
+    return counts
