@@ -311,3 +311,42 @@ def visible_counts(dist, bearing, heading, angles, depth, rng, half, tolerance, 
             if inside and reach >= d - radius:
                 counts[p] += 1
     return counts
+
+
+@numba.njit((_F8, _F8, _array(2), _array(1, _I8), _array(1, _B1)), **_JIT)
+def lane_projections(x, y, segments, first_segment, numpy_path):
+    """Route.project_point(x, y) of one point on each of N lanes: (N,) arc lengths, laterals.
+
+    Per lane its segments' foot points, clamped to the segments, and the first closest one,
+    with the arithmetic of the path project_point takes: its Python loop (rel - t dir) for
+    up to 16 segments, Route._project's (x - (start + t dir)) beyond (numpy_path); for a
+    finite point (np.argmin's first minimum is then the loop's first strict one).
+
+    Args:
+        x: the point's x [m].
+        y: its y [m].
+        segments: (S, 6) every lane's segments in lane order: start x, y [m], unit direction
+            x, y, length [m], arc length at the start [m].
+        first_segment: (N + 1,) lane i's segments are first_segment[i]:first_segment[i + 1].
+        numpy_path: (N,) whether lane i has more than 16 segments.
+    """
+    n_lanes = len(first_segment) - 1
+    s_out = np.empty(n_lanes)
+    lateral_out = np.empty(n_lanes)
+    for lane in range(n_lanes):
+        best_d2, best_s, best_lateral = np.inf, 0.0, 0.0
+        for k in range(first_segment[lane], first_segment[lane + 1]):
+            sx, sy, dx, dy = segments[k, 0], segments[k, 1], segments[k, 2], segments[k, 3]
+            length, s0 = segments[k, 4], segments[k, 5]
+            rx, ry = x - sx, y - sy
+            t = min(max(rx * dx + ry * dy, 0.0), length)
+            if numpy_path[lane]:
+                ex, ey = x - (sx + t * dx), y - (sy + t * dy)
+            else:
+                ex, ey = rx - t * dx, ry - t * dy
+            d2 = ex * ex + ey * ey
+            if d2 < best_d2:
+                best_d2, best_s, best_lateral = d2, s0 + t, dx * ry - dy * rx
+        s_out[lane] = best_s
+        lateral_out[lane] = best_lateral
+    return s_out, lateral_out

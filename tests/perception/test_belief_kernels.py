@@ -187,3 +187,29 @@ def test_visible_counts_are_numpys(seed, n_p, n_k, n_rays, half):
                                                1e-9, 0.25, half >= np.pi)
     assert np.array_equal(counts, _reference_visible_counts(dist, bearing, heading, angles,
                                                             depth, 40.0, half))
+
+
+@settings(max_examples=200, deadline=None)
+@given(seed=SEEDS, n_lanes=st.integers(1, 5))
+def test_lane_projections_are_project_point(seed, n_lanes):
+    """Short lanes (Route.project_point's Python loop) and long ones (its numpy path)."""
+    from marl_social.perception.belief.paths import PROJECT_POINT_LOOP_MAX
+    from marl_social.sim.road_map import Route
+
+    rng = np.random.default_rng(seed)
+    lanes = []
+    for _ in range(n_lanes):
+        n_points = int(rng.choice([2, 3, PROJECT_POINT_LOOP_MAX + 1, PROJECT_POINT_LOOP_MAX + 2,
+                                   40]))
+        steps = rng.normal(size=(n_points - 1, 2)) * rng.uniform(0.1, 20)
+        points = np.vstack([rng.normal(size=(1, 2)) * 50, steps]).cumsum(axis=0)
+        lanes.append(Route(points, "lane"))
+    segments = np.vstack([np.column_stack([r._seg_start, r._seg_dir, r._seg_len, r._cum_s[:-1]])
+                          for r in lanes])
+    first = np.cumsum([0] + [r.n_segments for r in lanes])
+    numpy_path = np.array([r.n_segments > PROJECT_POINT_LOOP_MAX for r in lanes])
+    for x, y in rng.normal(size=(20, 2)) * 80:
+        s, lateral = compiled.kernels().lane_projections(float(x), float(y), segments, first,
+                                                         numpy_path)
+        want = np.array([r.project_point(float(x), float(y)) for r in lanes])
+        assert _same(s, want[:, 0]) and _same(lateral, want[:, 1])
