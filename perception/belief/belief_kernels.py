@@ -100,6 +100,18 @@ def _sanitized(values, start, n, out, out_start):
 
 
 @numba.njit(cache=True)
+def _wrapped(angle):
+    """(angle + pi) % (2 pi) - pi with np.remainder's arithmetic: fmod, then 2 pi's sign [rad]."""
+    m = np.fmod(angle + np.pi, 2.0 * np.pi)
+    if m != 0.0:
+        if m < 0.0:
+            m += 2.0 * np.pi
+    else:
+        m = 0.0
+    return m - np.pi
+
+
+@numba.njit(cache=True)
 def _normalize(pdf):
     """bayes.normalize in place: pdf / np.cumsum(pdf)[-1] (a sum one by one from pdf[0])."""
     total = pdf[0]
@@ -278,18 +290,10 @@ def visible_counts(dist, bearing, heading, angles, depth, rng, half, tolerance, 
     """
     n_p, n_k = dist.shape
     n_rays = len(angles)
-    two_pi = 2.0 * np.pi
     counts = np.zeros(n_p, dtype=np.int64)
     for p in range(n_p):
         for k in range(n_k):
-            b = (bearing[p, k] - heading) + np.pi
-            m = np.fmod(b, two_pi)  # np.remainder(b, 2 pi): fmod, then the sign of 2 pi
-            if m != 0.0:
-                if m < 0.0:
-                    m += two_pi
-            else:
-                m = 0.0
-            b = m - np.pi
+            b = _wrapped(bearing[p, k] - heading)
             lo, hi = 0, n_rays  # np.searchsorted(angles, b): the first angles[i] >= b
             while lo < hi:
                 mid = (lo + hi) // 2
@@ -350,3 +354,77 @@ def lane_projections(x, y, segments, first_segment, numpy_path):
         s_out[lane] = best_s
         lateral_out[lane] = best_lateral
     return s_out, lateral_out
+
+
+@numba.njit((_array(3), _array(3), _array(1), _F8, _array(1, _I8)), **_JIT)
+def speed_q_values(base, speeds, v_ref, weight, rows):
+    """Q* (L, V, A) of every traffic speed: the cheapest continuation with the speed feature.
+
+    social.SocialLikelihood._q_values after the candidates' evaluation: the speed feature
+    weight * sum_t (v[a, c, t] - v_ref)^2 (numpy's pairwise sum over the T steps, T <= 128)
+    added to base[k, a, c], the minimum over the continuations c (NaN if one is NaN), for
+    hypothesis l the kept scene rows[l].
+
+    Args:
+        base: (K, A, C) the kept scenes' totals without the speed feature.
+        speeds: (A, C, T) the plans' speeds [m/s].
+        v_ref: (V,) the traffic speeds [m/s].
+        weight: the speed feature's weight per planner step.
+        rows: (L,) each hypothesis' row of base.
+    """
+    n_kept, n_act, n_cont = base.shape
+    n_t = speeds.shape[2]
+    n_v = len(v_ref)
+    flat = speeds.ravel()
+    squares = np.empty(n_t)
+    speed = np.empty((n_v, n_act, n_cont))
+    for j in range(n_v):
+        for a in range(n_act):
+            for c in range(n_cont):
+                start = (a * n_cont + c) * n_t
+                for t in range(n_t):
+                    d = flat[start + t] - v_ref[j]
+                    squares[t] = d * d
+                speed[j, a, c] = weight * _pairwise_sum(squares, 0, n_t)
+    kept = np.empty((n_kept, n_v, n_act))
+    for k in range(n_kept):
+        for j in range(n_v):
+            for a in range(n_act):
+                low = base[k, a, 0] + speed[j, a, 0]
+                for c in range(n_cont):
+                    total = base[k, a, c] + speed[j, a, c]
+                    if math.isnan(total):
+                        low = total
+                        break
+                    low = min(low, total)
+                kept[k, j, a] = low
+    out = np.empty((len(rows), n_v, n_act))
+    for i in range(len(rows)):
+        out[i] = kept[rows[i]]
+    return out
+
+
+@numba.njit((_array(1), _array(1), _F8, _array(1, _B1), _array(1, _I8), _I8, _F8, _F8), **_JIT)
+def view_mask(dist, bearing, heading, candidates, ids, exclude_id, range_m, half_fov_rad):
+    """(N,) bool: the candidates inside a view, other than the object exclude_id.
+
+    human_scene.HumanScenes' view test after np.hypot and np.arctan2: dist <= range_m and
+    |wrap(bearing - heading)| <= half_fov_rad (the wrap with np.remainder's arithmetic).
+
+    Args:
+        dist: (N,) distances from the viewer [m].
+        bearing: (N,) np.arctan2 of the relative positions [rad].
+        heading: the viewer's heading [rad].
+        candidates: (N,) bool, the objects that may be kept.
+        ids: (n <= N,) the object ids of the first n rows (the others have none).
+        exclude_id: the id left out (the viewer's own).
+        range_m: the view's range [m].
+        half_fov_rad: its half-angle [rad].
+    """
+    n = len(dist)
+    keep = np.zeros(n, dtype=np.bool_)
+    for i in range(n):
+        if not candidates[i] or (i < len(ids) and ids[i] == exclude_id):
+            continue
+        keep[i] = dist[i] <= range_m and abs(_wrapped(bearing[i] - heading)) <= half_fov_rad
+    return keep

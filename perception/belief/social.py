@@ -59,12 +59,14 @@ import numpy as np
 from marl_social.models.candidates import ScenePrediction
 from marl_social.models.driver import DriverModel, RoadRules, rule_abiding_totals
 from marl_social.models.gap_evaluation import vehicle_gap_evaluation
+from marl_social.perception.belief import compiled
 from marl_social.perception.belief.action_model import (
     action_log_likelihood,
     bounded_log_likelihood,
     logsumexp,
 )
 from marl_social.perception.belief.bayes import bayes_update, normalize
+from marl_social.perception.belief.compiled import PAIRWISE_MAX
 from marl_social.perception.belief.config import BeliefConfig
 from marl_social.perception.belief.human_scene import HumanScenes
 from marl_social.perception.belief.hypotheses import Hypothesis
@@ -128,7 +130,7 @@ class SocialLikelihood:
         self.road_map = road_map
         self.agent_names = list(agent_names)
         self.hypotheses = hypotheses
-        self.traffic_grid_mps = traffic_grid_mps
+        self.traffic_grid_mps = np.ascontiguousarray(traffic_grid_mps, dtype=np.float64)
         self.config = config
         self._present = np.array([h.present for h in hypotheses])
         self.lane_paths = LanePaths(road_map)
@@ -146,7 +148,7 @@ class SocialLikelihood:
         self._kept_rows_memo: dict[bytes, tuple] = {}  # present (L,) -> (inverse, keep)
         # the speed feature theta_speed (v - v_ref)^2 per planner step, in simulator-step units
         self._speed_weight = config.theta_hat.speed * (self._candidates.plan_dt_s / DT_S)
-        self._v_ref_column = traffic_grid_mps[:, None, None, None]  # (V, 1, 1, 1) [m/s]
+        self._v_ref_column = self.traffic_grid_mps[:, None, None, None]  # (V, 1, 1, 1) [m/s]
         self.scenes = HumanScenes(hypotheses, self._times, config, self.model.vehicle)
         self._beta_grid = np.asarray(config.beta_grid_hat, dtype=np.float64)
         self._beta_prior = np.full(len(self._beta_grid), 1.0 / max(len(self._beta_grid), 1))
@@ -231,8 +233,13 @@ class SocialLikelihood:
                                     curve_speed=curve)
         # (L, A, C): predicted collisions and plans too fast for its bends excluded
         base = rule_abiding_totals(ev, self.model, s0, RoadRules(None, zones, curve))
-        speed = self._speed_weight * np.square(ev.v - self._v_ref_column).sum(axis=-1)  # (V, A, C)
-        return (base[:, None] + speed[None]).min(axis=-1)[inverse]
+        if ev.v.shape[-1] > PAIRWISE_MAX or not base.shape[-1]:
+            speed = self._speed_weight * np.square(ev.v - self._v_ref_column).sum(axis=-1)
+            return (base[:, None] + speed[None]).min(axis=-1)[inverse]  # (V, A, C) speed
+        # the same arithmetic compiled: the speed feature, its minimum over the continuations
+        return compiled.kernels().speed_q_values(
+            np.ascontiguousarray(base), np.ascontiguousarray(ev.v), self.traffic_grid_mps,
+            self._speed_weight, inverse)
 
     def _kept_rows(self, present: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """(L,) row of each hypothesis in the kept scenes and the (K,) kept hypotheses.

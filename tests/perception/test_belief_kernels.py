@@ -213,3 +213,42 @@ def test_lane_projections_are_project_point(seed, n_lanes):
                                                          numpy_path)
         want = np.array([r.project_point(float(x), float(y)) for r in lanes])
         assert _same(s, want[:, 0]) and _same(lateral, want[:, 1])
+
+
+@settings(max_examples=200, deadline=None)
+@given(seed=SEEDS, n_kept=st.integers(1, 6), n_t=st.integers(1, 30), n_cont=st.integers(1, 6))
+def test_speed_q_values_are_numpys(seed, n_kept, n_t, n_cont):
+    """SocialLikelihood._q_values' speed feature and minimum, with +inf (excluded plans)."""
+    rng = np.random.default_rng(seed)
+    n_act, n_v, n_hyp = 5, 4, 9
+    base = rng.uniform(0, 1e4, (n_kept, n_act, n_cont))
+    base[rng.random(base.shape) < 0.2] = np.inf
+    speeds = rng.uniform(0, 20, (n_act, n_cont, n_t))
+    v_ref = rng.uniform(5, 15, n_v)
+    rows = rng.integers(0, n_kept, n_hyp)
+    weight = float(rng.uniform(0.1, 3))
+    speed = weight * np.square(speeds - v_ref[:, None, None, None]).sum(axis=-1)
+    want = (base[:, None] + speed[None]).min(axis=-1)[rows]
+    got = compiled.kernels().speed_q_values(base, speeds, v_ref, weight, rows)
+    assert _same(got, want)
+
+
+@settings(max_examples=200, deadline=None)
+@given(seed=SEEDS, n=st.integers(0, 15))
+def test_view_mask_is_numpys(seed, n):
+    """HumanScenes' view test (others_scene, in_view), points on the viewer and on the edges."""
+    rng = np.random.default_rng(seed)
+    rel = rng.normal(size=(n, 2)) * 40.0
+    rel[rng.random(n) < 0.1] = 0.0
+    dist, bearing = np.hypot(rel[:, 0], rel[:, 1]), np.arctan2(rel[:, 1], rel[:, 0])
+    heading = float(rng.choice([rng.uniform(-7, 7), np.pi, -np.pi, 0.0]))
+    candidates = rng.random(n) < 0.7
+    ids = rng.integers(1, 5, max(n - 1, 0))
+    exclude = int(rng.integers(1, 5))
+    range_m, half_fov = 50.0, math.radians(70.0)
+    wrapped = np.abs((bearing - heading + np.pi) % (2.0 * np.pi) - np.pi)
+    want = candidates & (dist <= range_m) & (wrapped <= half_fov)
+    want[:len(ids)] &= ids != exclude
+    got = compiled.kernels().view_mask(dist, bearing, heading, candidates, ids, exclude, range_m,
+                                       half_fov)
+    assert np.array_equal(got, want)
