@@ -93,13 +93,35 @@ def bayes_step(prior, log_likelihoods, transition=None, floor: float = BELIEF_FL
     predicted = prior / total_prior
     if transition is not None:
         predicted = np.asarray(transition) @ predicted
-    predicted = np.maximum(predicted, 0.0)
     ll = np.atleast_2d(np.asarray(log_likelihoods, dtype=np.float64))
+    if ll.ndim == 2 and len(ll) and ll.shape[1] and predicted.shape == ll.shape[1:]:
+        # the same arithmetic compiled between np.exp (joint_bayes_update's kernels, V = 1)
+        posterior = _compiled_step(np.array(predicted, dtype=np.float64), ll, floor)
+        if posterior is not None:
+            return posterior
+    predicted = np.maximum(predicted, 0.0)
     total = sanitize_log_likelihood(sanitize_log_likelihood(ll).sum(axis=0))
     posterior = bayes_update(np.exp(total), predicted)
     if not np.all(np.isfinite(posterior)):
         posterior = predicted / predicted.sum() if predicted.sum() > 0 else np.ones(len(prior))
     return normalize(np.maximum(posterior, floor))
+
+
+def _compiled_step(predicted: np.ndarray, log_likelihoods: np.ndarray, floor: float
+                   ) -> np.ndarray | None:
+    """bayes_step after the prediction, compiled: (L,) posterior, None if it is not finite.
+
+    The first source is the kernels' "own" one, the others their (S - 1, L, 1) "humans";
+    `predicted` (L,) (a fresh array) is clipped at 0 in place.
+    """
+    kernels = compiled.kernels()
+    ll = np.ascontiguousarray(log_likelihoods)
+    n = ll.shape[1]
+    with np.errstate(invalid="ignore"):
+        evidence = np.exp(kernels.joint_log_likelihood(predicted, ll[0], ll[1:].reshape(-1, n, 1),
+                                                       1))
+    posterior, _, _ = kernels.joint_posterior(predicted, evidence[:n], float(floor), 1)
+    return posterior.reshape(n) if len(posterior) else None
 
 
 def joint_bayes_update(prior_l: np.ndarray, prior_v: np.ndarray, own_log_lik: np.ndarray,

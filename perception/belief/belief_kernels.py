@@ -428,3 +428,26 @@ def view_mask(dist, bearing, heading, candidates, ids, exclude_id, range_m, half
             continue
         keep[i] = dist[i] <= range_m and abs(_wrapped(bearing[i] - heading)) <= half_fov_rad
     return keep
+
+
+@numba.njit((_array(1), _array(1, _B1), _array(1, _B1), _F8, _F8, _F8, _F8), **_JIT)
+def own_likelihoods(visible, present, detected, p_detect, p_false_alarm, p_no_false_alarm,
+                    probability_min):
+    """(L,) own_sensors.OwnSensors.log_likelihood's likelihoods, before np.log.
+
+    miss = min(max(1 - p_detect * visible, probability_min), 1) for the present hypotheses
+    (1 for "none"); with a detection p_detect for the matching hypotheses and p_false_alarm
+    miss for the others, else p_no_false_alarm miss.
+    """
+    n = len(visible)
+    any_detected = False
+    for i in range(n):
+        any_detected = any_detected or detected[i]
+    out = np.empty(n)
+    for i in range(n):
+        miss = min(max(1.0 - p_detect * visible[i], probability_min), 1.0) if present[i] else 1.0
+        if not any_detected:
+            out[i] = p_no_false_alarm * miss
+        else:
+            out[i] = p_detect if detected[i] else p_false_alarm * miss
+    return out

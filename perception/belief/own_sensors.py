@@ -160,14 +160,11 @@ class OwnSensors:
                     detected |= self.match_vehicles(tracks.xy[seen_veh],
                                                     tracks.velocity[seen_veh])
         visible = self.visible_fraction(decoded)
-        miss = np.minimum(np.maximum(1.0 - p_detect * visible, PROBABILITY_MIN), 1.0)
-        miss[~self._present] = 1.0  # np.where(present, miss, 1.0)
-        if detected.any():
-            # the detection is explained by a matching hypothesis, or is a false alarm (then
-            # any other hidden agent's region was missed)
-            lik = np.where(detected, p_detect, self._p_false_alarm * miss)
-        else:
-            lik = self._no_detection_lik * miss
+        # a detection is explained by a matching hypothesis, or is a false alarm (then any
+        # other hidden agent's region was missed); without one every region was missed
+        lik = compiled.kernels().own_likelihoods(visible, self._present, detected, p_detect,
+                                                 self._p_false_alarm, self._no_detection_lik,
+                                                 PROBABILITY_MIN)
         with np.errstate(divide="ignore"):
             return np.log(lik), visible, detected
 

@@ -252,3 +252,59 @@ def test_view_mask_is_numpys(seed, n):
     got = compiled.kernels().view_mask(dist, bearing, heading, candidates, ids, exclude, range_m,
                                        half_fov)
     assert np.array_equal(got, want)
+
+
+def _reference_bayes_step(prior, log_likelihoods, transition, floor):
+    """bayes.bayes_step as it stood in numpy."""
+    prior = np.asarray(prior, dtype=np.float64)
+    total_prior = prior.sum()
+    if not (math.isfinite(total_prior) and total_prior > 0.0 and prior.min() >= 0.0):
+        prior, total_prior = np.ones_like(prior), float(len(prior))
+    predicted = prior / total_prior
+    if transition is not None:
+        predicted = np.asarray(transition) @ predicted
+    predicted = np.maximum(predicted, 0.0)
+    ll = np.atleast_2d(np.asarray(log_likelihoods, dtype=np.float64))
+    total = sanitize_log_likelihood(sanitize_log_likelihood(ll).sum(axis=0))
+    posterior = normalize(predicted * np.exp(total))
+    if not np.all(np.isfinite(posterior)):
+        posterior = predicted / predicted.sum() if predicted.sum() > 0 else np.ones(len(prior))
+    return normalize(np.maximum(posterior, floor))
+
+
+@settings(max_examples=300, deadline=None)
+@given(seed=SEEDS, n=st.integers(1, 12), n_sources=st.integers(0, 4),
+       with_transition=st.booleans())
+def test_bayes_step_is_numpys(seed, n, n_sources, with_transition):
+    rng = np.random.default_rng(seed)
+    prior = rng.dirichlet(np.full(n, 0.5)) * rng.choice([1.0, 3.0])
+    if rng.random() < 0.1:
+        prior[0] = rng.choice([np.nan, -1.0, 0.0])
+    ll = rng.normal(size=(n_sources, n)) * 10.0 ** rng.uniform(-2, 3)
+    ll[rng.random(ll.shape) < 0.15] = -np.inf
+    if n_sources and rng.random() < 0.2:
+        ll[rng.integers(n_sources), rng.integers(n)] = rng.choice([np.inf, np.nan])
+    transition = markov_transition(n, rng.uniform(0, 0.5)) if with_transition else None
+    floor = float(rng.choice([1e-6, 1e-300]))
+    with np.errstate(all="ignore"):
+        assert _same(bayes_step(prior, ll, transition, floor),
+                     _reference_bayes_step(prior, ll, transition, floor))
+        assert _same(bayes_step(prior, ll[0] if n_sources else np.zeros(n), transition, floor),
+                     _reference_bayes_step(prior, ll[0] if n_sources else np.zeros(n),
+                                           transition, floor))
+
+
+@settings(max_examples=200, deadline=None)
+@given(seed=SEEDS, n=st.integers(1, 20), p_detect=st.sampled_from([0.0, 0.95, 1.0]))
+def test_own_likelihoods_are_numpys(seed, n, p_detect):
+    rng = np.random.default_rng(seed)
+    visible = rng.choice([0.0, 1.0, 0.5, 1 / 3], n) * (rng.random(n) < 0.8)
+    present = rng.random(n) < 0.8
+    detected = (rng.random(n) < 0.2) & present
+    p_fa = 0.01
+    miss = np.where(present, np.minimum(np.maximum(1.0 - p_detect * visible, 1e-12), 1.0), 1.0)
+    want = (np.where(detected, p_detect, p_fa * miss) if detected.any()
+            else (1.0 - p_fa) * miss)
+    got = compiled.kernels().own_likelihoods(visible, present, detected, p_detect, p_fa,
+                                             1.0 - p_fa, 1e-12)
+    assert _same(got, want)
