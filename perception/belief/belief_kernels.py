@@ -451,3 +451,37 @@ def own_likelihoods(visible, present, detected, p_detect, p_false_alarm, p_no_fa
         else:
             out[i] = p_detect if detected[i] else p_false_alarm * miss
     return out
+
+
+@numba.njit((_array(2), _array(2)), **_JIT)
+def route_projections(xy, segments):
+    """Route.project of points (n, 2) [m]: arc length (n,) [m], lateral (n,) [m], segment (n,).
+
+    Route._project's arithmetic: each segment's foot point clamped to it, x - (start + t dir)
+    squared, the first closest segment (np.argmin; the only one for a single segment); for
+    finite points (the closest of a NaN distance is not np.argmin's).
+
+    Args:
+        xy: (n, 2) the points [m].
+        segments: (S, 6) the route's segments: start x, y [m], unit direction x, y, length [m],
+            arc length at the start [m].
+    """
+    n = len(xy)
+    s_out = np.empty(n)
+    lateral_out = np.empty(n)
+    k_out = np.zeros(n, dtype=np.int64)
+    for i in range(n):
+        x, y = xy[i, 0], xy[i, 1]
+        best_d2 = np.inf
+        for k in range(len(segments)):
+            sx, sy, dx, dy = segments[k, 0], segments[k, 1], segments[k, 2], segments[k, 3]
+            rx, ry = x - sx, y - sy
+            t = min(max(rx * dx + ry * dy, 0.0), segments[k, 4])
+            ex, ey = x - (sx + t * dx), y - (sy + t * dy)
+            d2 = ex * ex + ey * ey
+            if k == 0 or d2 < best_d2:
+                best_d2 = d2
+                s_out[i] = segments[k, 5] + t
+                lateral_out[i] = dx * ry - dy * rx
+                k_out[i] = k
+    return s_out, lateral_out, k_out

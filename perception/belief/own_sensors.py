@@ -197,6 +197,23 @@ class _PathGroup:
                 bounds.append((h.half_width_m + MATCH_MARGIN_M, lo - MATCH_MARGIN_M,
                                min(hi + MATCH_MARGIN_M, road_end), h.curb_offset_m, road_end))
         self.bounds = np.array(bounds, dtype=np.float64).T[..., None]  # (B, H, 1)
+        route = self.first._route
+        # a vehicle path's segments for belief_kernels.route_projections (paths.LanePaths')
+        self._route_heading = route._seg_heading if route is not None else None
+        self._segments = None if route is None else np.column_stack(
+            [route._seg_start, route._seg_dir, route._seg_len, route._cum_s[:-1]])
+
+    def _path_coords(self, xy: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """`Hypothesis.path_coords` of the first hypothesis: s, lateral [m], heading [rad] (n,).
+
+        Compiled for finite points (belief_kernels.route_projections, Route.project's
+        arithmetic), else Route.project itself.
+        """
+        if self._segments is None or not np.isfinite(xy).all():
+            return self.first.path_coords(xy)
+        s, lateral, k = compiled.kernels().route_projections(
+            np.ascontiguousarray(xy, dtype=np.float64), self._segments)
+        return s, lateral, self._route_heading[k]
 
     def matches(self, xy: np.ndarray, velocity: np.ndarray, walking_speed_min_mps: float
                 ) -> np.ndarray:
@@ -208,7 +225,7 @@ class _PathGroup:
             walking_speed_min_mps: pedestrians only.
         """
         if self.kind == "vehicle":
-            s, lateral, heading = self.first.path_coords(xy)
+            s, lateral, heading = self._path_coords(xy)
             speed = np.hypot(velocity[:, 0], velocity[:, 1])
             v_along = velocity[:, 0] * np.cos(heading) + velocity[:, 1] * np.sin(heading)
             half, lo, hi, lo_v, hi_v = self.bounds

@@ -308,3 +308,20 @@ def test_own_likelihoods_are_numpys(seed, n, p_detect):
     got = compiled.kernels().own_likelihoods(visible, present, detected, p_detect, p_fa,
                                              1.0 - p_fa, 1e-12)
     assert _same(got, want)
+
+
+@settings(max_examples=200, deadline=None)
+@given(seed=SEEDS, n_points=st.integers(2, 30), n=st.integers(0, 12))
+def test_route_projections_are_route_project(seed, n_points, n):
+    from marl_social.sim.road_map import Route
+
+    rng = np.random.default_rng(seed)
+    steps = rng.normal(size=(n_points - 1, 2)) * rng.uniform(0.1, 20)
+    route = Route(np.vstack([rng.normal(size=(1, 2)) * 50, steps]).cumsum(axis=0), "path")
+    segments = np.column_stack([route._seg_start, route._seg_dir, route._seg_len,
+                                route._cum_s[:-1]])
+    xy = rng.normal(size=(n, 2)) * 80
+    s, lateral, k = compiled.kernels().route_projections(xy, segments)
+    want_s, want_lateral, want_heading = route.project(xy)
+    assert _same(s, want_s) and _same(lateral, want_lateral)
+    assert _same(route._seg_heading[k], want_heading)
