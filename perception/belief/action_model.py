@@ -14,6 +14,8 @@ import math
 import numpy as np
 
 from marl_social.models.boltzmann import boltzmann
+from marl_social.perception.belief import compiled
+from marl_social.perception.belief.compiled import PAIRWISE_MAX
 
 SIGMA_MIN_MPS2 = 1e-3  # the observation noise on a_obs is at least this [m/s^2]
 OUTLIER_PROB_MAX = 1.0 - 1e-12  # rho stays below 1 (some weight on the model)
@@ -44,26 +46,62 @@ def action_log_likelihood(q_values: np.ndarray, beta: float, a_obs: float,
         (...) log-likelihoods.
     """
     q = np.asarray(q_values, dtype=np.float64)
-    if not math.isfinite(a_obs) or not np.all(np.isfinite(q)):
-        return np.zeros(q.shape[:-1])
     sigma = max(float(sigma_mps2), SIGMA_MIN_MPS2)
-    if math.isinf(beta):
-        with np.errstate(divide="ignore"):
-            log_p = np.log(boltzmann(q, beta))
-    else:
-        z = -beta * (q - q.min(axis=-1, keepdims=True))
-        log_p = z - np.log(np.exp(z).sum(axis=-1, keepdims=True))
     actions = np.asarray(actions_mps2, dtype=np.float64)
-    with np.errstate(over="ignore"):  # an absurd a_obs gives -inf everywhere: uninformative
-        log_gauss = (-0.5 * ((a_obs - actions) / sigma) ** 2
-                     - math.log(sigma * math.sqrt(2 * math.pi)))
-    log_model = logsumexp(log_p + log_gauss, axis=-1)
+    log_gauss_norm = math.log(sigma * math.sqrt(2 * math.pi))
+    if math.isinf(beta) or not 0 < q.shape[-1] <= PAIRWISE_MAX:
+        log_model = _log_model(q, beta, a_obs, actions, sigma, log_gauss_norm)
+    else:  # the same arithmetic, the steps between np.exp and np.log compiled
+        log_model = _compiled_log_model(q, beta, a_obs, actions, sigma, log_gauss_norm)
+    if log_model is None:
+        return np.zeros(q.shape[:-1])
     rho = min(max(float(outlier_prob), 0.0), OUTLIER_PROB_MAX)  # np.clip's value, no call
     if rho == 0.0:
         return log_model
     width = actions.max() - actions.min() + 2.0 * OUTLIER_MARGIN_SIGMAS * sigma
     log_outlier = math.log(rho / width)
     return np.logaddexp(math.log1p(-rho) + log_model, log_outlier)
+
+
+def _log_model(q: np.ndarray, beta: float, a_obs: float, actions: np.ndarray, sigma: float,
+               log_gauss_norm: float) -> np.ndarray | None:
+    """Log sum_u softmax(-beta q)[u] N(a_obs; u, sigma^2) (...), in numpy; None if not finite.
+
+    The reference of `_compiled_log_model` (and the path for beta = inf).
+    """
+    if not math.isfinite(a_obs) or not np.all(np.isfinite(q)):
+        return None
+    if math.isinf(beta):
+        with np.errstate(divide="ignore"):
+            log_p = np.log(boltzmann(q, beta))
+    else:
+        z = -beta * (q - q.min(axis=-1, keepdims=True))
+        log_p = z - np.log(np.exp(z).sum(axis=-1, keepdims=True))
+    with np.errstate(over="ignore"):  # an absurd a_obs gives -inf everywhere: uninformative
+        log_gauss = -0.5 * ((a_obs - actions) / sigma) ** 2 - log_gauss_norm
+    return logsumexp(log_p + log_gauss, axis=-1)
+
+
+def _compiled_log_model(q: np.ndarray, beta: float, a_obs: float, actions: np.ndarray,
+                        sigma: float, log_gauss_norm: float) -> np.ndarray | None:
+    """`_log_model` for a finite beta, bit for bit: numpy's np.exp and np.log, the rest compiled.
+
+    belief_kernels.boltzmann_exponents, row_sums and shifted_log_model_terms do the
+    reference's arithmetic in its order (q's last axis at most PAIRWISE_MAX long).
+    """
+    if not math.isfinite(a_obs):
+        return None
+    kernels = compiled.kernels()
+    rows = np.ascontiguousarray(q).reshape(-1, q.shape[-1])
+    z = kernels.boltzmann_exponents(rows, float(beta))
+    if not len(z) and len(rows):  # a Q-value is not finite
+        return None
+    log_norm = np.log(kernels.row_sums(np.exp(z)))  # each sum >= exp(0) = 1
+    shifted, top = kernels.shifted_log_model_terms(
+        z, log_norm, float(a_obs), np.ascontiguousarray(actions), sigma, log_gauss_norm)
+    with np.errstate(divide="ignore"):
+        log_sum = np.log(kernels.row_sums(np.exp(shifted)))
+    return (log_sum + top).reshape(q.shape[:-1])
 
 
 def bounded_log_likelihood(log_lik: np.ndarray, max_ratio: float) -> np.ndarray:
@@ -79,9 +117,10 @@ def bounded_log_likelihood(log_lik: np.ndarray, max_ratio: float) -> np.ndarray:
         max_ratio: the bound [nats], > 0.
     """
     ll = np.asarray(log_lik, dtype=np.float64)
-    if not np.all(np.isfinite(ll)):
+    if not ll.size:
         return ll
-    return np.maximum(ll, ll.max() - max_ratio)
+    return compiled.kernels().bounded(np.ascontiguousarray(ll).ravel(),
+                                      float(max_ratio)).reshape(ll.shape)
 
 
 def logsumexp(x: np.ndarray, axis: int) -> np.ndarray:

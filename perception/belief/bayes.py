@@ -13,6 +13,8 @@ import math
 
 import numpy as np
 
+from marl_social.perception.belief import compiled
+
 BELIEF_FLOOR = 1e-6  # default: no belief drops below this before normalization
 TRAFFIC_HAZARD_PER_STEP = 0.002  # default mass moving between traffic speeds per step
 
@@ -91,13 +93,91 @@ def bayes_step(prior, log_likelihoods, transition=None, floor: float = BELIEF_FL
     predicted = prior / total_prior
     if transition is not None:
         predicted = np.asarray(transition) @ predicted
-    predicted = np.maximum(predicted, 0.0)
     ll = np.atleast_2d(np.asarray(log_likelihoods, dtype=np.float64))
+    if ll.ndim == 2 and len(ll) and ll.shape[1] and predicted.shape == ll.shape[1:]:
+        # the same arithmetic compiled between np.exp (joint_bayes_update's kernels, V = 1)
+        posterior = _compiled_step(np.array(predicted, dtype=np.float64), ll, floor)
+        if posterior is not None:
+            return posterior
+    predicted = np.maximum(predicted, 0.0)
     total = sanitize_log_likelihood(sanitize_log_likelihood(ll).sum(axis=0))
     posterior = bayes_update(np.exp(total), predicted)
     if not np.all(np.isfinite(posterior)):
         posterior = predicted / predicted.sum() if predicted.sum() > 0 else np.ones(len(prior))
     return normalize(np.maximum(posterior, floor))
+
+
+def _compiled_step(predicted: np.ndarray, log_likelihoods: np.ndarray, floor: float
+                   ) -> np.ndarray | None:
+    """bayes_step after the prediction, compiled: (L,) posterior, None if it is not finite.
+
+    The first source is the kernels' "own" one, the others their (S - 1, L, 1) "humans";
+    `predicted` (L,) (a fresh array) is clipped at 0 in place.
+    """
+    kernels = compiled.kernels()
+    ll = np.ascontiguousarray(log_likelihoods)
+    n = ll.shape[1]
+    with np.errstate(invalid="ignore"):
+        evidence = np.exp(kernels.joint_log_likelihood(predicted, ll[0], ll[1:].reshape(-1, n, 1),
+                                                       1))
+    posterior, _, _ = kernels.joint_posterior(predicted, evidence[:n], float(floor), 1)
+    return posterior.reshape(n) if len(posterior) else None
+
+
+def joint_bayes_update(prior_l: np.ndarray, prior_v: np.ndarray, own_log_lik: np.ndarray,
+                       social_log_lik: np.ndarray, transition: np.ndarray, floor: float
+                       ) -> tuple:
+    """`bayes_step` of the joint b(l, v) of a hidden-agent and a traffic-speed belief, the same bits.
+
+    The joint prior is outer(prior_l, prior_v) (both normalized beliefs with a floor: finite and
+    positive, so `bayes_step`'s check of the prior always passes and is left out); the sources
+    are the own sensors' (L,) log-likelihood, the same for every v (sanitized once over its L
+    entries: the maximum of its V copies is the same number), and each human's (L, V) one,
+    added in bayes_step's order (own first, then the humans). The steps between the matrix
+    product and np.exp, and after it, are compiled (belief_kernels.joint_log_likelihood,
+    joint_posterior), with numpy's arithmetic in its order.
+
+    Args:
+        prior_l: (L,) belief over the hypotheses.
+        prior_v: (V,) belief over the traffic speeds.
+        own_log_lik: (L,) log P(own sensors | l).
+        social_log_lik: (H, L, V) log P(a_i | l, v) of H humans (H may be 0).
+        transition: (L V, L V) column-stochastic joint transition (kron(T_l, T_v)).
+        floor: every joint belief is raised to at least this before the final normalization.
+
+    Returns:
+        the (L, V) posterior joint belief (finite, positive, summing to 1); its marginals
+        (L,) and (V,), floored and normalized (`floored_marginals`); and, for the debugging
+        summaries, exp(sanitized sum of the humans' log-likelihoods) (L, V) and exp(sanitized
+        own log-likelihood) (L,).
+    """
+    n, n_v = len(prior_l), len(prior_v)
+    prior = np.multiply.outer(prior_l, prior_v).ravel()
+    predicted = transition @ (prior / np.add.reduce(prior))
+    kernels = compiled.kernels()
+    social = np.ascontiguousarray(social_log_lik, dtype=np.float64)
+    with np.errstate(invalid="ignore"):
+        evidence = np.exp(kernels.joint_log_likelihood(
+            predicted, np.ascontiguousarray(own_log_lik, dtype=np.float64), social, n_v))
+    joint, by_l, by_v = kernels.joint_posterior(predicted, evidence[:n * n_v], float(floor), n_v)
+    if not len(joint):  # bayes_step's fallback: the prediction alone
+        total_predicted = predicted.sum()
+        joint = predicted / total_predicted if total_predicted > 0 else np.ones(len(prior))
+        joint = normalize(np.maximum(joint, floor)).reshape(n, n_v)
+        by_l, by_v = floored_marginals(joint, floor)
+    return joint, by_l, by_v, evidence[n * n_v:2 * n * n_v].reshape(n, n_v), evidence[2 * n * n_v:]
+
+
+def floored_marginals(joint: np.ndarray, floor: float) -> tuple[np.ndarray, np.ndarray]:
+    """The (L,) and (V,) marginals of a joint (L, V) belief, each floored and normalized.
+
+    `normalize(np.maximum(joint.sum(axis=k), floor))` for k = 1 and 0, the same bits.
+    """
+    by_l = np.maximum(joint.sum(axis=1), floor)
+    by_l /= np.add.accumulate(by_l)[-1]
+    by_v = np.maximum(joint.sum(axis=0), floor)
+    by_v /= np.add.accumulate(by_v)[-1]
+    return by_l, by_v
 
 
 class TrafficSpeedBelief:

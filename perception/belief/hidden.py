@@ -54,9 +54,8 @@ import numpy as np
 from marl_social.models.candidates import ScenePrediction
 from marl_social.perception.belief.bayes import (
     TrafficSpeedBelief,
-    bayes_step,
+    joint_bayes_update,
     normalize,
-    sanitize_log_likelihood,
 )
 from marl_social.perception.belief.config import BeliefConfig
 from marl_social.perception.belief.conflicts import vehicle_hypotheses
@@ -134,6 +133,7 @@ class HiddenAgentBelief:
             config.vehicle_progress_step_m, config.vehicle_upstream_s)
         self._present = np.array([h.present for h in self.hypotheses])
         self._kinds = np.array([h.kind for h in self.hypotheses])
+        self._kind_masks = [(kind, self._kinds == kind) for kind in KINDS]
         self._objects_at: tuple | None = None  # (time grid, hypotheses) -> hypothesis_objects
         self.transition = motion_transition(self.hypotheses, DT_S, config.hazards_per_s())
         self.prior = self._prior()
@@ -144,6 +144,8 @@ class HiddenAgentBelief:
                                           config.hazard_per_s * DT_S,
                                           config.floor)
         self._joint_transition = np.kron(self.transition, self.traffic.transition)
+        n_v = len(self.traffic.grid_mps)
+        self._no_humans = np.zeros((0, len(self.hypotheses), n_v))  # (H = 0, L, V)
         self.own_sensors = OwnSensors(self.hypotheses, config)
         self.social = SocialLikelihood(road_map, self.agent_names, self.hypotheses,
                                        self.traffic.grid_mps, config)
@@ -235,43 +237,40 @@ class HiddenAgentBelief:
             obs: (layout.size,) the robot's observation vector.
         """
         decoded = self.layout.decode(obs)
-        n, n_v = len(self.hypotheses), len(self.traffic.grid_mps)
+        n = len(self.hypotheses)
         tracks = self.tracker.update(decoded)
         self.tracks = tracks
-        ll_own = np.zeros(n)
-        visible = np.zeros(n)
-        detected = np.zeros(n, dtype=bool)
         if self.use_own_sensors:
             ll_own, visible, detected = self.own_sensors.log_likelihood(decoded, tracks)
-        self.perceived_kinds = {k: bool(detected[self._kinds == k].any()) for k in KINDS}
+            any_detected = bool(detected.any())
+        else:
+            ll_own, visible, detected = np.zeros(n), np.zeros(n), np.zeros(n, dtype=bool)
+            any_detected = False
+        self.perceived_kinds = ({k: bool(detected[mask].any()) for k, mask in self._kind_masks}
+                                if any_detected else dict.fromkeys(KINDS, False))
         self.perceived = 1.0 if self.perceived_kinds["pedestrian"] else 0.0
         pred_l = self.transition @ self.probabilities
         pred_v = self.traffic.transition @ self.traffic.probabilities
-        ll_social = np.zeros((0, n, n_v))
+        ll_social = self._no_humans
         a_obs = {}
         if self.use_social:
             ll_social, a_obs = self.social.log_likelihoods(decoded, tracks,
-                                                           np.outer(pred_l, pred_v))
-            if detected.any():
+                                                           np.multiply.outer(pred_l, pred_v))
+            if any_detected:
                 # the robot sees the hidden agent itself: the humans' behaviour is read under
                 # the most probable detected hypothesis (informative about v_traffic only),
                 # not as evidence about agents it can see
                 seen = np.flatnonzero(detected)
                 best = seen[np.argmax(self.probabilities[seen])]
                 ll_social = np.broadcast_to(ll_social[:, best:best + 1, :], ll_social.shape)
-        sources = np.vstack([np.broadcast_to(ll_own[:, None], (n, n_v))[None], ll_social])
-        prior = np.outer(self.probabilities, self.traffic.probabilities).ravel()
-        joint = bayes_step(prior, sources.reshape(len(sources), -1), self._joint_transition,
-                           self.config.floor).reshape(n, n_v)
-        floor = self.config.floor
-        self.probabilities = normalize(np.maximum(joint.sum(axis=1), floor))
-        self.traffic.probabilities = normalize(np.maximum(joint.sum(axis=0), floor))
+        _, self.probabilities, self.traffic.probabilities, social, own = joint_bayes_update(
+            self.probabilities, self.traffic.probabilities, ll_own, ll_social,
+            self._joint_transition, self.config.floor)
         # per-source summaries for debugging: social evidence about l (about v) marginalized
         # over v (over l) with the predicted beliefs
-        social = np.exp(sanitize_log_likelihood(ll_social.sum(axis=0).ravel())).reshape(n, n_v)
         by_l, by_v = social @ pred_v, pred_l @ social
         self.last_likelihoods = {
-            "own": np.exp(sanitize_log_likelihood(ll_own)), "social": by_l / by_l.max(),
+            "own": own, "social": by_l / by_l.max(),
             "traffic": by_v / by_v.max(), "visible_fraction": visible, "detected": detected,
             "a_obs": a_obs,
         }

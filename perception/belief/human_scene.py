@@ -15,6 +15,7 @@ from dataclasses import fields
 import numpy as np
 
 from marl_social.models.candidates import ScenePrediction
+from marl_social.perception.belief import compiled
 from marl_social.perception.belief.config import BeliefConfig
 from marl_social.perception.belief.hypotheses import Hypothesis, hypothesis_objects
 from marl_social.perception.tracking import TrackSet
@@ -24,6 +25,7 @@ from marl_social.sim.observation import EGO_INDEX, DecodedObservation
 KEPT_SCENES_MAX = 64  # scenes without others remembered per (kept hypotheses, mask)
 _EGO_XY = [EGO_INDEX["x"], EGO_INDEX["y"]]
 _EGO_COS_SIN = [EGO_INDEX["cos_psi"], EGO_INDEX["sin_psi"]]
+_NO_IDS = np.zeros(0, dtype=np.int64)  # view_mask's ids when no row is a tracked object
 
 
 class HumanScenes:
@@ -50,6 +52,7 @@ class HumanScenes:
         self._empty_scene: ScenePrediction | None = None
         self._empty_hyp_scene: ScenePrediction | None = None
         self._kept_scenes: dict[tuple, ScenePrediction] = {}  # (keep, mask) -> scene, no others
+        self._kept_fixed: dict[bytes, tuple] = {}  # keep -> the fixed hypothesis arrays kept
         self._step_cache: tuple | None = None  # (decoded, tracks, _step_objects)
 
     def in_view(self, viewer_xy, viewer_heading_rad: float) -> np.ndarray:
@@ -60,11 +63,10 @@ class HumanScenes:
         False for "none".
         """
         rel = self._now_xy - np.asarray(viewer_xy, dtype=np.float64)
-        dist = np.hypot(rel[:, 0], rel[:, 1])
-        bearing = np.arctan2(rel[:, 1], rel[:, 0]) - viewer_heading_rad
-        bearing = np.abs((bearing + np.pi) % (2.0 * np.pi) - np.pi)
-        return (self._present & (dist <= self.config.human_range_m)
-                & (bearing <= self.config.human_half_fov_rad))
+        return compiled.kernels().view_mask(
+            np.hypot(rel[:, 0], rel[:, 1]), np.arctan2(rel[:, 1], rel[:, 0]),
+            float(viewer_heading_rad), self._present, _NO_IDS, -1, self.config.human_range_m,
+            self.config.human_half_fov_rad)
 
     def others_scene(self, human_xy, human_heading, human_id, decoded: DecodedObservation,
                      tracks: TrackSet) -> ScenePrediction | None:
@@ -84,12 +86,12 @@ class HumanScenes:
         """
         step = self._step_objects(decoded, tracks)
         rel = step["xy"] - human_xy
-        dist = np.hypot(rel[:, 0], rel[:, 1])
-        bearing = np.arctan2(rel[:, 1], rel[:, 0]) - human_heading
-        bearing = np.abs((bearing + np.pi) % (2.0 * np.pi) - np.pi)
-        keep = step["vehicle"].copy()
-        keep[:-1] &= tracks.ids != human_id
-        keep &= (dist <= self.config.human_range_m) & (bearing <= self.config.human_half_fov_rad)
+        # the tracked vehicles but the human, and the robot, inside its view (compiled after
+        # np.hypot and np.arctan2: belief_kernels.view_mask)
+        keep = compiled.kernels().view_mask(
+            np.hypot(rel[:, 0], rel[:, 1]), np.arctan2(rel[:, 1], rel[:, 0]),
+            float(human_heading), step["vehicle"], step["ids"], int(human_id),
+            self.config.human_range_m, self.config.human_half_fov_rad)
         if not keep.any():
             return None
         if "pred" not in step:
@@ -105,14 +107,16 @@ class HumanScenes:
         """The tracked objects and the robot as `others_scene` sees them, once per step.
 
         Remembered for the last (decoded, tracks) pair: every human of a step shares them.
-        {"xy": (N + 1, 2) [m], "vehicle": (N + 1,) bool}: the N tracks, then the robot; the
+        {"xy": (N + 1, 2) [m], "vehicle": (N + 1,) bool, "ids": (N,) int}: the N tracks, then
+        the robot; the
         predictions are added on first use (`_predict_step_objects`).
         """
         cached = self._step_cache
         if cached is not None and cached[0] is decoded and cached[1] is tracks:
             return cached[2]
         step = {"xy": np.vstack([tracks.xy, decoded.ego[None, _EGO_XY]]),
-                "vehicle": np.append(~tracks.is_pedestrian, True)}
+                "vehicle": np.append(~tracks.is_pedestrian, True),
+                "ids": np.ascontiguousarray(tracks.ids, dtype=np.int64)}
         self._step_cache = (decoded, tracks, step)
         return step
 
@@ -178,6 +182,24 @@ class HumanScenes:
                 np.zeros((1, 0), dtype=bool))
         return self._empty_scene
 
+    def _kept_objects(self, objects: tuple, keep: np.ndarray) -> tuple:
+        """tuple(array[keep] for array in objects), the fixed arrays indexed once per `keep`.
+
+        The fixed arrays: all but the mask, when they are this scene's `hypothesis_objects`.
+        """
+        fixed = self._hyp_scene
+        if any(objects[i] is not fixed[i] for i in range(5)):
+            return tuple(array[keep] for array in objects)
+        key = keep.tobytes()
+        kept = self._kept_fixed.get(key)
+        if kept is None:
+            if len(self._kept_fixed) >= KEPT_SCENES_MAX:
+                self._kept_fixed.clear()
+            kept = self._kept_fixed[key] = tuple(array[keep] for array in fixed[:5])
+            for array in kept:
+                array.setflags(write=False)
+        return (*kept, objects[5][keep])
+
     def kept_scene(self, others: ScenePrediction | None, objects: tuple, keep: np.ndarray
                     ) -> ScenePrediction:
         """`hypothesis_scene` restricted to the hypotheses `keep` (K,) (indices).
@@ -190,7 +212,7 @@ class HumanScenes:
             objects: the hypotheses' objects (`objects_in_view`).
             keep: (K,) indices of the hypotheses to keep.
         """
-        kept = tuple(array[keep] for array in objects)
+        kept = self._kept_objects(objects, keep)
         if others is not None:
             return others.with_extra(*kept)
         key = (keep.tobytes(), kept[5].tobytes())

@@ -15,6 +15,7 @@ import math
 
 import numpy as np
 
+from marl_social.perception.belief import compiled
 from marl_social.perception.belief.config import BeliefConfig
 from marl_social.perception.belief.hypotheses import (
     MATCH_MARGIN_M,
@@ -28,6 +29,10 @@ from marl_social.sim.observation import EGO_INDEX, DecodedObservation
 
 PROBABILITY_MIN = 1e-12  # probabilities are clipped to [this, 1 - this] before the log
 CONE_TOLERANCE_RAD = 1e-9  # a region point on the edge of the sensor cone is inside it [rad]
+# the ego fields visible_fraction reads: position [m], heading's cos and sin, sensor range [m]
+# and half-angle [rad]
+_EGO_VIEW = [EGO_INDEX[k] for k in ("x", "y", "cos_psi", "sin_psi", "sensor_range",
+                                    "sensor_half_angle")]
 
 
 class OwnSensors:
@@ -47,6 +52,11 @@ class OwnSensors:
         self._has_vehicles = any(h.kind == "vehicle" for h in hypotheses)
         regions = [h.region() for h in hypotheses if h.present]
         self._region = np.array(regions) if regions else np.zeros((0, 1, 2))  # (P, K, 2)
+        self._region_x = np.ascontiguousarray(self._region[..., 0])  # (P, K) [m]
+        self._region_y = np.ascontiguousarray(self._region[..., 1])
+        p_fa = min(max(config.p_false_alarm, PROBABILITY_MIN), 1.0 - PROBABILITY_MIN)
+        self._p_false_alarm = p_fa
+        self._no_detection_lik = 1.0 - p_fa  # P(no false alarm)
         self._ray_cache: tuple | None = None
         self._paths = _path_groups(hypotheses)
 
@@ -60,38 +70,29 @@ class OwnSensors:
         Args:
             decoded: the robot's decoded observation (ego block and depth rays).
         """
-        ego, depth = decoded.ego, np.asarray(decoded.depth_m, dtype=np.float64)
+        depth = decoded.depth_m
         out = np.zeros(len(self.hypotheses))
         if len(self._present_idx) == 0 or len(depth) == 0:
             return out
-        x, y = float(ego[EGO_INDEX["x"]]), float(ego[EGO_INDEX["y"]])
-        c, s = float(ego[EGO_INDEX["cos_psi"]]), float(ego[EGO_INDEX["sin_psi"]])
-        rng = float(ego[EGO_INDEX["sensor_range"]])
-        half = float(ego[EGO_INDEX["sensor_half_angle"]])
+        depth = depth.astype(np.float64)
+        x, y, c, s, rng, half = decoded.ego[_EGO_VIEW].tolist()  # float32 -> Python floats
         angles = self._ray_angles(half, len(depth))
-        rel = self._region - np.array([x, y])
-        dist = np.hypot(rel[..., 0], rel[..., 1])
-        bearing = np.arctan2(rel[..., 1], rel[..., 0]) - math.atan2(s, c)
-        bearing = (bearing + np.pi) % (2.0 * np.pi) - np.pi
-        n_rays = len(angles)
-        if half >= np.pi:
-            i1 = np.searchsorted(angles, bearing) % n_rays
-            i0 = (i1 - 1) % n_rays
-            in_cone = np.ones(bearing.shape, dtype=bool)
-        else:
-            i1 = np.minimum(np.searchsorted(angles, bearing), n_rays - 1)  # >= 0 already
-            i0 = np.maximum(i1 - 1, 0)
-            in_cone = np.abs(bearing) <= half + CONE_TOLERANCE_RAD
-        reach = np.minimum(depth[i0], depth[i1])
-        seen = in_cone & (dist <= rng) & (reach >= dist - 0.5 * PEDESTRIAN_DIAMETER_M)
-        out[self._present_idx] = seen.mean(axis=1)
+        rel_x, rel_y = self._region_x - x, self._region_y - y  # (P, K)
+        # np.hypot and np.arctan2 in numpy, the wrapping, the rays' lookup and the count
+        # compiled (belief_kernels.visible_counts: the same arithmetic)
+        counts = compiled.kernels().visible_counts(
+            np.hypot(rel_x, rel_y), np.arctan2(rel_y, rel_x), math.atan2(s, c), angles, depth,
+            rng, half, CONE_TOLERANCE_RAD, 0.5 * PEDESTRIAN_DIAMETER_M, half >= np.pi)
+        # the mean of each row's K booleans: an exact count over K, divided as np.mean divides
+        out[self._present_idx] = counts / self._region_x.shape[1]
         return out
 
     def _ray_angles(self, half: float, n_rays: int) -> np.ndarray:
         """The robot's depth-ray directions (n_rays,) [rad], cached per (half-angle, n_rays)."""
         key = (half, n_rays)
         if self._ray_cache is None or self._ray_cache[0] != key:
-            self._ray_cache = (key, depth_ray_angles(np.array([half]), n_rays)[0])
+            angles = depth_ray_angles(np.array([half]), n_rays)[0]
+            self._ray_cache = (key, np.ascontiguousarray(angles, dtype=np.float64))
         return self._ray_cache[1]
 
     def _match(self, kind: str, xy, velocity) -> np.ndarray:
@@ -147,21 +148,23 @@ class OwnSensors:
         Returns:
             (L,) log-likelihood, (L,) visible fraction, (L,) bool matched detections.
         """
-        cfg = self.config
-        seen_ped = tracks.is_pedestrian & tracks.seen
-        detected = self.match_pedestrians(tracks.xy[seen_ped], tracks.velocity[seen_ped])
-        if self._has_vehicles:
-            seen_veh = ~tracks.is_pedestrian & tracks.seen
-            detected |= self.match_vehicles(tracks.xy[seen_veh], tracks.velocity[seen_veh])
+        p_detect = self.config.p_detect
+        detected = np.zeros(len(self.hypotheses), dtype=bool)
+        if len(tracks):
+            seen_ped = tracks.is_pedestrian & tracks.seen
+            if seen_ped.any():
+                detected = self.match_pedestrians(tracks.xy[seen_ped], tracks.velocity[seen_ped])
+            if self._has_vehicles:
+                seen_veh = tracks.seen & ~tracks.is_pedestrian
+                if seen_veh.any():
+                    detected |= self.match_vehicles(tracks.xy[seen_veh],
+                                                    tracks.velocity[seen_veh])
         visible = self.visible_fraction(decoded)
-        miss = np.minimum(np.maximum(1.0 - cfg.p_detect * visible, PROBABILITY_MIN), 1.0)
-        p_fa = min(max(cfg.p_false_alarm, PROBABILITY_MIN), 1.0 - PROBABILITY_MIN)
-        if detected.any():
-            # the detection is explained by a matching hypothesis, or is a false alarm (then
-            # any other hidden agent's region was missed)
-            lik = np.where(detected, cfg.p_detect, p_fa * np.where(self._present, miss, 1.0))
-        else:
-            lik = (1.0 - p_fa) * np.where(self._present, miss, 1.0)
+        # a detection is explained by a matching hypothesis, or is a false alarm (then any
+        # other hidden agent's region was missed); without one every region was missed
+        lik = compiled.kernels().own_likelihoods(visible, self._present, detected, p_detect,
+                                                 self._p_false_alarm, self._no_detection_lik,
+                                                 PROBABILITY_MIN)
         with np.errstate(divide="ignore"):
             return np.log(lik), visible, detected
 
@@ -194,6 +197,23 @@ class _PathGroup:
                 bounds.append((h.half_width_m + MATCH_MARGIN_M, lo - MATCH_MARGIN_M,
                                min(hi + MATCH_MARGIN_M, road_end), h.curb_offset_m, road_end))
         self.bounds = np.array(bounds, dtype=np.float64).T[..., None]  # (B, H, 1)
+        route = self.first._route
+        # a vehicle path's segments for belief_kernels.route_projections (paths.LanePaths')
+        self._route_heading = route._seg_heading if route is not None else None
+        self._segments = None if route is None else np.column_stack(
+            [route._seg_start, route._seg_dir, route._seg_len, route._cum_s[:-1]])
+
+    def _path_coords(self, xy: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """`Hypothesis.path_coords` of the first hypothesis: s, lateral [m], heading [rad] (n,).
+
+        Compiled for finite points (belief_kernels.route_projections, Route.project's
+        arithmetic), else Route.project itself.
+        """
+        if self._segments is None or not np.isfinite(xy).all():
+            return self.first.path_coords(xy)
+        s, lateral, k = compiled.kernels().route_projections(
+            np.ascontiguousarray(xy, dtype=np.float64), self._segments)
+        return s, lateral, self._route_heading[k]
 
     def matches(self, xy: np.ndarray, velocity: np.ndarray, walking_speed_min_mps: float
                 ) -> np.ndarray:
@@ -205,7 +225,7 @@ class _PathGroup:
             walking_speed_min_mps: pedestrians only.
         """
         if self.kind == "vehicle":
-            s, lateral, heading = self.first.path_coords(xy)
+            s, lateral, heading = self._path_coords(xy)
             speed = np.hypot(velocity[:, 0], velocity[:, 1])
             v_along = velocity[:, 0] * np.cos(heading) + velocity[:, 1] * np.sin(heading)
             half, lo, hi, lo_v, hi_v = self.bounds

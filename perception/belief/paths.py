@@ -12,10 +12,12 @@ car's choice would be one more hypothesis).
 
 from __future__ import annotations
 
+import bisect
 import math
 
 import numpy as np
 
+from marl_social.perception.belief import compiled
 from marl_social.sim.road_map import RoadMap, Route
 from marl_social.sim.signal_rules import route_signal_lines
 
@@ -25,11 +27,36 @@ LANE_JOIN_M = 0.5  # a lane starting this close to another's end continues it [m
 MAX_CHAINED_LANES = 4  # a car's path follows at most this many lanes
 ROUTE_MEMO_SIZE = 256  # route_of remembers this many recent queries (a step's tracks, twice)
 _SAME_POINT_M = 1e-6  # a continuation's first point this close to the end is the same point [m]
+PROJECT_POINT_LOOP_MAX = 16  # Route.project_point loops in Python up to this many segments
 
 
 def _angle_diff(a, b):
     """Wrapped difference a - b of angles [rad], in [-pi, pi)."""
     return (a - b + np.pi) % (2.0 * np.pi) - np.pi
+
+
+def route_pose(route: Route, s: float) -> tuple[float, float, float]:
+    """`route.point_at(s)` of one arc length s [m] on Python floats: x, y [m], heading [rad].
+
+    The same segment lookup (searchsorted side="right", clamped to the segments) and the same
+    arithmetic as Route.point_at / Route.point_at_float, bit for bit, without numpy's per-call
+    cost (the belief asks it for every tracked human every step). Reads the route's segment
+    tables (Route._cum_s_all_list, _seg_heading), as models/gap_evaluation reads its pose table.
+    """
+    x, y = route.point_at_float(s)
+    return x, y, route_heading(route, s)
+
+
+def route_heading(route: Route, s: float) -> float:
+    """`route.point_at(s)`'s heading [rad] of one arc length s [m], as a Python float.
+
+    Route.point_at's segment (searchsorted side="right" in the route's cumulative arc lengths,
+    clamped to the segments), found with bisect (`route_pose`).
+    """
+    cum_s = route._cum_s_all_list
+    n_seg = len(cum_s) - 1
+    k = 0 if n_seg == 1 else min(max(bisect.bisect_right(cum_s, s) - 1, 0), n_seg - 1)
+    return float(route._seg_heading[k])
 
 
 class LanePaths:
@@ -55,6 +82,15 @@ class LanePaths:
         self.routes = [self._chained(i, lanes) for i in range(len(lanes))]
         self._route_memo: dict[tuple, Route | None] = {}
         self._signal_lines: dict[tuple, tuple] = {}
+        # every lane's segments for belief_kernels.lane_projections: (S, 6) start x, y [m],
+        # unit direction x, y, length [m] and arc length at the start [m], lane by lane
+        self._segments = np.vstack([np.column_stack([
+            lane._seg_start, lane._seg_dir, lane._seg_len, lane._cum_s[:-1]])
+            for lane in self._lanes]) if lanes else np.zeros((0, 6))
+        self._first_segment = np.cumsum([0] + [lane.n_segments for lane in self._lanes])
+        # Route.project_point's numpy path (Route.project) for more than 16 segments
+        self._numpy_path = np.array([lane.n_segments > PROJECT_POINT_LOOP_MAX
+                                     for lane in self._lanes], dtype=bool)
 
     @staticmethod
     def _find_successors(lanes) -> list[list[int]]:
@@ -107,14 +143,24 @@ class LanePaths:
         return route
 
     def _route_of(self, x: float, y: float, heading_rad: float) -> Route | None:
-        """`route_of` computed (see there)."""
+        """`route_of` computed (see there).
+
+        Each lane's project_point, for a finite point all at once (belief_kernels.
+        lane_projections, the same arithmetic); the lanes in order, the first closest that
+        matches kept.
+        """
+        if math.isfinite(x) and math.isfinite(y) and self._lanes:
+            s_all, lateral_all = compiled.kernels().lane_projections(
+                x, y, self._segments, self._first_segment, self._numpy_path)
+            projections = zip(s_all.tolist(), lateral_all.tolist())
+        else:
+            projections = (lane.project_point(x, y) for lane in self._lanes)
         best, best_offset = None, math.inf
-        for k, (lane, half) in enumerate(zip(self._lanes, self._half_width_m)):
-            s, lateral = lane.project_point(x, y)
+        for k, ((s, lateral), half) in enumerate(zip(projections, self._half_width_m)):
             if abs(lateral) > half + LANE_MATCH_MARGIN_M or abs(lateral) >= best_offset:
                 continue
-            _, lane_heading = lane.point_at(s)
-            diff = (heading_rad - float(lane_heading) + math.pi) % (2.0 * math.pi) - math.pi
+            lane_heading = route_heading(self._lanes[k], s)
+            diff = (heading_rad - lane_heading + math.pi) % (2.0 * math.pi) - math.pi
             if abs(diff) <= LANE_MATCH_HEADING_RAD:
                 best, best_offset = self.routes[k], abs(lateral)
         return best

@@ -59,16 +59,18 @@ import numpy as np
 from marl_social.models.candidates import ScenePrediction
 from marl_social.models.driver import DriverModel, RoadRules, rule_abiding_totals
 from marl_social.models.gap_evaluation import vehicle_gap_evaluation
+from marl_social.perception.belief import compiled
 from marl_social.perception.belief.action_model import (
     action_log_likelihood,
     bounded_log_likelihood,
     logsumexp,
 )
 from marl_social.perception.belief.bayes import bayes_update, normalize
+from marl_social.perception.belief.compiled import PAIRWISE_MAX
 from marl_social.perception.belief.config import BeliefConfig
 from marl_social.perception.belief.human_scene import HumanScenes
 from marl_social.perception.belief.hypotheses import Hypothesis
-from marl_social.perception.belief.paths import LanePaths
+from marl_social.perception.belief.paths import LanePaths, route_pose
 from marl_social.perception.tracking import TrackSet
 from marl_social.sim.agent_spec import VehicleParams
 from marl_social.sim.dynamics import DT_S
@@ -79,6 +81,7 @@ from marl_social.sim.route_rules import CurveSpeed, priority_mask, route_conflic
 # the lateral acceleration the robot assumes a human accepts in a bend (a generic driver's;
 # a human slowing for its turn is then not read as giving way to a hidden car) [m/s^2]
 HUMAN_CURVE_LAT_ACCEL_MPS2 = 2.5
+KEPT_ROWS_MAX = 256  # the kept-hypothesis rows remembered per set of present hypotheses
 
 
 @dataclass
@@ -127,7 +130,7 @@ class SocialLikelihood:
         self.road_map = road_map
         self.agent_names = list(agent_names)
         self.hypotheses = hypotheses
-        self.traffic_grid_mps = traffic_grid_mps
+        self.traffic_grid_mps = np.ascontiguousarray(traffic_grid_mps, dtype=np.float64)
         self.config = config
         self._present = np.array([h.present for h in hypotheses])
         self.lane_paths = LanePaths(road_map)
@@ -141,6 +144,11 @@ class SocialLikelihood:
         veh = self.model.vehicle  # the first actions within the vehicle's limits (_executed)
         self._first_limited = np.clip(self._first, -veh.brake_max_mps2, veh.accel_max_mps2)
         self._vehicle = np.array([h.kind == "vehicle" for h in hypotheses])
+        self._has_vehicles = bool(self._vehicle.any())
+        self._kept_rows_memo: dict[bytes, tuple] = {}  # present (L,) -> (inverse, keep)
+        # the speed feature theta_speed (v - v_ref)^2 per planner step, in simulator-step units
+        self._speed_weight = config.theta_hat.speed * (self._candidates.plan_dt_s / DT_S)
+        self._v_ref_column = self.traffic_grid_mps[:, None, None, None]  # (V, 1, 1, 1) [m/s]
         self.scenes = HumanScenes(hypotheses, self._times, config, self.model.vehicle)
         self._beta_grid = np.asarray(config.beta_grid_hat, dtype=np.float64)
         self._beta_prior = np.full(len(self._beta_grid), 1.0 / max(len(self._beta_grid), 1))
@@ -196,32 +204,61 @@ class SocialLikelihood:
             (L, V, A) optimal cost-to-go of each first action.
         """
         viewer = None
-        if self._vehicle.any():
-            xy, heading = route.point_at(s0)
-            viewer = (xy, float(heading))
+        if self._has_vehicles:
+            x, y, heading = route_pose(route, s0)
+            viewer = (np.array([x, y]), heading)
+        return self._q_values(route, s0, v0, prev_accel, others, negligible, viewer)
+
+    def _q_values(self, route: Route, s0: float, v0: float, prev_accel: float,
+                  others: ScenePrediction | None, negligible: np.ndarray | None,
+                  viewer: tuple | None) -> np.ndarray:
+        """`human_q_values` with the human's view (xy (2,) [m], heading [rad]) already known.
+
+        viewer None: every hypothesised agent is in its scene (no vehicle hypotheses).
+        """
         objects = self.scenes.objects_in_view(viewer)
         # every hypothesis whose hidden agent is not in the human's scene ("none", a car out of
         # its view) gives the scene of "none": the candidates are evaluated once for all of them
-        present = objects[5].copy()
+        present = objects[5]
         if negligible is not None:
-            present &= ~np.asarray(negligible, dtype=bool)
-        inverse = np.zeros(len(present), dtype=np.intp)
-        inverse[present] = np.arange(1, int(present.sum()) + 1)
-        keep = np.concatenate([np.flatnonzero(~present)[:1], np.flatnonzero(present)])
+            present = present & ~negligible
+        inverse, keep = self._kept_rows(present)
         scene = self.scenes.kept_scene(others, objects, keep)  # hypothesis_scene(others, viewer)[keep]
-        rules = RoadRules(None, self.yield_zones(route, s0, scene), self._curve_speed(route))
+        zones = self.yield_zones(route, s0, scene)
+        curve = self._curve_speed(route)
         ev = vehicle_gap_evaluation(self._candidates, self._theta_no_speed, 0.0,
                                     self.model.vehicle, route, s0, v0, prev_accel, scene,
-                                    self.road_map.crosswalks, yield_zones=rules.yield_zones,
+                                    self.road_map.crosswalks, yield_zones=zones,
                                     yield_margin_s=self.model.yield_margin_s,
-                                    curve_speed=rules.curve_speed)
+                                    curve_speed=curve)
         # (L, A, C): predicted collisions and plans too fast for its bends excluded
-        base = rule_abiding_totals(ev, self.model, s0, rules)
-        scale = self._candidates.plan_dt_s / DT_S
-        v_ref = self.traffic_grid_mps
-        speed = (self.config.theta_hat.speed * scale
-                 * ((ev.v[None] - v_ref[:, None, None, None]) ** 2).sum(axis=-1))  # (V, A, C)
-        return (base[:, None] + speed[None]).min(axis=-1)[inverse]
+        base = rule_abiding_totals(ev, self.model, s0, RoadRules(None, zones, curve))
+        if ev.v.shape[-1] > PAIRWISE_MAX or not base.shape[-1]:
+            speed = self._speed_weight * np.square(ev.v - self._v_ref_column).sum(axis=-1)
+            return (base[:, None] + speed[None]).min(axis=-1)[inverse]  # (V, A, C) speed
+        # the same arithmetic compiled: the speed feature, its minimum over the continuations
+        return compiled.kernels().speed_q_values(
+            np.ascontiguousarray(base), np.ascontiguousarray(ev.v), self.traffic_grid_mps,
+            self._speed_weight, inverse)
+
+    def _kept_rows(self, present: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """(L,) row of each hypothesis in the kept scenes and the (K,) kept hypotheses.
+
+        Row 0 is the first hypothesis without its hidden agent in the scene ("none"), then
+        the present ones in order; once per `present` (L,) bool (read-only arrays).
+        """
+        key = present.tobytes()
+        rows = self._kept_rows_memo.get(key)
+        if rows is None:
+            inverse = np.zeros(len(present), dtype=np.intp)
+            inverse[present] = np.arange(1, int(present.sum()) + 1)
+            keep = np.concatenate([np.flatnonzero(~present)[:1], np.flatnonzero(present)])
+            inverse.setflags(write=False)
+            keep.setflags(write=False)
+            if len(self._kept_rows_memo) >= KEPT_ROWS_MAX:
+                self._kept_rows_memo.clear()
+            rows = self._kept_rows_memo[key] = (inverse, keep)
+        return rows
 
     def _curve_speed(self, route: Route) -> CurveSpeed | None:
         """The curve speed the robot assumes a human keeps on `route` (None: straight)."""
@@ -357,20 +394,24 @@ class SocialLikelihood:
         cfg = self.config
         out, a_obs_all = [], {}
         current = {}
-        # hidden vehicles the belief all but rules out are left out of the humans' scenes (their
-        # belief stays negligible whatever the humans do; the likelihood is that of "none")
-        negligible = self._vehicle & (predicted.sum(axis=1) < cfg.vehicle_negligible_mass)
-        for k, oid in enumerate(tracks.ids.tolist()):
-            if tracks.is_pedestrian[k] or not tracks.seen[k]:
-                continue
-            route = self.lane_paths.route_of(tracks.xy[k], float(tracks.heading_rad[k]))
+        negligible = None
+        if self._has_vehicles:
+            # hidden vehicles the belief all but rules out are left out of the humans' scenes
+            # (their belief stays negligible whatever the humans do; the likelihood is that of
+            # "none")
+            negligible = self._vehicle & (predicted.sum(axis=1) < cfg.vehicle_negligible_mass)
+        cars = np.flatnonzero(tracks.seen & ~tracks.is_pedestrian).tolist()
+        ids, xy_all, heading_all = tracks.ids.tolist(), tracks.xy.tolist(), tracks.heading_rad
+        velocity = tracks.velocity.tolist()
+        for k in cars:
+            oid = ids[k]
+            x, y = xy_all[k]
+            route = self.lane_paths.route_of(xy_all[k], float(heading_all[k]))
             if route is None:
                 continue
-            x, y = (float(v) for v in tracks.xy[k])
             s0, _ = route.project_point(x, y)
-            _, heading = route.point_at(s0)
-            heading = float(heading)
-            vx, vy = (float(v) for v in tracks.velocity[k])
+            route_x, route_y, heading = route_pose(route, s0)
+            vx, vy = velocity[k]
             v = vx * math.cos(heading) + vy * math.sin(heading)
             prev = self._humans.get(oid)
             a_est, n_seen = 0.0, 1
@@ -386,8 +427,10 @@ class SocialLikelihood:
             v0 = max(v, 0.0)
             q = None  # the next step scores this prediction only from min_track_steps + 1 on
             if n_seen >= cfg.min_track_steps:
-                others = self.others_scene(np.array([x, y]), heading, oid, decoded, tracks)
-                q = self.human_q_values(route, s0, v0, a_est, others, negligible)
+                others = self.scenes.others_scene(np.array([x, y]), heading, oid, decoded,
+                                                  tracks)
+                viewer = (np.array([route_x, route_y]), heading) if self._has_vehicles else None
+                q = self._q_values(route, s0, v0, a_est, others, negligible, viewer)
             current[oid] = _HumanState(v, q, self._executed(v0), n_seen, beta_belief)
         self._humans = current  # a human not seen this step starts afresh when seen again
         n, n_v = len(self.hypotheses), len(self.traffic_grid_mps)

@@ -1,0 +1,487 @@
+"""Compiled (numba) pieces of the belief update: numpy's arithmetic, in its order, in few calls.
+
+The robot's belief works on a few dozen numbers per step (L ~ 13 hypotheses, V = 4 traffic
+speeds, A ~ 11 actions), so in numpy its time goes to the number of calls, not to the
+arithmetic. These kernels do the additions, products, maxima and comparisons between the
+transcendental functions, which stay in numpy (np.exp, np.log, np.arctan2, np.hypot and
+np.logaddexp use numpy's own vectorized implementations, whose last bit libm's need not
+share), and between the matrix products (BLAS). Every kernel reproduces its numpy reference
+bit for bit (tests/perception/test_belief_kernels.py):
+
+* a sum along a contiguous axis is numpy's pairwise sum from 0.0 (`_pairwise_sum`: fewer
+  than 8 values one by one, else eight running sums; up to 128 values, which is all the
+  belief sums along a contiguous axis);
+* a sum over a non-contiguous axis, and np.cumsum, add one by one in index order;
+* np.max propagates NaN; np.maximum(x, c) is x unless c > x or c is NaN.
+
+One signature each, `cache=True`, no fastmath, error_model "numpy" (a division by zero gives
+inf or NaN as in numpy); a compiled function calls only compiled functions of this file
+(numba's cache notices changes of this file only). Imported at the first update
+(`compiled.kernels`).
+"""
+
+from __future__ import annotations
+
+import math
+
+import numba
+import numpy as np
+from numba import types
+
+_F8 = types.float64
+_I8 = types.int64
+_B1 = types.boolean
+_JIT = {"cache": True, "nogil": True, "error_model": "numpy"}
+
+
+def _array(ndim: int, dtype=_F8):
+    """The numba type of a read-only C-contiguous array (a writable one converts to it)."""
+    return types.Array(dtype, ndim, "C", readonly=True)
+
+
+def _writable(ndim: int, dtype=_F8):
+    """The numba type of a writable C-contiguous array (a kernel that writes into it)."""
+    return types.Array(dtype, ndim, "C")
+
+
+@numba.njit(cache=True)
+def _pairwise_sum(values, start, n):
+    """np.sum of values[start:start + n] along a contiguous axis, n <= 128 (compiled.PAIRWISE_MAX).
+
+    0.0 plus numpy's pairwise_sum: fewer than 8 values added one by one to -0.0; else eight
+    running sums, combined ((r0 + r1) + (r2 + r3)) + ((r4 + r5) + (r6 + r7)), then the rest
+    one by one.
+    """
+    if n < 8:
+        total = -0.0
+        for i in range(start, start + n):
+            total += values[i]
+        return 0.0 + total
+    r0, r1, r2, r3 = values[start], values[start + 1], values[start + 2], values[start + 3]
+    r4, r5, r6, r7 = values[start + 4], values[start + 5], values[start + 6], values[start + 7]
+    i = 8
+    while i < n - (n % 8):
+        b = start + i
+        r0 += values[b]
+        r1 += values[b + 1]
+        r2 += values[b + 2]
+        r3 += values[b + 3]
+        r4 += values[b + 4]
+        r5 += values[b + 5]
+        r6 += values[b + 6]
+        r7 += values[b + 7]
+        i += 8
+    total = ((r0 + r1) + (r2 + r3)) + ((r4 + r5) + (r6 + r7))
+    while i < n:
+        total += values[start + i]
+        i += 1
+    return 0.0 + total
+
+
+@numba.njit(cache=True)
+def _nan_max(values, start, n):
+    """np.max of values[start:start + n] (n >= 1): NaN if one is NaN."""
+    top = values[start]
+    for i in range(start, start + n):
+        v = values[i]
+        if math.isnan(v):
+            return v
+        top = max(top, v)
+    return top
+
+
+@numba.njit(cache=True)
+def _sanitized(values, start, n, out, out_start):
+    """bayes.sanitize_log_likelihood of values[start:start + n] into out[out_start:...]."""
+    top = _nan_max(values, start, n)
+    good = math.isfinite(top)
+    for i in range(n):
+        out[out_start + i] = values[start + i] - top if good else 0.0
+
+
+@numba.njit(cache=True)
+def _wrapped(angle):
+    """(angle + pi) % (2 pi) - pi with np.remainder's arithmetic: fmod, then 2 pi's sign [rad]."""
+    m = np.fmod(angle + np.pi, 2.0 * np.pi)
+    if m != 0.0:
+        if m < 0.0:
+            m += 2.0 * np.pi
+    else:
+        m = 0.0
+    return m - np.pi
+
+
+@numba.njit(cache=True)
+def _normalize(pdf):
+    """bayes.normalize in place: pdf / np.cumsum(pdf)[-1] (a sum one by one from pdf[0])."""
+    total = pdf[0]
+    for i in range(1, len(pdf)):
+        total += pdf[i]
+    for i in range(len(pdf)):
+        pdf[i] = pdf[i] / total
+
+
+@numba.njit((_array(2), _F8), **_JIT)
+def boltzmann_exponents(q, beta):
+    """-beta (q - q.min(axis=-1)) of Q-values q (R, A), or an empty array if one is not finite.
+
+    action_model.action_log_likelihood's exponent (its check of q first).
+    """
+    n_rows, n_act = q.shape
+    for r in range(n_rows):
+        for a in range(n_act):
+            if not math.isfinite(q[r, a]):
+                return np.empty((0, n_act))
+    z = np.empty((n_rows, n_act))
+    neg_beta = -beta
+    for r in range(n_rows):
+        low = q[r, 0]
+        for a in range(n_act):
+            low = min(low, q[r, a])
+        for a in range(n_act):
+            z[r, a] = neg_beta * (q[r, a] - low)
+    return z
+
+
+@numba.njit((_array(2),), **_JIT)
+def row_sums(values):
+    """values.sum(axis=-1) of values (R, A), A <= 128 (numpy's pairwise order)."""
+    n_rows, n_act = values.shape
+    flat = values.ravel()
+    out = np.empty(n_rows)
+    for r in range(n_rows):
+        out[r] = _pairwise_sum(flat, r * n_act, n_act)
+    return out
+
+
+@numba.njit((_array(2), _array(1), _F8, _array(1), _F8, _F8), **_JIT)
+def shifted_log_model_terms(z, log_norm, a_obs, actions, sigma, log_gauss_norm):
+    """The shifted terms of logsumexp(log_p + log_gauss) and its shift per row.
+
+    With log_p = z - log_norm[r] (the Boltzmann log-probabilities of the R rows (R, A)) and
+    log_gauss = -0.5 ((a_obs - actions) / sigma)^2 - log_gauss_norm (A,): x = log_p +
+    log_gauss, top = x.max(axis=-1) (0 where not finite); returns x - top (R, A) and top (R,).
+    """
+    n_rows, n_act = z.shape
+    log_gauss = np.empty(n_act)
+    for a in range(n_act):
+        d = (a_obs - actions[a]) / sigma
+        log_gauss[a] = -0.5 * (d * d) - log_gauss_norm
+    x = np.empty((n_rows, n_act))
+    top = np.empty(n_rows)
+    for r in range(n_rows):
+        for a in range(n_act):
+            x[r, a] = (z[r, a] - log_norm[r]) + log_gauss[a]
+        t = _nan_max(x[r], 0, n_act)
+        if not math.isfinite(t):
+            t = 0.0
+        top[r] = t
+        for a in range(n_act):
+            x[r, a] = x[r, a] - t
+    return x, top
+
+
+@numba.njit((_array(1), _F8), **_JIT)
+def bounded(log_lik, max_ratio):
+    """action_model.bounded_log_likelihood of a flat (N,) array (a copy)."""
+    n = len(log_lik)
+    out = log_lik.copy()
+    for i in range(n):
+        if not math.isfinite(log_lik[i]):
+            return out
+    floor = _nan_max(log_lik, 0, n) - max_ratio
+    for i in range(n):
+        if not out[i] >= floor:
+            out[i] = floor
+    return out
+
+
+@numba.njit((_writable(1), _array(1), _array(3), _I8), **_JIT)
+def joint_log_likelihood(predicted, own, social, n_v):
+    """The exponents of the joint update and of its debugging summaries, in one buffer.
+
+    joint_bayes_step's summed and sanitized log-likelihood (N = L V,) of the own sensors'
+    (L,) and the H humans' (H, L, V) sources (each sanitized, added own first), then the
+    humans' raw sum (N,) sanitized (HiddenAgentBelief.last_likelihoods' "social"), then the
+    own sensors' sanitized (L,): a (2 N + L,) buffer for one np.exp. Clips `predicted` (N,)
+    at 0 in place (np.maximum(predicted, 0.0)).
+    """
+    n_l = len(own)
+    n = n_l * n_v
+    n_h = social.shape[0]
+    for i in range(n):  # np.maximum(predicted, 0.0): NaN stays
+        predicted[i] = max(predicted[i], 0.0)
+    out = np.empty(2 * n + n_l)
+    _sanitized(own, 0, n_l, out, 2 * n)
+    total = np.empty(n)
+    for i in range(n):
+        total[i] = out[2 * n + i // n_v]
+    flat = social.ravel()
+    rows = np.empty(n)
+    raw = np.zeros(n)
+    for h in range(n_h):
+        _sanitized(flat, h * n, n, rows, 0)
+        for i in range(n):
+            total[i] += rows[i]
+            raw[i] += flat[h * n + i]
+    _sanitized(total, 0, n, out, 0)
+    _sanitized(raw, 0, n, out, n)
+    return out
+
+
+@numba.njit((_array(1), _array(1), _F8, _I8), **_JIT)
+def joint_posterior(predicted, exp_total, floor, n_v):
+    """The joint posterior (L, V) and its floored marginals, or an empty joint if not finite.
+
+    joint_bayes_step after np.exp: predicted * exp(total) normalized; if every entry is finite,
+    floored and normalized again; then `floored_marginals`: the sums over v (numpy's pairwise
+    order along the contiguous axis) and over l (one by one), floored and normalized. An empty
+    joint (0, V) means a non-finite posterior (the caller falls back as bayes_step does).
+    """
+    n = len(predicted)
+    n_l = n // n_v
+    posterior = np.empty(n)
+    for i in range(n):
+        posterior[i] = predicted[i] * exp_total[i]
+    _normalize(posterior)
+    for i in range(n):
+        if not math.isfinite(posterior[i]):
+            return np.empty((0, n_v)), np.empty(0), np.empty(0)
+    for i in range(n):
+        if not posterior[i] >= floor:
+            posterior[i] = floor
+    _normalize(posterior)
+    by_l = np.empty(n_l)
+    for i in range(n_l):
+        by_l[i] = max(_pairwise_sum(posterior, i * n_v, n_v), floor)
+    by_v = np.zeros(n_v)
+    for i in range(n_l):
+        for j in range(n_v):
+            by_v[j] += posterior[i * n_v + j]
+    for j in range(n_v):
+        by_v[j] = max(by_v[j], floor)
+    _normalize(by_l)
+    _normalize(by_v)
+    return posterior.reshape(n_l, n_v), by_l, by_v
+
+
+@numba.njit((_array(2), _array(2), _F8, _array(1), _array(1), _F8, _F8, _F8, _F8, _B1),
+            **_JIT)
+def visible_counts(dist, bearing, heading, angles, depth, rng, half, tolerance, radius,
+                   full_circle):
+    """(P,) how many of each region's K points (P, K) the depth rays show free.
+
+    own_sensors.OwnSensors.visible_fraction after np.hypot and np.arctan2: the bearing
+    (arctan2 - heading) wrapped with np.remainder's arithmetic, the two neighbouring rays
+    (np.searchsorted, side "left"), and the point seen if inside the cone and range and the
+    shorter ray reaches it less `radius`.
+
+    Args:
+        dist: (P, K) distances [m].
+        bearing: (P, K) np.arctan2 of the relative positions [rad].
+        heading: the robot's heading [rad] (subtracted from bearing).
+        angles: (R,) ray directions, ascending [rad].
+        depth: (R,) depth along each ray [m].
+        rng: sensor range [m].
+        half: sensor half-angle [rad].
+        tolerance: cone edge tolerance [rad].
+        radius: a point is free if the ray reaches its distance less this [m].
+        full_circle: half >= pi (the rays wrap around).
+    """
+    n_p, n_k = dist.shape
+    n_rays = len(angles)
+    counts = np.zeros(n_p, dtype=np.int64)
+    for p in range(n_p):
+        for k in range(n_k):
+            b = _wrapped(bearing[p, k] - heading)
+            lo, hi = 0, n_rays  # np.searchsorted(angles, b): the first angles[i] >= b
+            while lo < hi:
+                mid = (lo + hi) // 2
+                if angles[mid] < b:
+                    lo = mid + 1
+                else:
+                    hi = mid
+            i1 = lo
+            d = dist[p, k]
+            if full_circle:
+                i1 = i1 % n_rays
+                i0 = (i1 - 1) % n_rays
+                inside = d <= rng
+            else:
+                i1 = min(i1, n_rays - 1)
+                i0 = max(i1 - 1, 0)
+                inside = (abs(b) <= half + tolerance) and (d <= rng)
+            reach = min(depth[i0], depth[i1])
+            if inside and reach >= d - radius:
+                counts[p] += 1
+    return counts
+
+
+@numba.njit((_F8, _F8, _array(2), _array(1, _I8), _array(1, _B1)), **_JIT)
+def lane_projections(x, y, segments, first_segment, numpy_path):
+    """Route.project_point(x, y) of one point on each of N lanes: (N,) arc lengths, laterals.
+
+    Per lane its segments' foot points, clamped to the segments, and the first closest one,
+    with the arithmetic of the path project_point takes: its Python loop (rel - t dir) for
+    up to 16 segments, Route._project's (x - (start + t dir)) beyond (numpy_path); for a
+    finite point (np.argmin's first minimum is then the loop's first strict one).
+
+    Args:
+        x: the point's x [m].
+        y: its y [m].
+        segments: (S, 6) every lane's segments in lane order: start x, y [m], unit direction
+            x, y, length [m], arc length at the start [m].
+        first_segment: (N + 1,) lane i's segments are first_segment[i]:first_segment[i + 1].
+        numpy_path: (N,) whether lane i has more than 16 segments.
+    """
+    n_lanes = len(first_segment) - 1
+    s_out = np.empty(n_lanes)
+    lateral_out = np.empty(n_lanes)
+    for lane in range(n_lanes):
+        best_d2, best_s, best_lateral = np.inf, 0.0, 0.0
+        for k in range(first_segment[lane], first_segment[lane + 1]):
+            sx, sy, dx, dy = segments[k, 0], segments[k, 1], segments[k, 2], segments[k, 3]
+            length, s0 = segments[k, 4], segments[k, 5]
+            rx, ry = x - sx, y - sy
+            t = min(max(rx * dx + ry * dy, 0.0), length)
+            if numpy_path[lane]:
+                ex, ey = x - (sx + t * dx), y - (sy + t * dy)
+            else:
+                ex, ey = rx - t * dx, ry - t * dy
+            d2 = ex * ex + ey * ey
+            if d2 < best_d2:
+                best_d2, best_s, best_lateral = d2, s0 + t, dx * ry - dy * rx
+        s_out[lane] = best_s
+        lateral_out[lane] = best_lateral
+    return s_out, lateral_out
+
+
+@numba.njit((_array(3), _array(3), _array(1), _F8, _array(1, _I8)), **_JIT)
+def speed_q_values(base, speeds, v_ref, weight, rows):
+    """Q* (L, V, A) of every traffic speed: the cheapest continuation with the speed feature.
+
+    social.SocialLikelihood._q_values after the candidates' evaluation: the speed feature
+    weight * sum_t (v[a, c, t] - v_ref)^2 (numpy's pairwise sum over the T steps, T <= 128)
+    added to base[k, a, c], the minimum over the continuations c (NaN if one is NaN), for
+    hypothesis l the kept scene rows[l].
+
+    Args:
+        base: (K, A, C) the kept scenes' totals without the speed feature.
+        speeds: (A, C, T) the plans' speeds [m/s].
+        v_ref: (V,) the traffic speeds [m/s].
+        weight: the speed feature's weight per planner step.
+        rows: (L,) each hypothesis' row of base.
+    """
+    n_kept, n_act, n_cont = base.shape
+    n_t = speeds.shape[2]
+    n_v = len(v_ref)
+    flat = speeds.ravel()
+    squares = np.empty(n_t)
+    speed = np.empty((n_v, n_act, n_cont))
+    for j in range(n_v):
+        for a in range(n_act):
+            for c in range(n_cont):
+                start = (a * n_cont + c) * n_t
+                for t in range(n_t):
+                    d = flat[start + t] - v_ref[j]
+                    squares[t] = d * d
+                speed[j, a, c] = weight * _pairwise_sum(squares, 0, n_t)
+    kept = np.empty((n_kept, n_v, n_act))
+    for k in range(n_kept):
+        for j in range(n_v):
+            for a in range(n_act):
+                low = base[k, a, 0] + speed[j, a, 0]
+                for c in range(n_cont):
+                    total = base[k, a, c] + speed[j, a, c]
+                    if math.isnan(total):
+                        low = total
+                        break
+                    low = min(low, total)
+                kept[k, j, a] = low
+    out = np.empty((len(rows), n_v, n_act))
+    for i in range(len(rows)):
+        out[i] = kept[rows[i]]
+    return out
+
+
+@numba.njit((_array(1), _array(1), _F8, _array(1, _B1), _array(1, _I8), _I8, _F8, _F8), **_JIT)
+def view_mask(dist, bearing, heading, candidates, ids, exclude_id, range_m, half_fov_rad):
+    """(N,) bool: the candidates inside a view, other than the object exclude_id.
+
+    human_scene.HumanScenes' view test after np.hypot and np.arctan2: dist <= range_m and
+    |wrap(bearing - heading)| <= half_fov_rad (the wrap with np.remainder's arithmetic).
+
+    Args:
+        dist: (N,) distances from the viewer [m].
+        bearing: (N,) np.arctan2 of the relative positions [rad].
+        heading: the viewer's heading [rad].
+        candidates: (N,) bool, the objects that may be kept.
+        ids: (n <= N,) the object ids of the first n rows (the others have none).
+        exclude_id: the id left out (the viewer's own).
+        range_m: the view's range [m].
+        half_fov_rad: its half-angle [rad].
+    """
+    n = len(dist)
+    keep = np.zeros(n, dtype=np.bool_)
+    for i in range(n):
+        if not candidates[i] or (i < len(ids) and ids[i] == exclude_id):
+            continue
+        keep[i] = dist[i] <= range_m and abs(_wrapped(bearing[i] - heading)) <= half_fov_rad
+    return keep
+
+
+@numba.njit((_array(1), _array(1, _B1), _array(1, _B1), _F8, _F8, _F8, _F8), **_JIT)
+def own_likelihoods(visible, present, detected, p_detect, p_false_alarm, p_no_false_alarm,
+                    probability_min):
+    """(L,) own_sensors.OwnSensors.log_likelihood's likelihoods, before np.log.
+
+    miss = min(max(1 - p_detect * visible, probability_min), 1) for the present hypotheses
+    (1 for "none"); with a detection p_detect for the matching hypotheses and p_false_alarm
+    miss for the others, else p_no_false_alarm miss.
+    """
+    n = len(visible)
+    any_detected = False
+    for i in range(n):
+        any_detected = any_detected or detected[i]
+    out = np.empty(n)
+    for i in range(n):
+        miss = min(max(1.0 - p_detect * visible[i], probability_min), 1.0) if present[i] else 1.0
+        if not any_detected:
+            out[i] = p_no_false_alarm * miss
+        else:
+            out[i] = p_detect if detected[i] else p_false_alarm * miss
+    return out
+
+
+@numba.njit((_array(2), _array(2)), **_JIT)
+def route_projections(xy, segments):
+    """Route.project of points (n, 2) [m]: arc length (n,) [m], lateral (n,) [m], segment (n,).
+
+    Route._project's arithmetic: each segment's foot point clamped to it, x - (start + t dir)
+    squared, the first closest segment (np.argmin; the only one for a single segment); for
+    finite points (the closest of a NaN distance is not np.argmin's).
+
+    Args:
+        xy: (n, 2) the points [m].
+        segments: (S, 6) the route's segments: start x, y [m], unit direction x, y, length [m],
+            arc length at the start [m].
+    """
+    n = len(xy)
+    s_out = np.empty(n)
+    lateral_out = np.empty(n)
+    k_out = np.zeros(n, dtype=np.int64)
+    for i in range(n):
+        x, y = xy[i, 0], xy[i, 1]
+        best_d2 = np.inf
+        for k in range(len(segments)):
+            sx, sy, dx, dy = segments[k, 0], segments[k, 1], segments[k, 2], segments[k, 3]
+            rx, ry = x - sx, y - sy
+            t = min(max(rx * dx + ry * dy, 0.0), segments[k, 4])
+            ex, ey = x - (sx + t * dx), y - (sy + t * dy)
+            d2 = ex * ex + ey * ey
+            if k == 0 or d2 < best_d2:
+                best_d2 = d2
+                s_out[i] = segments[k, 5] + t
+                lateral_out[i] = dx * ry - dy * rx
+                k_out[i] = k
+    return s_out, lateral_out, k_out
