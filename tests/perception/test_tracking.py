@@ -112,3 +112,90 @@ def test_inlined_kalman_steps_are_filterpy_bit_for_bit():
         assert all(np.array_equal(u, v) and np.array_equal(np.signbit(u), np.signbit(v))
                    for u, v in zip(a, b))
         x, P = a
+
+
+class _PerTrackReference:
+    """The tracker as it was before its tracks' states became Python floats: one filter per
+    track, np.dot for every product (kf_predict / kf_update's state arithmetic)."""
+
+    def __init__(self, tracker: Tracker):
+        self.t = tracker
+        self.filters, self.dv_cov, self.attrs, self.unseen = {}, {}, {}, {}
+
+    def update(self, decoded):
+        from numpy import dot
+
+        t = self.t
+        measured = {round(row[F["id"]]): row for row in decoded.objects}
+        seen = set(measured)
+        for oid in list(self.filters):
+            x, p_prev = self.filters[oid]
+            x_pred = dot(t._F, x) + 0
+            gain, p_next, dv_cov = t._covariance_step(p_prev, oid in measured)
+            if oid in measured:
+                z = measured[oid][F["x"]:F["vy"] + 1].astype(np.float64)
+                x_pred = x_pred + dot(gain, z - dot(t._H, x_pred))
+            else:
+                self.unseen[oid] += t.dt_s
+            self.filters[oid], self.dv_cov[oid] = (x_pred, p_next), dv_cov
+            if self.unseen[oid] > t.timeout_s:
+                del self.filters[oid], self.attrs[oid], self.unseen[oid], self.dv_cov[oid]
+        for oid, row in measured.items():
+            if oid not in self.filters:
+                self.filters[oid] = (row[F["x"]:F["vy"] + 1].astype(np.float64), t._R.copy())
+                self.dv_cov[oid] = 2.0 * t._R[2:, 2:]
+            self.attrs[oid] = (float(row[F["length"]]), float(row[F["width"]]),
+                               bool(row[F["is_pedestrian"]] > 0.5),
+                               float(np.arctan2(row[F["sin_psi"]], row[F["cos_psi"]])))
+            self.unseen[oid] = 0.0
+        ids = sorted(self.filters)
+        if not ids:
+            return None
+        states = np.array([self.filters[i][0] for i in ids])
+        attrs = np.array([self.attrs[i] for i in ids], dtype=np.float64)
+        from marl_social.perception.tracking import track_heading
+        return dict(  # noqa: C408
+            ids=np.array(ids), xy=states[:, :2], velocity=states[:, 2:],
+            pos_std_m=np.sqrt([0.5 * (self.filters[i][1][0, 0] + self.filters[i][1][1, 1])
+                               for i in ids]),
+            length_m=attrs[:, 0], width_m=attrs[:, 1], is_pedestrian=attrs[:, 2] > 0.5,
+            seen=np.array([i in seen for i in ids]),
+            age_unseen_s=np.array([self.unseen[i] for i in ids]),
+            heading_rad=track_heading(states[:, 2:], attrs[:, 3]),
+            velocity_change_cov=np.array([self.dv_cov[i] for i in ids]))
+
+
+@pytest.mark.parametrize("dtype", [np.float32, np.float64])
+def test_tracks_are_the_per_track_filters_bit_for_bit(dtype):
+    """Random scenes (objects appearing, hidden, timed out, repeated slots, zeros and signed
+    zeros, pedestrians, stopped objects): every TrackSet field has the reference's bits."""
+    rng = np.random.default_rng(7)
+    layout = ObservationLayout(n_slots=5, n_rays=2)
+    for trial in range(12):
+        tracker = Tracker(pos_noise_m=rng.uniform(0.0, 1.0), vel_noise_mps=rng.uniform(0.0, 1.0),
+                          accel_noise_mps2=rng.uniform(0.5, 3.0), timeout_s=rng.uniform(0.3, 2.0))
+        reference = _PerTrackReference(tracker)
+        for step in range(60):
+            obs = np.zeros(layout.size, dtype=dtype)
+            n = rng.integers(0, 6)
+            oids = rng.choice(np.arange(1, 8), size=n, replace=rng.random() < 0.8)
+            for k, oid in enumerate(oids):
+                base = EGO_DIM + k * len(SLOT_FIELDS)
+                values = rng.normal(0, 20, 4) * (rng.random(4) < 0.8)
+                values[rng.random(4) < 0.1] = -0.0
+                heading = rng.uniform(-np.pi, np.pi)
+                obs[base:base + len(SLOT_FIELDS)] = [
+                    1.0, oid, *values, math.cos(heading), math.sin(heading), 4.5, 1.8,
+                    float(rng.random() < 0.3)]
+            decoded = layout.decode(obs)
+            got, want = tracker.update(decoded), reference.update(decoded)
+            if want is None:
+                assert len(got) == 0
+                continue
+            for name, value in want.items():
+                have = getattr(got, name)
+                assert have.dtype == value.dtype and have.shape == value.shape, name
+                assert np.array_equal(have, value, equal_nan=True), (trial, step, name)
+                if value.dtype.kind == "f":
+                    assert np.array_equal(np.signbit(have), np.signbit(value)), (trial, name)
+            assert got.ids.dtype == np.int64
