@@ -101,8 +101,24 @@ class RoadRules:
 
 
 def _model_constants(model: DriverModel) -> tuple:
-    """(model.candidates, model.theta.as_array() read-only), once per (hashable) model."""
-    return cached_or_computed(_cached_model_constants, model)
+    """(model.candidates, model.theta.as_array() read-only), once per (hashable) model.
+
+    Remembered by identity too (a frozen model keeps its constants): hashing a DriverModel
+    (its fields, the weights' and the vehicle's) takes longer than the rest of this.
+    """
+    hit = _CONSTANTS_BY_MODEL.get(id(model))
+    if hit is not None and hit[0] is model:
+        return hit[1]
+    constants = cached_or_computed(_cached_model_constants, model)
+    if len(_CONSTANTS_BY_MODEL) >= _MAX_CONSTANTS_BY_MODEL:
+        _CONSTANTS_BY_MODEL.clear()
+    _CONSTANTS_BY_MODEL[id(model)] = (model, constants)
+    return constants
+
+
+# id(model) -> (model, its _model_constants); emptied when it reaches this many entries
+_MAX_CONSTANTS_BY_MODEL = 256
+_CONSTANTS_BY_MODEL: dict[int, tuple] = {}
 
 
 @functools.lru_cache(maxsize=256)
