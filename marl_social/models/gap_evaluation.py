@@ -34,7 +34,8 @@ from marl_social.models.candidates import (
     evaluate_candidates,
     zone_claims,
 )
-from marl_social.models.circle_gaps import MAX_KERNEL_OBJECTS, crosswalk_row, scene_circle_inputs
+from marl_social.models.circle_gaps import MAX_KERNEL_OBJECTS, scene_circle_inputs
+from marl_social.models.circle_gaps import crosswalk_rows as crosswalk_rows_of
 from marl_social.sim.agent_spec import VehicleParams
 from marl_social.sim.costs import OCCUPANCY_SOFTNESS_M, _polygon_edges
 from marl_social.sim.dynamics import DT_S
@@ -110,8 +111,7 @@ _LARGEST_SPEED_MPS = 1e6  # the kernels' v0 and s0 bounds (the curve-speed grid 
 _LARGEST_ARC_LENGTH_M = 1e12  # arc length along the plans then fits an int64 by far)
 _NO_CURVE = np.zeros(1)
 _NO_ZONES = (np.zeros((0, 1, 5)), np.zeros(0, dtype=np.int64))
-_NO_CROSSWALKS = np.zeros((0, 6))
-for _constant in (_NO_CURVE, *_NO_ZONES, _NO_CROSSWALKS):
+for _constant in (_NO_CURVE, *_NO_ZONES):
     _constant.setflags(write=False)
 _KERNELS: list = []  # [gap_kernels, cost_kernels] once loaded
 
@@ -190,25 +190,6 @@ def _no_zone_sums(n_hyp: int, n_t: int) -> np.ndarray:
     return out
 
 
-# id(crosswalks) -> (crosswalks, (W, 6) read-only crosswalk_row of each)
-_CROSSWALK_ROWS: dict[int, tuple] = {}
-
-
-def _crosswalk_rows(crosswalks: tuple) -> np.ndarray:
-    """(W, 6) circle_gaps.crosswalk_row of each crosswalk, remembered for the same tuple."""
-    if not crosswalks:
-        return _NO_CROSSWALKS
-    hit = _CROSSWALK_ROWS.get(id(crosswalks))
-    if hit is not None and hit[0] is crosswalks:
-        return hit[1]
-    rows = np.array([crosswalk_row(cw) for cw in crosswalks]).reshape(-1, 6)
-    rows.setflags(write=False)
-    if len(_CROSSWALK_ROWS) >= _MAX_PREPARED:
-        _CROSSWALK_ROWS.clear()
-    _CROSSWALK_ROWS[id(crosswalks)] = (crosswalks, rows)
-    return rows
-
-
 def _conflict_rows(scene: ScenePrediction, crosswalks: tuple, yield_zones: tuple,
                    yield_margin_s: float, dt: float) -> tuple:
     """What the kernels need of the conflict feature's crosswalks and zones.
@@ -224,7 +205,7 @@ def _conflict_rows(scene: ScenePrediction, crosswalks: tuple, yield_zones: tuple
     """
     if crosswalks and not (scene.mask & scene.is_pedestrian).any():  # the ego: a car
         crosswalks = ()
-    crosswalk_rows = _crosswalk_rows(crosswalks)
+    crosswalk_rows = crosswalk_rows_of(crosswalks)
     if not yield_zones:
         return (crosswalk_rows,) + _NO_ZONES + (_no_zone_sums(*scene.heading.shape[::2]),)
     edges = [_polygon_edges(polygon) for polygon, _ in yield_zones]
