@@ -257,7 +257,8 @@ class Tracker:
     def _covariance_step(self, p_prev: np.ndarray, measured: bool) -> tuple:
         """One step of a track's covariance, which does not depend on the measured values.
 
-        Computed by kf_predict / kf_update, bit for bit.
+        kf_predict's and kf_update's covariance arithmetic, bit for bit, each matrix computed
+        once (tests/perception/test_tracking.py).
 
         Args:
             p_prev: (4, 4) covariance before the step.
@@ -267,27 +268,38 @@ class Tracker:
             the Kalman gain (4, 4) (None when not measured), the covariance after the step
             (4, 4) and the velocity-change error covariance (2, 2) (`_velocity_change_cov`).
         """
-        zero = np.zeros(4)
-        _, p_pred = kf_predict(zero, p_prev, self._F, self._Q)
-        if measured:
-            s_inv = np.linalg.inv(dot(dot(self._H, p_pred), self._H.T) + self._R)
-            gain = dot(dot(p_pred, self._H.T), s_inv)
-            _, p_next = kf_update(zero, p_pred, zero, self._R, self._H)
-            return gain, p_next, self._velocity_change_cov(p_prev, p_pred)
-        return None, p_pred, self._velocity_change_cov(p_prev, None)
+        # kf_predict's covariance (its state, F 0 + 0, is not needed)
+        p_pred = (1 * 1) * dot(dot(self._F, p_prev), self._F.T) + self._Q
+        if not measured:
+            return None, p_pred, self._velocity_change_cov(p_prev, None)
+        # kf_update's covariance: its S, its K (the same operations as its own), Joseph form
+        s = dot(dot(self._H, p_pred), self._H.T) + self._R
+        s_inv = np.linalg.inv(s)
+        gain = dot(dot(p_pred, self._H.T), s_inv)
+        i_kh = np.eye(4) - dot(gain, self._H)
+        p_next = dot(dot(i_kh, p_pred), i_kh.T) + dot(dot(gain, self._R), gain.T)
+        return gain, p_next, self._velocity_change_cov(p_prev, p_pred, (s, s_inv))
 
-    def _velocity_change_cov(self, p_prev: np.ndarray, p_pred: np.ndarray | None) -> np.ndarray:
+    def _velocity_change_cov(self, p_prev: np.ndarray, p_pred: np.ndarray | None,
+                             known_inverse: tuple | None = None) -> np.ndarray:
         """(2, 2) error covariance of the tracked velocity change over the last step [m^2/s^2].
 
         Args:
             p_prev: (4, 4) covariance before the step.
             p_pred: (4, 4) predicted covariance of this step (None: the track coasted).
+            known_inverse: (a matrix, np.linalg.inv of it): reused when p_pred + R has the
+                same bytes (the same inverse; with H = I, S of the update is usually that sum).
         """
         if p_pred is None:
             gain_term = np.eye(4)
             p_new = self._F @ p_prev @ self._F.T + self._Q
         else:
-            gain = p_pred @ np.linalg.inv(p_pred + self._R)  # K with H = I
+            s = p_pred + self._R
+            if known_inverse is not None and s.tobytes() == known_inverse[0].tobytes():
+                s_inv = known_inverse[1]
+            else:
+                s_inv = np.linalg.inv(s)
+            gain = p_pred @ s_inv  # K with H = I
             gain_term = np.eye(4) - gain
             p_new = gain_term @ p_pred
         cross = gain_term @ self._F @ p_prev  # Cov(e_k, e_{k-1})

@@ -199,3 +199,41 @@ def test_tracks_are_the_per_track_filters_bit_for_bit(dtype):
                 if value.dtype.kind == "f":
                     assert np.array_equal(np.signbit(have), np.signbit(value)), (trial, name)
             assert got.ids.dtype == np.int64
+
+
+def _reference_covariance_step(t: Tracker, p_prev, measured):
+    """The covariance step as kf_predict / kf_update and a separate inverse compute it."""
+    from marl_social.perception.tracking import kf_predict, kf_update
+
+    zero = np.zeros(4)
+    _, p_pred = kf_predict(zero, p_prev, t._F, t._Q)
+    if measured:
+        gain = np.dot(np.dot(p_pred, t._H.T),
+                      np.linalg.inv(np.dot(np.dot(t._H, p_pred), t._H.T) + t._R))
+        _, p_next = kf_update(zero, p_pred, zero, t._R, t._H)
+        gain_term = np.eye(4) - p_pred @ np.linalg.inv(p_pred + t._R)
+        p_new = gain_term @ p_pred
+    else:
+        gain, p_next = None, p_pred
+        gain_term = np.eye(4)
+        p_new = t._F @ p_prev @ t._F.T + t._Q
+    cross = gain_term @ t._F @ p_prev
+    d = p_new + p_prev - cross - cross.T
+    return gain, p_next, 0.5 * (d[2:, 2:] + d[2:, 2:].T)
+
+
+def test_covariance_steps_are_kf_predict_and_kf_update_bit_for_bit():
+    rng = np.random.default_rng(11)
+    for _ in range(20):
+        tracker = Tracker(pos_noise_m=rng.uniform(0.0, 1.0), vel_noise_mps=rng.uniform(0.0, 1.0),
+                          accel_noise_mps2=rng.uniform(0.5, 3.0))
+        p = tracker._R.copy()
+        for _ in range(60):
+            measured = bool(rng.random() < 0.7)
+            got = tracker._covariance_step(p, measured)
+            want = _reference_covariance_step(tracker, p, measured)
+            for a, b in zip(got, want):
+                assert (a is None) == (b is None)
+                if a is not None:
+                    assert a.tobytes() == b.tobytes()
+            p = got[1]
