@@ -28,6 +28,7 @@ MIN_NOISE_STD = 1e-3  # measurement noise stds are at least this [m, m/s]
 # covariance nodes shared by trackers of one model (_CovarianceNode), per model: covariance bytes
 # -> node; a table is emptied when it reaches this many entries
 _MAX_COVARIANCE_STEPS = 4096
+_MAX_CHAIN_STEPS = 400  # Tracker._measured_chain stops here should it not reach a fixed point
 _COVARIANCE_NODES: dict[tuple, dict] = {}
 # slot columns of the measured state [x m, y m, vx m/s, vy m/s]
 # (consecutive in SLOT_FIELDS)
@@ -174,6 +175,7 @@ class Tracker:
         self._root = self._node(self._R.copy())  # a new track's covariance
         self._new_track_dv_cov = 2.0 * self._R[2:, 2:]
         self._f_rows, self._h_rows = self._F.tolist(), self._H.tolist()
+        self._measured_chain()
         self.reset()
 
     def reset(self) -> None:
@@ -233,6 +235,21 @@ class Tracker:
                                     headings[k])
         self._seen_now = set(measured)
         return self.tracks()
+
+    def _measured_chain(self) -> None:
+        """Compute the covariance steps of a track measured at every step, once per model.
+
+        The chain from R reaches its fixed point (a step to the same covariance) in about 90
+        steps; every new track walks it, so it is computed here rather than within decisions.
+        """
+        node = self._root
+        for _ in range(_MAX_CHAIN_STEPS):
+            step = node.steps[True]
+            if step is None:
+                step = node.steps[True] = self._node_step(node.p, True)
+            if step[1] is node:
+                return
+            node = step[1]
 
     def _node(self, p: np.ndarray) -> _CovarianceNode:
         """The shared node of covariance `p` (4, 4) (emptied at _MAX_COVARIANCE_STEPS nodes)."""
