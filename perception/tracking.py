@@ -140,6 +140,17 @@ class _CovarianceNode:
         self.pos_std_m = float(np.sqrt(0.5 * (p[0, 0] + p[1, 1])))
         self.steps: list = [None, None]
 
+    def __deepcopy__(self, memo: dict) -> _CovarianceNode:
+        """Itself: a shared entry of a cache (copying a tracker shares its nodes)."""
+        return self
+
+    def __reduce__(self) -> tuple:
+        """Pickled as its covariance alone (its steps are computed again where needed).
+
+        The nodes form chains (~90 steps to a fixed point) deeper than pickle's recursion.
+        """
+        return _CovarianceNode, (self.p,)
+
 
 class Tracker:
     """Kalman-filter tracks of what one agent has seen.

@@ -237,3 +237,23 @@ def test_covariance_steps_are_kf_predict_and_kf_update_bit_for_bit():
                 if a is not None:
                     assert a.tobytes() == b.tobytes()
             p = got[1]
+
+
+def test_copied_and_pickled_trackers_go_on_bit_for_bit():
+    """A tracker with long covariance chains deep-copies and pickles (the nodes are shared, or
+    pickled as their covariances) and its copies go on exactly as it does."""
+    import copy
+    import pickle
+
+    rng = np.random.default_rng(5)
+    tracker = Tracker()
+    steps = [_obs([(2, k, 0.0, 10.0 + rng.normal(), 0.0)] if k % 7 else []) for k in range(150)]
+    for decoded in steps[:120]:
+        tracker.update(decoded)
+    copies = [copy.deepcopy(tracker), pickle.loads(pickle.dumps(tracker))]
+    for decoded in steps[120:]:
+        want = tracker.update(decoded)
+        for other in copies:
+            got = other.update(decoded)
+            for name in want.__dataclass_fields__:
+                assert np.array_equal(getattr(got, name), getattr(want, name)), name
