@@ -25,13 +25,18 @@ from marl_social.sim.observation import SLOT_INDEX, DecodedObservation
 
 MOVING_MPS = 1.0  # below this tracked speed the heading is the measured box heading [m/s]
 MIN_NOISE_STD = 1e-3  # measurement noise stds are at least this [m, m/s]
-# covariance steps shared by trackers of one model (Tracker._covariance_step), per model; a
-# table is emptied when it reaches this many entries
+# covariance nodes shared by trackers of one model (_CovarianceNode), per model: covariance bytes
+# -> node; a table is emptied when it reaches this many entries
 _MAX_COVARIANCE_STEPS = 4096
-_COVARIANCE_STEPS: dict[tuple, dict] = {}
+_MAX_CHAIN_STEPS = 400  # Tracker._measured_chain stops here should it not reach a fixed point
+_COVARIANCE_NODES: dict[tuple, dict] = {}
 # slot columns of the measured state [x m, y m, vx m/s, vy m/s]
 # (consecutive in SLOT_FIELDS)
 _MEASURED_STATE = slice(SLOT_INDEX["x"], SLOT_INDEX["vy"] + 1)
+_ID, _X, _VY = SLOT_INDEX["id"], SLOT_INDEX["x"], SLOT_INDEX["vy"]
+_LENGTH, _WIDTH = SLOT_INDEX["length"], SLOT_INDEX["width"]
+_IS_PEDESTRIAN = SLOT_INDEX["is_pedestrian"]
+_SIN_PSI, _COS_PSI = SLOT_INDEX["sin_psi"], SLOT_INDEX["cos_psi"]
 
 
 def kf_predict(x: np.ndarray, P: np.ndarray, F: np.ndarray, Q: np.ndarray
@@ -113,8 +118,47 @@ class TrackSet:
         return self.xy[:, None, :] + self.velocity[:, None, :] * times_s[None, :, None]
 
 
+class _CovarianceNode:
+    """One covariance of a track and its two possible steps, shared by the tracks of a model.
+
+    With a fixed model (F, Q, R, H = I) the covariance sequence of a track depends only on
+    whether it was measured at each step: a track keeps the node of its current covariance,
+    and each step of a node is computed once (Tracker._covariance_step) and then followed.
+
+    Attributes:
+        p: (4, 4) the covariance.
+        pos_std_m: sqrt of its mean position variance [m] (TrackSet.pos_std_m).
+        steps: [coasting, measured] -> (Kalman gain (4, 4) or None when coasting, the node
+            after the step, the step's velocity-change error covariance (2, 2)); None: not
+            computed yet.
+    """
+
+    __slots__ = ("p", "pos_std_m", "steps")
+
+    def __init__(self, p: np.ndarray):
+        self.p = p
+        self.pos_std_m = float(np.sqrt(0.5 * (p[0, 0] + p[1, 1])))
+        self.steps: list = [None, None]
+
+    def __deepcopy__(self, memo: dict) -> _CovarianceNode:
+        """Itself: a shared entry of a cache (copying a tracker shares its nodes)."""
+        return self
+
+    def __reduce__(self) -> tuple:
+        """Pickled as its covariance alone (its steps are computed again where needed).
+
+        The nodes form chains (~90 steps to a fixed point) deeper than pickle's recursion.
+        """
+        return _CovarianceNode, (self.p,)
+
+
 class Tracker:
     """Kalman-filter tracks of what one agent has seen.
+
+    A track's state is kept as four Python floats and predicted and updated with kf_predict's
+    and kf_update's matrix products written out (`_matvec`: the same sums as np.dot of a (4, 4)
+    and a (4,), tests/perception/test_tracking.py); its covariance is a shared
+    `_CovarianceNode`.
 
     Args:
         pos_noise_m: position measurement noise std of the agent's sensor [m].
@@ -138,15 +182,20 @@ class Tracker:
                                          order_by_dim=False)
         self._F = np.array([[1, 0, dt_s, 0], [0, 1, 0, dt_s], [0, 0, 1, 0], [0, 0, 0, 1.0]])
         model = (self._F.tobytes(), self._Q.tobytes(), self._R.tobytes())
-        self._steps = _COVARIANCE_STEPS.setdefault(model, {})
+        self._nodes = _COVARIANCE_NODES.setdefault(model, {})
+        self._root = self._node(self._R.copy())  # a new track's covariance
+        self._new_track_dv_cov = 2.0 * self._R[2:, 2:]
+        self._f_rows, self._h_rows = self._F.tolist(), self._H.tolist()
+        self._measured_chain()
         self.reset()
 
     def reset(self) -> None:
         """Drop every track."""
-        self._filters: dict[int, tuple[np.ndarray, np.ndarray]] = {}  # id -> (x (4,), P (4, 4))
-        self._dv_cov: dict[int, np.ndarray] = {}  # id -> (2, 2) velocity-change error cov
-        self._attrs: dict[int, tuple[float, float, bool, float]] = {}  # length, width, ped, psi
-        self._unseen: dict[int, float] = {}
+        # id -> [state [x m, y m, vx m/s, vy m/s] (Python floats), covariance node,
+        # velocity-change error covariance (2, 2), time unseen [s]]
+        self._tracks: dict[int, list] = {}
+        # id -> last measured (length m, width m, is_pedestrian 1.0 / 0.0, box heading rad)
+        self._attrs: dict[int, tuple] = {}
         self._seen_now: set[int] = set()
 
     _H = np.eye(4)
@@ -158,43 +207,86 @@ class Tracker:
             decoded: the agent's decoded observation (its present slots are the measurements).
         """
         objects = decoded.objects
-        measured = {}
-        for row in objects:
-            oid = round(row[SLOT_INDEX["id"]])
-            measured[oid] = row
-        for oid in list(self._filters):
-            x, p_prev = self._filters[oid]
-            x_pred = dot(self._F, x) + 0  # kf_predict's state (F x + dot(B=1, u=0)), bit for bit
-            gain, p_next, dv_cov = self._covariance_step(p_prev, oid in measured)
-            if oid in measured:
-                z = measured[oid][_MEASURED_STATE].astype(np.float64)
-                x_pred = x_pred + dot(gain, z - dot(self._H, x_pred))  # kf_update's state
+        rows = objects.tolist()  # float32 -> float: exact
+        # object id -> its row (the last one, should an id repeat)
+        measured = {round(row[_ID]): k for k, row in enumerate(rows)}
+        f_rows, h_rows = self._f_rows, self._h_rows
+        for oid in list(self._tracks):
+            track = self._tracks[oid]
+            x, node = track[0], track[1]
+            k = measured.get(oid)
+            row = None if k is None else rows[k]
+            step = node.steps[row is not None]
+            if step is None:
+                step = node.steps[row is not None] = self._node_step(node.p, row is not None)
+            gain_rows, track[1], track[2] = step
+            # kf_predict's state F x + 0 (np.dot of a (4, 4) and a (4,): the same sums in the
+            # same order, tests/perception/test_tracking.py)
+            x = [value + 0 for value in _matvec(f_rows, x)]
+            if row is not None:  # kf_update's state x + K (z - H x)
+                innovation = [z - hx for z, hx in zip(row[_X:_VY + 1], _matvec(h_rows, x))]
+                x = [value + kz for value, kz in zip(x, _matvec(gain_rows, innovation))]
             else:
-                self._unseen[oid] += self.dt_s
-            self._filters[oid] = (x_pred, p_next)
-            self._dv_cov[oid] = dv_cov
-            if self._unseen[oid] > self.timeout_s:
-                del self._filters[oid], self._attrs[oid], self._unseen[oid]
-                del self._dv_cov[oid]
-        for oid, row in measured.items():
-            if oid not in self._filters:
-                self._filters[oid] = (row[_MEASURED_STATE].astype(np.float64), self._R.copy())
-                self._dv_cov[oid] = 2.0 * self._R[2:, 2:]
-            self._attrs[oid] = (float(row[SLOT_INDEX["length"]]), float(row[SLOT_INDEX["width"]]),
-                                bool(row[SLOT_INDEX["is_pedestrian"]] > 0.5),
-                                float(np.arctan2(row[SLOT_INDEX["sin_psi"]],
-                                                 row[SLOT_INDEX["cos_psi"]])))
-            self._unseen[oid] = 0.0
+                track[3] += self.dt_s
+                if track[3] > self.timeout_s:
+                    del self._tracks[oid], self._attrs[oid]
+                    continue
+            track[0] = x
+        if measured:
+            headings = np.arctan2(objects[:, _SIN_PSI], objects[:, _COS_PSI]).tolist()
+            for oid, k in measured.items():
+                row = rows[k]
+                track = self._tracks.get(oid)
+                if track is None:
+                    self._tracks[oid] = [row[_X:_VY + 1], self._root, self._new_track_dv_cov,
+                                         0.0]
+                else:
+                    track[3] = 0.0
+                self._attrs[oid] = (row[_LENGTH], row[_WIDTH], float(row[_IS_PEDESTRIAN] > 0.5),
+                                    headings[k])
         self._seen_now = set(measured)
         return self.tracks()
+
+    def _measured_chain(self) -> None:
+        """Compute the covariance steps of a track measured at every step, once per model.
+
+        The chain from R reaches its fixed point (a step to the same covariance) in about 90
+        steps; every new track walks it, so it is computed here rather than within decisions.
+        """
+        node = self._root
+        for _ in range(_MAX_CHAIN_STEPS):
+            step = node.steps[True]
+            if step is None:
+                step = node.steps[True] = self._node_step(node.p, True)
+            if step[1] is node:
+                return
+            node = step[1]
+
+    def _node(self, p: np.ndarray) -> _CovarianceNode:
+        """The shared node of covariance `p` (4, 4) (emptied at _MAX_COVARIANCE_STEPS nodes)."""
+        key = p.tobytes()
+        node = self._nodes.get(key)
+        if node is None:
+            if len(self._nodes) >= _MAX_COVARIANCE_STEPS:
+                self._nodes.clear()
+            node = self._nodes[key] = _CovarianceNode(p)
+        return node
+
+    def _node_step(self, p_prev: np.ndarray, measured: bool) -> tuple:
+        """_covariance_step of `p_prev`, for a `_CovarianceNode`'s steps.
+
+        Returns:
+            the gain's rows as floats (None: coasting), the node of the covariance after the
+            step and the velocity-change error covariance (2, 2).
+        """
+        gain, p_next, dv_cov = self._covariance_step(p_prev, measured)
+        return None if gain is None else gain.tolist(), self._node(p_next), dv_cov
 
     def _covariance_step(self, p_prev: np.ndarray, measured: bool) -> tuple:
         """One step of a track's covariance, which does not depend on the measured values.
 
-        With a fixed model (F, Q, R, H = I) the covariance sequence of a track depends only on
-        whether it was measured at each step, so the steps are computed once per distinct
-        covariance (by kf_predict / kf_update, bit for bit) and shared by every track and
-        every tracker with the same model.
+        kf_predict's and kf_update's covariance arithmetic, bit for bit, each matrix computed
+        once (tests/perception/test_tracking.py).
 
         Args:
             p_prev: (4, 4) covariance before the step.
@@ -204,35 +296,38 @@ class Tracker:
             the Kalman gain (4, 4) (None when not measured), the covariance after the step
             (4, 4) and the velocity-change error covariance (2, 2) (`_velocity_change_cov`).
         """
-        key = (p_prev.tobytes(), measured)
-        step = self._steps.get(key)
-        if step is None:
-            zero = np.zeros(4)
-            _, p_pred = kf_predict(zero, p_prev, self._F, self._Q)
-            if measured:
-                s_inv = np.linalg.inv(dot(dot(self._H, p_pred), self._H.T) + self._R)
-                gain = dot(dot(p_pred, self._H.T), s_inv)
-                _, p_next = kf_update(zero, p_pred, zero, self._R, self._H)
-                step = (gain, p_next, self._velocity_change_cov(p_prev, p_pred))
-            else:
-                step = (None, p_pred, self._velocity_change_cov(p_prev, None))
-            if len(self._steps) >= _MAX_COVARIANCE_STEPS:
-                self._steps.clear()
-            self._steps[key] = step
-        return step
+        # kf_predict's covariance (its state, F 0 + 0, is not needed)
+        p_pred = (1 * 1) * dot(dot(self._F, p_prev), self._F.T) + self._Q
+        if not measured:
+            return None, p_pred, self._velocity_change_cov(p_prev, None)
+        # kf_update's covariance: its S, its K (the same operations as its own), Joseph form
+        s = dot(dot(self._H, p_pred), self._H.T) + self._R
+        s_inv = np.linalg.inv(s)
+        gain = dot(dot(p_pred, self._H.T), s_inv)
+        i_kh = np.eye(4) - dot(gain, self._H)
+        p_next = dot(dot(i_kh, p_pred), i_kh.T) + dot(dot(gain, self._R), gain.T)
+        return gain, p_next, self._velocity_change_cov(p_prev, p_pred, (s, s_inv))
 
-    def _velocity_change_cov(self, p_prev: np.ndarray, p_pred: np.ndarray | None) -> np.ndarray:
+    def _velocity_change_cov(self, p_prev: np.ndarray, p_pred: np.ndarray | None,
+                             known_inverse: tuple | None = None) -> np.ndarray:
         """(2, 2) error covariance of the tracked velocity change over the last step [m^2/s^2].
 
         Args:
             p_prev: (4, 4) covariance before the step.
             p_pred: (4, 4) predicted covariance of this step (None: the track coasted).
+            known_inverse: (a matrix, np.linalg.inv of it): reused when p_pred + R has the
+                same bytes (the same inverse; with H = I, S of the update is usually that sum).
         """
         if p_pred is None:
             gain_term = np.eye(4)
             p_new = self._F @ p_prev @ self._F.T + self._Q
         else:
-            gain = p_pred @ np.linalg.inv(p_pred + self._R)  # K with H = I
+            s = p_pred + self._R
+            if known_inverse is not None and s.tobytes() == known_inverse[0].tobytes():
+                s_inv = known_inverse[1]
+            else:
+                s_inv = np.linalg.inv(s)
+            gain = p_pred @ s_inv  # K with H = I
             gain_term = np.eye(4) - gain
             p_new = gain_term @ p_pred
         cross = gain_term @ self._F @ p_prev  # Cov(e_k, e_{k-1})
@@ -241,22 +336,38 @@ class Tracker:
 
     def tracks(self) -> TrackSet:
         """The current tracks, ascending object id."""
-        ids = np.array(sorted(self._filters), dtype=np.int64)
-        if len(ids) == 0:
+        ids = sorted(self._tracks)
+        if not ids:
             z2 = np.zeros((0, 2))
             z0 = np.zeros(0)
-            return TrackSet(ids, z2, z2, z0, z0, z0, np.zeros(0, bool), np.zeros(0, bool), z0,
-                            z0, np.zeros((0, 2, 2)))
-        states = np.array([self._filters[i][0] for i in ids])
-        pos_var = np.array([0.5 * (self._filters[i][1][0, 0] + self._filters[i][1][1, 1])
-                            for i in ids])
-        attrs = np.array([self._attrs[i] for i in ids], dtype=np.float64)
+            return TrackSet(np.zeros(0, dtype=np.int64), z2, z2, z0, z0, z0, np.zeros(0, bool),
+                            np.zeros(0, bool), z0, z0, np.zeros((0, 2, 2)))
+        tracks = [self._tracks[i] for i in ids]
+        seen = self._seen_now
+        # one row per track: state (4), position std, length, width, is_pedestrian, seen,
+        # time unseen, measured box heading
+        table = np.array([[*track[0], track[1].pos_std_m, *self._attrs[i][:3],
+                           float(i in seen), track[3], self._attrs[i][3]]
+                          for i, track in zip(ids, tracks)])
         return TrackSet(
-            ids, states[:, :2], states[:, 2:], np.sqrt(pos_var), attrs[:, 0], attrs[:, 1],
-            attrs[:, 2] > 0.5, np.array([i in self._seen_now for i in ids]),
-            np.array([self._unseen[i] for i in ids]), track_heading(states[:, 2:], attrs[:, 3]),
-            np.array([self._dv_cov[i] for i in ids]),
+            np.array(ids, dtype=np.int64), table[:, 0:2], table[:, 2:4], table[:, 4],
+            table[:, 5], table[:, 6], table[:, 7] > 0.5, table[:, 8] > 0.5, table[:, 9],
+            track_heading(table[:, 2:4], table[:, 10]), np.array([track[2] for track in tracks]),
         )
+
+
+def _matvec(matrix_rows: list, vector: list) -> list:
+    """np.dot of a (4, 4) matrix and a (4,) vector, on Python floats.
+
+    Each row's four products summed left to right, as numpy sums them
+    (tests/perception/test_tracking.py).
+
+    Args:
+        matrix_rows: the matrix as 4 rows of 4 floats.
+        vector: 4 floats.
+    """
+    v0, v1, v2, v3 = vector
+    return [m0 * v0 + m1 * v1 + m2 * v2 + m3 * v3 for m0, m1, m2, m3 in matrix_rows]
 
 
 def track_heading(velocity_mps: np.ndarray, measured_heading_rad: np.ndarray) -> np.ndarray:

@@ -16,6 +16,9 @@ def boltzmann(q_values: np.ndarray, beta: float) -> np.ndarray:
     if math.isinf(beta):
         best = q == q.min(axis=-1, keepdims=True)
         return best / best.sum(axis=-1, keepdims=True)
+    if q.ndim == 1:  # one row (a planner's decision): the same reductions, no kept axis
+        p = np.exp(-beta * (q - q.min()))
+        return p / p.sum()
     z = -beta * (q - q.min(axis=-1, keepdims=True))
     p = np.exp(z)
     return p / p.sum(axis=-1, keepdims=True)

@@ -183,6 +183,8 @@ def scene_circle_inputs(scene) -> tuple[np.ndarray, ...]:
         return tuple(np.ascontiguousarray(a, dtype=np.float64) for a in (
             scene.xy, np.cos(scene.heading), np.sin(scene.heading), along, radius[..., 0]))
 
+    if scene.xy.flags.writeable:  # a scene of this step (e.g. from the tracks): nothing to recall
+        return compute()
     return _remembered(_last_kernel_inputs, (scene,), compute,
                        (scene.xy, scene.heading, scene.length_m, scene.width_m,
                         scene.is_pedestrian))
@@ -213,6 +215,30 @@ def scene_crosswalk_occupancy(scene, crosswalks: tuple) -> tuple[np.ndarray, ...
 
     return _remembered(_last_occupancy, (scene, crosswalks), compute,
                        (scene.xy, scene.radius_m))
+
+
+# id(crosswalks) -> (crosswalks, their read-only `crosswalk_rows`); emptied at 64 entries
+_CROSSWALK_ROWS: dict[int, tuple] = {}
+_NO_CROSSWALKS = np.zeros((0, 6))
+_NO_CROSSWALKS.setflags(write=False)
+
+
+def crosswalk_rows(crosswalks: tuple) -> np.ndarray:
+    """(W, 6) read-only `crosswalk_row` of each crosswalk, remembered for the same tuple.
+
+    The map's crosswalks (frozen, their centres never written) keep their rows.
+    """
+    if not crosswalks:
+        return _NO_CROSSWALKS
+    hit = _CROSSWALK_ROWS.get(id(crosswalks))
+    if hit is not None and hit[0] is crosswalks:
+        return hit[1]
+    rows = np.array([crosswalk_row(cw) for cw in crosswalks]).reshape(-1, 6)
+    rows.setflags(write=False)
+    if len(_CROSSWALK_ROWS) >= 64:
+        _CROSSWALK_ROWS.clear()
+    _CROSSWALK_ROWS[id(crosswalks)] = (crosswalks, rows)
+    return rows
 
 
 def crosswalk_row(crosswalk) -> tuple:

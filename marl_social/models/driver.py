@@ -101,8 +101,24 @@ class RoadRules:
 
 
 def _model_constants(model: DriverModel) -> tuple:
-    """(model.candidates, model.theta.as_array() read-only), once per (hashable) model."""
-    return cached_or_computed(_cached_model_constants, model)
+    """(model.candidates, model.theta.as_array() read-only), once per (hashable) model.
+
+    Remembered by identity too (a frozen model keeps its constants): hashing a DriverModel
+    (its fields, the weights' and the vehicle's) takes longer than the rest of this.
+    """
+    hit = _CONSTANTS_BY_MODEL.get(id(model))
+    if hit is not None and hit[0] is model:
+        return hit[1]
+    constants = cached_or_computed(_cached_model_constants, model)
+    if len(_CONSTANTS_BY_MODEL) >= _MAX_CONSTANTS_BY_MODEL:
+        _CONSTANTS_BY_MODEL.clear()
+    _CONSTANTS_BY_MODEL[id(model)] = (model, constants)
+    return constants
+
+
+# id(model) -> (model, its _model_constants); emptied when it reaches this many entries
+_MAX_CONSTANTS_BY_MODEL = 256
+_CONSTANTS_BY_MODEL: dict[int, tuple] = {}
 
 
 @functools.lru_cache(maxsize=256)
@@ -145,16 +161,22 @@ def rule_abiding_totals(ev: CandidateEvaluation, model: DriverModel, s0: float,
         rules: the road's rules (None: collision_free_totals).
     """
     totals = collision_free_totals(ev)
-    if rules is None:
+    # every plan keeping the rules leaves the totals as they are (np.where of all-True picks them)
+    if rules is None or (rules.stop_s_m is None and ev.curve_excess_mps is None):
         return totals
-    ok = np.ones(ev.v.shape[:2], dtype=bool)  # (A, C)
+    ok = None  # (A, C) the plans that keep the rules; None: every plan
     if rules.stop_s_m is not None:
         front = s0 + ev.travel_m[..., -1] + 0.5 * model.vehicle.length_m  # (A, C)
         overshoot = np.maximum(front - rules.stop_s_m, 0.0)
-        ok &= overshoot <= overshoot.min()
+        ok = overshoot <= overshoot.min()
     if ev.curve_excess_mps is not None:
-        excess = np.where(ok, np.maximum(ev.curve_excess_mps, 0.0), np.inf)
-        ok &= excess <= excess.min()
+        excess = np.maximum(ev.curve_excess_mps, 0.0)
+        if ok is not None:
+            excess = np.where(ok, excess, np.inf)
+        within = excess <= excess.min()
+        ok = within if ok is None else ok & within
+    if ok is None or ok.all():
+        return totals
     kept = np.where(ok, totals, np.inf)
     hopeless = ~np.isfinite(kept).any(axis=(-1, -2), keepdims=True)
     return np.where(hopeless, totals, kept)

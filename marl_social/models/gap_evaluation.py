@@ -21,6 +21,7 @@ of a plan along its route (lateral offset 0).
 """
 
 import math
+from dataclasses import dataclass
 
 import numpy as np
 
@@ -33,7 +34,8 @@ from marl_social.models.candidates import (
     evaluate_candidates,
     zone_claims,
 )
-from marl_social.models.circle_gaps import MAX_KERNEL_OBJECTS, crosswalk_row, scene_circle_inputs
+from marl_social.models.circle_gaps import MAX_KERNEL_OBJECTS, scene_circle_inputs
+from marl_social.models.circle_gaps import crosswalk_rows as crosswalk_rows_of
 from marl_social.sim.agent_spec import VehicleParams
 from marl_social.sim.costs import OCCUPANCY_SOFTNESS_M, _polygon_edges
 from marl_social.sim.dynamics import DT_S
@@ -67,11 +69,9 @@ def vehicle_gap_evaluation(cands: CandidateSet, theta: np.ndarray, v_ref_mps: fl
                                    scene, crosswalks, geometry=True, yield_zones=yield_zones,
                                    yield_margin_s=yield_margin_s, curve_speed=curve_speed,
                                    vehicle_gaps_only=True)
-    kernels, cost_kernels = _kernels()
-    dt = cands.plan_dt_s
-    plan = _plan_constants(cands)
-    n_first_actions, n_cont, n_t = plan.increments.shape
-    along, ego_circle_r = _vehicle_circles(vehicle.length_m, vehicle.width_m)
+    kernels, cost_kernels = _KERNELS or _kernels()
+    plan = _prepared_plan(cands, vehicle)
+    n_first_actions, n_cont, _ = plan.plan_shape
     scene_xy, cos_heading, sin_heading, scene_along, other_r = scene_circle_inputs(scene)
     n_hyp = len(scene.mask)
     weights = theta[1:6].astype(np.float64)  # speed, accel, jerk, safety, conflict
@@ -79,17 +79,17 @@ def vehicle_gap_evaluation(cands: CandidateSet, theta: np.ndarray, v_ref_mps: fl
     present = np.ascontiguousarray(scene.mask)
     crosswalk_rows, zone_rows, zone_sizes, zone_sums = _conflict_rows(
         scene, crosswalks if w_conflict != 0.0 else (), yield_zones if w_conflict != 0.0 else (),
-        yield_margin_s, dt)
+        yield_margin_s, plan.dt_s)
     (v, ds, a_eff, excess, exp_arg, clearance, vehicle_gap, occupancy,
      scene_occupancy) = kernels.plan_evaluation(
-        plan.increments.reshape(-1, n_t), n_cont, float(v0), float(s0), float(dt),
-        plan.continuations, cands.n_first, curve_speed is not None,
+        plan.increments, n_cont, float(v0), float(s0), float(plan.dt_s), plan.continuations,
+        plan.n_first, curve_speed is not None,
         _NO_CURVE if curve_speed is None else curve_speed.v_max_mps, CURVE_PROFILE_STEP_M,
-        route._cum_s, route._pose_table, along, ego_circle_r, scene_xy, cos_heading,
-        sin_heading, scene_along, other_r, np.ascontiguousarray(scene.radius_m, dtype=float),
-        present & ~scene.is_pedestrian, w_safety != 0.0,
-        0.5 * math.hypot(vehicle.length_m, vehicle.width_m), crosswalk_rows, zone_rows,
-        zone_sizes, OCCUPANCY_SOFTNESS_M)
+        route._cum_s, route._pose_table, plan.ego_along, plan.ego_circle_r, scene_xy,
+        cos_heading, sin_heading, scene_along, other_r,
+        np.ascontiguousarray(scene.radius_m, dtype=float), present & ~scene.is_pedestrian,
+        w_safety != 0.0, plan.ego_radius, crosswalk_rows, zone_rows, zone_sizes,
+        OCCUPANCY_SOFTNESS_M)
     if w_safety != 0.0:
         np.exp(exp_arg, out=exp_arg)
     if len(occupancy):
@@ -97,8 +97,8 @@ def vehicle_gap_evaluation(cands: CandidateSet, theta: np.ndarray, v_ref_mps: fl
         np.tanh(scene_occupancy, out=scene_occupancy)
     cost = cost_kernels.step_costs(v, a_eff, float(v_ref_mps), float(prev_accel), weights,
                                    exp_arg, present, occupancy, scene_occupancy,
-                                   present & scene.is_pedestrian, zone_sums, dt / DT_S)
-    plan_shape = (n_first_actions, n_cont, n_t)
+                                   present & scene.is_pedestrian, zone_sums, plan.cost_scale)
+    plan_shape = plan.plan_shape
     hyp_shape = (n_hyp, n_first_actions, n_cont)
     return CandidateEvaluation(
         cost.reshape((n_hyp,) + plan_shape), v.reshape(plan_shape), a_eff.reshape(plan_shape),
@@ -111,11 +111,83 @@ _LARGEST_SPEED_MPS = 1e6  # the kernels' v0 and s0 bounds (the curve-speed grid 
 _LARGEST_ARC_LENGTH_M = 1e12  # arc length along the plans then fits an int64 by far)
 _NO_CURVE = np.zeros(1)
 _NO_ZONES = (np.zeros((0, 1, 5)), np.zeros(0, dtype=np.int64))
+for _constant in (_NO_CURVE, *_NO_ZONES):
+    _constant.setflags(write=False)
+_KERNELS: list = []  # [gap_kernels, cost_kernels] once loaded
+
+
 def _kernels() -> tuple:
     """(gap_kernels, cost_kernels), imported at the first call (importing numba takes a while)."""
     from marl_social.models import kernel_loading
 
-    return kernel_loading.load()
+    _KERNELS[:] = kernel_loading.load()
+    return tuple(_KERNELS)
+
+
+@dataclass(frozen=True)
+class _PreparedPlan:
+    """What the kernels take of a CandidateSet and a vehicle, computed once per pair.
+
+    Attributes:
+        increments: (A C, T) the plans' speed increments (_PlanConstants.increments) [m/s].
+        continuations: (C,) continuation accelerations [m/s^2].
+        n_first: planner steps of the first action.
+        dt_s: the planner step [s] (cands.plan_dt_s).
+        cost_scale: dt_s / DT_S.
+        plan_shape: (A, C, T).
+        ego_along: (K,) the vehicle's covering circles' offsets [m]; ego_circle_r: their
+            radius [m]; ego_radius: half its diagonal [m].
+    """
+
+    increments: np.ndarray
+    continuations: np.ndarray
+    n_first: int
+    dt_s: float
+    cost_scale: float
+    plan_shape: tuple
+    ego_along: np.ndarray
+    ego_circle_r: float
+    ego_radius: float
+
+
+# id(cands) -> (cands, vehicle, _PreparedPlan) of the last pairs (the sets and vehicles are
+# frozen: the same objects give the same plan); emptied when it reaches this many entries
+_MAX_PREPARED = 64
+_PREPARED: dict[int, tuple] = {}
+
+
+def _prepared_plan(cands: CandidateSet, vehicle: VehicleParams) -> _PreparedPlan:
+    """The _PreparedPlan of (cands, vehicle), remembered for the same two objects."""
+    hit = _PREPARED.get(id(cands))
+    if hit is not None and hit[0] is cands and hit[1] is vehicle:
+        return hit[2]
+    plan = _plan_constants(cands)
+    n_t = plan.increments.shape[-1]
+    along, ego_circle_r = _vehicle_circles(vehicle.length_m, vehicle.width_m)
+    prepared = _PreparedPlan(
+        plan.increments.reshape(-1, n_t), plan.continuations, cands.n_first,
+        cands.plan_dt_s, cands.plan_dt_s / DT_S, plan.increments.shape, along,
+        ego_circle_r, 0.5 * math.hypot(vehicle.length_m, vehicle.width_m))
+    if len(_PREPARED) >= _MAX_PREPARED:
+        _PREPARED.clear()
+    _PREPARED[id(cands)] = (cands, vehicle, prepared)
+    return prepared
+
+
+# read-only (0, L, T) zeros by (L, T): the zone sums without zones
+_NO_ZONE_SUMS: dict[tuple, np.ndarray] = {}
+
+
+def _no_zone_sums(n_hyp: int, n_t: int) -> np.ndarray:
+    """Read-only zeros (0, n_hyp, n_t)."""
+    out = _NO_ZONE_SUMS.get((n_hyp, n_t))
+    if out is None:
+        out = np.zeros((0, n_hyp, n_t))
+        out.setflags(write=False)
+        if len(_NO_ZONE_SUMS) >= _MAX_PREPARED:
+            _NO_ZONE_SUMS.clear()
+        _NO_ZONE_SUMS[(n_hyp, n_t)] = out
+    return out
 
 
 def _conflict_rows(scene: ScenePrediction, crosswalks: tuple, yield_zones: tuple,
@@ -133,9 +205,9 @@ def _conflict_rows(scene: ScenePrediction, crosswalks: tuple, yield_zones: tuple
     """
     if crosswalks and not (scene.mask & scene.is_pedestrian).any():  # the ego: a car
         crosswalks = ()
-    crosswalk_rows = np.array([crosswalk_row(cw) for cw in crosswalks]).reshape(-1, 6)
+    crosswalk_rows = crosswalk_rows_of(crosswalks)
     if not yield_zones:
-        return (crosswalk_rows,) + _NO_ZONES + (np.zeros((0,) + scene.heading.shape[::2]),)
+        return (crosswalk_rows,) + _NO_ZONES + (_no_zone_sums(*scene.heading.shape[::2]),)
     edges = [_polygon_edges(polygon) for polygon, _ in yield_zones]
     zone_rows = np.zeros((len(edges), max(len(e) for e in edges), 5))
     for row, zone_edges in zip(zone_rows, edges):

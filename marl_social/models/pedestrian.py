@@ -16,7 +16,7 @@ from marl_social.models.candidates import ScenePrediction
 from marl_social.models.circle_gaps import (
     MAX_KERNEL_OBJECTS,
     circle_pair_gap,
-    crosswalk_row,
+    crosswalk_rows,
     scene_circle_inputs,
     scene_circles,
 )
@@ -70,10 +70,21 @@ def _model_constants(model: PedestrianModel) -> tuple:
         plan times (T,) [s], candidate speeds (A,) [m/s], theta (N_FEATURES,), the covering
         circles' radii (C,) [m] of its disc, and speeds x times (A, T) [m].
     """
+    hit = _CONSTANTS_BY_MODEL.get(id(model))  # a frozen model keeps its constants
+    if hit is not None and hit[0] is model:
+        return hit[1]
     try:
-        return _cached_model_constants(model)
+        constants = _cached_model_constants(model)
     except TypeError:  # a field that cannot be hashed (e.g. speeds given as a list)
-        return _cached_model_constants.__wrapped__(model)
+        constants = _cached_model_constants.__wrapped__(model)
+    if len(_CONSTANTS_BY_MODEL) >= 64:
+        _CONSTANTS_BY_MODEL.clear()
+    _CONSTANTS_BY_MODEL[id(model)] = (model, constants)
+    return constants
+
+
+# id(model) -> (model, its _model_constants): hashing a model takes longer than a lookup
+_CONSTANTS_BY_MODEL: dict[int, tuple] = {}
 
 
 @functools.lru_cache(maxsize=64)
@@ -115,16 +126,13 @@ def _compiled_q_values(model: PedestrianModel, route: Route, s0: float, v_ref: f
 
     np.exp of the safety feature and np.tanh of the crosswalk occupancies in numpy.
     """
-    from marl_social.models import kernel_loading
-
-    gap_kernels, kernels = kernel_loading.load()
+    gap_kernels, kernels = _KERNELS or _kernels()
     _, speeds, theta, ego_radius, speed_times = _model_constants(model)
     weights = theta[1:6].astype(np.float64)  # speed, accel, jerk, safety, conflict
     w_safety, w_conflict = weights[3], weights[4]
     pair = scene.mask & ~scene.is_pedestrian  # (L, M) the vehicles present
     use_crosswalks = w_conflict != 0.0 and crosswalks and pair.any()
-    rows = np.array([crosswalk_row(cw) for cw in crosswalks] if use_crosswalks else ()
-                    ).reshape(-1, 6)
+    rows = crosswalk_rows(crosswalks if use_crosswalks else ())
     exp_arg, occupancy, scene_occupancy = gap_kernels.walk_geometry(
         speed_times, float(s0), route.length_m, route._cum_s, route._pose_table,
         float(ego_radius[0]), *scene_circle_inputs(scene),
@@ -139,6 +147,17 @@ def _compiled_q_values(model: PedestrianModel, route: Route, s0: float, v_ref: f
                               float(model.plan_dt_s), weights, exp_arg,
                               np.ascontiguousarray(scene.mask), occupancy, scene_occupancy,
                               pair, model.plan_dt_s / DT_S)
+
+
+_KERNELS: list = []  # [gap_kernels, cost_kernels] once loaded
+
+
+def _kernels() -> tuple:
+    """(gap_kernels, cost_kernels), imported at the first call (models/kernel_loading.py)."""
+    from marl_social.models import kernel_loading
+
+    _KERNELS[:] = kernel_loading.load()
+    return tuple(_KERNELS)
 
 
 def _numpy_q_values(model: PedestrianModel, route: Route, s0: float, v_ref: float,
