@@ -221,11 +221,13 @@ def bench_planners(n_episodes: int = 3, robot_planner: str = "social", echo=prin
     if scenario not in PLANNER_BENCH_SITUATIONS:
         raise ValueError(f"bench planners: scenario {scenario!r} must be one of "
                          f"{tuple(PLANNER_BENCH_SITUATIONS)}")
-    # the planners' compiled kernels (models/gap_kernels.py, cost_kernels.py) load once per
-    # process (~0.7 s from numba's cache; a cold cache compiles them): not inside the timing
+    # the planners' and the belief's compiled kernels load once per process (~1-2 s from
+    # numba's cache; a cold cache compiles them): not inside the timing
     from marl_social.models import kernel_loading
+    from marl_social.perception.belief import compiled
 
     kernel_loading.load()
+    compiled.kernels()
 
     decide: dict[str, list] = {}
     mpc_s: list[float] = []  # the robot's MPC solve alone, within its decision

@@ -36,17 +36,26 @@ def _cache_dir() -> Path:
 
 
 def _will_compile(here: Path | None = None) -> bool:
-    """Whether a kernel file in `here` (default: this package) has no cache index newer than it.
+    """Whether a planner kernel file in `here` (default: this package) will compile."""
+    return will_compile(Path(__file__).parent if here is None else here, _KERNEL_FILES)
+
+
+def will_compile(folder: Path, names: tuple[str, ...]) -> bool:
+    """Whether a kernel file folder/NAME.py has no numba cache index at least as new as it.
 
     False when the cache folder cannot be written: numba then caches elsewhere
-    (NUMBA_CACHE_DIR or the user's cache) and this cannot tell.
+    (NUMBA_CACHE_DIR or the user's cache) and this cannot tell. Also used by the belief's
+    kernels (perception/belief/compiled.py).
+
+    Args:
+        folder: the kernel modules' folder (numba caches in its __pycache__).
+        names: the kernel modules' names, without ".py".
     """
-    here = Path(__file__).parent if here is None else here
-    cache = here / "__pycache__"
+    cache = folder / "__pycache__"
     if os.environ.get("NUMBA_CACHE_DIR") or (cache.exists() and not os.access(cache, os.W_OK)):
         return False
-    for name in _KERNEL_FILES:
-        source = (here / f"{name}.py").stat().st_mtime
+    for name in names:
+        source = (folder / f"{name}.py").stat().st_mtime
         index = list(cache.glob(f"{name}.*.nbi")) if cache.exists() else []
         # index files of functions at old line numbers stay behind: the newest one counts
         if not index or max(p.stat().st_mtime for p in index) < source:

@@ -10,9 +10,10 @@ models/kernel_loading does for the planners' kernels.
 from __future__ import annotations
 
 import logging
-import os
 from pathlib import Path
 from types import ModuleType
+
+from marl_social.models.kernel_loading import will_compile
 
 # the longest contiguous sum the kernels take (belief_kernels._pairwise_sum: numpy's pairwise
 # block, no further split); longer rows stay in numpy
@@ -34,14 +35,5 @@ def kernels() -> ModuleType:
 
 
 def _will_compile() -> bool:
-    """Whether belief_kernels.py has no numba cache index at least as new as it.
-
-    False when numba caches elsewhere (NUMBA_CACHE_DIR, or a cache folder it cannot write):
-    this cannot tell then.
-    """
-    source = Path(__file__).with_name("belief_kernels.py")
-    cache = source.with_name("__pycache__")
-    if os.environ.get("NUMBA_CACHE_DIR") or (cache.exists() and not os.access(cache, os.W_OK)):
-        return False
-    index = list(cache.glob("belief_kernels.*.nbi")) if cache.exists() else []
-    return not index or max(p.stat().st_mtime for p in index) < source.stat().st_mtime
+    """Whether belief_kernels.py has no numba cache index at least as new as it."""
+    return will_compile(Path(__file__).parent, ("belief_kernels",))
