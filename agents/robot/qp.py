@@ -410,34 +410,25 @@ class ContingencyQp:
         lb, ub = tree.bounds(lower, upper, prev_accel)
         alpha, beta = tree.costs(weights, comfort, goal_weight, goal_m, v_ref_mps,
                                  self.weights, self.dt_s, self.first_dt_s)
-        status, accel, speed, progress, info = tree.solve(alpha, beta, lb, ub,
-                                                          np.array([v0, 0.0, prev_accel]))
-        if status != 0 and not (info[0] <= TREE_PRIMAL_TOL and info[2] <= TREE_POLISH_MU):
-            return None
-        x = np.zeros(self.n_vars)
-        x[:self._v_off] = accel
-        x[self._v_idx] = speed
-        x[self._s_idx] = progress
-        # the slacks: the braking beyond the comfortable deceleration (the optimum's, and a
-        # value meeting the rows where the slack costs nothing)
-        comfort_lower = lower[self._rows["comfort"]]
-        x[self._c_off:] = np.where(comfort_lower > -_INF, np.maximum(0.0, comfort_lower - accel),
-                                   0.0)
+        status, x, info = tree.solve(alpha, beta, lb, ub, np.array([v0, 0.0, prev_accel]),
+                                     lower)
         p_values = self._p_values(weights, comfort, goal_weight)
-        if status != 0:
+        if status != 0:  # polished if it settled (primal feasible, mu small), else None
+            if not (info[0] <= TREE_PRIMAL_TOL and info[2] <= TREE_POLISH_MU):
+                return None
             exact = self._active_set.solve_near(p_values, self._q_last, lower, upper, x,
                                                 TREE_POLISH_NEAR)
             if exact is None:
                 return None
             x, _, cost = exact
-            return QpSolution(True, cost, x[self._a_idx], x[self._v_idx], x[self._s_idx])
-        if not np.all(np.isfinite(x)):
+        elif np.all(np.isfinite(x)):
+            ax = self._a_matrix @ x
+            if max(float(np.max(lower - ax)), float(np.max(ax - upper))) > TREE_PRIMAL_TOL:
+                return None
+            cost = float(np.dot(p_values * self._p_offdiag * x[self._p_rows],
+                                x[self._p_cols]) + self._q_last @ x)
+        else:
             return None
-        ax = self._a_matrix @ x
-        if max(float(np.max(lower - ax)), float(np.max(ax - upper))) > TREE_PRIMAL_TOL:
-            return None
-        cost = float(np.dot(p_values * self._p_offdiag * x[self._p_rows], x[self._p_cols])
-                     + self._q_last @ x)
         return QpSolution(True, cost, x[self._a_idx], x[self._v_idx], x[self._s_idx])
 
     def _solve_osqp(self, weights: np.ndarray, lower: np.ndarray, upper: np.ndarray,

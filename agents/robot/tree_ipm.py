@@ -24,9 +24,12 @@ step costs O(nodes) = O(n_trunk + L (N - n_trunk)) small dense operations: linea
 primal iterate always meets the dynamics (it is rolled out from the root). It stops when the
 constraints hold to PRIMAL_TOL, the complementarity mu is below MU_TOL and the stationarity of
 the controls, with the costates of the current multipliers, holds to DUAL_TOL (relative): the
-KKT conditions of the QP. Without convergence within MAX_ITER (an infeasible QP, or numerical
-trouble) it reports failure and the caller falls back (qp.py: OSQP and the exact active set,
-which tells an infeasible QP).
+KKT conditions of the QP. At a degenerate optimum (more rows active than the controls, or
+rows active with a zero multiplier: a robot held at a stop line over many steps) the iterate
+settles while the multipliers drift: it stops there (status 3) and the caller makes the iterate
+exact with the active-set solve (qp.py, active_set.solve_near). Without convergence within
+MAX_ITER (an infeasible QP, or numerical trouble) it reports failure and the caller falls
+back (qp.py: OSQP and the exact active set, which tells an infeasible QP).
 
 The kernel is compiled by numba at its first call (cache=True: a few seconds once, then read
 from the cache), deterministic (no fast-math, no threads).
@@ -152,8 +155,7 @@ def _dot5(a, b):
 
 
 @numba.njit(cache=True)
-def tree_ipm(parent, x0, fg, out_rows, alpha, beta, rows, lb, ub, max_iter, primal_tol,
-             dual_tol, mu_tol, stall_mu, step_fraction):
+def tree_ipm(parent, x0, fg, out_rows, alpha, beta, rows, lb, ub, settings):
     """Mehrotra's predictor-corrector on the tree QP (module docstring).
 
     Args:
@@ -166,19 +168,19 @@ def tree_ipm(parent, x0, fg, out_rows, alpha, beta, rows, lb, ub, max_iter, prim
         rows: (n, 7, 5) each node's constraint rows D.
         lb: (n, 7) lower bounds (-inf: none).
         ub: (n, 7) upper bounds (inf: none).
-        max_iter: MAX_ITER.
-        primal_tol: PRIMAL_TOL.
-        dual_tol: DUAL_TOL.
-        mu_tol: MU_TOL.
-        stall_mu: STALL_MU.
-        step_fraction: STEP_FRACTION.
+        settings: (7,) MAX_ITER, PRIMAL_TOL, DUAL_TOL, MU_TOL, STALL_MU, STALL_DUAL,
+            STEP_FRACTION.
 
     Returns:
         (status, iterations, z, x_next, info): status 0 converged, 1 not within max_iter, 2 a
         singular Newton system, 3 stalled (primal feasible, mu <= stall_mu, the dual residual
-        growing: a degenerate optimum, for the caller to polish); z (n, 5) the nodes' (x, u); x_next (n, 3) their next states;
-        info (3,) the last primal residual, relative dual residual and mu.
+        growing: a degenerate optimum, for the caller to polish); z (n, 5) the nodes' (x, u);
+        x_next (n, 3) their next states; info (3,) the last primal residual, relative dual
+        residual and mu.
     """
+    max_iter, primal_tol, dual_tol, mu_tol = int(settings[0]), settings[1], settings[2], \
+        settings[3]
+    stall_mu, stall_dual, step_fraction = settings[4], settings[5], settings[6]
     n = parent.shape[0]
     m = 2 * N_ROWS * n
     # one-sided rows i = 2 (7 j + r) + side: side 0 D z - lb >= 0, side 1 ub - D z >= 0
@@ -189,10 +191,7 @@ def tree_ipm(parent, x0, fg, out_rows, alpha, beta, rows, lb, ub, max_iter, prim
             i = 2 * (N_ROWS * j + r)
             bound[i], live[i] = lb[j, r], np.isfinite(lb[j, r])
             bound[i + 1], live[i + 1] = -ub[j, r], np.isfinite(ub[j, r])
-    n_live = 0
-    for i in range(m):
-        n_live += live[i]
-    n_live = max(1, n_live)
+    n_live = max(1, int(live.sum()))
     h0 = np.zeros((n, 5, 5))
     lin = np.zeros((n, 5))
     scale = 1.0
@@ -207,35 +206,15 @@ def tree_ipm(parent, x0, fg, out_rows, alpha, beta, rows, lb, ub, max_iter, prim
     z = np.zeros((n, 5))
     x_next = np.zeros((n, 3))
     for j in range(n):  # start: a = 0 within its bounds, the slack 1
-        a = 0.0
-        if np.isfinite(lb[j, 4]):
-            a = max(a, lb[j, 4])
-        if np.isfinite(ub[j, 4]):
-            a = min(a, ub[j, 4])
-        z[j, 3] = a
-        z[j, 4] = 1.0
+        z[j, 3], z[j, 4] = min(max(0.0, lb[j, 4]), ub[j, 4]), 1.0
     _rollout(parent, x0, fg, z, x_next)
-    value = np.empty(m)
-    slack = np.ones(m)
-    mult = np.zeros(m)
-    resid_p = np.zeros(m)
-    sigma = np.zeros(m)
-    comp = np.zeros(m)
-    d_slack = np.zeros(m)
-    d_mult = np.zeros(m)
-    grad = np.empty((n, 5))
-    rho = np.empty((n, 5))
-    dz = np.empty((n, 5))
-    hess = np.empty((n, 5, 5))
-    quu_inv = np.empty((n, 2, 2))
-    gain = np.empty((n, 2, 3))
-    work33 = np.empty((n, 3, 3))
-    work3 = np.empty((n, 3))
-    work3b = np.empty((n, 3))
-    work2 = np.empty((n, 2))
-    h55 = np.empty((5, 5))
-    info = np.zeros(3)
-    last_d = np.inf
+    value, slack, mult, resid_p = np.empty(m), np.ones(m), np.zeros(m), np.zeros(m)
+    sigma, comp, d_slack, d_mult = np.zeros(m), np.zeros(m), np.zeros(m), np.zeros(m)
+    grad, rho, dz = np.empty((n, 5)), np.empty((n, 5)), np.empty((n, 5))
+    hess, quu_inv, gain = np.empty((n, 5, 5)), np.empty((n, 2, 2)), np.empty((n, 2, 3))
+    work33, work3, work3b, work2 = (np.empty((n, 3, 3)), np.empty((n, 3)), np.empty((n, 3)),
+                                    np.empty((n, 2)))
+    h55, info, last_d = np.empty((5, 5)), np.zeros(3), np.inf
     for it in range(max_iter + 1):
         for j in range(n):
             for r in range(N_ROWS):
@@ -283,7 +262,7 @@ def tree_ipm(parent, x0, fg, out_rows, alpha, beta, rows, lb, ub, max_iter, prim
         if worst_p <= primal_tol and worst_d <= dual_tol * scale and mu <= mu_tol:
             return 0, it, z, x_next, info
         if (worst_p <= primal_tol and mu <= stall_mu and worst_d > last_d
-                and worst_d > STALL_DUAL * dual_tol * scale):
+                and worst_d > stall_dual * dual_tol * scale):
             # the iterate has settled but its multipliers drift (a degenerate optimum, whose
             # multipliers are not unique or not bounded): the caller polishes the iterate
             return 3, it, z, x_next, info
@@ -378,7 +357,7 @@ class TreeLayout:
 
     def __init__(self, qp, headway_s: np.ndarray):
         L, N, nt, dt = qp.n_branches, qp.n_steps, qp.n_trunk, qp.dt_s
-        self.n_branches, self.n_trunk = L, nt
+        self.n_trunk, self.n_vars, self._c_off = nt, qp.n_vars, qp._c_off
         n = qp._v_off  # one node per acceleration variable
         self.n_nodes = n
         self.parent = np.arange(-1, n - 1, dtype=np.int64)
@@ -386,7 +365,6 @@ class TreeLayout:
         step = np.empty(n, np.int64)
         step[qp._a_idx] = np.arange(N)[None, :]
         self.step = step
-        self.is_trunk = np.arange(n) < nt
         self.fg = np.array([[1.0, 0.0, 0.0, dt, 0.0],
                             [dt, 1.0, 0.0, 0.5 * dt * dt, 0.0],
                             [0.0, 0.0, 0.0, 1.0, 0.0]])
@@ -406,7 +384,8 @@ class TreeLayout:
         self._grid = np.stack([r["speed"], r["low"], r["up"]])  # (3, L, N) qp.py's rows
         self._var_rows = np.stack([r["jerk"], r["accel"], r["comfort"], r["slack"]], axis=1)
         self._branch_nodes = qp._a_idx[:, nt:]  # (L, N - nt)
-        self._a_idx = qp._a_idx
+        self._a_idx, self._v_idx, self._s_idx = qp._a_idx, qp._v_idx, qp._s_idx
+        self._comfort_rows = r["comfort"]
         # which branches share each node (the trunk: all)
         member = np.zeros((n, L))
         member[qp._a_idx, np.arange(L)[:, None]] = 1.0
@@ -454,8 +433,8 @@ class TreeLayout:
         return alpha, beta
 
     def solve(self, alpha: np.ndarray, beta: np.ndarray, lb: np.ndarray, ub: np.ndarray,
-              x0: np.ndarray) -> tuple[int, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-        """(status, a (n,), v (L, N), s (L, N), info) of the tree QP (`tree_ipm`'s status, info).
+              x0: np.ndarray, lower: np.ndarray) -> tuple[int, np.ndarray, np.ndarray]:
+        """(status, x, info): `tree_ipm`'s status and info, x (n_vars,) qp.py's (a, v, s, c).
 
         Args:
             alpha: (n, 5) the nodes' quadratic costs (`costs`).
@@ -463,10 +442,12 @@ class TreeLayout:
             lb: (n, 7) the nodes' lower bounds (`bounds`).
             ub: (n, 7) their upper bounds.
             x0: (3,) the root's state: speed [m/s], 0 [m], the previous command [m/s^2].
+            lower: (m,) qp.py's lower bounds (its comfort rows give the slacks).
 
         A node whose slack costs nothing (every branch through it has comfort factor 0) has
-        its comfort and slack rows dropped and a unit cost on its slack (which then stays 0):
-        the QP's slack there is any value meeting its rows, set by the caller.
+        its comfort and slack rows dropped and a unit cost on its slack (which then stays 0).
+        x's slacks are the braking beyond the comfortable deceleration: the optimum's where a
+        slack costs, a value meeting the rows at no cost where it does not.
         """
         free = alpha[:, 4] <= 0.0
         if free.any():
@@ -475,8 +456,16 @@ class TreeLayout:
             lb, ub = lb.copy(), ub.copy()
             lb[free, 5:] = -np.inf
             ub[free, 5:] = np.inf
+        settings = np.array([MAX_ITER, PRIMAL_TOL, DUAL_TOL, MU_TOL, STALL_MU, STALL_DUAL,
+                             STEP_FRACTION], dtype=np.float64)
         status, _, z, x_next, info = tree_ipm(self.parent, x0, self.fg, self.out_rows, alpha,
-                                              beta, self.rows, lb, ub, MAX_ITER, PRIMAL_TOL,
-                                              DUAL_TOL, MU_TOL, STALL_MU, STEP_FRACTION)
-        nodes = self._a_idx
-        return status, z[:, 3], x_next[nodes, 0], x_next[nodes, 1], info
+                                              beta, self.rows, lb, ub, settings)
+        x = np.zeros(self.n_vars)
+        accel = z[:, 3]
+        x[:self.n_nodes] = accel
+        x[self._v_idx] = x_next[self._a_idx, 0]
+        x[self._s_idx] = x_next[self._a_idx, 1]
+        comfort_lower = lower[self._comfort_rows]
+        x[self._c_off:] = np.where(comfort_lower > -_NO_BOUND,
+                                   np.maximum(0.0, comfort_lower - accel), 0.0)
+        return status, x, info

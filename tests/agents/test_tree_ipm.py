@@ -39,7 +39,8 @@ def _tree_status(problem: qp.ContingencyQp, args: dict) -> int:
     alpha, beta = tree.costs(args["weights"], args["comfort"], args["goal_weight"],
                              args["goal_m"], args["v_ref_mps"], WEIGHTS, CONFIG.plan_dt_s,
                              problem.first_dt_s)
-    return tree.solve(alpha, beta, lb, ub, np.array([args["v0"], 0.0, args["prev_accel"]]))[0]
+    x0 = np.array([args["v0"], 0.0, args["prev_accel"]])
+    return tree.solve(alpha, beta, lb, ub, x0, lower)[0]
 
 
 def _agrees_with_tight_osqp(args: dict) -> None:
