@@ -160,14 +160,8 @@ class ActiveSetSolver:
             x_guess: (n,) the iterate's primal variables.
             y_guess: (m,) its multipliers (> 0 pushing against an upper bound).
         """
-        p_full = self._p_full
-        p_full.data = p_values[self._p_full_take]
-        kkt_values = self._t_constant.copy()
-        kkt_values[self._t_p_pos] = p_values[self._p_take]
-        kkt_values[self._t_x_diagonal] += REGULARIZATION
-        equality = lower == upper
+        p_full, kkt_values, equality, tol = self._prepare(p_values, q, lower, upper)
         z = _matvec(self._a, x_guess)
-        tol = DUAL_TOL * max(1.0, float(np.max(np.abs(q))))
         # OSQP's polishing rule: a row is active at the bound its multiplier pushes against
         at_lower = equality | (z - lower < -y_guess)
         at_upper = ~at_lower & (upper - z < y_guess)
@@ -183,6 +177,36 @@ class ActiveSetSolver:
             return None
         return self._corrected(p_full, kkt_values, q, lower, upper, equality, tol, near_lower,
                                near_upper)
+
+    def solve_near(self, p_values: np.ndarray, q: np.ndarray, lower: np.ndarray,
+                   upper: np.ndarray, x_guess: np.ndarray, near: float
+                   ) -> tuple[np.ndarray, np.ndarray, float] | None:
+        """The verified optimum from a primal guess alone: the rows within `near` of a bound.
+
+        For a guess that is already (nearly) optimal, from a method whose multipliers are
+        not to be trusted (agents/robot/tree_ipm.py at a degenerate optimum); corrected as
+        `solve`'s guesses. Arguments as `solve`; near in the rows' units.
+        """
+        p_full, kkt_values, equality, tol = self._prepare(p_values, q, lower, upper)
+        z = _matvec(self._a, x_guess)
+        near_lower = equality | (z - lower < near)
+        near_upper = ~near_lower & (upper - z < near)
+        return self._corrected(p_full, kkt_values, q, lower, upper, equality, tol, near_lower,
+                               near_upper)
+
+    def _prepare(self, p_values: np.ndarray, q: np.ndarray, lower: np.ndarray,
+                 upper: np.ndarray) -> tuple[sp.csr_matrix, np.ndarray, np.ndarray, float]:
+        """P (both triangles), the regularized KKT values, the equality rows, the dual tolerance.
+
+        For p_values (as `solve`); the tolerance is DUAL_TOL relative to |q|.
+        """
+        p_full = self._p_full
+        p_full.data = p_values[self._p_full_take]
+        kkt_values = self._t_constant.copy()
+        kkt_values[self._t_p_pos] = p_values[self._p_take]
+        kkt_values[self._t_x_diagonal] += REGULARIZATION
+        tol = DUAL_TOL * max(1.0, float(np.max(np.abs(q))))
+        return p_full, kkt_values, lower == upper, tol
 
     def _corrected(self, p_full: sp.csr_matrix, kkt_values: np.ndarray, q: np.ndarray,
                    lower: np.ndarray, upper: np.ndarray, equality: np.ndarray, tol: float,

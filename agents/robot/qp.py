@@ -45,6 +45,7 @@ import scipy.sparse as sp
 
 from marl_social.agents.robot.active_set import ActiveSetSolver
 from marl_social.agents.robot.condensed_qp import CondensedLayout
+from marl_social.agents.robot.tree_ipm import TreeLayout
 
 _OK = frozenset(int(s) for s in (osqp.SolverStatus.OSQP_SOLVED,
                                   osqp.SolverStatus.OSQP_SOLVED_INACCURATE))
@@ -61,6 +62,15 @@ MAX_ROUNDS = 8  # 18 200 iterations in all; then the QP has failed (unless solve
 # OSQP as the fallback; DAQP's dense setup grows as (rows x variables^2): beyond 3 branches
 # (180+ variables) OSQP's sparse solve is faster
 DAQP_MAX_BRANCHES = 3
+# the QPs of more branches are solved on their scenario tree by an interior point method
+# (tree_ipm.py: a Riccati recursion per Newton step, linear in L), with OSQP as the fallback
+# whose answer is only accepted if it meets the rows to TREE_PRIMAL_TOL [the row's unit]
+TREE_PRIMAL_TOL = 1e-7
+# a tree solve whose multipliers did not settle (a degenerate optimum) but whose iterate did
+# (complementarity below TREE_POLISH_MU) is made exact by the active-set solve from the rows
+# within TREE_POLISH_NEAR of a bound [the row's unit]
+TREE_POLISH_MU = 1e-9
+TREE_POLISH_NEAR = 1e-6
 _INF = 1e20  # OSQP's infinity
 _OSQP_INFTY = 1e30  # what osqp.OSQP.update clips the bounds to (its OSQP_INFTY)
 # what a QP's layout needs, built once per (L, N, n_trunk, steps, weights, headway) and shared
@@ -71,7 +81,7 @@ _STRUCTURE_FIELDS = ("_a_off", "_v_off", "_s_off", "_c_off", "n_vars", "_a_idx",
                      "_p_branch", "_p_comfort", "_p_progress_slot", "_p_progress_branch",
                      "_a_matrix", "_rows",
                      "_lower_template", "_upper_template", "_p_initial", "_active_set",
-                     "_condensed")
+                     "_condensed", "_tree", "_p_offdiag")
 _STRUCTURES: dict[tuple, dict] = {}
 
 
@@ -125,7 +135,8 @@ class ContingencyQp:
         headway_s: (N,) time headway h[k] of the stay-behind rows [s].
         tolerance: OSQP's absolute and relative tolerance.
         use_daqp: solve condensed by DAQP first when the layout allows it (at most
-            DAQP_MAX_BRANCHES branches); False: OSQP only.
+            DAQP_MAX_BRANCHES branches), on the scenario tree (tree_ipm.py) beyond; False:
+            OSQP only.
     """
 
     def __init__(self, n_branches: int, n_steps: int, n_trunk: int, dt_s: float,
@@ -144,7 +155,7 @@ class ContingencyQp:
             _STRUCTURES[key] = structure
         self.__dict__.update(structure)
         if not use_daqp:
-            self._condensed = None
+            self._condensed = self._tree = None
         self._solver = osqp.OSQP()
         # copies: OSQP keeps the arrays it is set up with and writes P's updates into them
         self._solver.setup(self._p_initial.copy(), np.zeros(self.n_vars), self._a_matrix.copy(),
@@ -160,10 +171,11 @@ class ContingencyQp:
         # through importlib, the derivative cache, the info namespace): the same calls with
         # the same data
         self._ext = self._solver._solver
-        # which solver gave each solve's answer: "daqp", "osqp" (or its exact active-set
-        # solve), or "" (failed); and the count of each
+        # which solver gave each solve's answer: "daqp", "tree" (tree_ipm.py, or the exact
+        # active-set solve from its iterate), "osqp" (or its exact active-set solve), or ""
+        # (failed); and the count of each
         self.last_solver = ""
-        self.solver_counts = {"daqp": 0, "osqp": 0, "": 0}
+        self.solver_counts = {"daqp": 0, "tree": 0, "osqp": 0, "": 0}
 
     def _build_structure(self, headway_s: np.ndarray) -> None:
         """The index maps, P's pattern, A and the bound templates (_STRUCTURE_FIELDS)."""
@@ -185,6 +197,9 @@ class ContingencyQp:
         self._active_set = ActiveSetSolver(self._p_rows, self._p_cols, self._a_matrix)
         self._condensed = (CondensedLayout(self) if self.n_branches <= DAQP_MAX_BRANCHES
                            else None)
+        self._tree = (TreeLayout(self, headway_s) if self.n_branches > DAQP_MAX_BRANCHES
+                      else None)
+        self._p_offdiag = np.where(self._p_rows == self._p_cols, 0.5, 1.0)
 
     # -- cost ---------------------------------------------------------------------------------
 
@@ -366,6 +381,11 @@ class ContingencyQp:
                 x, cost = dense
                 return self._count(QpSolution(True, cost, x[self._a_idx], x[self._v_idx],
                                               x[self._s_idx]), "daqp")
+        if self._tree is not None:
+            tree = self._solve_tree(weights, lower, upper, v0, prev_accel, v_ref_mps, comfort,
+                                    goal_weight, goal_m)
+            if tree is not None:
+                return self._count(tree, "tree")
         return self._count(self._solve_osqp(weights, lower, upper, comfort, goal_weight),
                            "osqp")
 
@@ -375,6 +395,41 @@ class ContingencyQp:
         self.last_solver = solver
         self.solver_counts[solver] += 1
         return solution
+
+    def _solve_tree(self, weights: np.ndarray, lower: np.ndarray, upper: np.ndarray, v0: float,
+                    prev_accel: float, v_ref_mps: float, comfort: np.ndarray | None,
+                    goal_weight: float, goal_m: float) -> QpSolution | None:
+        """The optimum by the tree interior point method (tree_ipm.py), or None (fallback).
+
+        Its solution is checked against this QP's rows (TREE_PRIMAL_TOL); one whose
+        multipliers did not settle is made exact (and verified) by the active-set solve from
+        its rows near a bound (TREE_POLISH_MU, TREE_POLISH_NEAR). With this step's linear cost
+        self._q_last (`solve`).
+        """
+        tree = self._tree
+        lb, ub = tree.bounds(lower, upper, prev_accel)
+        alpha, beta = tree.costs(weights, comfort, goal_weight, goal_m, v_ref_mps,
+                                 self.weights, self.dt_s, self.first_dt_s)
+        status, x, info = tree.solve(alpha, beta, lb, ub, np.array([v0, 0.0, prev_accel]),
+                                     lower)
+        p_values = self._p_values(weights, comfort, goal_weight)
+        if status != 0:  # polished if it settled (primal feasible, mu small), else None
+            if not (info[0] <= TREE_PRIMAL_TOL and info[2] <= TREE_POLISH_MU):
+                return None
+            exact = self._active_set.solve_near(p_values, self._q_last, lower, upper, x,
+                                                TREE_POLISH_NEAR)
+            if exact is None:
+                return None
+            x, _, cost = exact
+        elif np.all(np.isfinite(x)):
+            ax = self._a_matrix @ x
+            if max(float(np.max(lower - ax)), float(np.max(ax - upper))) > TREE_PRIMAL_TOL:
+                return None
+            cost = float(np.dot(p_values * self._p_offdiag * x[self._p_rows],
+                                x[self._p_cols]) + self._q_last @ x)
+        else:
+            return None
+        return QpSolution(True, cost, x[self._a_idx], x[self._v_idx], x[self._s_idx])
 
     def _solve_osqp(self, weights: np.ndarray, lower: np.ndarray, upper: np.ndarray,
                     comfort: np.ndarray | None, goal_weight: float) -> QpSolution:

@@ -127,13 +127,15 @@ def test_an_infeasible_qp_is_reported_infeasible_by_daqp_and_by_the_fallback():
                                     args["v0"]) is None
     sol = problem.solve(**args)
     assert not sol.solved and problem.last_solver == ""
-    assert problem.solver_counts == {"daqp": 0, "osqp": 0, "": 1}
+    assert problem.solver_counts == {"daqp": 0, "tree": 0, "osqp": 0, "": 1}
 
 
-def test_more_branches_than_daqp_max_go_to_osqp_and_use_daqp_false_too():
+def test_more_branches_than_daqp_max_go_to_the_tree_solver_and_use_daqp_false_to_osqp():
     args = _captured()[14]  # three branches
     assert _qp(3, use_daqp=False)._condensed is None
     problem = _qp(3, use_daqp=False)
     assert problem.solve(**args).solved and problem.last_solver == "osqp"
     assert _qp(qp.DAQP_MAX_BRANCHES + 1)._condensed is None
+    assert _qp(qp.DAQP_MAX_BRANCHES + 1)._tree is not None
     assert _qp(qp.DAQP_MAX_BRANCHES)._condensed is not None
+    assert _qp(qp.DAQP_MAX_BRANCHES)._tree is None
