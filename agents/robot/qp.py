@@ -45,7 +45,6 @@ import scipy.sparse as sp
 
 from marl_social.agents.robot.active_set import ActiveSetSolver
 from marl_social.agents.robot.condensed_qp import CondensedLayout
-from marl_social.agents.robot.tree_ipm import TreeLayout
 
 _OK = frozenset(int(s) for s in (osqp.SolverStatus.OSQP_SOLVED,
                                   osqp.SolverStatus.OSQP_SOLVED_INACCURATE))
@@ -197,7 +196,7 @@ class ContingencyQp:
         self._active_set = ActiveSetSolver(self._p_rows, self._p_cols, self._a_matrix)
         self._condensed = (CondensedLayout(self) if self.n_branches <= DAQP_MAX_BRANCHES
                            else None)
-        self._tree = (TreeLayout(self, headway_s) if self.n_branches > DAQP_MAX_BRANCHES
+        self._tree = (_tree_layout(self, headway_s) if self.n_branches > DAQP_MAX_BRANCHES
                       else None)
         self._p_offdiag = np.where(self._p_rows == self._p_cols, 0.5, 1.0)
 
@@ -506,3 +505,10 @@ class ContingencyQp:
         shape = (self.n_branches, self.n_steps)
         nan = np.full(shape, np.nan)
         return QpSolution(False, np.inf, nan, nan.copy(), nan.copy())
+
+
+def _tree_layout(qp: ContingencyQp, headway_s: np.ndarray):
+    """tree_ipm.TreeLayout of qp: numba loads at the first 4+-branch QP, not at import."""
+    from marl_social.agents.robot.tree_ipm import TreeLayout
+
+    return TreeLayout(qp, headway_s)

@@ -37,8 +37,13 @@ from the cache), deterministic (no fast-math, no threads).
 
 from __future__ import annotations
 
+import logging
+from pathlib import Path
+
 import numba
 import numpy as np
+
+from marl_social.models.kernel_loading import will_compile
 
 MAX_ITER = 40  # interior point iterations before giving up (a feasible QP needs ~15-25)
 PRIMAL_TOL = 1e-9  # largest violation of a row [the row's unit: m, m/s, m/s^2]
@@ -49,6 +54,11 @@ STALL_DUAL = 1e3  # ... if it is this many times DUAL_TOL
 STEP_FRACTION = 0.995  # of the longest step keeping slacks and multipliers positive
 N_ROWS = 7  # speed, low, up, jerk, accel, comfort, slack
 _NO_BOUND = 1e19  # qp.py's bounds beyond this are none (its infinity is 1e20)
+
+if will_compile(Path(__file__).parent, ("tree_ipm",)):  # the first 4+-branch QP compiles them
+    logging.getLogger("marl_social").warning(
+        "compiling the MPC's tree solver (numba) once (about 10 s; cached in %s for later runs)",
+        Path(__file__).with_name("__pycache__"))
 
 
 @numba.njit(cache=True)
