@@ -51,6 +51,8 @@ def _pairwise_sum(values, start, n):
     0.0 plus numpy's pairwise_sum: fewer than 8 values added one by one to -0.0; else eight
     running sums, combined ((r0 + r1) + (r2 + r3)) + ((r4 + r5) + (r6 + r7)), then the rest
     one by one.
+    models/cost_kernels._pairwise_sum is its twin (without the 0.0 +): numba's cache notices
+    edits only in a kernel's own file, so a kernel here may not call one there.
     """
     if n < 8:
         total = -0.0

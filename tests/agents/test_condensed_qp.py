@@ -24,10 +24,11 @@ def _qp(n_branches: int, use_daqp: bool = True) -> qp.ContingencyQp:
                             CONFIG.headway_s(), use_daqp=use_daqp)
 
 
-def _captured() -> list[dict]:
-    """15 solve arguments captured from the three scenarios (L = 1, 2, 3; 9 of them QPs
-    OSQP stopped short on: solved inaccurately, or degenerate after ROUND_ITER iterations)."""
-    data = np.load(DATA / "captured_qps.npz")
+def _captured(file_name: str = "captured_qps.npz") -> list[dict]:
+    """Solve arguments captured from the scenarios, by case: in captured_qps.npz 15 (L = 1,
+    2, 3; 9 of them QPs OSQP stopped short on: solved inaccurately, or degenerate after
+    ROUND_ITER iterations); test_tree_ipm reads captured_tree_qps.npz with it."""
+    data = np.load(DATA / file_name)
     cases: dict[int, dict] = {}
     for key in data.files:
         index, name = key.split("__")

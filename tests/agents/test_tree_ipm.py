@@ -2,15 +2,13 @@
 
 from __future__ import annotations
 
-from pathlib import Path
-
 import numpy as np
 import pytest
 
 from marl_social.agents.robot import qp, tree_ipm
 from tests.agents.test_condensed_qp import CONFIG, WEIGHTS, _qp, _reference
+from tests.agents.test_condensed_qp import _captured as captured  # by file name
 
-DATA = Path(__file__).parent / "data"
 # the cases whose tree solve stalls at a degenerate optimum (status 3: polished by the
 # active-set solve); the others converge (status 0)
 DEGENERATE = (0, 1)
@@ -19,15 +17,7 @@ DEGENERATE = (0, 1)
 def _captured() -> list[dict]:
     """10 solve arguments captured from the crosswalk and the signalized intersection: L = 4
     (cases 0-3; 0 and 1 degenerate, 3 with a comfort factor 0), 5 (4, 5), 6 (6), 7 (7, 8), 8 (9)."""
-    data = np.load(DATA / "captured_tree_qps.npz")
-    cases: dict[int, dict] = {}
-    for key in data.files:
-        index, name = key.split("__")
-        value = data[key]
-        if value.ndim == 0:
-            value = None if np.isnan(value) else float(value)
-        cases.setdefault(int(index), {})[name] = value
-    return [cases[i] for i in sorted(cases)]
+    return captured("captured_tree_qps.npz")
 
 
 def _tree_status(problem: qp.ContingencyQp, args: dict) -> int:
