@@ -26,9 +26,13 @@ Python environment, whose `ray` runs an older install) stops the study with a
 `RayConnectionError` instead of mixing results of two code versions.
 
 Stopping: at most 2 tasks per cluster CPU are in flight. When the study ends early (an exception,
-Ctrl-C, or SIGTERM, which ends the study with exit code 143 while its tasks run) every
-pending task is cancelled (`ray.cancel(force=True)`: its worker process is killed) before the
-process disconnects, so no run keeps a cluster CPU busy after its study is gone.
+Ctrl-C, or SIGTERM, which ends the study with exit code 143 while its tasks run), on a cluster
+every task still running is cancelled (`ray.cancel(force=True)`: its worker process is killed)
+before the process disconnects, so no run keeps a cluster CPU busy after its study is gone. A
+private local instance is not cancelled task by task: `ray.shutdown()` stops it with its workers.
+(Ray 2.60's core worker aborts the whole process, exit code 1, when a cancel meets the reply of
+a task finishing at that moment, `Check failed: ... Tried to complete task that was not pending`;
+the finished tasks are therefore left out of the cancel, and the private instance needs none.)
 """
 
 from __future__ import annotations
@@ -185,8 +189,17 @@ def sigterm_exits():
 
 
 def _cancel(ray, refs) -> None:
-    """Cancel unfinished remote tasks (force: their worker processes are killed)."""
-    for ref in list(refs):
+    """Cancel the remote tasks of refs still running (force: their worker processes are killed).
+
+    The finished ones are left alone: a cancel that meets a finishing task's reply aborts this
+    process inside Ray (see the module docstring); the window is now that of one reply in flight.
+    """
+    refs = list(refs)
+    if not refs:
+        return
+    with contextlib.suppress(Exception):  # the cluster is gone: nothing left to cancel
+        _, refs = ray.wait(refs, num_returns=len(refs), timeout=0, fetch_local=False)
+    for ref in refs:
         with contextlib.suppress(Exception):  # finished meanwhile, or the cluster is gone
             ray.cancel(ref, force=True)
 
@@ -250,7 +263,8 @@ def ray_results(jobs: list[tuple], workers: int, address: str | None) -> Iterato
             raise SystemExit(SIGTERM_EXIT_CODE) from None
         raise
     finally:
-        _cancel(ray, pending)
+        if address is not None or not started:  # a private instance ends with its shutdown
+            _cancel(ray, pending)
         if started:
             ray.shutdown()
             if address is None and auth_mode is None:  # ray.init(local) set it for itself

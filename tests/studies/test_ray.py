@@ -176,7 +176,8 @@ def test_sigterm_of_a_local_ray_study_leaves_no_process(tmp_path):
     family = _descendants(proc.pid)  # the private Ray: gcs_server, raylet, workers, ...
     assert len(family) >= 3, family
     proc.send_signal(signal.SIGTERM)
-    assert proc.wait(timeout=60) == 128 + signal.SIGTERM
+    code = proc.wait(timeout=60)
+    assert code == 128 + signal.SIGTERM, proc.stderr.read().decode()[-3000:]
     deadline = time.monotonic() + 15
     while time.monotonic() < deadline and any(_alive(p) for p in family):
         time.sleep(0.2)
