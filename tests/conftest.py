@@ -3,12 +3,36 @@
 from __future__ import annotations
 
 import os
+import subprocess
+import sys
 
 import matplotlib
 import pytest
 
 matplotlib.use("Agg")
 os.environ.setdefault("MPLBACKEND", "Agg")
+
+
+def pytest_sessionstart(session):
+    """Compile the numba kernels missing from numba's cache once, before the test workers start.
+
+    On a fresh clone every xdist worker, and every process pool a test starts, would otherwise
+    compile the same kernels at once (3-4 processes on 2 cores, ~55 s of compiling each). Here
+    the planners' kernels compile in one process while the belief's and the tree solver's
+    compile in another (agents/compile_kernels.py). Nothing runs when the cache is current.
+    xdist starts its workers in its own (trylast) pytest_sessionstart, after this one.
+    """
+    if hasattr(session.config, "workerinput"):  # an xdist worker: the controller did it
+        return
+    from marl_social.agents.compile_kernels import parts_to_compile
+
+    parts = parts_to_compile()
+    groups = [g for g in (["planners"], [p for p in parts if p != "planners"]) if set(g) & set(parts)]
+    code = "from marl_social.agents.compile_kernels import compile_kernels; compile_kernels({})"
+    procs = [subprocess.Popen([sys.executable, "-c", code.format(group)]) for group in groups]
+    for proc in procs:
+        if proc.wait() != 0:
+            raise pytest.UsageError(f"compiling the numba kernels {proc.args[-1]} failed")
 
 
 def pytest_collection_modifyitems(config, items):

@@ -1,0 +1,83 @@
+"""Every numba kernel of marl-social, loaded (and compiled into numba's cache) ahead of a run.
+
+Three parts are compiled on first use and cached on disk (`cache=True`, in each package's
+__pycache__): the planners' kernels (models/kernel_loading.py, ~30 s on 2 cores), the
+belief's (perception/belief/compiled.py, ~15 s) and the MPC's tree solver
+(agents/robot/tree_ipm.py, ~10 s). A process that finds no cache compiles them itself, so on
+a fresh install several processes started at once (a test run on every core, a study's
+workers, a vector env's) each compile the same kernels. `compile_kernels` compiles them once,
+before such processes start; the parts are independent, so two processes can compile two of
+them side by side (tests/conftest.py does so before the test workers start):
+
+    python -c "from marl_social.agents.compile_kernels import compile_kernels; compile_kernels()"
+"""
+
+from __future__ import annotations
+
+import importlib.util
+from pathlib import Path
+
+import numpy as np
+
+from marl_social.models.kernel_loading import will_compile
+
+PARTS = ("planners", "belief", "tree")
+# each part: the module whose folder holds its kernel files, and those files' names
+_FILES = {
+    "planners": ("marl_social.models.kernel_loading", ("gap_kernels", "cost_kernels")),
+    "belief": ("marl_social.perception.belief.compiled", ("belief_kernels",)),
+    "tree": ("marl_social.agents.robot.qp", ("tree_ipm",)),
+}
+
+
+def parts_to_compile() -> list[str]:
+    """The parts (of PARTS) with no numba cache as new as their kernel files.
+
+    Empty also when the cache folders cannot be written (numba then caches elsewhere and this
+    cannot tell: `kernel_loading.will_compile`).
+    """
+    out = []
+    for part in PARTS:
+        module, names = _FILES[part]
+        folder = Path(importlib.util.find_spec(module).origin).parent
+        if will_compile(folder, names):
+            out.append(part)
+    return out
+
+
+def compile_kernels(parts: tuple[str, ...] | list[str] = PARTS) -> None:
+    """Load the kernels of `parts` (default: all), compiling and caching those not cached.
+
+    Raises:
+        ValueError: a part that is not one of PARTS.
+    """
+    unknown = [p for p in parts if p not in PARTS]
+    if unknown:
+        raise ValueError(f"compile_kernels: unknown part(s) {unknown}; the parts are {PARTS}")
+    if "planners" in parts:
+        from marl_social.models import kernel_loading
+
+        kernel_loading.load()
+    if "belief" in parts:
+        from marl_social.perception.belief import compiled
+
+        compiled.kernels()
+    if "tree" in parts:
+        _solve_one_tree_qp()
+
+
+def _solve_one_tree_qp() -> None:
+    """One small QP through the tree solver (its kernels compile at their first call)."""
+    from marl_social.agents.robot.mpc import MpcConfig
+    from marl_social.agents.robot.qp import DAQP_MAX_BRANCHES, ContingencyQp, QpWeights
+    from marl_social.sim.dynamics import DT_S
+
+    c = MpcConfig()
+    n_branches, n = DAQP_MAX_BRANCHES + 1, c.n_steps
+    qp = ContingencyQp(n_branches, n, c.n_trunk, c.plan_dt_s, DT_S,
+                       QpWeights(c.w_speed, c.w_accel, c.w_jerk, c.w_comfort), c.headway_s())
+    stop_m = 20.0 + 5.0 * np.arange(n_branches)  # each branch stops at its own line [m]
+    qp.solve(np.full(n_branches, 1.0 / n_branches), v0=8.0, prev_accel=0.0, v_ref_mps=10.0,
+             v_max=np.full((n_branches, n), 15.0), s_low=np.full((n_branches, n), -np.inf),
+             s_up=np.repeat(stop_m[:, None], n, axis=1), accel_min=-8.0, accel_max=3.0,
+             jerk_max=c.jerk_max_mps3)

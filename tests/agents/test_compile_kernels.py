@@ -1,0 +1,38 @@
+"""compile_kernels: every numba kernel loaded ahead, so that parallel processes find a cache."""
+
+from __future__ import annotations
+
+import pytest
+
+from marl_social.agents import compile_kernels as ck
+from marl_social.agents.robot import qp as qp_module
+
+
+def test_after_compiling_no_part_is_left_to_compile():
+    ck.compile_kernels()
+    assert ck.parts_to_compile() == []
+
+
+def test_the_tree_part_solves_its_qp_on_the_tree_solver(monkeypatch):
+    seen = []
+    solve = qp_module.ContingencyQp.solve
+
+    def spy(self, *args, **kwargs):
+        solution = solve(self, *args, **kwargs)
+        seen.append((self.last_solver, solution.solved))
+        return solution
+
+    monkeypatch.setattr(qp_module.ContingencyQp, "solve", spy)
+    ck.compile_kernels(["tree"])
+    assert seen == [("tree", True)]
+
+
+def test_a_stale_kernel_file_is_a_part_to_compile(monkeypatch):
+    stale = {"belief_kernels"}
+    monkeypatch.setattr(ck, "will_compile", lambda folder, names: bool(stale & set(names)))
+    assert ck.parts_to_compile() == ["belief"]
+
+
+def test_an_unknown_part_is_refused_by_name():
+    with pytest.raises(ValueError, match=r"unknown part\(s\) \['gpu'\].*'planners'"):
+        ck.compile_kernels(["gpu"])
