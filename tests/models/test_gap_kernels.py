@@ -161,3 +161,28 @@ def test_initial_states_the_kernels_do_not_take_are_evaluated_by_the_reference()
         got = vehicle_gap_evaluation(*args)
         for name in ("step_cost", "v", "a_eff", "travel_m"):
             assert _same(np.asarray(getattr(got, name)), np.asarray(getattr(want, name)))
+
+
+@settings(max_examples=80, deadline=None)
+@given(seed=st.integers(0, 2**32 - 1), n_hyp=st.integers(1, 3), n_obj=st.integers(0, 4),
+       n_t=st.sampled_from([1, 2, 3, 24]), p_ped=st.sampled_from([0.0, 0.5, 1.0]),
+       p_absent=st.sampled_from([0.0, 0.3]), margin_s=st.sampled_from([0.0, 0.25, 2.0, 3.1]),
+       nan=st.booleans())
+def test_zone_claims_kernel_is_candidates_zone_claims(seed, n_hyp, n_obj, n_t, p_ped, p_absent,
+                                                      margin_s, nan):
+    from marl_social.models.candidates import zone_claims
+    from marl_social.models.gap_evaluation import _zone_claims
+    from marl_social.sim.costs import _polygon_edges
+
+    rng = np.random.default_rng(seed)
+    scene = random_scene(rng, n_hyp, n_obj, n_t, p_ped, p_absent, (-12.0, 12.0))
+    if nan and n_obj:
+        scene.xy[0, 0, rng.integers(n_t), rng.integers(2)] = np.nan
+    # a convex zone: a random quadrilateral (or triangle) around the origin, counter-clockwise
+    n_vertices = int(rng.integers(3, 6))
+    angles = np.sort(rng.uniform(0.0, 2.0 * np.pi, n_vertices))
+    polygon = np.stack([np.cos(angles), np.sin(angles)], axis=1) * rng.uniform(2.0, 8.0)
+    priority = rng.random((n_hyp, n_obj)) < 0.7
+    want = zone_claims(scene, polygon, priority, margin_s, 0.25)
+    got = _zone_claims(scene, _polygon_edges(polygon), priority, margin_s, 0.25)
+    assert _same(got, want)
