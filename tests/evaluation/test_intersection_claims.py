@@ -11,6 +11,9 @@ than the conservative robot (which waits for every car it cannot rule out); with
 social robot, like the oracle, never collides and never forces V3 to brake hard, while the
 aggressive robot (what it cannot see is absent) does in most seeds; and a left-turner that waits
 for V3 tells the social robot V3 is there before the robot sees it.
+
+Seeds: MARL_CLAIM_SEEDS (default 50) seeds from MARL_CLAIM_SEED0 (default 0), e.g.
+MARL_CLAIM_SEED0=50 runs seeds 50-99 (claims are judged on seeds the code was not tuned on).
 """
 
 from __future__ import annotations
@@ -27,6 +30,7 @@ pytestmark = [pytest.mark.slow, pytest.mark.long]  # 300 episodes: ~11 min of CP
 # busy cores), outside CI; run with `python -m pytest -m long` (MARL_CLAIM_SEEDS=N: quicker)
 
 N_SEEDS = int(os.environ.get("MARL_CLAIM_SEEDS", "50"))
+SEED0 = int(os.environ.get("MARL_CLAIM_SEED0", "0"))  # the first seed
 CASES = [("social", "none"), ("oracle", "none"), ("conservative", "none"),
          ("social", "near"), ("oracle", "near"), ("aggressive", "near")]
 # the robot has cleared the junction within 10 s when nothing comes; with V3 near it goes
@@ -38,7 +42,7 @@ BELIEF_HIGH = 0.9  # the belief in a hidden car counts as high above this
 
 @pytest.fixture(scope="module")
 def runs() -> dict:
-    jobs = [(p, v, s, HORIZON[v]) for p, v in CASES for s in range(N_SEEDS)]
+    jobs = [(p, v, s, HORIZON[v]) for p, v in CASES for s in range(SEED0, SEED0 + N_SEEDS)]
     with mp.get_context("spawn").Pool(2) as pool:
         results = pool.map(claim_episode, jobs, chunksize=4)
     out = {case: [] for case in CASES}
@@ -120,12 +124,17 @@ def test_aggressive_robot_pulls_out_in_front_of_a_near_hidden_car(runs):
 
 
 @pytest.mark.xfail(strict=False, reason=(
-    "measured 72 % of the 50 seeds (0-49) where human_0 let V3 pass (80 % of seeds 0-29): "
-    "in the others the robot sees V3 past the first parked car before the left-turner's "
-    "slowing down has moved its belief past 0.9 (the same 13-14 seeds fail with beta_hat "
-    "0.3-3, theta_hat = the humans' weights, 5 m bins or a 100 m assumed view: slowing for the "
-    "bend and slowing to wait differ only once the human is below its curve speed, and one "
-    "step's acceleration is read with sigma ~1.2 m/s^2)"))
+    "measured 72 % of the 50 seeds 0-49 where human_0 let V3 pass, 66 % of seeds 50-99 "
+    "(2026-12-01); the limit is the scenario's timing, not the robot's reading of the human: "
+    "with the human's true position and speed in place of the robot's track (noise-free "
+    "a_obs, sigma = accel_noise 0.5 m/s^2) 76 % and 72 %; and up to the last observation "
+    "that can count (two steps before the robot sees V3) human_0's speed is bit-identical to "
+    "the same seed without V3 in 4 (0-49) and 6 (50-99) seeds (no reading of human_0 can pass "
+    "92 % and 88 %) and never more than 0.3 m/s below it in 7 and 8 (86 % and 84 %): human_0 "
+    "starts 13-20 m before its turn, V3 30-43 m out at 10-14 m/s, and the robot sees V3 past "
+    "the first parked car (1.3-2.3 s) before human_0 has to start waiting. Earlier tries, the "
+    "same 13-14 failures on 0-49: beta_hat 0.3-3, theta_hat = the humans' weights, 5 m bins, a 100 m "
+    "assumed human view"))
 def test_a_waiting_left_turner_tells_the_social_robot_of_the_hidden_car(runs):
     """In >= 90 % of the near seeds where the first left-turner lets V3 pass, the robot's belief
     in a hidden car exceeds 0.9 before it first sees V3."""
