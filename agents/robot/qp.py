@@ -74,7 +74,7 @@ _INF = 1e20  # OSQP's infinity
 _OSQP_INFTY = 1e30  # what osqp.OSQP.update clips the bounds to (its OSQP_INFTY)
 # what a QP's layout needs, built once per (L, N, n_trunk, steps, weights, headway) and shared
 # by every ContingencyQp of that layout (read only: bounds are copied from the templates); a
-# new episode's QPs then only set up OSQP
+# new episode's QPs then set up nothing but OSQP, and that only if they fall back to it
 _STRUCTURE_FIELDS = ("_a_off", "_v_off", "_s_off", "_c_off", "n_vars", "_a_idx", "_v_idx",
                      "_s_idx", "_c_idx", "_p_slot", "_p_rows", "_p_cols", "_p_coef",
                      "_p_branch", "_p_comfort", "_p_progress_slot", "_p_progress_branch",
@@ -155,6 +155,21 @@ class ContingencyQp:
         self.__dict__.update(structure)
         if not use_daqp:
             self._condensed = self._tree = None
+        # OSQP is the fallback: most QPs never need it, and its setup costs about as much as
+        # a solve (1-6 ms by L): set up at its first use (_setup_osqp), from the same data, so
+        # that its state then is that of a setup here
+        self._tolerance = tolerance
+        self._solver: osqp.OSQP | None = None
+        self._ext = None
+        # which solver gave each solve's answer: "daqp", "tree" (tree_ipm.py, or the exact
+        # active-set solve from its iterate), "osqp" (or its exact active-set solve), or ""
+        # (failed); and the count of each
+        self.last_solver = ""
+        self.solver_counts = {"daqp": 0, "tree": 0, "osqp": 0, "": 0}
+
+    def _setup_osqp(self) -> osqp.OSQP:
+        """Set OSQP up for this layout (at its first use; `_osqp`) and return it."""
+        tolerance = self._tolerance
         self._solver = osqp.OSQP()
         # copies: OSQP keeps the arrays it is set up with and writes P's updates into them
         self._solver.setup(self._p_initial.copy(), np.zeros(self.n_vars), self._a_matrix.copy(),
@@ -170,11 +185,13 @@ class ContingencyQp:
         # through importlib, the derivative cache, the info namespace): the same calls with
         # the same data
         self._ext = self._solver._solver
-        # which solver gave each solve's answer: "daqp", "tree" (tree_ipm.py, or the exact
-        # active-set solve from its iterate), "osqp" (or its exact active-set solve), or ""
-        # (failed); and the count of each
-        self.last_solver = ""
-        self.solver_counts = {"daqp": 0, "tree": 0, "osqp": 0, "": 0}
+        return self._solver
+
+    def _osqp(self):
+        """OSQP's compiled solver, set up at the first call (`_setup_osqp`)."""
+        if self._ext is None:
+            self._setup_osqp()
+        return self._ext
 
     def _build_structure(self, headway_s: np.ndarray) -> None:
         """The index maps, P's pattern, A and the bound templates (_STRUCTURE_FIELDS)."""
@@ -439,7 +456,7 @@ class ContingencyQp:
         # osqp.OSQP.update's order: the vectors (bounds clipped to OSQP's infinity), then P
         np.maximum(lower, -_OSQP_INFTY, out=lower)
         np.minimum(upper, _OSQP_INFTY, out=upper)
-        ext = self._ext
+        ext = self._osqp()
         ext.update_data_vec(q=self._q_last, l=lower, u=upper)
         p_values = self._p_values(weights, comfort, goal_weight)
         ext.update_data_mat(P_x=p_values, P_i=None, A_x=None, A_i=None)

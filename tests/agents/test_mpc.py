@@ -399,7 +399,7 @@ def test_direct_solver_calls_match_osqps_public_api_bit_for_bit():
         qps = [mpc._qp(1), mpc._qp(2), mpc._qp(1, for_modes=True)]  # every QP the plans use
         if public:
             for qp in qps:
-                qp._ext = _PublicOsqp(qp._solver)
+                qp._ext = _PublicOsqp(qp._setup_osqp())
         out = []
         for s0, v0, prev, b in ((30.0, 11.5, 0.0, 0.7), (31.1, 11.0, -1.0, 0.4),
                                 (32.1, 10.2, -2.0, 0.9), (33.0, 9.8, -2.5, 0.02),
