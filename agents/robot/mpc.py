@@ -227,17 +227,35 @@ class ContingencyMpc:
         self._qps.clear()
         self._mode_qp = None
 
-    def _qp(self, n_branches: int, for_modes: bool = False) -> ContingencyQp:
+    def _new_qp(self, n_branches: int) -> ContingencyQp:
+        """A fresh QP of n_branches branches (its layout's structure built once per process)."""
         c = self.config
-        make = lambda: ContingencyQp(
-            n_branches, c.n_steps, c.n_trunk, c.plan_dt_s, DT_S,
-            QpWeights(c.w_speed, c.w_accel, c.w_jerk, c.w_comfort), c.headway_s())
+        return ContingencyQp(n_branches, c.n_steps, c.n_trunk, c.plan_dt_s, DT_S,
+                             QpWeights(c.w_speed, c.w_accel, c.w_jerk, c.w_comfort),
+                             c.headway_s())
+
+    def build_layouts(self, max_branches: int) -> None:
+        """Build the QP layouts of 1..max_branches branches now, not at their first plan.
+
+        A layout's structure (qp.py: index maps, A, the condensed or tree form; 5-140 ms,
+        and the tree solver's kernels loaded with the first 4+-branch one) depends only on
+        the number of branches and this configuration; it is kept process-wide, so that a
+        plan that meets a new number of live branches does not build it within its decision.
+        The QPs themselves (warm starts) stay per episode (`reset`).
+
+        Args:
+            max_branches: the largest number of branches built ahead (more are built when met).
+        """
+        for n_branches in range(1, max_branches + 1):
+            self._new_qp(n_branches)
+
+    def _qp(self, n_branches: int, for_modes: bool = False) -> ContingencyQp:
         if for_modes:
             if self._mode_qp is None:
-                self._mode_qp = make()
+                self._mode_qp = self._new_qp(1)
             return self._mode_qp
         if n_branches not in self._qps:
-            self._qps[n_branches] = make()
+            self._qps[n_branches] = self._new_qp(n_branches)
         return self._qps[n_branches]
 
     def _speed_bound(self, route: Route, s_lo: np.ndarray, s_hi: np.ndarray,

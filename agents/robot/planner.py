@@ -67,6 +67,10 @@ from marl_social.sim.road_map import RoadMap
 BETA_GRID_HAT = (0.03, 0.1, 0.3, 1.0, 3.0)  # social+beta: rationality grid (log-spaced)
 CONSERVATIVE_WALK_SPEED_MPS = 1.3  # conservative: its hypothesised pedestrians' speed [m/s]
 TRACKED_REACH_M = 3.0  # a pedestrian tracked this close to a crosswalk is its pedestrian [m]
+# the MPC's QP layouts of up to this many live branches are built with the planner, not at the
+# first plan that meets them (ContingencyMpc.build_layouts; once per process): the three
+# benchmark scenarios' episodes meet at most 9
+PREBUILT_BRANCHES = 10
 
 
 class HypothesisWeighting(enum.Enum):
@@ -194,6 +198,7 @@ class RobotPlanner:
         self.mpc = mpc_config or default_mpc
         self.v_desired = min(spec.v_desired_mps, road_map.speed_limit_mps)
         self.solver = ContingencyMpc(self.mpc, spec.vehicle)
+        self.solver.build_layouts(PREBUILT_BRANCHES)
         # the belief keeps the robot's Kalman tracks of what it sees; the MPC reads the same ones
         self.belief = PedestrianBelief(
             road_map, layout, spec.name, list(agent_names), belief_config or default_belief,

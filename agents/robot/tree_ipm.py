@@ -54,6 +54,7 @@ STALL_DUAL = 1e3  # ... if it is this many times DUAL_TOL
 STEP_FRACTION = 0.995  # of the longest step keeping slacks and multipliers positive
 N_ROWS = 7  # speed, low, up, jerk, accel, comfort, slack
 _NO_BOUND = 1e19  # qp.py's bounds beyond this are none (its infinity is 1e20)
+_KERNELS_LOADED: list[bool] = []  # [True] once a TreeLayout has called the kernels
 
 if will_compile(Path(__file__).parent, ("tree_ipm",)):  # the first 4+-branch QP compiles them
     logging.getLogger("marl_social").warning(
@@ -357,6 +358,12 @@ def tree_ipm(parent, x0, fg, out_rows, alpha, beta, rows, lb, ub, settings):
     return 1, max_iter, z, x_next, info
 
 
+def _settings() -> np.ndarray:
+    """(7,) `tree_ipm`'s settings from this module's constants."""
+    return np.array([MAX_ITER, PRIMAL_TOL, DUAL_TOL, MU_TOL, STALL_MU, STALL_DUAL,
+                     STEP_FRACTION], dtype=np.float64)
+
+
 class TreeLayout:
     """The tree of one ContingencyQp layout: nodes, dynamics, rows, and where qp.py keeps them.
 
@@ -400,6 +407,20 @@ class TreeLayout:
         member = np.zeros((n, L))
         member[qp._a_idx, np.arange(L)[:, None]] = 1.0
         self._member = member
+        if not _KERNELS_LOADED:  # numba loads (or compiles) the kernels at their first call
+            self._load_kernels()
+            _KERNELS_LOADED.append(True)
+
+    def _load_kernels(self) -> None:
+        """One solve of this tree without rows: numba loads the kernels now, with the layout.
+
+        Loading them from numba's cache takes ~0.1 s; the first 4+-branch layout is built
+        ahead of the plans (mpc.py, `ContingencyMpc.build_layouts`), so that no plan does.
+        """
+        n = self.n_nodes
+        free = np.full((n, N_ROWS), np.inf)
+        tree_ipm(self.parent, np.zeros(3), self.fg, self.out_rows, np.ones((n, 5)),
+                 np.zeros((n, 5)), self.rows, -free, free, _settings())
 
     def bounds(self, lower: np.ndarray, upper: np.ndarray, prev_accel: float
                ) -> tuple[np.ndarray, np.ndarray]:
@@ -466,10 +487,8 @@ class TreeLayout:
             lb, ub = lb.copy(), ub.copy()
             lb[free, 5:] = -np.inf
             ub[free, 5:] = np.inf
-        settings = np.array([MAX_ITER, PRIMAL_TOL, DUAL_TOL, MU_TOL, STALL_MU, STALL_DUAL,
-                             STEP_FRACTION], dtype=np.float64)
         status, _, z, x_next, info = tree_ipm(self.parent, x0, self.fg, self.out_rows, alpha,
-                                              beta, self.rows, lb, ub, settings)
+                                              beta, self.rows, lb, ub, _settings())
         x = np.zeros(self.n_vars)
         accel = z[:, 3]
         x[:self.n_nodes] = accel
