@@ -28,6 +28,18 @@ def _as_polyline(points, name: str) -> np.ndarray:
     return arr
 
 
+_ROUTE_KERNELS: list = []  # [sim.route_kernels] once imported (numba: not at import)
+
+
+def _route_kernels():
+    """sim.route_kernels, imported (numba loaded, or compiled once) at the first call."""
+    if not _ROUTE_KERNELS:
+        from marl_social.sim import route_kernels
+
+        _ROUTE_KERNELS.append(route_kernels)
+    return _ROUTE_KERNELS[0]
+
+
 class Route:
     """A reference path as a polyline with arc length.
 
@@ -49,6 +61,10 @@ class Route:
         self._sx, self._sy = (np.ascontiguousarray(a) for a in self._seg_start.T)
         self._dx, self._dy = (np.ascontiguousarray(a) for a in self._seg_dir.T)
         self._cum_s = np.concatenate([[0.0], np.cumsum(self._seg_len)])
+        # (6, S) _project's kernel's table: start x, y [m], unit direction x, y, length [m], arc
+        # length at the start [m]
+        self._kernel_segments = np.ascontiguousarray(np.vstack(
+            [self._sx, self._sy, self._dx, self._dy, self._seg_len, self._cum_s[:-1]]))
         self.length_m = float(self._cum_s[-1])
         self._seg_start_list = self._seg_start.tolist()
         self._seg_dir_list = self._seg_dir.tolist()
@@ -104,31 +120,30 @@ class Route:
         """The projection on x (...) and y (...) [m] kept apart (no (..., S, 2) array).
 
         Each segment's foot point is clamped to the segment, the closest foot point's segment k
-        is chosen; the products are summed as rel_x * dir_x + rel_y * dir_y.
+        is chosen (first of equals); the products are summed as rel_x * dir_x + rel_y * dir_y.
+        On a route of several segments by a compiled kernel (sim/route_kernels.py, numba
+        loaded at the first call), the numpy arithmetic's bits per point.
 
         Returns:
             s: (...) arc length [m], lateral: (...) signed offset [m], k: (...) segment index.
         """
         sx, sy, dx, dy, length = self._sx, self._sy, self._dx, self._dy, self._seg_len
-        rel_x = x[..., None] - sx  # (..., S)
+        if len(length) > 1:  # the closest of several segments: compiled (sim/route_kernels.py)
+            if x.shape != y.shape:
+                x, y = np.broadcast_arrays(x, y)
+            shape = x.shape
+            out = np.empty((2, x.size))
+            k = np.empty(x.size, dtype=np.intp)
+            _route_kernels().project_points(x.ravel(), y.ravel(), self._kernel_segments, out,
+                                            k)
+            return out[0].reshape(shape), out[1].reshape(shape), k.reshape(shape)
+        rel_x = x[..., None] - sx  # (..., 1)
         rel_y = y[..., None] - sy
         t = rel_x * dx + rel_y * dy
         t = np.minimum(np.maximum(t, 0.0), length)  # np.clip's ufuncs
-        n_seg = len(length)
-        if n_seg == 1:  # k = 0 everywhere
-            k = np.zeros(t.shape[:-1], dtype=np.intp)
-            t_k, rx, ry, dx_k, dy_k = t[..., 0], rel_x[..., 0], rel_y[..., 0], dx[0], dy[0]
-            s = self._cum_s[0] + t_k
-        else:
-            ex = x[..., None] - (sx + t * dx)
-            ey = y[..., None] - (sy + t * dy)
-            k = np.argmin(ex ** 2 + ey ** 2, axis=-1)  # (...)
-            k = np.asarray(k)
-            flat = k.ravel() + n_seg * np.arange(k.size)  # k's entries of the (..., S) arrays
-            t_k, rx, ry = (a.ravel()[flat].reshape(k.shape) for a in (t, rel_x, rel_y))
-            dx_k, dy_k = dx[k], dy[k]
-            s = self._cum_s[k] + t_k
-        return np.asarray(s), np.asarray(dx_k * ry - dy_k * rx), k
+        s = self._cum_s[0] + t[..., 0]
+        lateral = dx[0] * rel_y[..., 0] - dy[0] * rel_x[..., 0]
+        return np.asarray(s), np.asarray(lateral), np.zeros(s.shape, dtype=np.intp)
 
     def segment_crossings(self, segment) -> np.ndarray:
         """Arc lengths [m] at which the route crosses a line segment, ascending.

@@ -1,0 +1,97 @@
+"""Route projection's compiled kernel (sim/route_kernels.py) against numpy, bit for bit.
+
+The numpy arithmetic it replaced in Route._project (routes of several segments) is written out
+here as it stood; random routes of 2-60 segments and points over a wide range of magnitudes,
++-0, +-inf and NaN, in the shapes the planners use ((), (P,), (W, N)).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from marl_social.sim.road_map import Route
+
+SEEDS = st.integers(0, 2**32 - 1)
+
+
+def _same(a, b) -> bool:
+    """Equal bit for bit, shape, dtype and signed zeros included (NaN equals NaN)."""
+    a, b = np.asarray(a), np.asarray(b)
+    if a.shape != b.shape or a.dtype != b.dtype:
+        return False
+    if a.dtype.kind != "f":
+        return np.array_equal(a, b)
+    return np.array_equal(a, b, equal_nan=True) and np.array_equal(np.signbit(a), np.signbit(b))
+
+
+def _reference_project(route: Route, x: np.ndarray, y: np.ndarray):
+    """Route._project on a route of several segments as it stood in numpy."""
+    sx, sy, dx, dy, length = route._sx, route._sy, route._dx, route._dy, route._seg_len
+    rel_x = x[..., None] - sx  # (..., S)
+    rel_y = y[..., None] - sy
+    t = rel_x * dx + rel_y * dy
+    t = np.minimum(np.maximum(t, 0.0), length)
+    n_seg = len(length)
+    ex = x[..., None] - (sx + t * dx)
+    ey = y[..., None] - (sy + t * dy)
+    k = np.argmin(ex ** 2 + ey ** 2, axis=-1)
+    k = np.asarray(k)
+    flat = k.ravel() + n_seg * np.arange(k.size)
+    t_k, rx, ry = (a.ravel()[flat].reshape(k.shape) for a in (t, rel_x, rel_y))
+    dx_k, dy_k = dx[k], dy[k]
+    s = route._cum_s[k] + t_k
+    return np.asarray(s), np.asarray(dx_k * ry - dy_k * rx), k
+
+
+def _route(rng: np.random.Generator) -> Route:
+    """A random polyline: 2-60 segments, lengths from millimetres to hundreds of metres."""
+    n = int(rng.integers(2, 61))
+    steps = rng.normal(size=(n, 2)) * 10.0 ** rng.uniform(-2, 2.5, size=(n, 1))
+    if rng.random() < 0.3:  # a smooth curve, as the maps' lanes
+        angle = np.cumsum(rng.normal(0.0, 0.1, n))
+        steps = np.column_stack([np.cos(angle), np.sin(angle)]) * rng.uniform(0.5, 5.0)
+    steps[np.linalg.norm(steps, axis=1) <= 1e-6] = 1.0
+    return Route(np.vstack([rng.normal(size=2) * 50.0, steps]).cumsum(axis=0))
+
+
+def _points(rng: np.random.Generator, route: Route, shape: tuple) -> np.ndarray:
+    """(shape + (2,)) points near the route, far from it, on its vertices, and special values."""
+    n = int(np.prod(shape, dtype=int))
+    base = route.points[rng.integers(0, len(route.points), n)]
+    xy = base + rng.normal(size=(n, 2)) * 10.0 ** rng.uniform(-6, 3, size=(n, 1))
+    pick = rng.random(n)
+    xy[pick < 0.1] = base[pick < 0.1]  # exactly on a vertex (ties between segments)
+    special = np.array([0.0, -0.0, np.inf, -np.inf, np.nan, 1e300, -1e-300])
+    odd = rng.random((n, 2)) < 0.05
+    xy[odd] = rng.choice(special, int(odd.sum()))
+    return xy.reshape(shape + (2,))
+
+
+@settings(max_examples=200, deadline=None)
+@given(SEEDS, st.sampled_from([(), (1,), (7,), (5, 24), (3, 4, 6)]))
+def test_projection_on_several_segments_matches_numpy_bit_for_bit(seed, shape):
+    rng = np.random.default_rng(seed)
+    route = _route(rng)
+    xy = _points(rng, route, shape)
+    x, y = xy[..., 0], xy[..., 1]
+    with np.errstate(invalid="ignore", over="ignore"):
+        expected = _reference_project(route, x, y)
+        got = route._project(x, y)
+    assert all(_same(g, e) for g, e in zip(got, expected))
+
+
+def test_project_xy_and_project_use_the_kernel_on_strided_inputs():
+    rng = np.random.default_rng(3)
+    route = _route(rng)
+    xy = _points(rng, route, (6, 9))
+    xy[np.isnan(xy)] = 0.0
+    s, lateral = route.project_xy(xy[..., 0], xy[..., 1])  # strided views
+    with np.errstate(invalid="ignore", over="ignore"):
+        ref_s, ref_lateral, ref_k = _reference_project(route, xy[..., 0], xy[..., 1])
+    assert _same(s, ref_s) and _same(lateral, ref_lateral)
+    s1, lat1, heading1 = route.project(xy[2, 3])
+    assert np.isscalar(s1) or np.ndim(s1) == 0
+    assert s1 == ref_s[2, 3] and lat1 == ref_lateral[2, 3]
+    assert heading1 == route._seg_heading[ref_k[2, 3]]
