@@ -156,10 +156,8 @@ class RightOfWay:
                 s_rear = np.full(n_t, conflict.s_enter_m)
                 s_front = np.full(n_t, conflict.s_exit_m)
                 made = [None] * len(way)
-                for w, row in enumerate(claimed):
-                    if row.any():
-                        ks = np.flatnonzero(row)
-                        made[w] = PathObject(row, s_rear, s_front, int(ks[0]), int(ks[-1]))
+                for w, first, last in _claimed_spans(claimed):
+                    made[w] = PathObject(claimed[w], s_rear, s_front, first, last)
             if all(obj is None for obj in made):
                 continue
             claim = [None] * len(u_l)
@@ -198,12 +196,24 @@ class RightOfWay:
         # it has reached the zone; a car already past the join is a car ahead (the corridor's)
         claimed = (front >= conflict.s_enter_m) & (rear[:, :1] <= conflict.s_exit_m)  # (W, N)
         made = [None] * len(claimed)
-        for p, row in enumerate(claimed):
-            if row.any():
-                ks = np.flatnonzero(row)
-                made[p] = PathObject(row, rear[p], yielding_front[p], int(ks[0]), int(ks[-1]),
-                                     pass_margin=False)
+        for p, first, last in _claimed_spans(claimed):
+            made[p] = PathObject(claimed[p], rear[p], yielding_front[p], first, last,
+                                 pass_margin=False)
         return made
+
+
+def _claimed_spans(claimed: np.ndarray) -> list[tuple[int, int, int]]:
+    """(row, first step, last step) of every row of claimed (P, N) bool with a True, in order.
+
+    The rows' first and last True at once (a row at a time took ~15 us per car).
+    """
+    rows = np.flatnonzero(claimed.any(axis=1))
+    if not len(rows):
+        return []
+    some = claimed[rows]
+    first = some.argmax(axis=1)
+    last = some.shape[1] - 1 - some[:, ::-1].argmax(axis=1)
+    return list(zip(rows.tolist(), first.tolist(), last.tolist()))
 
 
 def _merge_lane(route: Route, road_map: RoadMap, conflict: RouteConflict
