@@ -66,6 +66,27 @@ def _corners(xy: np.ndarray, heading: np.ndarray, length_m: np.ndarray,
     return xy[..., 0] + dx, xy[..., 1] + dy
 
 
+def occupied_spans(occupied: np.ndarray, rows: np.ndarray | None = None
+                   ) -> list[tuple[int, int, int]]:
+    """(row, first step, last step) of the rows of occupied (P, N) bool with a True, in order.
+
+    Every row's first and last True at once (not a flatnonzero per row).
+
+    Args:
+        occupied: (P, N) bool, per object and plan step.
+        rows: (P,) bool, the rows to look at (None: every one; a row without a True is left
+            out either way).
+    """
+    some = occupied.any(axis=1)
+    index = np.flatnonzero(some if rows is None else some & rows)
+    if not len(index):
+        return []
+    picked = occupied[index]
+    first = picked.argmax(axis=1)
+    last = picked.shape[1] - 1 - picked[:, ::-1].argmax(axis=1)
+    return list(zip(index.tolist(), first.tolist(), last.tolist()))
+
+
 def objects_on_path(route: Route, scene: ScenePrediction, s0: float, robot_length_m: float,
                     robot_width_m: float, lateral_margin_m: float,
                     pedestrian_margin_m: float | None = None,
@@ -137,9 +158,8 @@ def objects_on_path(route: Route, scene: ScenePrediction, s0: float, robot_lengt
     pair[src_l, src_m] = np.arange(len(src_l))
     pair = np.where(shared[None], pair[:1], pair)  # shared objects: the first hypothesis' pair
     objects = [None] * len(src_l)
-    for i in np.flatnonzero(relevant):
-        ks = np.flatnonzero(occupied[i])
-        objects[i] = PathObject(occupied[i], s_rear[i], s_front[i], int(ks[0]), int(ks[-1]),
+    for i, first, last in occupied_spans(occupied, relevant):
+        objects[i] = PathObject(occupied[i], s_rear[i], s_front[i], first, last,
                                 bool(is_ped[i]))
     for l in np.flatnonzero(mask.any(axis=1)):
         out[l] = [objects[i] for i in pair[l][mask[l]] if objects[i] is not None]

@@ -81,6 +81,26 @@ def path_prediction(route, s_m: float, v_mps: float, times_s: np.ndarray
     return xy, np.asarray(heading, dtype=np.float64)
 
 
+def unique_rows(rows: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """np.unique(rows, axis=0, return_inverse=True) of a (P, C) bool array, a quarter the time.
+
+    Rows of at most 62 columns are packed into integers, the first column the most significant
+    bit: their order is np.unique's (lexicographic, False before True); wider ones go to
+    np.unique itself.
+
+    Returns:
+        (K, C) the distinct rows in that order, and (P,) each row's index among them.
+    """
+    n_cols = rows.shape[1]
+    if n_cols > 62:
+        unique, inverse = np.unique(rows, axis=0, return_inverse=True)
+        return unique, inverse.reshape(-1)
+    bits = np.left_shift(1, np.arange(n_cols - 1, -1, -1, dtype=np.int64))
+    keys = (rows * bits).sum(axis=1)
+    _, first, inverse = np.unique(keys, return_index=True, return_inverse=True)
+    return rows[first], inverse.reshape(-1)
+
+
 class PhaseBranches:
     """Expands the MPC's hypotheses by the signalled traffic's patterns (module docstring).
 
@@ -193,7 +213,7 @@ class PhaseBranches:
         if phase_weights is None:
             return np.ones((1, len(cars)), dtype=bool), np.ones(1)
         stops = np.array([stops_per_phase(self.head_states, c) for c in cars]).T  # (P, C)
-        patterns, inverse = np.unique(stops, axis=0, return_inverse=True)
+        patterns, inverse = unique_rows(stops)
         weights = np.bincount(inverse.ravel(), weights=phase_weights, minlength=len(patterns))
         keep = weights > 0.0
         return patterns[keep], weights[keep]
