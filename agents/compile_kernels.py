@@ -1,9 +1,9 @@
 """Every numba kernel of marl-social, loaded (and compiled into numba's cache) ahead of a run.
 
-Three parts are compiled on first use and cached on disk (`cache=True`, in each package's
+Four parts are compiled on first use and cached on disk (`cache=True`, in each package's
 __pycache__): the planners' kernels (models/kernel_loading.py, ~30 s on 2 cores), the
-belief's (perception/belief/compiled.py, ~15 s) and the MPC's tree solver
-(agents/robot/tree_ipm.py, ~10 s). A process that finds no cache compiles them itself, so on
+belief's (perception/belief/compiled.py, ~15 s), the MPC's tree solver
+(agents/robot/tree_ipm.py, ~10 s) and the route projection (sim/route_kernels.py, ~1-2 s). A process that finds no cache compiles them itself, so on
 a fresh install several processes started at once (a test run on every core, a study's
 workers, a vector env's) each compile the same kernels. `compile_kernels` compiles them once,
 before such processes start; the parts are independent, so two processes can compile two of
@@ -19,14 +19,15 @@ from pathlib import Path
 
 import numpy as np
 
-from marl_social.models.kernel_loading import will_compile
+from marl_social.sim.kernel_cache import will_compile
 
-PARTS = ("planners", "belief", "tree")
+PARTS = ("planners", "belief", "tree", "route")
 # each part: the module whose folder holds its kernel files, and those files' names
 _FILES = {
     "planners": ("marl_social.models.kernel_loading", ("gap_kernels", "cost_kernels")),
     "belief": ("marl_social.perception.belief.compiled", ("belief_kernels",)),
     "tree": ("marl_social.agents.robot.qp", ("tree_ipm",)),
+    "route": ("marl_social.sim.road_map", ("route_kernels",)),
 }
 
 
@@ -34,7 +35,7 @@ def parts_to_compile() -> list[str]:
     """The parts (of PARTS) with no numba cache as new as their kernel files.
 
     Empty also when the cache folders cannot be written (numba then caches elsewhere and this
-    cannot tell: `kernel_loading.will_compile`).
+    cannot tell: `sim/kernel_cache.will_compile`).
     """
     out = []
     for part in PARTS:
@@ -64,6 +65,10 @@ def compile_kernels(parts: tuple[str, ...] | list[str] = PARTS) -> None:
         compiled.kernels()
     if "tree" in parts:
         _solve_one_tree_qp()
+    if "route" in parts:  # a route of several segments projects through the kernel
+        from marl_social.sim.road_map import Route
+
+        Route([[0.0, 0.0], [10.0, 0.0], [20.0, 5.0]], "compile_kernels").project(np.zeros(2))
 
 
 def _solve_one_tree_qp() -> None:

@@ -43,7 +43,7 @@ from pathlib import Path
 import numba
 import numpy as np
 
-from marl_social.models.kernel_loading import will_compile
+from marl_social.sim.kernel_cache import will_compile
 
 MAX_ITER = 40  # interior point iterations before giving up (a feasible QP needs ~15-25)
 PRIMAL_TOL = 1e-9  # largest violation of a row [the row's unit: m, m/s, m/s^2]

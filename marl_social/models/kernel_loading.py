@@ -11,8 +11,9 @@ is not configured) before it compiles.
 from __future__ import annotations
 
 import logging
-import os
 from pathlib import Path
+
+from marl_social.sim.kernel_cache import will_compile
 
 _LOADED: list = []  # [gap_kernels, cost_kernels] once imported
 _KERNEL_FILES = ("gap_kernels", "cost_kernels")
@@ -38,26 +39,3 @@ def _cache_dir() -> Path:
 def _will_compile(here: Path | None = None) -> bool:
     """Whether a planner kernel file in `here` (default: this package) will compile."""
     return will_compile(Path(__file__).parent if here is None else here, _KERNEL_FILES)
-
-
-def will_compile(folder: Path, names: tuple[str, ...]) -> bool:
-    """Whether a kernel file folder/NAME.py has no numba cache index at least as new as it.
-
-    False when the cache folder cannot be written: numba then caches elsewhere
-    (NUMBA_CACHE_DIR or the user's cache) and this cannot tell. Also used by the belief's
-    kernels (perception/belief/compiled.py).
-
-    Args:
-        folder: the kernel modules' folder (numba caches in its __pycache__).
-        names: the kernel modules' names, without ".py".
-    """
-    cache = folder / "__pycache__"
-    if os.environ.get("NUMBA_CACHE_DIR") or (cache.exists() and not os.access(cache, os.W_OK)):
-        return False
-    for name in names:
-        source = (folder / f"{name}.py").stat().st_mtime
-        index = list(cache.glob(f"{name}.*.nbi")) if cache.exists() else []
-        # index files of functions at old line numbers stay behind: the newest one counts
-        if not index or max(p.stat().st_mtime for p in index) < source:
-            return True
-    return False

@@ -8,11 +8,14 @@ radians counter-clockwise from +x.
 from __future__ import annotations
 
 import bisect
+import logging
 import math
 from dataclasses import dataclass, field, replace
+from pathlib import Path
 
 import numpy as np
 
+from marl_social.sim.kernel_cache import will_compile
 from marl_social.sim.signals import SignalHead, SignalPlan
 
 
@@ -34,6 +37,11 @@ _ROUTE_KERNELS: list = []  # [sim.route_kernels] once imported (numba: not at im
 def _route_kernels():
     """sim.route_kernels, imported (numba loaded, or compiled once) at the first call."""
     if not _ROUTE_KERNELS:
+        folder = Path(__file__).parent
+        if will_compile(folder, ("route_kernels",)):
+            logging.getLogger("marl_social").warning(
+                "compiling the route projection's numba kernel once (a few seconds; cached in "
+                "%s for later runs)", folder / "__pycache__")
         from marl_social.sim import route_kernels
 
         _ROUTE_KERNELS.append(route_kernels)

@@ -13,7 +13,7 @@ import logging
 from pathlib import Path
 from types import ModuleType
 
-from marl_social.models.kernel_loading import will_compile
+from marl_social.sim.kernel_cache import will_compile
 
 # the longest contiguous sum the kernels take (belief_kernels._pairwise_sum: numpy's pairwise
 # block, no further split); longer rows stay in numpy

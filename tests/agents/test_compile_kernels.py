@@ -36,3 +36,14 @@ def test_a_stale_kernel_file_is_a_part_to_compile(monkeypatch):
 def test_an_unknown_part_is_refused_by_name():
     with pytest.raises(ValueError, match=r"unknown part\(s\) \['gpu'\].*'planners'"):
         ck.compile_kernels(["gpu"])
+
+
+def test_the_route_part_compiles_the_route_projection_kernel(monkeypatch):
+    from marl_social.sim import road_map, route_kernels
+
+    calls = []
+    project = route_kernels.project_points
+    monkeypatch.setattr(route_kernels, "project_points",
+                        lambda *args: calls.append(1) or project(*args))
+    ck.compile_kernels(["route"])
+    assert calls == [1] and road_map._ROUTE_KERNELS == [route_kernels]
