@@ -252,7 +252,7 @@ class ContingencyMpc:
     def _qp(self, n_branches: int, for_modes: bool = False) -> ContingencyQp:
         if for_modes:
             if self._mode_qp is None:
-                self._mode_qp = self._new_qp(1)
+                self._mode_qp = self._new_qp(n_branches)
             return self._mode_qp
         if n_branches not in self._qps:
             self._qps[n_branches] = self._new_qp(n_branches)
