@@ -27,7 +27,8 @@ def pytest_sessionstart(session):
     from marl_social.agents.compile_kernels import parts_to_compile
 
     parts = parts_to_compile()
-    groups = [g for g in (["planners"], [p for p in parts if p != "planners"]) if set(g) & set(parts)]
+    groups = [g for g in ([p for p in parts if p == "planners"],
+                          [p for p in parts if p != "planners"]) if g]
     code = "from marl_social.agents.compile_kernels import compile_kernels; compile_kernels({})"
     procs = [subprocess.Popen([sys.executable, "-c", code.format(group)]) for group in groups]
     for proc in procs:

@@ -202,7 +202,6 @@ class RightOfWay:
         return made
 
 
-
 def _merge_lane(route: Route, road_map: RoadMap, conflict: RouteConflict
                 ) -> tuple[Route, float] | None:
     """(the priority lane's path, its arc length at the join) at a merge, else None.

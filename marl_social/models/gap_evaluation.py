@@ -213,20 +213,21 @@ def _conflict_rows(scene: ScenePrediction, crosswalks: tuple, yield_zones: tuple
     for row, zone_edges in zip(zone_rows, edges):
         row[:len(zone_edges)] = zone_edges
     mask = scene.mask[:, None, None, None, :]
-    sums = [np.sum(np.where(mask, _zone_claims(scene, zone_edges, priority, yield_margin_s, dt)
+    sums = [np.sum(np.where(mask, _zone_claims(scene, row[:len(zone_edges)], priority,
+                                               yield_margin_s, dt)
                             .swapaxes(1, 2)[:, None, None], 0.0), axis=-1)  # (L, 1, 1, T)
-            for zone_edges, (_, priority) in zip(edges, yield_zones)]
+            for row, zone_edges, (_, priority) in zip(zone_rows, edges, yield_zones)]
     return (crosswalk_rows, zone_rows, np.array([len(e) for e in edges], dtype=np.int64),
             np.stack(sums).reshape(len(sums), len(scene.mask), -1))
 
 
-def _zone_claims(scene: ScenePrediction, zone_edges: tuple, priority: np.ndarray,
+def _zone_claims(scene: ScenePrediction, zone_edges: np.ndarray, priority: np.ndarray,
                  margin_s: float, dt_s: float) -> np.ndarray:
     """candidates.zone_claims, bit for bit, with its geometry in gap_kernels.
 
     Args:
         scene: the predicted objects (L hypotheses, M objects, T steps).
-        zone_edges: the zone's edges, sim/costs._polygon_edges of its outline.
+        zone_edges: (V, 5) the zone's edges, sim/costs._polygon_edges of its outline.
         priority: (L, M) bool, the objects with the right of way in the zone.
         margin_s: the time margin [s], >= 0.
         dt_s: the planner step [s].
@@ -241,10 +242,10 @@ def _zone_claims(scene: ScenePrediction, zone_edges: tuple, priority: np.ndarray
     heading = scene.heading[rows, cols]  # (P, T)
     along, radius = circle_layout(scene.length_m[rows, cols], scene.width_m[rows, cols],
                                   scene.is_pedestrian[rows, cols])
-    gap_kernels = _KERNELS[0] if _KERNELS else _kernels()[0]
+    gap_kernels, _ = _KERNELS or _kernels()
     arguments = gap_kernels.zone_claim_arguments(
         np.ascontiguousarray(scene.xy[rows, cols]), dt_s, round(margin_s / dt_s) + 1,
-        np.cos(heading), np.sin(heading), along, radius, np.array(zone_edges),
+        np.cos(heading), np.sin(heading), along, radius, zone_edges,
         OCCUPANCY_SOFTNESS_M)
     claim[rows, cols] = (0.5 * (1.0 + np.tanh(arguments))).max(axis=0)
     return claim

@@ -184,5 +184,5 @@ def test_zone_claims_kernel_is_candidates_zone_claims(seed, n_hyp, n_obj, n_t, p
     polygon = np.stack([np.cos(angles), np.sin(angles)], axis=1) * rng.uniform(2.0, 8.0)
     priority = rng.random((n_hyp, n_obj)) < 0.7
     want = zone_claims(scene, polygon, priority, margin_s, 0.25)
-    got = _zone_claims(scene, _polygon_edges(polygon), priority, margin_s, 0.25)
+    got = _zone_claims(scene, np.array(_polygon_edges(polygon)), priority, margin_s, 0.25)
     assert _same(got, want)
