@@ -7,8 +7,9 @@ left-turner) for the social planner with V3 near and far, the aggressive planner
 Table: every robot planner x hidden_vehicle variant over N seeds of `randomized_overrides`
 (run.RANDOMIZATIONS["t_intersection"]: the left-turners' number, start, speed and rationality,
 V3's speed and start distance, the gap between the parked cars): collision, yield and hard-brake rates of the robot, its mean time to pass its
-conflict zone and mean speed, the mean hardest braking it forced on a human, and how often the
-first left-turner let V3 pass before turning.
+conflict zone and mean speed, the mean hardest braking it forced on a human, how often the
+first left-turner let V3 pass before turning, and how often it waited for V3 (V3 held it back:
+left_turner_held_back, against the same seed without V3).
 """
 
 from __future__ import annotations
@@ -52,29 +53,84 @@ def randomized_overrides(seed: int) -> dict:
     return draw(seed, SCENARIO)
 
 
+HELD_BACK_BELOW_MPS = 3.5  # a left-turner held back is slower than this (its curve speed ~4.4)
+HELD_BACK_DEFICIT_MPS = 0.3  # ...and this much slower than in the same seed without V3 [m/s]
+
+
+def _steps_in_left_turn_crossing(result, name: str) -> np.ndarray:
+    """(k,) the steps at which agent `name` is active inside the left-turn crossing."""
+    trace, road_map = result.trace, result.road_map
+    zone = next(z for z in road_map.conflict_zones if z.name == "left_turn_crossing")
+    i = trace.index(name)
+    return np.flatnonzero(zone.contains(trace.states[:, i, :2]) & trace.active[:, i])
+
+
 def first_left_turner_waited(result, hidden: str) -> float:
     """Whether human_0 let V3 pass.
 
     1.0 if it entered the left-turn crossing only after V3 had left it, 0.0 if before (or if V3
-    never came); nan without human_0 or V3.
+    never came); nan without human_0 or V3. This counts a left-turner that V3 had passed
+    before it got there too: left_turner_held_back tells whether it waited for V3.
 
     Args:
         result: an EpisodeResult of the t_intersection scenario.
         hidden: V3's name (human_<n_humans>).
     """
-    trace, road_map = result.trace, result.road_map
+    trace = result.trace
     if "human_0" not in trace.names or hidden not in trace.names or hidden == "human_0":
         return float("nan")
-    zone = next(z for z in road_map.conflict_zones if z.name == "left_turn_crossing")
-
-    def inside(name):
-        i = trace.index(name)
-        return np.flatnonzero(zone.contains(trace.states[:, i, :2]) & trace.active[:, i])
-
-    turner, car = inside("human_0"), inside(hidden)
+    turner = _steps_in_left_turn_crossing(result, "human_0")
+    car = _steps_in_left_turn_crossing(result, hidden)
     if not len(car):
         return 0.0
     return float(len(turner) == 0 or turner[0] > car[-1])
+
+
+def left_turner_record(result, hidden: str) -> dict:
+    """What left_turner_held_back needs of one episode.
+
+    Returns:
+        human_0_speed_mps: (T,) human_0's speed per step [m/s] (nan while inactive; all nan
+            without human_0);
+        v3_left_crossing_step: the last step V3 is in the left-turn crossing (-1: never, or no V3).
+    """
+    trace = result.trace
+    speed = np.full(len(trace.times_s), np.nan)
+    if "human_0" in trace.names:
+        i = trace.index("human_0")
+        speed = np.where(trace.active[:, i], trace.states[:, i, 3], np.nan)
+    car = (_steps_in_left_turn_crossing(result, hidden)
+           if hidden in trace.names and hidden != "human_0" else np.zeros(0, dtype=int))
+    return {"human_0_speed_mps": speed, "v3_left_crossing_step": int(car[-1]) if len(car) else -1}
+
+
+def left_turner_held_back(near: dict, without_v3: dict) -> float:
+    """Whether the first left-turner waited for V3: it let V3 pass *and* V3 held it back.
+
+    Held back: before V3 left the left-turn crossing human_0 drove slower than
+    HELD_BACK_BELOW_MPS and, at some step, more than HELD_BACK_DEFICIT_MPS slower than in the
+    same seed without V3 (the counterfactual: what it did because of V3, not its curve speed).
+    A left-turner that V3 passes before it arrives lets V3 pass without waiting for it.
+
+    Args:
+        near: claim_episode's summary with V3 (human_0_waited, human_0_speed_mps,
+            v3_left_crossing_step).
+        without_v3: the summary of the same seed and robot planner without V3.
+
+    Returns:
+        1.0 or 0.0; nan without human_0 or V3.
+    """
+    if np.isnan(near["human_0_waited"]):
+        return float("nan")
+    if near["human_0_waited"] != 1.0:
+        return 0.0
+    with_car, without = near["human_0_speed_mps"], without_v3["human_0_speed_mps"]
+    n = min(near["v3_left_crossing_step"] + 1, len(with_car), len(without))
+    if n <= 0:
+        return 0.0
+    slowest = np.nanmin(with_car[:n], initial=np.inf)
+    deficit = np.nanmax(without[:n] - with_car[:n], initial=-np.inf)
+    return float(slowest < HELD_BACK_BELOW_MPS and deficit > HELD_BACK_DEFICIT_MPS)
 
 
 def hidden_vehicle_timings(result) -> dict:
@@ -101,7 +157,8 @@ def hidden_vehicle_timings(result) -> dict:
 def claim_episode(job: tuple) -> tuple:
     """One episode for the claims tests: (planner, variant, seed, summary, error).
 
-    The summary: the episode's metrics, human_0_waited and hidden_vehicle_timings.
+    The summary: the episode's metrics, human_0_waited, left_turner_record and
+    hidden_vehicle_timings (left_turner_held_back pairs it with the same seed without V3).
 
     Args:
         job: (planner, variant, seed, max_cycles); the episode runs with
@@ -116,6 +173,7 @@ def claim_episode(job: tuple) -> tuple:
         summary = dict(res.metrics)
         hidden = f"human_{res.trace.roles.count('human') - 1}"  # V3 is the last human
         summary["human_0_waited"] = first_left_turner_waited(res, hidden)
+        summary.update(left_turner_record(res, hidden))
         summary.update(hidden_vehicle_timings(res))
         return planner, variant, seed, summary, None
     except Exception as err:  # noqa: BLE001  (reported by the caller)
@@ -127,10 +185,13 @@ def run_table(n_seeds: int, workers: int = 2, planners=PLANNERS, variants=VARIAN
     """One row per (planner, variant): rates and means over n_seeds randomized episodes."""
     jobs = [(p, v, s, MAX_CYCLES) for p in planners for v in variants for s in range(n_seeds)]
     results = map_jobs(claim_episode, jobs, workers, progress)
+    add_held_back(results)
 
     def summarize(runs: list[dict]) -> dict:
-        def mean(key):
-            return float(np.nanmean([float(m[key]) for m in runs]))
+        def mean(key):  # nan where no run has a value
+            values = np.array([float(m.get(key, np.nan)) for m in runs])
+            return float(np.mean(values[~np.isnan(values)])) if np.any(~np.isnan(values)) \
+                else float("nan")
 
         return {
             "collision_rate": mean("robot_collision"), "yield_rate": mean("yielded"),
@@ -138,6 +199,7 @@ def run_table(n_seeds: int, workers: int = 2, planners=PLANNERS, variants=VARIAN
             "mean_speed_mps": mean("mean_speed_mps"),
             "others_max_decel_mps2": mean("others_max_decel_mps2"),
             "human_0_waited_rate": mean("human_0_waited"),
+            "human_0_held_back_rate": mean("human_0_held_back"),
         }
 
     rows = table_rows(results, planners, variants, summarize)
@@ -147,13 +209,29 @@ def run_table(n_seeds: int, workers: int = 2, planners=PLANNERS, variants=VARIAN
     return rows
 
 
+def add_held_back(results: list[tuple]) -> None:
+    """Add "human_0_held_back" (left_turner_held_back) to the summaries with V3, in place.
+
+    Args:
+        results: claim_episode's (planner, variant, seed, summary, error) tuples; a summary
+            with V3 gets the entry where the same planner and seed ran without V3 ("none").
+    """
+    without_v3 = {(p, s): m for p, v, s, m, _ in results if v == "none" and m is not None}
+    for p, v, s, m, _ in results:
+        if v != "none" and m is not None and (p, s) in without_v3:
+            m["human_0_held_back"] = left_turner_held_back(m, without_v3[(p, s)])
+
+
 def format_table(rows: list[dict]) -> str:
     """The rows of run_table as a Markdown table."""
-    def waited(r):
-        return "-" if np.isnan(r["human_0_waited_rate"]) else f"{r['human_0_waited_rate']:.0%}"
+    def rate(key):
+        return lambda r: "-" if np.isnan(r[key]) else f"{r[key]:.0%}"
 
     return markdown_table(rows, "V3", [COLLISION, YIELDED, HARD_BRAKE, TIME_TO_PASS, MEAN_SPEED,
-                                       FORCED_BRAKING, ("human_0 let V3 pass", waited)])
+                                       FORCED_BRAKING,
+                                       ("human_0 let V3 pass", rate("human_0_waited_rate")),
+                                       ("human_0 waited for V3",
+                                        rate("human_0_held_back_rate"))])
 
 
 def write_figures(out: Path, seed: int = 0) -> list[Path]:

@@ -24,7 +24,7 @@ import os
 import numpy as np
 import pytest
 
-from marl_social.evaluation.reproduce_intersection import claim_episode
+from marl_social.evaluation.reproduce_intersection import add_held_back, claim_episode
 
 pytestmark = [pytest.mark.slow, pytest.mark.long]  # 300 episodes: ~11 min of CPU (19 min on 2
 # busy cores), outside CI; run with `python -m pytest -m long` (MARL_CLAIM_SEEDS=N: quicker)
@@ -45,6 +45,7 @@ def runs() -> dict:
     jobs = [(p, v, s, HORIZON[v]) for p, v in CASES for s in range(SEED0, SEED0 + N_SEEDS)]
     with mp.get_context("spawn").Pool(2) as pool:
         results = pool.map(claim_episode, jobs, chunksize=4)
+    add_held_back(results)  # pairs each near seed with the same planner and seed without V3
     out = {case: [] for case in CASES}
     for planner, variant, _seed, summary, error in results:
         assert error is None, error
@@ -146,10 +147,17 @@ def test_aggressive_robot_pulls_out_in_front_of_a_near_hidden_car(runs):
     "before V3 has left the crossing: 100 % of 36 and 94 % of 33 (a reading chosen after looking "
     "at both seed ranges; below 3.5 m/s alone, chosen on 0-49: 97 % of 37 and 86 % of 37)"))
 def test_a_waiting_left_turner_tells_the_social_robot_of_the_hidden_car(runs):
-    """In >= 90 % of the near seeds where the first left-turner lets V3 pass, the robot's belief
-    in a hidden car exceeds 0.9 before it first sees V3."""
+    """In >= 90 % of the near seeds where the first left-turner waits for V3, the robot's belief
+    in a hidden car exceeds 0.9 before it first sees V3.
+
+    Waits for V3 (reproduce_intersection.left_turner_held_back): it lets V3 pass and V3 holds
+    it back, below 3.5 m/s and > 0.3 m/s slower than in the same seed without V3 before V3 has
+    left the crossing. A left-turner that V3 passes before it gets there lets V3 pass without
+    waiting (all 50 near seeds let V3 pass; in most of them human_0 never slows below its curve
+    speed, 4.4 m/s).
+    """
     case = ("social", "near")
-    waited = [m for m in runs[case] if m["human_0_waited"] == 1.0]
+    waited = [m for m in runs[case] if m["human_0_held_back"] == 1.0]
     assert len(waited) >= 10
     early = [m["belief_09_s"] < np.nan_to_num(m["robot_first_sees_v3_s"], nan=np.inf)
              for m in waited]

@@ -20,14 +20,42 @@ def test_randomization_covers_the_ranges_and_is_seeded():
 
 
 def test_table_row_for_a_near_car():
-    """One cell, one episode: the first left-turner lets the near car pass; the row has every
-    column and formats."""
-    rows = rep.run_table(1, workers=1, planners=("cruise",), variants=("near",), progress=False)
-    assert rows[0]["n"] == 1 and not rows[0]["errors"]
-    assert rows[0]["human_0_waited_rate"] == 1.0
-    assert rows[0]["others_max_decel_mps2"] >= 0.0
+    """One seed with V3 near and without it: the first left-turner lets the near car pass and
+    waits for it (slower than without V3); the rows have every column and format."""
+    rows = rep.run_table(1, workers=1, planners=("cruise",), variants=("near", "none"),
+                         progress=False)
+    near, none = rows
+    assert near["n"] == 1 and not near["errors"] and none["n"] == 1
+    assert near["human_0_waited_rate"] == 1.0 and near["human_0_held_back_rate"] == 1.0
+    assert np.isnan(none["human_0_waited_rate"]) and np.isnan(none["human_0_held_back_rate"])
+    assert near["others_max_decel_mps2"] >= 0.0
     table = rep.format_table(rows)
-    assert table.count("\n") == 2 and "| cruise | near | 1 |" in table
+    assert table.count("\n") == 3 and "| cruise | near | 1 |" in table
+    assert table.splitlines()[2].endswith("| 100% | 100% |")
+
+
+def _summary(speeds_mps, waited=1.0, v3_left_step=5) -> dict:
+    return {"human_0_waited": waited, "human_0_speed_mps": np.asarray(speeds_mps, float),
+            "v3_left_crossing_step": v3_left_step}
+
+
+def test_a_left_turner_held_back_by_v3_waited_for_it():
+    """Held back: slower than 3.5 m/s and > 0.3 m/s slower than without V3, before V3 left."""
+    without_v3 = _summary([4.4] * 8, waited=float("nan"), v3_left_step=-1)
+    assert rep.left_turner_held_back(_summary([4.4, 3.6, 2.0, 0.5, 0.0, 1.0, 3.0, 4.0]),
+                                     without_v3) == 1.0
+    # V3 gone before the left-turner got there: it kept its curve speed
+    assert rep.left_turner_held_back(_summary([4.4] * 8), without_v3) == 0.0
+    # slow, but as slow without V3 (its own start, not V3)
+    slow = [3.0, 3.0, 3.1, 3.2, 3.3, 3.4, 3.5, 3.6]
+    assert rep.left_turner_held_back(_summary(slow), _summary(slow, float("nan"), -1)) == 0.0
+    # slowed only after V3 had left the crossing (step 2)
+    late = [4.4, 4.4, 4.4, 2.0, 1.0, 1.0, 1.0, 1.0]
+    assert rep.left_turner_held_back(_summary(late, v3_left_step=2), without_v3) == 0.0
+    # entered the crossing before V3 (did not let it pass); no human_0 or no V3
+    assert rep.left_turner_held_back(_summary([0.0] * 8, waited=0.0), without_v3) == 0.0
+    assert np.isnan(rep.left_turner_held_back(_summary([np.nan] * 8, waited=float("nan")),
+                                              without_v3))
 
 
 def test_figures_are_written(tmp_path, monkeypatch):
