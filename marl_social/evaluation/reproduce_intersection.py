@@ -107,8 +107,8 @@ def left_turner_record(result, hidden: str) -> dict:
 def left_turner_held_back(near: dict, without_v3: dict) -> float:
     """Whether the first left-turner waited for V3: it let V3 pass *and* V3 held it back.
 
-    Held back: before V3 left the left-turn crossing human_0 drove slower than
-    HELD_BACK_BELOW_MPS and, at some step, more than HELD_BACK_DEFICIT_MPS slower than in the
+    Held back at a step before V3 left the left-turn crossing: human_0 drove slower than
+    HELD_BACK_BELOW_MPS and more than HELD_BACK_DEFICIT_MPS slower than at the same step of the
     same seed without V3 (the counterfactual: what it did because of V3, not its curve speed).
     A left-turner that V3 passes before it arrives lets V3 pass without waiting for it.
 
@@ -126,11 +126,9 @@ def left_turner_held_back(near: dict, without_v3: dict) -> float:
         return 0.0
     with_car, without = near["human_0_speed_mps"], without_v3["human_0_speed_mps"]
     n = min(near["v3_left_crossing_step"] + 1, len(with_car), len(without))
-    if n <= 0:
-        return 0.0
-    slowest = np.nanmin(with_car[:n], initial=np.inf)
-    deficit = np.nanmax(without[:n] - with_car[:n], initial=-np.inf)
-    return float(slowest < HELD_BACK_BELOW_MPS and deficit > HELD_BACK_DEFICIT_MPS)
+    with_car, without = with_car[:max(n, 0)], without[:max(n, 0)]
+    held = (with_car < HELD_BACK_BELOW_MPS) & (without - with_car > HELD_BACK_DEFICIT_MPS)
+    return float(np.any(held))
 
 
 def hidden_vehicle_timings(result) -> dict:

@@ -40,7 +40,8 @@ def _summary(speeds_mps, waited=1.0, v3_left_step=5) -> dict:
 
 
 def test_a_left_turner_held_back_by_v3_waited_for_it():
-    """Held back: slower than 3.5 m/s and > 0.3 m/s slower than without V3, before V3 left."""
+    """Held back: at one step before V3 left, slower than 3.5 m/s and > 0.3 m/s slower than at
+    that step without V3."""
     without_v3 = _summary([4.4] * 8, waited=float("nan"), v3_left_step=-1)
     assert rep.left_turner_held_back(_summary([4.4, 3.6, 2.0, 0.5, 0.0, 1.0, 3.0, 4.0]),
                                      without_v3) == 1.0
@@ -49,6 +50,10 @@ def test_a_left_turner_held_back_by_v3_waited_for_it():
     # slow, but as slow without V3 (its own start, not V3)
     slow = [3.0, 3.0, 3.1, 3.2, 3.3, 3.4, 3.5, 3.6]
     assert rep.left_turner_held_back(_summary(slow), _summary(slow, float("nan"), -1)) == 0.0
+    # below 3.5 m/s only where it was as slow without V3, slower than without V3 only above it
+    own = [3.0, 3.0, 4.4, 4.4, 4.4, 4.4, 4.4, 4.4]
+    assert rep.left_turner_held_back(_summary([3.0, 3.0, 3.9, 3.9, 3.9, 3.9, 3.9, 3.9]),
+                                     _summary(own, float("nan"), -1)) == 0.0
     # slowed only after V3 had left the crossing (step 2)
     late = [4.4, 4.4, 4.4, 2.0, 1.0, 1.0, 1.0, 1.0]
     assert rep.left_turner_held_back(_summary(late, v3_left_step=2), without_v3) == 0.0
