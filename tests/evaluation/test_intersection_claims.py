@@ -102,7 +102,14 @@ def test_social_is_much_faster_than_the_conservative_robot_without_hidden_car(ru
         "over a hidden car (drop the least likely bins while their total <= epsilon 0.05-0.10) "
         "gives 0 of 50 here, but 7.6-10.4 s vs the oracle's 6.7 s with no hidden car. Seeds "
         "50-99 (2026-12-01): 2 of 50, seeds 66 and 74, V3 at 8 m/s^2; in both human_0 shows "
-        "V3 by at most 0.3 m/s before the robot sees it"))),
+        "V3 by at most 0.3 m/s before the robot sees it. Seeds 100-149: 2 (116, 147); 150-199: "
+        "3 (151, 170, 178); 200-249 and 250-299: 0. V3 sees the robot rolling (~2 m/s, ~2 m "
+        "short of the lane) a step before the robot sees V3; the robot then stops short of the "
+        "lane, but V3 predicts it at constant speed into its lane. Tried (branch giveway, "
+        "2026-12-02): creeping while a hidden car as a whole weighs >= epsilon (speed <= "
+        "distance to the zone / 2 s until 2 m from it) gives 0 forced on 0-149 and on fresh "
+        "200-249, but 17-19 % slower than the oracle with no hidden car (11 % and seed 147 "
+        "still forced with a 2.5 m commit distance)"))),
     "oracle"])
 def test_robot_gives_way_to_a_near_hidden_car(runs, planner):
     """Never a collision, never forcing V3 (or a left-turner) to brake harder than 3 m/s^2."""
@@ -117,8 +124,9 @@ def test_aggressive_robot_pulls_out_in_front_of_a_near_hidden_car(runs):
     """What it does not see is absent: it collides or forces hard braking in most seeds.
 
     It stops at the stop sign, rolls out and sees V3 past the parked cars about a second before
-    V3 reaches the junction: V3, seeing it roll towards its lane, brakes hard (measured: 34 of
-    50 seeds, 6-8 m/s^2; no collision).
+    V3 reaches the junction: V3, seeing it roll towards its lane, brakes hard (measured
+    2026-12-01: 31, 29, 28 and 32 of 50 on seeds 0-49 ... 150-199, up to 8 m/s^2, no collision;
+    but 24 of 50 on seeds 250-299, where in about half the seeds it sees V3 in time to stop).
     """
     case = ("aggressive", "near")
     bad = (_values(runs, case, "robot_collision").astype(bool)
