@@ -33,7 +33,7 @@ _COVARIANCE_NODES: dict[tuple, dict] = {}
 # slot columns of the measured state [x m, y m, vx m/s, vy m/s]
 # (consecutive in SLOT_FIELDS)
 _MEASURED_STATE = slice(SLOT_INDEX["x"], SLOT_INDEX["vy"] + 1)
-_ID, _X, _VY = SLOT_INDEX["id"], SLOT_INDEX["x"], SLOT_INDEX["vy"]
+_PRESENT, _ID, _X, _VY = SLOT_INDEX["present"], SLOT_INDEX["id"], SLOT_INDEX["x"], SLOT_INDEX["vy"]
 _LENGTH, _WIDTH = SLOT_INDEX["length"], SLOT_INDEX["width"]
 _IS_PEDESTRIAN = SLOT_INDEX["is_pedestrian"]
 _SIN_PSI, _COS_PSI = SLOT_INDEX["sin_psi"], SLOT_INDEX["cos_psi"]
@@ -206,10 +206,11 @@ class Tracker:
         Args:
             decoded: the agent's decoded observation (its present slots are the measurements).
         """
-        objects = decoded.objects
-        rows = objects.tolist()  # float32 -> float: exact
-        # object id -> its row (the last one, should an id repeat)
-        measured = {round(row[_ID]): k for k, row in enumerate(rows)}
+        slots = decoded.slots
+        rows = slots.tolist()  # float32 -> float: exact
+        # object id -> the row of its present slot (the last one, should an id repeat);
+        # row[_PRESENT] > 0.5 is DecodedObservation.objects' test, in float64 the same
+        measured = {round(row[_ID]): k for k, row in enumerate(rows) if row[_PRESENT] > 0.5}
         f_rows, h_rows = self._f_rows, self._h_rows
         for oid in list(self._tracks):
             track = self._tracks[oid]
@@ -233,7 +234,9 @@ class Tracker:
                     continue
             track[0] = x
         if measured:
-            headings = np.arctan2(objects[:, _SIN_PSI], objects[:, _COS_PSI]).tolist()
+            # np.arctan2 of every slot's (strided) columns: element by element what it gives
+            # for the present rows alone
+            headings = np.arctan2(slots[:, _SIN_PSI], slots[:, _COS_PSI]).tolist()
             for oid, k in measured.items():
                 row = rows[k]
                 track = self._tracks.get(oid)
