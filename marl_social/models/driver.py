@@ -201,15 +201,16 @@ def _compiled_evaluation(ev: CandidateEvaluation) -> bool:
     kernel follows; vehicle_gap_evaluation's compiled evaluations are such.
     """
     cost = ev.step_cost
-    if not (isinstance(cost, np.ndarray) and cost.ndim == 4 and cost.flags.c_contiguous
-            and cost.dtype == np.float64):
+    if not (isinstance(cost, np.ndarray) and cost.ndim == 4 and cost.dtype == np.float64
+            and cost.flags.c_contiguous):
         return False
     plans = cost.shape[:3]
-    return (ev.min_vehicle_gap_m is not None and ev.vehicle_clearance_m is not None
-            and ev.travel_m is not None and np.shape(ev.min_vehicle_gap_m) == plans
-            and np.shape(ev.vehicle_clearance_m) == plans
-            and np.shape(ev.travel_m) == cost.shape[1:] and ev.travel_m.dtype == np.float64
-            and (ev.curve_excess_mps is None or np.shape(ev.curve_excess_mps) == plans[1:]))
+    travel, excess = ev.travel_m, ev.curve_excess_mps
+    return (getattr(ev.min_vehicle_gap_m, "shape", None) == plans
+            and getattr(ev.vehicle_clearance_m, "shape", None) == plans
+            and getattr(travel, "shape", None) == cost.shape[1:]
+            and travel.dtype == np.float64
+            and (excess is None or getattr(excess, "shape", None) == plans[1:]))
 
 
 def _compiled_totals(ev: CandidateEvaluation, model: DriverModel, s0: float,

@@ -33,12 +33,15 @@ from marl_social.models.candidates import (
     _vehicle_circles,
     evaluate_candidates,
 )
-from marl_social.models.circle_gaps import MAX_KERNEL_OBJECTS, scene_circle_inputs
+from marl_social.models.circle_gaps import (
+    MAX_KERNEL_OBJECTS,
+    _scene_layout,
+    scene_circle_inputs,
+)
 from marl_social.models.circle_gaps import crosswalk_rows as crosswalk_rows_of
 from marl_social.sim.agent_spec import VehicleParams
 from marl_social.sim.costs import OCCUPANCY_SOFTNESS_M, _polygon_edges
 from marl_social.sim.dynamics import DT_S
-from marl_social.sim.footprint import circle_layout
 from marl_social.sim.road_map import Crosswalk, Route
 from marl_social.sim.route_rules import CURVE_PROFILE_STEP_M, CurveSpeed
 
@@ -203,7 +206,7 @@ def _conflict_rows(scene: ScenePrediction, crosswalks: tuple, yield_zones: tuple
         their numbers; (Z, L, T) per zone the present objects' claims on it (zone_claims)
         summed over them as sim/costs sums them (np.sum of np.where over the objects' axis).
     """
-    if crosswalks and not (scene.mask & scene.is_pedestrian).any():  # the ego: a car
+    if crosswalks and not np.count_nonzero(scene.mask & scene.is_pedestrian):  # ego: a car
         crosswalks = ()
     crosswalk_rows = crosswalk_rows_of(crosswalks)
     if not yield_zones:
@@ -240,7 +243,8 @@ def _zone_claims(scene: ScenePrediction, zone_edges: np.ndarray, priority: np.nd
     if not len(rows):
         return claim
     heading = scene.heading[rows, cols]  # (P, T)
-    along, radius = circle_layout(scene.length_m[rows, cols], scene.width_m[rows, cols],
+    # footprint.circle_layout of the claimants, remembered for their sizes (circle_gaps)
+    along, radius = _scene_layout(scene.length_m[rows, cols], scene.width_m[rows, cols],
                                   scene.is_pedestrian[rows, cols])
     gap_kernels, _ = _KERNELS or _kernels()
     arguments = gap_kernels.zone_claim_arguments(

@@ -131,7 +131,7 @@ def _compiled_q_values(model: PedestrianModel, route: Route, s0: float, v_ref: f
     weights = theta[1:6].astype(np.float64)  # speed, accel, jerk, safety, conflict
     w_safety, w_conflict = weights[3], weights[4]
     pair = scene.mask & ~scene.is_pedestrian  # (L, M) the vehicles present
-    use_crosswalks = w_conflict != 0.0 and crosswalks and pair.any()
+    use_crosswalks = w_conflict != 0.0 and crosswalks and np.count_nonzero(pair) > 0
     rows = crosswalk_rows(crosswalks if use_crosswalks else ())
     exp_arg, occupancy, scene_occupancy = gap_kernels.walk_geometry(
         speed_times, float(s0), route.length_m, route._cum_s, route._pose_table,
