@@ -94,14 +94,11 @@ class BoltzmannPedestrian(BoltzmannPolicy):
 
     def predict(self, tracks: TrackSet) -> ScenePrediction:
         """Constant-velocity scene without the vehicles it expects to yield to it."""
-        scene = super().predict(tracks)
-        if self.crosswalks:
-            yielding = vehicles_expected_to_yield(tracks, self.crosswalks[0],
-                                                  self.model.expected_yield_decel_mps2)
-            scene = ScenePrediction(scene.xy, scene.heading, scene.length_m, scene.width_m,
-                                    scene.radius_m, scene.is_pedestrian,
-                                    scene.mask & ~yielding[None])
-        return scene
+        if not self.crosswalks:
+            return super().predict(tracks)
+        yielding = vehicles_expected_to_yield(tracks, self.crosswalks[0],
+                                              self.model.expected_yield_decel_mps2)
+        return ScenePrediction.from_tracks(tracks, self._times, ~yielding[None])
 
     def q_values(self, decoded: Measurements, scene: ScenePrediction) -> np.ndarray:
         """(A,) Q of each walking speed in model.speeds_mps along its route."""
