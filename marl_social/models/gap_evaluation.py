@@ -77,7 +77,7 @@ def vehicle_gap_evaluation(cands: CandidateSet, theta: np.ndarray, v_ref_mps: fl
     n_first_actions, n_cont, _ = plan.plan_shape
     scene_xy, cos_heading, sin_heading, scene_along, other_r = scene_circle_inputs(scene)
     n_hyp = len(scene.mask)
-    weights = theta[1:6].astype(np.float64)  # speed, accel, jerk, safety, conflict
+    weights = _weights(theta)  # speed, accel, jerk, safety, conflict
     w_safety, w_conflict = weights[3], weights[4]
     present = np.ascontiguousarray(scene.mask)
     crosswalk_rows, zone_rows, zone_sizes, zone_sums = _conflict_rows(
@@ -117,6 +117,18 @@ _NO_ZONES = (np.zeros((0, 1, 5)), np.zeros(0, dtype=np.int64))
 for _constant in (_NO_CURVE, *_NO_ZONES):
     _constant.setflags(write=False)
 _KERNELS: list = []  # [gap_kernels, cost_kernels] once loaded
+_LAST_WEIGHTS: list = [None, None]  # [a read-only theta, its _weights]
+
+
+def _weights(theta: np.ndarray) -> np.ndarray:
+    """theta[1:6] as float64, remembered for the last read-only theta (a model's own)."""
+    if _LAST_WEIGHTS[0] is theta:
+        return _LAST_WEIGHTS[1]
+    weights = theta[1:6].astype(np.float64)
+    if isinstance(theta, np.ndarray) and not theta.flags.writeable and theta.base is None:
+        weights.setflags(write=False)
+        _LAST_WEIGHTS[:] = [theta, weights]
+    return weights
 
 
 def _kernels() -> tuple:
