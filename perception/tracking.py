@@ -156,8 +156,9 @@ class Tracker:
     """Kalman-filter tracks of what one agent has seen.
 
     A track's state is kept as four Python floats and predicted and updated with kf_predict's
-    and kf_update's matrix products written out (`_matvec`: the same sums as np.dot of a (4, 4)
-    and a (4,), tests/perception/test_tracking.py); its covariance is a shared
+    and kf_update's matrix products written out (each row's four products summed left to right:
+    the same sums as np.dot of a (4, 4) and a (4,), tests/perception/test_tracking.py); its
+    covariance is a shared
     `_CovarianceNode`.
 
     Args:
@@ -222,11 +223,15 @@ class Tracker:
                 step = node.steps[row is not None] = self._node_step(node.p, row is not None)
             gain_rows, track[1], track[2] = step
             # kf_predict's state F x + 0 (np.dot of a (4, 4) and a (4,): the same sums in the
-            # same order, tests/perception/test_tracking.py)
-            x = [value + 0 for value in _matvec(f_rows, x)]
+            # same order, tests/perception/test_tracking.py), row by row on Python floats
+            x0, x1, x2, x3 = x
+            x = [m0 * x0 + m1 * x1 + m2 * x2 + m3 * x3 + 0 for m0, m1, m2, m3 in f_rows]
             if row is not None:  # kf_update's state x + K (z - H x)
-                innovation = [z - hx for z, hx in zip(row[_X:_VY + 1], _matvec(h_rows, x))]
-                x = [value + kz for value, kz in zip(x, _matvec(gain_rows, innovation))]
+                x0, x1, x2, x3 = x
+                i0, i1, i2, i3 = (z - (m0 * x0 + m1 * x1 + m2 * x2 + m3 * x3)
+                                  for z, (m0, m1, m2, m3) in zip(row[_X:_VY + 1], h_rows))
+                x = [value + (m0 * i0 + m1 * i1 + m2 * i2 + m3 * i3)
+                     for value, (m0, m1, m2, m3) in zip(x, gain_rows)]
             else:
                 track[3] += self.dt_s
                 if track[3] > self.timeout_s:
@@ -357,20 +362,6 @@ class Tracker:
             table[:, 5], table[:, 6], table[:, 7] > 0.5, table[:, 8] > 0.5, table[:, 9],
             track_heading(table[:, 2:4], table[:, 10]), np.array([track[2] for track in tracks]),
         )
-
-
-def _matvec(matrix_rows: list, vector: list) -> list:
-    """np.dot of a (4, 4) matrix and a (4,) vector, on Python floats.
-
-    Each row's four products summed left to right, as numpy sums them
-    (tests/perception/test_tracking.py).
-
-    Args:
-        matrix_rows: the matrix as 4 rows of 4 floats.
-        vector: 4 floats.
-    """
-    v0, v1, v2, v3 = vector
-    return [m0 * v0 + m1 * v1 + m2 * v2 + m3 * v3 for m0, m1, m2, m3 in matrix_rows]
 
 
 def track_heading(velocity_mps: np.ndarray, measured_heading_rad: np.ndarray) -> np.ndarray:
