@@ -3,7 +3,8 @@
 Four parts are compiled on first use and cached on disk (`cache=True`, in each package's
 __pycache__): the planners' kernels (models/kernel_loading.py, ~30 s on 2 cores), the
 belief's (perception/belief/compiled.py, ~15 s), the MPC's tree solver
-(agents/robot/tree_ipm.py, ~10 s) and the route projection (sim/route_kernels.py, ~1-2 s). A process that finds no cache compiles them itself, so on
+(agents/robot/tree_ipm.py, ~10 s) and the route projection and lane test
+(sim/route_kernels.py, ~2-3 s). A process that finds no cache compiles them itself, so on
 a fresh install several processes started at once (a test run on every core, a study's
 workers, a vector env's) each compile the same kernels. `compile_kernels` compiles them once,
 before such processes start; the parts are independent, so two processes can compile two of
@@ -66,9 +67,12 @@ def compile_kernels(parts: tuple[str, ...] | list[str] = PARTS) -> None:
     if "tree" in parts:
         _solve_one_tree_qp()
     if "route" in parts:  # a route of several segments projects through the kernel
-        from marl_social.sim.road_map import Route
+        from marl_social.sim.road_map import Lane, Route
+        from marl_social.sim.route_rules import on_lanes
 
-        Route([[0.0, 0.0], [10.0, 0.0], [20.0, 5.0]], "compile_kernels").project(np.zeros(2))
+        points = [[0.0, 0.0], [10.0, 0.0], [20.0, 5.0]]
+        Route(points, "compile_kernels").project(np.zeros(2))
+        on_lanes([Lane(np.array(points), 3.5)], np.zeros((1, 2)), np.zeros(1))  # the lane test
 
 
 def _solve_one_tree_qp() -> None:

@@ -111,6 +111,7 @@ class BoltzmannDriver(BoltzmannPolicy):
         self.curve_speed = None if curve.is_straight else curve
         # (S,) [m] and (S,) head index of the signal lines on its route
         self.signal_lines_s, self.signal_line_heads = route_signal_lines(self.route, road_map)
+        self._signal_lines = self.signal_lines_s.tolist()
         self._has_rules = bool(len(self.stop_lines_s) or self.yield_conflicts
                                or self.curve_speed is not None or len(self.signal_lines_s))
         self.record_decisions = False
@@ -161,7 +162,7 @@ class BoltzmannDriver(BoltzmannPolicy):
                     continue
                 priority = priority_mask(conflict.zone, self.road_map, tracks.xy,
                                          tracks.heading_rad)
-                if priority.any():
+                if np.count_nonzero(priority):  # any (faster than .any() on a few)
                     zones.append((conflict.zone.polygon, priority[None]))
         return RoadRules(stop, tuple(zones), self.curve_speed)
 
@@ -172,13 +173,11 @@ class BoltzmannDriver(BoltzmannPolicy):
             front_m: its front bumper's arc length along its route [m].
             v: its speed [m/s].
         """
-        ahead = np.flatnonzero(self.signal_lines_s > front_m)
-        if not len(ahead):
+        # the first line beyond its front (np.flatnonzero(lines > front)[0]) on Python floats
+        k = next((k for k, line in enumerate(self._signal_lines) if line > front_m), None)
+        if k is None or k in self._go_on_yellow:
             return None
-        k = int(ahead[0])
-        if k in self._go_on_yellow:
-            return None
-        line = float(self.signal_lines_s[k])
+        line = self._signal_lines[k]
         state = self.signals_seen.get(int(self.signal_line_heads[k]), RED)
         if not must_stop(state, v, line - front_m):
             if state == YELLOW:

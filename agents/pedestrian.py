@@ -94,22 +94,22 @@ class BoltzmannPedestrian(BoltzmannPolicy):
 
     def predict(self, tracks: TrackSet) -> ScenePrediction:
         """Constant-velocity scene without the vehicles it expects to yield to it."""
-        scene = super().predict(tracks)
-        if self.crosswalks:
-            yielding = vehicles_expected_to_yield(tracks, self.crosswalks[0],
-                                                  self.model.expected_yield_decel_mps2)
-            scene = ScenePrediction(scene.xy, scene.heading, scene.length_m, scene.width_m,
-                                    scene.radius_m, scene.is_pedestrian,
-                                    scene.mask & ~yielding[None])
-        return scene
+        if not self.crosswalks:
+            return super().predict(tracks)
+        yielding = vehicles_expected_to_yield(tracks, self.crosswalks[0],
+                                              self.model.expected_yield_decel_mps2)
+        return ScenePrediction.from_tracks(tracks, self._times, ~yielding[None])
 
     def q_values(self, decoded: Measurements, scene: ScenePrediction) -> np.ndarray:
         """(A,) Q of each walking speed in model.speeds_mps along its route."""
         wants_to_cross = self.crossing and self.time_s >= self.start_delay_s
         v_ref = self.model.v_walk_mps if wants_to_cross else 0.0
         x, y = self._last_xy = (float(decoded.ego[0]), float(decoded.ego[1]))
+        # walk_along's projection, for act (None: it projects itself)
+        self._last_projection = None
         if self.route.n_segments == 1:  # project's arithmetic on Python floats
             s0, _ = self.route.project_point(x, y)
+            self._last_projection = s0
         else:
             s0 = float(self.route.project(decoded.ego[:2].astype(np.float64))[0])
         return pedestrian_q_values(self.model, self.route, s0, v_ref, self.prev_speed,
@@ -137,4 +137,4 @@ class BoltzmannPedestrian(BoltzmannPolicy):
         speed = self.model.speeds_mps[chosen]
         self.prev_speed = speed
         x, y = self._last_xy  # of this observation, decoded by q_values
-        return walk_along(self.route, x, y, speed)
+        return walk_along(self.route, x, y, speed, s_m=self._last_projection)

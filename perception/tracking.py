@@ -33,7 +33,7 @@ _COVARIANCE_NODES: dict[tuple, dict] = {}
 # slot columns of the measured state [x m, y m, vx m/s, vy m/s]
 # (consecutive in SLOT_FIELDS)
 _MEASURED_STATE = slice(SLOT_INDEX["x"], SLOT_INDEX["vy"] + 1)
-_ID, _X, _VY = SLOT_INDEX["id"], SLOT_INDEX["x"], SLOT_INDEX["vy"]
+_PRESENT, _ID, _X, _VY = SLOT_INDEX["present"], SLOT_INDEX["id"], SLOT_INDEX["x"], SLOT_INDEX["vy"]
 _LENGTH, _WIDTH = SLOT_INDEX["length"], SLOT_INDEX["width"]
 _IS_PEDESTRIAN = SLOT_INDEX["is_pedestrian"]
 _SIN_PSI, _COS_PSI = SLOT_INDEX["sin_psi"], SLOT_INDEX["cos_psi"]
@@ -156,8 +156,9 @@ class Tracker:
     """Kalman-filter tracks of what one agent has seen.
 
     A track's state is kept as four Python floats and predicted and updated with kf_predict's
-    and kf_update's matrix products written out (`_matvec`: the same sums as np.dot of a (4, 4)
-    and a (4,), tests/perception/test_tracking.py); its covariance is a shared
+    and kf_update's matrix products written out (each row's four products summed left to right:
+    the same sums as np.dot of a (4, 4) and a (4,), tests/perception/test_tracking.py); its
+    covariance is a shared
     `_CovarianceNode`.
 
     Args:
@@ -206,10 +207,11 @@ class Tracker:
         Args:
             decoded: the agent's decoded observation (its present slots are the measurements).
         """
-        objects = decoded.objects
-        rows = objects.tolist()  # float32 -> float: exact
-        # object id -> its row (the last one, should an id repeat)
-        measured = {round(row[_ID]): k for k, row in enumerate(rows)}
+        slots = decoded.slots
+        rows = slots.tolist()  # float32 -> float: exact
+        # object id -> the row of its present slot (the last one, should an id repeat);
+        # row[_PRESENT] > 0.5 is DecodedObservation.objects' test, in float64 the same
+        measured = {round(row[_ID]): k for k, row in enumerate(rows) if row[_PRESENT] > 0.5}
         f_rows, h_rows = self._f_rows, self._h_rows
         for oid in list(self._tracks):
             track = self._tracks[oid]
@@ -221,11 +223,15 @@ class Tracker:
                 step = node.steps[row is not None] = self._node_step(node.p, row is not None)
             gain_rows, track[1], track[2] = step
             # kf_predict's state F x + 0 (np.dot of a (4, 4) and a (4,): the same sums in the
-            # same order, tests/perception/test_tracking.py)
-            x = [value + 0 for value in _matvec(f_rows, x)]
+            # same order, tests/perception/test_tracking.py), row by row on Python floats
+            x0, x1, x2, x3 = x
+            x = [m0 * x0 + m1 * x1 + m2 * x2 + m3 * x3 + 0 for m0, m1, m2, m3 in f_rows]
             if row is not None:  # kf_update's state x + K (z - H x)
-                innovation = [z - hx for z, hx in zip(row[_X:_VY + 1], _matvec(h_rows, x))]
-                x = [value + kz for value, kz in zip(x, _matvec(gain_rows, innovation))]
+                x0, x1, x2, x3 = x
+                i0, i1, i2, i3 = (z - (m0 * x0 + m1 * x1 + m2 * x2 + m3 * x3)
+                                  for z, (m0, m1, m2, m3) in zip(row[_X:_VY + 1], h_rows))
+                x = [value + (m0 * i0 + m1 * i1 + m2 * i2 + m3 * i3)
+                     for value, (m0, m1, m2, m3) in zip(x, gain_rows)]
             else:
                 track[3] += self.dt_s
                 if track[3] > self.timeout_s:
@@ -233,7 +239,9 @@ class Tracker:
                     continue
             track[0] = x
         if measured:
-            headings = np.arctan2(objects[:, _SIN_PSI], objects[:, _COS_PSI]).tolist()
+            # np.arctan2 of every slot's (strided) columns: element by element what it gives
+            # for the present rows alone
+            headings = np.arctan2(slots[:, _SIN_PSI], slots[:, _COS_PSI]).tolist()
             for oid, k in measured.items():
                 row = rows[k]
                 track = self._tracks.get(oid)
@@ -354,20 +362,6 @@ class Tracker:
             table[:, 5], table[:, 6], table[:, 7] > 0.5, table[:, 8] > 0.5, table[:, 9],
             track_heading(table[:, 2:4], table[:, 10]), np.array([track[2] for track in tracks]),
         )
-
-
-def _matvec(matrix_rows: list, vector: list) -> list:
-    """np.dot of a (4, 4) matrix and a (4,) vector, on Python floats.
-
-    Each row's four products summed left to right, as numpy sums them
-    (tests/perception/test_tracking.py).
-
-    Args:
-        matrix_rows: the matrix as 4 rows of 4 floats.
-        vector: 4 floats.
-    """
-    v0, v1, v2, v3 = vector
-    return [m0 * v0 + m1 * v1 + m2 * v2 + m3 * v3 for m0, m1, m2, m3 in matrix_rows]
 
 
 def track_heading(velocity_mps: np.ndarray, measured_heading_rad: np.ndarray) -> np.ndarray:

@@ -17,8 +17,10 @@ def boltzmann(q_values: np.ndarray, beta: float) -> np.ndarray:
         best = q == q.min(axis=-1, keepdims=True)
         return best / best.sum(axis=-1, keepdims=True)
     if q.ndim == 1:  # one row (a planner's decision): the same reductions, no kept axis
-        p = np.exp(-beta * (q - q.min()))
-        return p / p.sum()
+        # np.minimum.reduce and np.add.reduce are q.min() and p.sum() of a 1-D array, without
+        # their Python-level wrappers
+        p = np.exp(-beta * (q - np.minimum.reduce(q)))
+        return p / np.add.reduce(p)
     z = -beta * (q - q.min(axis=-1, keepdims=True))
     p = np.exp(z)
     return p / p.sum(axis=-1, keepdims=True)

@@ -140,7 +140,8 @@ def _scene_layout(length_m: np.ndarray, width_m: np.ndarray, is_pedestrian: np.n
     """
     length_m, width_m = np.asarray(length_m), np.asarray(width_m)
     is_pedestrian = np.asarray(is_pedestrian)
-    key = tuple((a.dtype.str, a.shape, a.tobytes()) for a in (length_m, width_m, is_pedestrian))
+    key = (length_m.dtype, width_m.dtype, is_pedestrian.dtype, length_m.shape, width_m.shape,
+           is_pedestrian.shape, length_m.tobytes(), width_m.tobytes(), is_pedestrian.tobytes())
     hit = _LAYOUTS.get(key)
     if hit is None:
         hit = circle_layout(length_m, width_m, is_pedestrian)

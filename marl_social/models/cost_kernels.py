@@ -1,6 +1,7 @@
 """Compiled (numba) step costs of the candidates and of the pedestrian's walks (issue 17).
 
-`step_costs` (models/gap_evaluation.vehicle_gap_evaluation) and `walk_costs`
+`step_costs` (models/gap_evaluation.vehicle_gap_evaluation), `rule_abiding_totals`
+(models/driver.rule_abiding_totals of its result) and `walk_costs`
 (models/pedestrian.pedestrian_q_values, summed over the horizon in np.sum's pairwise order,
 `_pairwise_sum`) cost what models/gap_kernels.py laid out, with the same arithmetic as the
 numpy reference in its order, bit for bit (tests/models/test_gap_evaluation.py,
@@ -289,3 +290,125 @@ def step_costs(v, a_eff, v_ref_mps, prev_accel, weights, safety_exp, present, oc
                     total = total + term if (started or w_safety != 0.0) else term
                 cost[h, p, t] = total * scale
     return cost
+
+
+@numba.njit(cache=True)
+def _nan_min(a, b):
+    """np.minimum(a, b) of two floats: the smaller, NaN if either is NaN (gap_kernels')."""
+    return b if (b < a or np.isnan(b)) else a
+
+
+@numba.njit(cache=True)
+def _nan_max(a, b):
+    """np.maximum(a, b) of two floats: the larger, NaN if either is NaN (gap_kernels')."""
+    return b if (b > a or np.isnan(b)) else a
+
+
+@numba.njit(cache=True)
+def _rule_keepers(front_m, stop_s_m, has_stop, curve_excess, has_curve):
+    """(A, C) the plans that keep the rules, as models/driver.rule_abiding_totals picks them.
+
+    With a stop line those whose overshoot max(front - stop, 0) is the least (NaN: none);
+    then, with a curve speed, of those the ones whose excess max(excess, 0) is the least
+    (the others' excess counting as inf). np.min's and np.maximum's NaN propagation.
+    """
+    n_first, n_cont = front_m.shape
+    ok = np.ones((n_first, n_cont), dtype=np.bool_)
+    if has_stop:
+        overshoot = np.empty((n_first, n_cont))
+        least = np.inf
+        for a in range(n_first):
+            for c in range(n_cont):
+                overshoot[a, c] = _nan_max(front_m[a, c] - stop_s_m, 0.0)
+                least = overshoot[a, c] if a == 0 and c == 0 else _nan_min(least, overshoot[a, c])
+        for a in range(n_first):
+            for c in range(n_cont):
+                ok[a, c] = overshoot[a, c] <= least
+    if has_curve:
+        excess = np.empty((n_first, n_cont))
+        least = np.inf
+        for a in range(n_first):
+            for c in range(n_cont):
+                excess[a, c] = _nan_max(curve_excess[a, c], 0.0) if ok[a, c] else np.inf
+                least = excess[a, c] if a == 0 and c == 0 else _nan_min(least, excess[a, c])
+        for a in range(n_first):
+            for c in range(n_cont):
+                ok[a, c] = ok[a, c] and excess[a, c] <= least
+    return ok
+
+
+@numba.njit([(_array(4), _array(3), _array(3), _array(3), _F8, _F8, _F8, _B1, _array(2), _B1)],
+            **_JIT)
+def rule_abiding_totals(step_cost, vehicle_gap, clearance, travel_m, s0, half_length_m,
+                        stop_s_m, has_stop, curve_excess, has_curve):
+    """models/driver.rule_abiding_totals of a compiled evaluation (its totals, its rules).
+
+    The totals are np.sum over the steps of a C-contiguous step_cost (0.0 + its pairwise
+    sum, `_pairwise_sum`); candidates.collision_free_totals sets those of plans touching a
+    vehicle (vehicle gap <= 0) to inf, or, in a hypothesis where every plan does, all but those
+    of the largest clearance (np.max, NaN propagating: then all); then the plans that break
+    a rule (`_rule_keepers`) are set to inf, in each hypothesis where a finite total is left.
+
+    Args:
+        step_cost: (L, A, C, T) the step costs.
+        vehicle_gap: (L, A, C) the smallest vehicle gap of each plan [m].
+        clearance: (L, A, C) its clearance to vehicles [m].
+        travel_m: (A, C, T) the plans' travel [m] (unused without a stop line).
+        s0: the driver's arc length [m].
+        half_length_m: half its length [m]: its front at the end of a plan is at
+            s0 + travel + half_length_m [m].
+        stop_s_m: the stop line's arc length [m].
+        has_stop: whether a stop line applies.
+        curve_excess: (A, C) the excess over the curve speed [m/s] (unused without a curve).
+        has_curve: whether a curve speed applies.
+
+    Returns:
+        (L, A, C) the totals, inf for excluded plans.
+    """
+    n_hyp, n_first, n_cont, n_t = step_cost.shape
+    totals = np.empty((n_hyp, n_first, n_cont))
+    if n_first * n_cont == 0:
+        return totals
+    flat_cost = step_cost.reshape(n_hyp * n_first * n_cont, n_t)
+    flat_totals = totals.reshape(n_hyp * n_first * n_cont)
+    for i in range(len(flat_totals)):
+        flat_totals[i] = 0.0 + _pairwise_sum(flat_cost[i], 0, n_t)
+    for h in range(n_hyp):
+        hopeless = True
+        for a in range(n_first):
+            for c in range(n_cont):
+                hopeless = hopeless and vehicle_gap[h, a, c] <= 0.0
+        if not hopeless:
+            for a in range(n_first):
+                for c in range(n_cont):
+                    if vehicle_gap[h, a, c] <= 0.0:
+                        totals[h, a, c] = np.inf
+            continue
+        largest = clearance[h, 0, 0]
+        for a in range(n_first):
+            for c in range(n_cont):
+                largest = _nan_max(largest, clearance[h, a, c])
+        for a in range(n_first):
+            for c in range(n_cont):
+                if not clearance[h, a, c] >= largest:
+                    totals[h, a, c] = np.inf
+    if not (has_stop or has_curve):
+        return totals
+    front_m = np.empty((n_first, n_cont))
+    if has_stop:
+        for a in range(n_first):
+            for c in range(n_cont):
+                front_m[a, c] = s0 + travel_m[a, c, n_t - 1] + half_length_m
+    ok = _rule_keepers(front_m, stop_s_m, has_stop, curve_excess, has_curve)
+    for h in range(n_hyp):
+        kept_finite = False
+        for a in range(n_first):
+            for c in range(n_cont):
+                if ok[a, c] and np.isfinite(totals[h, a, c]):
+                    kept_finite = True
+        if kept_finite:
+            for a in range(n_first):
+                for c in range(n_cont):
+                    if not ok[a, c]:
+                        totals[h, a, c] = np.inf
+    return totals

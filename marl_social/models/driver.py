@@ -159,7 +159,19 @@ def rule_abiding_totals(ev: CandidateEvaluation, model: DriverModel, s0: float,
         model: the driver's decision model (its vehicle length).
         s0: the driver's arc length along its route [m].
         rules: the road's rules (None: collision_free_totals).
+
+    A compiled evaluation (vehicle_gap_evaluation's) goes through one compiled call
+    (`_compiled_totals`), the same bits as `_numpy_rule_abiding_totals`
+    (tests/models/test_rule_totals.py).
     """
+    if _compiled_evaluation(ev):
+        return _compiled_totals(ev, model, s0, rules)
+    return _numpy_rule_abiding_totals(ev, model, s0, rules)
+
+
+def _numpy_rule_abiding_totals(ev: CandidateEvaluation, model: DriverModel, s0: float,
+                               rules: RoadRules | None) -> np.ndarray:
+    """rule_abiding_totals in numpy (any evaluation; the reference of the compiled call)."""
     totals = collision_free_totals(ev)
     # every plan keeping the rules leaves the totals as they are (np.where of all-True picks them)
     if rules is None or (rules.stop_s_m is None and ev.curve_excess_mps is None):
@@ -180,6 +192,53 @@ def rule_abiding_totals(ev: CandidateEvaluation, model: DriverModel, s0: float,
     kept = np.where(ok, totals, np.inf)
     hopeless = ~np.isfinite(kept).any(axis=(-1, -2), keepdims=True)
     return np.where(hopeless, totals, kept)
+
+
+def _compiled_evaluation(ev: CandidateEvaluation) -> bool:
+    """Whether `_compiled_totals` takes `ev`: float64 arrays, C-contiguous step costs.
+
+    np.sum over the steps of a C-contiguous array is a pairwise sum per plan, which the
+    kernel follows; vehicle_gap_evaluation's compiled evaluations are such.
+    """
+    cost = ev.step_cost
+    if not (isinstance(cost, np.ndarray) and cost.ndim == 4 and cost.dtype == np.float64
+            and cost.flags.c_contiguous):
+        return False
+    plans = cost.shape[:3]
+    travel, excess = ev.travel_m, ev.curve_excess_mps
+    return (getattr(ev.min_vehicle_gap_m, "shape", None) == plans
+            and getattr(ev.vehicle_clearance_m, "shape", None) == plans
+            and getattr(travel, "shape", None) == cost.shape[1:]
+            and travel.dtype == np.float64
+            and (excess is None or getattr(excess, "shape", None) == plans[1:]))
+
+
+def _compiled_totals(ev: CandidateEvaluation, model: DriverModel, s0: float,
+                     rules: RoadRules | None) -> np.ndarray:
+    """rule_abiding_totals in one compiled call (models/cost_kernels.rule_abiding_totals)."""
+    _, cost_kernels = _KERNELS or _kernels()
+    stop_s_m = None if rules is None else rules.stop_s_m
+    excess = None if rules is None else ev.curve_excess_mps  # no rules: none applies
+    return cost_kernels.rule_abiding_totals(
+        ev.step_cost, np.ascontiguousarray(ev.min_vehicle_gap_m, dtype=np.float64),
+        np.ascontiguousarray(ev.vehicle_clearance_m, dtype=np.float64),
+        np.ascontiguousarray(ev.travel_m), float(s0), 0.5 * model.vehicle.length_m,
+        0.0 if stop_s_m is None else float(stop_s_m), stop_s_m is not None,
+        _NO_EXCESS if excess is None else np.ascontiguousarray(excess, dtype=np.float64),
+        excess is not None)
+
+
+_NO_EXCESS = np.zeros((0, 0))
+_NO_EXCESS.setflags(write=False)
+_KERNELS: list = []  # [gap_kernels, cost_kernels] once loaded
+
+
+def _kernels() -> tuple:
+    """(gap_kernels, cost_kernels), imported at the first call (models/kernel_loading.py)."""
+    from marl_social.models import kernel_loading
+
+    _KERNELS[:] = kernel_loading.load()
+    return tuple(_KERNELS)
 
 
 def driver_q_values(model: DriverModel, route: Route, s0: float, v0: float, prev_accel: float,

@@ -33,12 +33,15 @@ from marl_social.models.candidates import (
     _vehicle_circles,
     evaluate_candidates,
 )
-from marl_social.models.circle_gaps import MAX_KERNEL_OBJECTS, scene_circle_inputs
+from marl_social.models.circle_gaps import (
+    MAX_KERNEL_OBJECTS,
+    _scene_layout,
+    scene_circle_inputs,
+)
 from marl_social.models.circle_gaps import crosswalk_rows as crosswalk_rows_of
 from marl_social.sim.agent_spec import VehicleParams
 from marl_social.sim.costs import OCCUPANCY_SOFTNESS_M, _polygon_edges
 from marl_social.sim.dynamics import DT_S
-from marl_social.sim.footprint import circle_layout
 from marl_social.sim.road_map import Crosswalk, Route
 from marl_social.sim.route_rules import CURVE_PROFILE_STEP_M, CurveSpeed
 
@@ -74,7 +77,7 @@ def vehicle_gap_evaluation(cands: CandidateSet, theta: np.ndarray, v_ref_mps: fl
     n_first_actions, n_cont, _ = plan.plan_shape
     scene_xy, cos_heading, sin_heading, scene_along, other_r = scene_circle_inputs(scene)
     n_hyp = len(scene.mask)
-    weights = theta[1:6].astype(np.float64)  # speed, accel, jerk, safety, conflict
+    weights = _weights(theta)  # speed, accel, jerk, safety, conflict
     w_safety, w_conflict = weights[3], weights[4]
     present = np.ascontiguousarray(scene.mask)
     crosswalk_rows, zone_rows, zone_sizes, zone_sums = _conflict_rows(
@@ -114,6 +117,18 @@ _NO_ZONES = (np.zeros((0, 1, 5)), np.zeros(0, dtype=np.int64))
 for _constant in (_NO_CURVE, *_NO_ZONES):
     _constant.setflags(write=False)
 _KERNELS: list = []  # [gap_kernels, cost_kernels] once loaded
+_LAST_WEIGHTS: list = [None, None]  # [a read-only theta, its _weights]
+
+
+def _weights(theta: np.ndarray) -> np.ndarray:
+    """theta[1:6] as float64, remembered for the last read-only theta (a model's own)."""
+    if _LAST_WEIGHTS[0] is theta:
+        return _LAST_WEIGHTS[1]
+    weights = theta[1:6].astype(np.float64)
+    if isinstance(theta, np.ndarray) and not theta.flags.writeable and theta.base is None:
+        weights.setflags(write=False)
+        _LAST_WEIGHTS[:] = [theta, weights]
+    return weights
 
 
 def _kernels() -> tuple:
@@ -203,7 +218,7 @@ def _conflict_rows(scene: ScenePrediction, crosswalks: tuple, yield_zones: tuple
         their numbers; (Z, L, T) per zone the present objects' claims on it (zone_claims)
         summed over them as sim/costs sums them (np.sum of np.where over the objects' axis).
     """
-    if crosswalks and not (scene.mask & scene.is_pedestrian).any():  # the ego: a car
+    if crosswalks and not np.count_nonzero(scene.mask & scene.is_pedestrian):  # ego: a car
         crosswalks = ()
     crosswalk_rows = crosswalk_rows_of(crosswalks)
     if not yield_zones:
@@ -240,7 +255,8 @@ def _zone_claims(scene: ScenePrediction, zone_edges: np.ndarray, priority: np.nd
     if not len(rows):
         return claim
     heading = scene.heading[rows, cols]  # (P, T)
-    along, radius = circle_layout(scene.length_m[rows, cols], scene.width_m[rows, cols],
+    # footprint.circle_layout of the claimants, remembered for their sizes (circle_gaps)
+    along, radius = _scene_layout(scene.length_m[rows, cols], scene.width_m[rows, cols],
                                   scene.is_pedestrian[rows, cols])
     gap_kernels, _ = _KERNELS or _kernels()
     arguments = gap_kernels.zone_claim_arguments(

@@ -68,7 +68,8 @@ def _model_constants(model: PedestrianModel) -> tuple:
 
     Returns:
         plan times (T,) [s], candidate speeds (A,) [m/s], theta (N_FEATURES,), the covering
-        circles' radii (C,) [m] of its disc, and speeds x times (A, T) [m].
+        circles' radii (C,) [m] of its disc, speeds x times (A, T) [m] and the weights of
+        speed, accel, jerk, safety and conflict (5,) (theta[1:6] as float64).
     """
     hit = _CONSTANTS_BY_MODEL.get(id(model))  # a frozen model keeps its constants
     if hit is not None and hit[0] is model:
@@ -93,7 +94,8 @@ def _cached_model_constants(model: PedestrianModel) -> tuple:
     _, radius = circle_layout(diam, diam, True)
     t = model.plan_times_s
     speeds = np.array(model.speeds_mps, dtype=np.float64)
-    out = (t, speeds, model.theta.as_array(), radius, speeds[:, None] * t[None, :])
+    theta = model.theta.as_array()
+    out = (t, speeds, theta, radius, speeds[:, None] * t[None, :], theta[1:6].astype(np.float64))
     for array in out:  # shared by every decision of the model
         array.setflags(write=False)
     return out
@@ -127,11 +129,10 @@ def _compiled_q_values(model: PedestrianModel, route: Route, s0: float, v_ref: f
     np.exp of the safety feature and np.tanh of the crosswalk occupancies in numpy.
     """
     gap_kernels, kernels = _KERNELS or _kernels()
-    _, speeds, theta, ego_radius, speed_times = _model_constants(model)
-    weights = theta[1:6].astype(np.float64)  # speed, accel, jerk, safety, conflict
+    _, speeds, _, ego_radius, speed_times, weights = _model_constants(model)
     w_safety, w_conflict = weights[3], weights[4]
     pair = scene.mask & ~scene.is_pedestrian  # (L, M) the vehicles present
-    use_crosswalks = w_conflict != 0.0 and crosswalks and pair.any()
+    use_crosswalks = w_conflict != 0.0 and crosswalks and np.count_nonzero(pair) > 0
     rows = crosswalk_rows(crosswalks if use_crosswalks else ())
     exp_arg, occupancy, scene_occupancy = gap_kernels.walk_geometry(
         speed_times, float(s0), route.length_m, route._cum_s, route._pose_table,
@@ -165,7 +166,7 @@ def _numpy_q_values(model: PedestrianModel, route: Route, s0: float, v_ref: floa
                     crosswalks: tuple[Crosswalk, ...]) -> np.ndarray:
     """pedestrian_q_values in numpy (the reference of the compiled loops; any s0)."""
     dt = model.plan_dt_s
-    _, speeds, theta, ego_radius, speed_times = _model_constants(model)
+    _, speeds, theta, ego_radius, speed_times, _ = _model_constants(model)
     s = np.minimum(s0 + speed_times, route.length_m)  # (A, T)
     xy, _ = route.pose_at(s)
     accel = np.zeros(s.shape)

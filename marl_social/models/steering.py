@@ -40,13 +40,14 @@ def pure_pursuit(route: Route, x: float, y: float, psi: float, v: float, s: floa
 
 
 def walk_along(route: Route, x: float, y: float, speed_mps: float,
-               lookahead_m: float = 1.0) -> np.ndarray:
+               lookahead_m: float = 1.0, s_m: float | None = None) -> np.ndarray:
     """A pedestrian's velocity command (2,) float32 [m/s] along its route.
 
     The command is speed_mps towards the route point lookahead_m ahead of its projection; zero
-    when standing or at the route's end.
+    when standing or at the route's end. s_m: route.project_point(x, y)'s arc length [m] when
+    the caller has it (None: computed here).
     """
-    s, _ = route.project_point(x, y)
+    s = route.project_point(x, y)[0] if s_m is None else s_m
     if speed_mps <= 0.0 or s >= route.length_m - 1e-3:
         return np.zeros(2, dtype=np.float32)
     tx, ty = route.point_at_float(min(s + lookahead_m, route.length_m))

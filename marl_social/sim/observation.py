@@ -25,6 +25,7 @@ footprint]; sensor ranges and ray depths in [0, longest sensor range]; half-angl
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -130,14 +131,29 @@ class DecodedObservation:
     signals: np.ndarray = field(default_factory=lambda: np.zeros((0, SIGNAL_DIM)))
 
     def signal_states(self) -> dict[int, int]:
-        """{head index: state (0 red, 1 yellow, 2 green)} of the heads seen now."""
-        seen = self.signals[self.signals[:, 0] > 0.5]
-        return {int(np.rint(row[1])) - 1: int(np.argmax(row[2:5])) for row in seen}
+        """{head index: state (0 red, 1 yellow, 2 green)} of the heads seen now.
+
+        On Python floats (exact from float32 or float64): the index is np.rint's round half
+        to even (Python's round), the state np.argmax's of the three state fields.
+        """
+        return {round(row[1]) - 1: _argmax(row[2:5]) for row in self.signals.tolist()
+                if row[0] > 0.5}
 
     @property
     def objects(self) -> np.ndarray:
         """(k, SLOT_DIM) the present slots only."""
         return self.slots[self.slots[:, 0] > 0.5]
+
+
+def _argmax(values: list) -> int:
+    """np.argmax of a few Python floats: the first NaN if there is one, else the first largest."""
+    best = 0
+    for k, value in enumerate(values):
+        if math.isnan(value):
+            return k
+        if value > values[best]:
+            best = k
+    return best
 
 
 @dataclass(frozen=True)

@@ -1,4 +1,4 @@
-"""Route.project's arithmetic on a route of several segments, compiled by numba.
+"""Route.project's arithmetic on a route of several segments, and the lane test, compiled by numba.
 
 sim/road_map.py imports this module at the first projection on such a route (numba is not
 imported with `import marl_social`). Per point, the same operations in the same order as the
@@ -7,7 +7,8 @@ agree bit for bit): for each segment j the foot point's parameter t = rel_x dx +
 (rel = the point minus the segment's start) clamped to [0, length_j], the squared distance
 ex^2 + ey^2 with ex = x - (sx + t dx); the first segment of the smallest (numpy's argmin: the
 first NaN if there is one) gives the arc length cum_s[k] + t and the signed lateral offset
-dx_k rel_y - dy_k rel_x. No fast-math (no contraction into fused multiply-adds), no threads:
+dx_k rel_y - dy_k rel_x. `on_lanes` tests objects against lanes with it (sim/route_rules.py,
+tests/sim/test_route_kernels.py). No fast-math (no contraction into fused multiply-adds), no threads:
 each value gets numpy's bits. Compiled once, cached in __pycache__ (cache=True).
 """
 
@@ -16,6 +17,36 @@ from __future__ import annotations
 import math
 
 import numba
+import numpy as np
+
+
+@numba.njit(cache=True)
+def _project_one(xi, yi, segments, first, end):
+    """The projection of one point on segments[:, first:end] (module docstring).
+
+    Returns:
+        its arc length [m], its signed lateral offset [m] and the segment's column in segments.
+    """
+    start_x, start_y, dir_x, dir_y = segments[0], segments[1], segments[2], segments[3]
+    seg_len, cum_s = segments[4], segments[5]
+    best, best_d2, best_t, best_rx, best_ry = first, 0.0, 0.0, 0.0, 0.0
+    for j in range(first, end):
+        rx = xi - start_x[j]
+        ry = yi - start_y[j]
+        t = rx * dir_x[j] + ry * dir_y[j]
+        if t < 0.0:  # noqa: PLR1730 - np.maximum(t, 0.0): NaN stays (max() would drop it)
+            t = 0.0
+        if t > seg_len[j]:  # noqa: PLR1730 - np.minimum(t, length), NaN stays
+            t = seg_len[j]
+        ex = xi - (start_x[j] + t * dir_x[j])
+        ey = yi - (start_y[j] + t * dir_y[j])
+        d2 = ex * ex + ey * ey
+        nan = math.isnan(d2)
+        if j == first or d2 < best_d2 or nan:
+            best, best_d2, best_t, best_rx, best_ry = j, d2, t, rx, ry
+            if nan:  # argmin stops at the first NaN
+                break
+    return (cum_s[best] + best_t, dir_x[best] * best_ry - dir_y[best] * best_rx, best)
 
 
 @numba.njit(cache=True)
@@ -31,28 +62,41 @@ def project_points(x, y, segments, out, k_out):
             positive to the left of travel [m].
         k_out: (P,) out: the closest point's segment.
     """
-    start_x, start_y, dir_x, dir_y = segments[0], segments[1], segments[2], segments[3]
-    seg_len, cum_s = segments[4], segments[5]
-    n_seg = segments.shape[1]
     for i in range(x.shape[0]):
-        xi, yi = x[i], y[i]
-        best, best_d2, best_t, best_rx, best_ry = 0, 0.0, 0.0, 0.0, 0.0
-        for j in range(n_seg):
-            rx = xi - start_x[j]
-            ry = yi - start_y[j]
-            t = rx * dir_x[j] + ry * dir_y[j]
-            if t < 0.0:  # noqa: PLR1730 - np.maximum(t, 0.0): NaN stays (max() would drop it)
-                t = 0.0
-            if t > seg_len[j]:  # noqa: PLR1730 - np.minimum(t, length), NaN stays
-                t = seg_len[j]
-            ex = xi - (start_x[j] + t * dir_x[j])
-            ey = yi - (start_y[j] + t * dir_y[j])
-            d2 = ex * ex + ey * ey
-            nan = math.isnan(d2)
-            if j == 0 or d2 < best_d2 or nan:
-                best, best_d2, best_t, best_rx, best_ry = j, d2, t, rx, ry
-                if nan:  # argmin stops at the first NaN
-                    break
-        out[0, i] = cum_s[best] + best_t
-        out[1, i] = dir_x[best] * best_ry - dir_y[best] * best_rx
-        k_out[i] = best
+        out[0, i], out[1, i], k_out[i] = _project_one(x[i], y[i], segments, 0,
+                                                       segments.shape[1])
+
+
+@numba.njit(cache=True)
+def on_lanes(x, y, heading, segments, seg_heading, lane_ends, lane_length, lane_reach,
+             tolerance_rad, out):
+    """route_rules.on_lanes' test of each object on each lane, the numpy arithmetic's bits.
+
+    On lane l (the segment columns lane_ends[l - 1] (0 for l = 0) to lane_ends[l] of
+    segments): its arc length s strictly within (0, lane_length[l]), |lateral| <=
+    lane_reach[l] and |(heading - segment heading + pi) mod 2 pi - pi| <= tolerance_rad
+    (np.remainder's floored modulo, as Python's %).
+
+    Args:
+        x: (M,) the objects' centre x [m].
+        y: (M,) their centre y [m].
+        heading: (M,) their headings [rad].
+        segments: (6, S) the lanes' centreline segments, lane after lane (project_points').
+        seg_heading: (S,) their headings [rad].
+        lane_ends: (N,) the end column of each lane's segments.
+        lane_length: (N,) the centrelines' lengths [m].
+        lane_reach: (N,) half the lane width plus the lateral margin [m].
+        tolerance_rad: the heading tolerance [rad].
+        out: (M,) bool, out: on any of the lanes.
+    """
+    for i in range(x.shape[0]):
+        found = False
+        first = 0
+        for lane in range(lane_ends.shape[0]):
+            s, lateral, k = _project_one(x[i], y[i], segments, first, lane_ends[lane])
+            first = lane_ends[lane]
+            dpsi = abs((heading[i] - seg_heading[k] + np.pi) % (2 * np.pi) - np.pi)
+            if (s > 0.0 and s < lane_length[lane] and abs(lateral) <= lane_reach[lane]
+                    and dpsi <= tolerance_rad):
+                found = True
+        out[i] = found

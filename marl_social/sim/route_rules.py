@@ -27,7 +27,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from marl_social.sim.road_map import ConflictZone, Lane, RoadMap, Route
+from marl_social.sim.road_map import ConflictZone, Lane, RoadMap, Route, _route_kernels
 
 LANE_HEADING_TOLERANCE_RAD = math.radians(35.0)  # heading within this of a lane's = along it
 LANE_LATERAL_MARGIN_M = 0.25  # a centre this far beyond half a lane width still counts [m]
@@ -77,6 +77,9 @@ def on_lanes(lanes, xy, heading) -> np.ndarray:
     LANE_LATERAL_MARGIN_M) of the centreline, between the centreline's ends, and its heading is
     within LANE_HEADING_TOLERANCE_RAD of the lane's direction there.
 
+    In one compiled call (sim/route_kernels.on_lanes) for one heading per object; otherwise,
+    and as its reference, `_numpy_on_lanes` (the same bits, tests/sim/test_route_kernels.py).
+
     Args:
         lanes: the lanes (Lane).
         xy: (M, 2) object centres [m].
@@ -87,6 +90,19 @@ def on_lanes(lanes, xy, heading) -> np.ndarray:
     """
     xy = np.asarray(xy, dtype=np.float64).reshape(-1, 2)
     heading = np.asarray(heading, dtype=np.float64).reshape(-1)
+    lanes = tuple(lanes)
+    if not lanes or heading.shape != (len(xy),):
+        return _numpy_on_lanes(lanes, xy, heading)
+    segments, seg_heading, lane_ends, lane_length, lane_reach = _lane_table(lanes)
+    out = np.empty(len(xy), dtype=bool)
+    _route_kernels().on_lanes(np.ascontiguousarray(xy[:, 0]), np.ascontiguousarray(xy[:, 1]),
+                              heading, segments, seg_heading, lane_ends, lane_length,
+                              lane_reach, LANE_HEADING_TOLERANCE_RAD, out)
+    return out
+
+
+def _numpy_on_lanes(lanes, xy, heading) -> np.ndarray:
+    """on_lanes in numpy, lane by lane (xy (M, 2) and heading float64 arrays)."""
     out = np.zeros(len(xy), dtype=bool)
     for lane, route in zip(lanes, _lane_routes(tuple(lanes))):
         s, lateral, lane_heading = route.project(xy)
@@ -95,6 +111,37 @@ def on_lanes(lanes, xy, heading) -> np.ndarray:
         dpsi = np.abs((heading - lane_heading + np.pi) % (2 * np.pi) - np.pi)
         out |= inside & near & (dpsi <= LANE_HEADING_TOLERANCE_RAD)
     return out
+
+
+# ids of the lanes -> (those lanes, their `_lane_table`); emptied at _MAX_LANE_TABLES entries
+_MAX_LANE_TABLES = 256
+_LANE_TABLES: dict[tuple, tuple] = {}
+
+
+def _lane_table(lanes: tuple[Lane, ...]) -> tuple[np.ndarray, ...]:
+    """What route_kernels.on_lanes takes of the lanes, built once per tuple of the same lanes.
+
+    The static map's lanes (its zones' priority lanes) are the same objects at every call.
+
+    Returns:
+        (6, S) their centrelines' segments one lane after the other (Route._kernel_segments),
+        (S,) the segments' headings [rad], (N,) each lane's end column, (N,) the centrelines'
+        lengths [m] and (N,) half the lane width plus LANE_LATERAL_MARGIN_M [m].
+    """
+    key = tuple(id(lane) for lane in lanes)
+    hit = _LANE_TABLES.get(key)
+    if hit is not None and all(a is b for a, b in zip(hit[0], lanes)):
+        return hit[1]
+    routes = _lane_routes(lanes)
+    reach = tuple(0.5 * lane.width_m + LANE_LATERAL_MARGIN_M for lane in lanes)
+    table = (np.ascontiguousarray(np.hstack([r._kernel_segments for r in routes])),
+             np.concatenate([r._seg_heading for r in routes]),
+             np.cumsum([r.n_segments for r in routes]).astype(np.int64),
+             np.array([r.length_m for r in routes]), np.array(reach, dtype=np.float64))
+    if len(_LANE_TABLES) >= _MAX_LANE_TABLES:
+        _LANE_TABLES.clear()
+    _LANE_TABLES[key] = (lanes, table)
+    return table
 
 
 def priority_mask(zone: ConflictZone, road_map: RoadMap, xy, heading) -> np.ndarray:

@@ -95,3 +95,44 @@ def test_project_xy_and_project_use_the_kernel_on_strided_inputs():
     assert np.isscalar(s1) or np.ndim(s1) == 0
     assert s1 == ref_s[2, 3] and lat1 == ref_lateral[2, 3]
     assert heading1 == route._seg_heading[ref_k[2, 3]]
+
+
+def _lane(rng: np.random.Generator):
+    """A random lane: a straight (one segment) or bent centreline, 2-6 m wide."""
+    from marl_social.sim.road_map import Lane
+
+    if rng.random() < 0.4:
+        start = rng.normal(size=2) * 30.0
+        points = np.vstack([start, start + rng.normal(size=2) * 20.0])
+    else:
+        points = _route(rng).points[: int(rng.integers(2, 12))]
+    return Lane(points, float(rng.uniform(2.0, 6.0)))
+
+
+@settings(max_examples=200, deadline=None)
+@given(SEEDS, st.integers(1, 4), st.integers(0, 9))
+def test_on_lanes_matches_numpy_bit_for_bit(seed, n_lanes, n_objects):
+    """Objects on and off random lanes (along them, against them, across them, at their ends,
+    with special values): the compiled lane test gives the numpy one's answer."""
+    from marl_social.sim import route_rules
+
+    rng = np.random.default_rng(seed)
+    lanes = [_lane(rng) for _ in range(n_lanes)]
+    routes = route_rules._lane_routes(tuple(lanes))
+    xy = np.zeros((n_objects, 2))
+    heading = rng.uniform(-4.0, 4.0, n_objects)
+    for i in range(n_objects):  # near a lane, heading along it give or take
+        route = routes[rng.integers(n_lanes)]
+        s = rng.uniform(-2.0, route.length_m + 2.0)
+        point, along = route.point_at(np.array([s]))
+        xy[i] = point[0] + rng.normal(size=2) * rng.choice([0.1, 1.0, 5.0])
+        if rng.random() < 0.7:
+            heading[i] = along[0] + rng.normal(0.0, 0.7) + rng.choice([0.0, 2 * np.pi, np.pi])
+    special = np.array([0.0, -0.0, np.inf, -np.inf, np.nan])
+    odd = rng.random((n_objects, 3)) < 0.05
+    xy[odd[:, :2]] = rng.choice(special, int(odd[:, :2].sum()))
+    heading[odd[:, 2]] = rng.choice(special, int(odd[:, 2].sum()))
+    with np.errstate(invalid="ignore", over="ignore"):
+        want = route_rules._numpy_on_lanes(tuple(lanes), xy, heading)
+        got = route_rules.on_lanes(lanes, xy, heading)
+    assert got.dtype == bool and np.array_equal(got, want)

@@ -126,3 +126,22 @@ def test_route_signal_lines_are_computed_once_per_route_and_map():
     other = SignalizedIntersection(n_humans=1, n_cross=1).build(np.random.default_rng(0)).road_map
     assert np.array_equal(route_signal_lines(route, replace(other, signal_heads=()))[0],
                           np.zeros(0))
+
+
+def test_signal_states_on_python_floats_are_the_numpy_reading():
+    """DecodedObservation.signal_states as the numpy formula it replaced reads the block:
+    np.rint of the index, np.argmax of the states (ties, NaN, infinities; float32 and 64)."""
+    from marl_social.sim.observation import DecodedObservation
+
+    rng = np.random.default_rng(4)
+    values = np.array([0.0, -0.0, 1.0, 0.5, 0.25, np.nan, np.inf, -np.inf])
+    for _ in range(3000):
+        n = int(rng.integers(0, 6))
+        dtype = rng.choice([np.float32, np.float64])
+        signals = np.column_stack([rng.choice([0.0, 1.0, 0.6, 0.4], n),
+                                   rng.integers(1, 9, n) + rng.choice([0.0, 0.5, -0.5, 0.3], n),
+                                   rng.choice(values, (n, 3))]).astype(dtype)
+        decoded = DecodedObservation(np.zeros(8), np.zeros((0, 11)), np.zeros(0), signals)
+        seen = signals[signals[:, 0] > 0.5]
+        want = {int(np.rint(row[1])) - 1: int(np.argmax(row[2:5])) for row in seen}
+        assert decoded.signal_states() == want
