@@ -292,6 +292,8 @@ def step_costs(v, a_eff, v_ref_mps, prev_accel, weights, safety_exp, present, oc
     return cost
 
 
+# _nan_min / _nan_max: gap_kernels' twins, kept in this file on purpose: numba's cache of
+# rule_abiding_totals is invalidated by edits of this file only, not of a file it calls into
 @numba.njit(cache=True)
 def _nan_min(a, b):
     """np.minimum(a, b) of two floats: the smaller, NaN if either is NaN (gap_kernels')."""

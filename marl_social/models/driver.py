@@ -19,6 +19,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from marl_social.models import kernel_loading
 from marl_social.models.candidates import (
     CandidateEvaluation,
     CandidateSet,
@@ -216,7 +217,7 @@ def _compiled_evaluation(ev: CandidateEvaluation) -> bool:
 def _compiled_totals(ev: CandidateEvaluation, model: DriverModel, s0: float,
                      rules: RoadRules | None) -> np.ndarray:
     """rule_abiding_totals in one compiled call (models/cost_kernels.rule_abiding_totals)."""
-    _, cost_kernels = _KERNELS or _kernels()
+    _, cost_kernels = kernel_loading.load()
     stop_s_m = None if rules is None else rules.stop_s_m
     excess = None if rules is None else ev.curve_excess_mps  # no rules: none applies
     return cost_kernels.rule_abiding_totals(
@@ -230,15 +231,6 @@ def _compiled_totals(ev: CandidateEvaluation, model: DriverModel, s0: float,
 
 _NO_EXCESS = np.zeros((0, 0))
 _NO_EXCESS.setflags(write=False)
-_KERNELS: list = []  # [gap_kernels, cost_kernels] once loaded
-
-
-def _kernels() -> tuple:
-    """(gap_kernels, cost_kernels), imported at the first call (models/kernel_loading.py)."""
-    from marl_social.models import kernel_loading
-
-    _KERNELS[:] = kernel_loading.load()
-    return tuple(_KERNELS)
 
 
 def driver_q_values(model: DriverModel, route: Route, s0: float, v0: float, prev_accel: float,
