@@ -10,25 +10,16 @@ is not configured) before it compiles.
 
 from __future__ import annotations
 
-import logging
 from pathlib import Path
 
-from marl_social.sim.kernel_cache import will_compile
+from marl_social.sim.kernel_cache import load_kernels, will_compile
 
-_LOADED: list = []  # [gap_kernels, cost_kernels] once imported
 _KERNEL_FILES = ("gap_kernels", "cost_kernels")
 
 
 def load() -> tuple:
     """(models.gap_kernels, models.cost_kernels), imported (and if need be compiled) once."""
-    if not _LOADED:
-        if _will_compile():
-            logging.getLogger("marl_social").warning(
-                "compiling the planners' numba kernels once (about 30 s; cached in %s for "
-                "later runs)", _cache_dir())
-        from marl_social.models import cost_kernels, gap_kernels
-        _LOADED.extend((gap_kernels, cost_kernels))
-    return tuple(_LOADED)
+    return load_kernels("marl_social.models", _KERNEL_FILES, "the planners' numba kernels", 30)
 
 
 def _cache_dir() -> Path:

@@ -1,17 +1,27 @@
-"""Whether a numba kernel file will compile at its import (no current cache on disk).
+"""Loading numba kernel files once per process, with a word first when they will compile.
 
 numba's `cache=True` keeps a kernel's machine code in the __pycache__ beside its file; a
 process that finds none as new as the file compiles it, which takes seconds to tens of
-seconds. The loaders of the compiled kernels (models/kernel_loading.py, sim/road_map.py's
-route kernels, perception/belief/compiled.py, agents/robot/tree_ipm.py) ask here first and
-say so before a cold compile, so that the first run does not look hung;
+seconds. `load_kernels` imports a package's kernel files at the first call of a process
+(numba compiles or loads them then, not at the import of marl_social), after one warning
+if `will_compile` says they have no current cache, so that the first run does not look hung:
+the planners' kernels (models/kernel_loading.py), the route projection (`route_kernels`
+here) and the belief's (perception/belief/compiled.py); the MPC's tree solver
+(agents/robot/tree_ipm.py) asks `will_compile` at its own import.
 agents/compile_kernels.py compiles what is missing ahead of a parallel run.
 """
 
 from __future__ import annotations
 
+import importlib
+import importlib.util
+import logging
 import os
 from pathlib import Path
+from types import ModuleType
+
+# (package, kernel module names) -> the imported modules, once per process
+_LOADED: dict[tuple[str, tuple[str, ...]], tuple[ModuleType, ...]] = {}
 
 
 def will_compile(folder: Path, names: tuple[str, ...]) -> bool:
@@ -34,3 +44,37 @@ def will_compile(folder: Path, names: tuple[str, ...]) -> bool:
         if not index or max(p.stat().st_mtime for p in index) < source:
             return True
     return False
+
+
+def load_kernels(package: str, names: tuple[str, ...], what: str,
+                 about_s: int) -> tuple[ModuleType, ...]:
+    """The kernel modules package.NAME for NAME in names, imported (and compiled) once.
+
+    The first call of a process imports them; if one will compile (`will_compile`), it first
+    logs one warning (logger ``marl_social``; stderr when logging is not configured) naming
+    `what`, about how long it takes and where the cache goes.
+
+    Args:
+        package: the dotted package holding the kernel files, e.g. "marl_social.models".
+        names: the kernel modules' names, without ".py".
+        what: what compiles, for the warning, e.g. "the planners' numba kernels".
+        about_s: about how long the cold compile takes on a 2-core machine [s].
+
+    Returns:
+        The modules, in the order of `names`.
+    """
+    key = (package, tuple(names))
+    if key not in _LOADED:
+        folder = Path(importlib.util.find_spec(package).submodule_search_locations[0])
+        if will_compile(folder, key[1]):
+            logging.getLogger("marl_social").warning(
+                "compiling %s once (about %d s; cached in %s for later runs)", what, about_s,
+                folder / "__pycache__")
+        _LOADED[key] = tuple(importlib.import_module(f"{package}.{name}") for name in key[1])
+    return _LOADED[key]
+
+
+def route_kernels() -> ModuleType:
+    """sim.route_kernels (the route projection and the lane test), loaded once."""
+    return load_kernels("marl_social.sim", ("route_kernels",),
+                        "the route projection's numba kernel", 3)[0]

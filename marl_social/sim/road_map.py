@@ -8,14 +8,12 @@ radians counter-clockwise from +x.
 from __future__ import annotations
 
 import bisect
-import logging
 import math
 from dataclasses import dataclass, field, replace
-from pathlib import Path
 
 import numpy as np
 
-from marl_social.sim.kernel_cache import will_compile
+from marl_social.sim.kernel_cache import route_kernels
 from marl_social.sim.signals import SignalHead, SignalPlan
 
 
@@ -29,23 +27,6 @@ def _as_polyline(points, name: str) -> np.ndarray:
     if np.any(np.linalg.norm(np.diff(arr, axis=0), axis=1) <= 1e-9):
         raise ValueError(f"{name}: polyline has a zero-length segment")
     return arr
-
-
-_ROUTE_KERNELS: list = []  # [sim.route_kernels] once imported (numba: not at import)
-
-
-def _route_kernels():
-    """sim.route_kernels, imported (numba loaded, or compiled once) at the first call."""
-    if not _ROUTE_KERNELS:
-        folder = Path(__file__).parent
-        if will_compile(folder, ("route_kernels",)):
-            logging.getLogger("marl_social").warning(
-                "compiling the route projection's numba kernel once (a few seconds; cached in "
-                "%s for later runs)", folder / "__pycache__")
-        from marl_social.sim import route_kernels
-
-        _ROUTE_KERNELS.append(route_kernels)
-    return _ROUTE_KERNELS[0]
 
 
 class Route:
@@ -142,7 +123,7 @@ class Route:
             shape = x.shape
             out = np.empty((2, x.size))
             k = np.empty(x.size, dtype=np.intp)
-            _route_kernels().project_points(x.ravel(), y.ravel(), self._kernel_segments, out,
+            route_kernels().project_points(x.ravel(), y.ravel(), self._kernel_segments, out,
                                             k)
             return out[0].reshape(shape), out[1].reshape(shape), k.reshape(shape)
         rel_x = x[..., None] - sx  # (..., 1)

@@ -27,7 +27,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from marl_social.sim.road_map import ConflictZone, Lane, RoadMap, Route, _route_kernels
+from marl_social.sim.kernel_cache import route_kernels
+from marl_social.sim.road_map import ConflictZone, Lane, RoadMap, Route
 
 LANE_HEADING_TOLERANCE_RAD = math.radians(35.0)  # heading within this of a lane's = along it
 LANE_LATERAL_MARGIN_M = 0.25  # a centre this far beyond half a lane width still counts [m]
@@ -95,7 +96,7 @@ def on_lanes(lanes, xy, heading) -> np.ndarray:
         return _numpy_on_lanes(lanes, xy, heading)
     segments, seg_heading, lane_ends, lane_length, lane_reach = _lane_table(lanes)
     out = np.empty(len(xy), dtype=bool)
-    _route_kernels().on_lanes(np.ascontiguousarray(xy[:, 0]), np.ascontiguousarray(xy[:, 1]),
+    route_kernels().on_lanes(np.ascontiguousarray(xy[:, 0]), np.ascontiguousarray(xy[:, 1]),
                               heading, segments, seg_heading, lane_ends, lane_length,
                               lane_reach, LANE_HEADING_TOLERANCE_RAD, out)
     return out

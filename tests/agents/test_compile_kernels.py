@@ -39,11 +39,12 @@ def test_an_unknown_part_is_refused_by_name():
 
 
 def test_the_route_part_compiles_the_route_projection_kernel(monkeypatch):
-    from marl_social.sim import road_map, route_kernels
+    from marl_social.sim import kernel_cache, route_kernels
 
     calls = []
     project = route_kernels.project_points
     monkeypatch.setattr(route_kernels, "project_points",
                         lambda *args: calls.append(1) or project(*args))
     ck.compile_kernels(["route"])
-    assert calls == [1] and road_map._ROUTE_KERNELS == [route_kernels]
+    assert calls == [1]
+    assert kernel_cache._LOADED[("marl_social.sim", ("route_kernels",))] == (route_kernels,)
