@@ -60,8 +60,8 @@ def vehicle_gap_evaluation(cands: CandidateSet, theta: np.ndarray, v_ref_mps: fl
     (L, A, C) [m], curve_excess_mps (A, C) [m/s] with curve_speed; the other fields None.
 
     The rollouts, the gaps and the step costs are compiled loops (models/gap_kernels.py,
-    cost_kernels.py; they read the route's per-segment pose table, Route._pose_table and
-    _cum_s); np.exp and np.tanh stay in numpy. What the kernels do not take takes
+    cost_kernels.py; they read the route's per-segment pose table, Route.segment_pose_table and
+    vertex_s_m); np.exp and np.tanh stay in numpy. What the kernels do not take takes
     evaluate_candidates itself: a non-finite or -0.0 speed, a huge speed or arc length, and
     MAX_KERNEL_OBJECTS or more objects (models/circle_gaps.py).
     """
@@ -88,7 +88,7 @@ def vehicle_gap_evaluation(cands: CandidateSet, theta: np.ndarray, v_ref_mps: fl
         plan.increments, n_cont, float(v0), float(s0), float(plan.dt_s), plan.continuations,
         plan.n_first, curve_speed is not None,
         _NO_CURVE if curve_speed is None else curve_speed.v_max_mps, CURVE_PROFILE_STEP_M,
-        route._cum_s, route._pose_table, plan.ego_along, plan.ego_circle_r, scene_xy,
+        route.vertex_s_m, route.segment_pose_table, plan.ego_along, plan.ego_circle_r, scene_xy,
         cos_heading, sin_heading, scene_along, other_r,
         np.ascontiguousarray(scene.radius_m, dtype=float), present & ~scene.is_pedestrian,
         w_safety != 0.0, plan.ego_radius, crosswalk_rows, zone_rows, zone_sizes,

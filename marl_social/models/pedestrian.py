@@ -135,7 +135,7 @@ def _compiled_q_values(model: PedestrianModel, route: Route, s0: float, v_ref: f
     use_crosswalks = w_conflict != 0.0 and crosswalks and np.count_nonzero(pair) > 0
     rows = crosswalk_rows(crosswalks if use_crosswalks else ())
     exp_arg, occupancy, scene_occupancy = gap_kernels.walk_geometry(
-        speed_times, float(s0), route.length_m, route._cum_s, route._pose_table,
+        speed_times, float(s0), route.length_m, route.vertex_s_m, route.segment_pose_table,
         float(ego_radius[0]), *scene_circle_inputs(scene),
         np.ascontiguousarray(scene.radius_m, dtype=float), w_safety != 0.0,
         float(model.radius_m), rows, OCCUPANCY_SOFTNESS_M)

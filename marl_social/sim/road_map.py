@@ -35,43 +35,53 @@ class Route:
     Args:
         points: (P, 2) vertices [m], in travel order.
         name: used in error messages.
+
+    Attributes (read only; the compiled kernels and the belief's fast paths take these tables):
+        segment_start_m, segment_direction: (S, 2) each segment's start [m] and unit direction;
+        segment_length_m, segment_heading_rad: (S,) its length [m] and heading [rad];
+        vertex_s_m: (S + 1,) arc length at each vertex [m] (vertex_s_list: the same, a list);
+        kernel_segment_table: (6, S) start x, y, direction x, y, length, arc length at start;
+        segment_pose_table: (S, 6) start x, y, direction x, y, cos and sin of the heading.
     """
 
     def __init__(self, points, name: str = "route"):
         self.points = _as_polyline(points, name)
         self.name = name
         seg = np.diff(self.points, axis=0)
-        self._seg_start = self.points[:-1]
+        self.segment_start_m = self.points[:-1]
         self._seg_vec = seg
-        self._seg_len = np.linalg.norm(seg, axis=1)
-        self._seg_dir = seg / self._seg_len[:, None]
-        self._seg_heading = np.arctan2(seg[:, 1], seg[:, 0])
+        self.segment_length_m = np.linalg.norm(seg, axis=1)
+        self.segment_direction = seg / self.segment_length_m[:, None]
+        self.segment_heading_rad = np.arctan2(seg[:, 1], seg[:, 0])
         # (S,) the same values per component, contiguous (project's arithmetic on x and y apart)
-        self._sx, self._sy = (np.ascontiguousarray(a) for a in self._seg_start.T)
-        self._dx, self._dy = (np.ascontiguousarray(a) for a in self._seg_dir.T)
-        self._cum_s = np.concatenate([[0.0], np.cumsum(self._seg_len)])
+        self._sx, self._sy = (np.ascontiguousarray(a) for a in self.segment_start_m.T)
+        self._dx, self._dy = (np.ascontiguousarray(a) for a in self.segment_direction.T)
+        self.vertex_s_m = np.concatenate([[0.0], np.cumsum(self.segment_length_m)])
         # (6, S) _project's kernel's table: start x, y [m], unit direction x, y, length [m], arc
         # length at the start [m]
-        self._kernel_segments = np.ascontiguousarray(np.vstack(
-            [self._sx, self._sy, self._dx, self._dy, self._seg_len, self._cum_s[:-1]]))
-        self.length_m = float(self._cum_s[-1])
-        self._seg_start_list = self._seg_start.tolist()
-        self._seg_dir_list = self._seg_dir.tolist()
-        self._seg_len_list = self._seg_len.tolist()
-        self._cum_s_list = self._cum_s[:-1].tolist()
+        self.kernel_segment_table = np.ascontiguousarray(np.vstack(
+            [self._sx, self._sy, self._dx, self._dy, self.segment_length_m, self.vertex_s_m[:-1]]))
+        self.length_m = float(self.vertex_s_m[-1])
+        self._seg_start_list = self.segment_start_m.tolist()
+        self._seg_dir_list = self.segment_direction.tolist()
+        self._seg_len_list = self.segment_length_m.tolist()
+        self._cum_s_list = self.vertex_s_m[:-1].tolist()
         # (S, 5) per segment: start x, y [m], unit direction x, y, heading [rad] (point_at)
-        self._seg_table = np.column_stack([self._seg_start, self._seg_dir, self._seg_heading])
+        self._seg_table = np.column_stack([self.segment_start_m, self.segment_direction,
+                                           self.segment_heading_rad])
         # (S, 6) per segment: start x, y [m], unit direction x, y, cos and sin of the heading
         # (pose_at); np.cos / np.sin give each value the same bits wherever it sits in an array
-        self._pose_table = np.column_stack([self._seg_start, self._seg_dir,
-                                            np.cos(self._seg_heading), np.sin(self._seg_heading)])
-        self._cum_s_all_list = self._cum_s.tolist()  # (S + 1,) point_at_float's lookup
-        self._seg_point_list = np.column_stack([self._seg_start, self._seg_dir]).tolist()
+        self.segment_pose_table = np.column_stack([
+            self.segment_start_m, self.segment_direction, np.cos(self.segment_heading_rad),
+            np.sin(self.segment_heading_rad)])
+        self.vertex_s_list = self.vertex_s_m.tolist()  # (S + 1,) point_at_float's lookup
+        self._seg_point_list = np.column_stack([self.segment_start_m,
+                                                self.segment_direction]).tolist()
 
     @property
     def n_segments(self) -> int:
         """Number of straight segments of the polyline."""
-        return len(self._seg_len)
+        return len(self.segment_length_m)
 
     def project(self, xy) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """Project points onto the route.
@@ -87,8 +97,8 @@ class Route:
         xy = np.asarray(xy, dtype=np.float64)
         s, lateral, k = self._project(xy[..., 0], xy[..., 1])
         if xy.ndim == 1:  # one point: numpy scalars, as plain indexing gives them
-            return s[()], lateral[()], self._seg_heading[int(k)]
-        return s, lateral, self._seg_heading[k]
+            return s[()], lateral[()], self.segment_heading_rad[int(k)]
+        return s, lateral, self.segment_heading_rad[k]
 
     def project_xy(self, x, y) -> tuple[np.ndarray, np.ndarray]:
         """`project`'s arc length and lateral offset of points given as x and y apart.
@@ -116,21 +126,21 @@ class Route:
         Returns:
             s: (...) arc length [m], lateral: (...) signed offset [m], k: (...) segment index.
         """
-        sx, sy, dx, dy, length = self._sx, self._sy, self._dx, self._dy, self._seg_len
+        sx, sy, dx, dy, length = self._sx, self._sy, self._dx, self._dy, self.segment_length_m
         if len(length) > 1:  # the closest of several segments: compiled (sim/route_kernels.py)
             if x.shape != y.shape:
                 x, y = np.broadcast_arrays(x, y)
             shape = x.shape
             out = np.empty((2, x.size))
             k = np.empty(x.size, dtype=np.intp)
-            route_kernels().project_points(x.ravel(), y.ravel(), self._kernel_segments, out,
+            route_kernels().project_points(x.ravel(), y.ravel(), self.kernel_segment_table, out,
                                             k)
             return out[0].reshape(shape), out[1].reshape(shape), k.reshape(shape)
         rel_x = x[..., None] - sx  # (..., 1)
         rel_y = y[..., None] - sy
         t = rel_x * dx + rel_y * dy
         t = np.minimum(np.maximum(t, 0.0), length)  # np.clip's ufuncs
-        s = self._cum_s[0] + t[..., 0]
+        s = self.vertex_s_m[0] + t[..., 0]
         lateral = dx[0] * rel_y[..., 0] - dy[0] * rel_x[..., 0]
         return np.asarray(s), np.asarray(lateral), np.zeros(s.shape, dtype=np.intp)
 
@@ -149,12 +159,12 @@ class Route:
         q, e = seg[0], seg[1] - seg[0]
         d = self._seg_vec  # (S, 2)
         denom = d[:, 0] * e[1] - d[:, 1] * e[0]  # cross(d, e)
-        rel = q - self._seg_start  # (S, 2)
+        rel = q - self.segment_start_m  # (S, 2)
         with np.errstate(divide="ignore", invalid="ignore"):
             t = (rel[:, 0] * e[1] - rel[:, 1] * e[0]) / denom  # along the route's segment
             u = (rel[:, 0] * d[:, 1] - rel[:, 1] * d[:, 0]) / denom  # along the given segment
         hit = (np.abs(denom) > 1e-12) & (t >= 0.0) & (t <= 1.0) & (u >= 0.0) & (u <= 1.0)
-        s = self._cum_s[:-1][hit] + t[hit] * self._seg_len[hit]
+        s = self.vertex_s_m[:-1][hit] + t[hit] * self.segment_length_m[hit]
         return np.unique(s)
 
     def project_point(self, x: float, y: float) -> tuple[float, float]:
@@ -163,7 +173,7 @@ class Route:
         The scalar version of `project`, in plain Python for short routes (a planner's per-step
         query); on a single-segment route its result is project's, bit for bit.
         """
-        if len(self._seg_len) > 16:
+        if len(self.segment_length_m) > 16:
             s, lateral, _ = self.project(np.array([x, y]))
             return float(s), float(lateral)
         best = (math.inf, 0.0, 0.0)
@@ -187,17 +197,17 @@ class Route:
             xy: (..., 2) [m], heading: (...) [rad].
         """
         s = np.asarray(s, dtype=np.float64)
-        if len(self._seg_len) == 1:  # k = 0 everywhere: the same arithmetic, no lookup
-            local = s - self._cum_s[0]
-            xy = self._seg_start[0] + local[..., None] * self._seg_dir[0]
-            heading = self._seg_heading[0]
+        if len(self.segment_length_m) == 1:  # k = 0 everywhere: the same arithmetic, no lookup
+            local = s - self.vertex_s_m[0]
+            xy = self.segment_start_m[0] + local[..., None] * self.segment_direction[0]
+            heading = self.segment_heading_rad[0]
             return xy, (np.full(s.shape, heading) if s.ndim else heading)
-        k = np.searchsorted(self._cum_s, s, side="right") - 1
-        k = np.minimum(np.maximum(k, 0), len(self._seg_len) - 1)
-        local = s - self._cum_s[k]
+        k = np.searchsorted(self.vertex_s_m, s, side="right") - 1
+        k = np.minimum(np.maximum(k, 0), len(self.segment_length_m) - 1)
+        local = s - self.vertex_s_m[k]
         row = self._seg_table[k]  # (..., 5)
         xy = row[..., 0:2] + local[..., None] * row[..., 2:4]
-        return xy, (row[..., 4] if s.ndim else self._seg_heading[k])
+        return xy, (row[..., 4] if s.ndim else self.segment_heading_rad[k])
 
     def point_at_float(self, s: float) -> tuple[float, float]:
         """`point_at`'s position (x, y) [m] of one arc length s [m], on Python floats.
@@ -207,9 +217,9 @@ class Route:
         per-call cost (a planner's one look-ahead point per step).
         """
         n_seg = len(self._seg_point_list)
-        k = 0 if n_seg == 1 else min(max(bisect.bisect_right(self._cum_s_all_list, s) - 1, 0),
+        k = 0 if n_seg == 1 else min(max(bisect.bisect_right(self.vertex_s_list, s) - 1, 0),
                                      n_seg - 1)
-        local = s - self._cum_s_all_list[k]
+        local = s - self.vertex_s_list[k]
         x0, y0, dx, dy = self._seg_point_list[k]
         return x0 + local * dx, y0 + local * dy
 
@@ -226,13 +236,13 @@ class Route:
             xy: (..., 2) [m]; direction: (..., 2) cos and sin of the heading (one row (2,) for
             a single-segment route, where it is the same everywhere).
         """
-        table = self._pose_table
+        table = self.segment_pose_table
         if len(table) == 1:
-            local = s - self._cum_s[0]
+            local = s - self.vertex_s_m[0]
             return table[0, 0:2] + local[..., None] * table[0, 2:4], table[0, 4:6]
-        k = np.searchsorted(self._cum_s, s, side="right") - 1
+        k = np.searchsorted(self.vertex_s_m, s, side="right") - 1
         k = np.minimum(np.maximum(k, 0), len(table) - 1)
-        local = s - self._cum_s[k]
+        local = s - self.vertex_s_m[k]
         row = table[k]  # (..., 6)
         return row[..., 0:2] + local[..., None] * row[..., 2:4], row[..., 4:6]
 
@@ -251,7 +261,7 @@ class Lane:
     def polygon(self) -> np.ndarray:
         """(2P, 2) outline of the lane (left edge forward, right edge backward) [m]."""
         route = Route(self.centerline)
-        _, heading = route.point_at(route._cum_s)
+        _, heading = route.point_at(route.vertex_s_m)
         normal = np.stack([-np.sin(heading), np.cos(heading)], axis=-1)
         left = self.centerline + 0.5 * self.width_m * normal
         right = self.centerline - 0.5 * self.width_m * normal
@@ -454,18 +464,18 @@ class RouteSet:
 
     def __init__(self, routes: list[Route]):
         n = len(routes)
-        n_seg = max((len(r._seg_len) for r in routes), default=1)
+        n_seg = max((len(r.segment_length_m) for r in routes), default=1)
         self.seg_start = np.zeros((n, n_seg, 2))
         self.seg_dir = np.tile([1.0, 0.0], (n, n_seg, 1))
         self.seg_len = np.zeros((n, n_seg))
         self.cum_s = np.zeros((n, n_seg))
         self.valid = np.zeros((n, n_seg), dtype=bool)
         for i, r in enumerate(routes):
-            k = len(r._seg_len)
-            self.seg_start[i, :k] = r._seg_start
-            self.seg_dir[i, :k] = r._seg_dir
-            self.seg_len[i, :k] = r._seg_len
-            self.cum_s[i, :k] = r._cum_s[:-1]
+            k = len(r.segment_length_m)
+            self.seg_start[i, :k] = r.segment_start_m
+            self.seg_dir[i, :k] = r.segment_direction
+            self.seg_len[i, :k] = r.segment_length_m
+            self.cum_s[i, :k] = r.vertex_s_m[:-1]
             self.valid[i, :k] = True
         self.length_m = np.array([r.length_m for r in routes])
         self._all_valid = bool(self.valid.all())

@@ -125,7 +125,7 @@ def _lane_table(lanes: tuple[Lane, ...]) -> tuple[np.ndarray, ...]:
     The static map's lanes (its zones' priority lanes) are the same objects at every call.
 
     Returns:
-        (6, S) their centrelines' segments one lane after the other (Route._kernel_segments),
+        (6, S) their centrelines' segments one lane after the other (Route.kernel_segment_table),
         (S,) the segments' headings [rad], (N,) each lane's end column, (N,) the centrelines'
         lengths [m] and (N,) half the lane width plus LANE_LATERAL_MARGIN_M [m].
     """
@@ -135,8 +135,8 @@ def _lane_table(lanes: tuple[Lane, ...]) -> tuple[np.ndarray, ...]:
         return hit[1]
     routes = _lane_routes(lanes)
     reach = tuple(0.5 * lane.width_m + LANE_LATERAL_MARGIN_M for lane in lanes)
-    table = (np.ascontiguousarray(np.hstack([r._kernel_segments for r in routes])),
-             np.concatenate([r._seg_heading for r in routes]),
+    table = (np.ascontiguousarray(np.hstack([r.kernel_segment_table for r in routes])),
+             np.concatenate([r.segment_heading_rad for r in routes]),
              np.cumsum([r.n_segments for r in routes]).astype(np.int64),
              np.array([r.length_m for r in routes]), np.array(reach, dtype=np.float64))
     if len(_LANE_TABLES) >= _MAX_LANE_TABLES:

@@ -50,7 +50,7 @@ def _dash_segments(polyline: np.ndarray, on_m: float, off_m: float) -> list[np.n
     pieces = []
     for s0 in starts:
         s1 = min(s0 + on_m, route.length_m)
-        inner = route._cum_s[(route._cum_s > s0) & (route._cum_s < s1)]  # keep corners
+        inner = route.vertex_s_m[(route.vertex_s_m > s0) & (route.vertex_s_m < s1)]  # keep corners
         xy, _ = route.point_at(np.concatenate([[s0], inner, [s1]]))
         pieces.append(xy)
     return pieces

@@ -199,9 +199,10 @@ class _PathGroup:
         self.bounds = np.array(bounds, dtype=np.float64).T[..., None]  # (B, H, 1)
         route = self.first._route
         # a vehicle path's segments for belief_kernels.route_projections (paths.LanePaths')
-        self._route_heading = route._seg_heading if route is not None else None
+        self._route_heading = route.segment_heading_rad if route is not None else None
         self._segments = None if route is None else np.column_stack(
-            [route._seg_start, route._seg_dir, route._seg_len, route._cum_s[:-1]])
+            [route.segment_start_m, route.segment_direction, route.segment_length_m,
+             route.vertex_s_m[:-1]])
 
     def _path_coords(self, xy: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """`Hypothesis.path_coords` of the first hypothesis: s, lateral [m], heading [rad] (n,).

@@ -41,7 +41,8 @@ def route_pose(route: Route, s: float) -> tuple[float, float, float]:
     The same segment lookup (searchsorted side="right", clamped to the segments) and the same
     arithmetic as Route.point_at / Route.point_at_float, bit for bit, without numpy's per-call
     cost (the belief asks it for every tracked human every step). Reads the route's segment
-    tables (Route._cum_s_all_list, _seg_heading), as models/gap_evaluation reads its pose table.
+    tables (Route.vertex_s_list, segment_heading_rad), as models/gap_evaluation reads its pose
+    table.
     """
     x, y = route.point_at_float(s)
     return x, y, route_heading(route, s)
@@ -53,10 +54,10 @@ def route_heading(route: Route, s: float) -> float:
     Route.point_at's segment (searchsorted side="right" in the route's cumulative arc lengths,
     clamped to the segments), found with bisect (`route_pose`).
     """
-    cum_s = route._cum_s_all_list
+    cum_s = route.vertex_s_list
     n_seg = len(cum_s) - 1
     k = 0 if n_seg == 1 else min(max(bisect.bisect_right(cum_s, s) - 1, 0), n_seg - 1)
-    return float(route._seg_heading[k])
+    return float(route.segment_heading_rad[k])
 
 
 class LanePaths:
@@ -85,7 +86,8 @@ class LanePaths:
         # every lane's segments for belief_kernels.lane_projections: (S, 6) start x, y [m],
         # unit direction x, y, length [m] and arc length at the start [m], lane by lane
         self._segments = np.vstack([np.column_stack([
-            lane._seg_start, lane._seg_dir, lane._seg_len, lane._cum_s[:-1]])
+            lane.segment_start_m, lane.segment_direction, lane.segment_length_m,
+            lane.vertex_s_m[:-1]])
             for lane in self._lanes]) if lanes else np.zeros((0, 6))
         self._first_segment = np.cumsum([0] + [lane.n_segments for lane in self._lanes])
         # Route.project_point's numpy path (Route.project) for more than 16 segments

@@ -62,7 +62,7 @@ def test_plan_poses_is_the_numpy_rollout_and_poses(seed, bent, curve, v0):
         plan.increments.reshape(-1, CANDIDATES.n_steps), len(CANDIDATES.continuations_mps2),
         v0, s0, dt, plan.continuations, CANDIDATES.n_first, speed is not None,
         np.zeros(1) if speed is None else speed.v_max_mps, CURVE_PROFILE_STEP_M,
-        route._cum_s, route._pose_table, along)
+        route.vertex_s_m, route.segment_pose_table, along)
     want_v, want_ds, want_a = _rollout(v0, plan.increments, dt)
     if speed is not None:  # evaluate_candidates' curve speed
         want_v, want_ds, want_a = _governed(want_v, want_ds, v0, plan.continuations,

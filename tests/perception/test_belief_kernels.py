@@ -204,7 +204,8 @@ def test_lane_projections_are_project_point(seed, n_lanes):
         steps = rng.normal(size=(n_points - 1, 2)) * rng.uniform(0.1, 20)
         points = np.vstack([rng.normal(size=(1, 2)) * 50, steps]).cumsum(axis=0)
         lanes.append(Route(points, "lane"))
-    segments = np.vstack([np.column_stack([r._seg_start, r._seg_dir, r._seg_len, r._cum_s[:-1]])
+    segments = np.vstack([np.column_stack([r.segment_start_m, r.segment_direction,
+                                           r.segment_length_m, r.vertex_s_m[:-1]])
                           for r in lanes])
     first = np.cumsum([0] + [r.n_segments for r in lanes])
     numpy_path = np.array([r.n_segments > PROJECT_POINT_LOOP_MAX for r in lanes])
@@ -318,10 +319,10 @@ def test_route_projections_are_route_project(seed, n_points, n):
     rng = np.random.default_rng(seed)
     steps = rng.normal(size=(n_points - 1, 2)) * rng.uniform(0.1, 20)
     route = Route(np.vstack([rng.normal(size=(1, 2)) * 50, steps]).cumsum(axis=0), "path")
-    segments = np.column_stack([route._seg_start, route._seg_dir, route._seg_len,
-                                route._cum_s[:-1]])
+    segments = np.column_stack([route.segment_start_m, route.segment_direction,
+                                route.segment_length_m, route.vertex_s_m[:-1]])
     xy = rng.normal(size=(n, 2)) * 80
     s, lateral, k = compiled.kernels().route_projections(xy, segments)
     want_s, want_lateral, want_heading = route.project(xy)
     assert _same(s, want_s) and _same(lateral, want_lateral)
-    assert _same(route._seg_heading[k], want_heading)
+    assert _same(route.segment_heading_rad[k], want_heading)

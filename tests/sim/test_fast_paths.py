@@ -131,22 +131,25 @@ def test_zone_occupancy_equals_all_edges_at_once(seed, n_vertices):
 
 def _point_at_reference(route, s):
     s = np.asarray(s, dtype=np.float64)
-    k = np.clip(np.searchsorted(route._cum_s, s, side="right") - 1, 0, len(route._seg_len) - 1)
-    xy = route._seg_start[k] + (s - route._cum_s[k])[..., None] * route._seg_dir[k]
-    return xy, route._seg_heading[k]
+    k = np.clip(np.searchsorted(route.vertex_s_m, s, side="right") - 1, 0,
+                len(route.segment_length_m) - 1)
+    xy = (route.segment_start_m[k]
+          + (s - route.vertex_s_m[k])[..., None] * route.segment_direction[k])
+    return xy, route.segment_heading_rad[k]
 
 
 def _project_reference(route, xy):
     xy = np.asarray(xy, dtype=np.float64)
-    rel = xy[..., None, :] - route._seg_start
-    t = np.clip(np.einsum("...sk,sk->...s", rel, route._seg_dir), 0.0, route._seg_len)
-    closest = route._seg_start + t[..., None] * route._seg_dir
+    rel = xy[..., None, :] - route.segment_start_m
+    t = np.clip(np.einsum("...sk,sk->...s", rel, route.segment_direction), 0.0,
+                route.segment_length_m)
+    closest = route.segment_start_m + t[..., None] * route.segment_direction
     k = np.argmin(np.sum((xy[..., None, :] - closest) ** 2, axis=-1), axis=-1)
     t_k = np.take_along_axis(t, k[..., None], axis=-1)[..., 0]
     rel_k = np.take_along_axis(rel, k[..., None, None], axis=-2)[..., 0, :]
-    dir_k = route._seg_dir[k]
+    dir_k = route.segment_direction[k]
     lateral = dir_k[..., 0] * rel_k[..., 1] - dir_k[..., 1] * rel_k[..., 0]
-    return route._cum_s[k] + t_k, lateral, route._seg_heading[k]
+    return route.vertex_s_m[k] + t_k, lateral, route.segment_heading_rad[k]
 
 
 @settings(max_examples=40, deadline=None)

@@ -28,7 +28,7 @@ def _same(a, b) -> bool:
 
 def _reference_project(route: Route, x: np.ndarray, y: np.ndarray):
     """Route._project on a route of several segments as it stood in numpy."""
-    sx, sy, dx, dy, length = route._sx, route._sy, route._dx, route._dy, route._seg_len
+    sx, sy, dx, dy, length = route._sx, route._sy, route._dx, route._dy, route.segment_length_m
     rel_x = x[..., None] - sx  # (..., S)
     rel_y = y[..., None] - sy
     t = rel_x * dx + rel_y * dy
@@ -41,7 +41,7 @@ def _reference_project(route: Route, x: np.ndarray, y: np.ndarray):
     flat = k.ravel() + n_seg * np.arange(k.size)
     t_k, rx, ry = (a.ravel()[flat].reshape(k.shape) for a in (t, rel_x, rel_y))
     dx_k, dy_k = dx[k], dy[k]
-    s = route._cum_s[k] + t_k
+    s = route.vertex_s_m[k] + t_k
     return np.asarray(s), np.asarray(dx_k * ry - dy_k * rx), k
 
 
@@ -94,7 +94,7 @@ def test_project_xy_and_project_use_the_kernel_on_strided_inputs():
     s1, lat1, heading1 = route.project(xy[2, 3])
     assert np.isscalar(s1) or np.ndim(s1) == 0
     assert s1 == ref_s[2, 3] and lat1 == ref_lateral[2, 3]
-    assert heading1 == route._seg_heading[ref_k[2, 3]]
+    assert heading1 == route.segment_heading_rad[ref_k[2, 3]]
 
 
 def _lane(rng: np.random.Generator):

@@ -114,21 +114,21 @@ def project_local(path, xy, s_guess, window_m: float = PROJECTION_WINDOW_M):
         offset, left of travel positive [m]. Same convention as road_map.Route.project.
     """
     route = Route(path, "reference path")
-    n_seg = len(route._seg_len)
-    w = math.ceil(window_m / float(np.min(route._seg_len))) + 1
+    n_seg = len(route.segment_length_m)
+    w = math.ceil(window_m / float(np.min(route.segment_length_m))) + 1
     w = min(w, n_seg)
-    k0 = np.clip(np.searchsorted(route._cum_s, s_guess, side="right") - 1, 0, n_seg - 1)
+    k0 = np.clip(np.searchsorted(route.vertex_s_m, s_guess, side="right") - 1, 0, n_seg - 1)
     cand = np.clip(k0[:, None] + np.arange(-w, w + 1), 0, n_seg - 1)  # (K, 2w+1)
-    rel = np.asarray(xy, dtype=np.float64)[:, None, :] - route._seg_start[cand]
-    direction = route._seg_dir[cand]
-    along = np.clip(np.sum(rel * direction, axis=-1), 0.0, route._seg_len[cand])
+    rel = np.asarray(xy, dtype=np.float64)[:, None, :] - route.segment_start_m[cand]
+    direction = route.segment_direction[cand]
+    along = np.clip(np.sum(rel * direction, axis=-1), 0.0, route.segment_length_m[cand])
     d2 = np.sum((rel - along[..., None] * direction) ** 2, axis=-1)
     j = np.argmin(d2, axis=1)[:, None]
     k = np.take_along_axis(cand, j, axis=1)[:, 0]
     a = np.take_along_axis(along, j, axis=1)[:, 0]
     r = np.take_along_axis(rel, j[..., None], axis=1)[:, 0]
-    lateral = route._seg_dir[k, 0] * r[:, 1] - route._seg_dir[k, 1] * r[:, 0]
-    return route._cum_s[k] + a, lateral
+    lateral = route.segment_direction[k, 0] * r[:, 1] - route.segment_direction[k, 1] * r[:, 0]
+    return route.vertex_s_m[k] + a, lateral
 
 
 
