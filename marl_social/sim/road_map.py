@@ -133,8 +133,8 @@ class Route:
             shape = x.shape
             out = np.empty((2, x.size))
             k = np.empty(x.size, dtype=np.intp)
-            route_kernels().project_points(x.ravel(), y.ravel(), self.kernel_segment_table, out,
-                                            k)
+            route_kernels().project_points(x.ravel(), y.ravel(), self.kernel_segment_table,
+                                           out, k)
             return out[0].reshape(shape), out[1].reshape(shape), k.reshape(shape)
         rel_x = x[..., None] - sx  # (..., 1)
         rel_y = y[..., None] - sy
