@@ -66,7 +66,8 @@ from marl_social.agents.robot.corridor import (
     reachable_progress,
     route_curvature,
 )
-from marl_social.agents.robot.qp import ContingencyQp, QpSolution, QpWeights
+from marl_social.agents.robot.qp import ContingencyQp
+from marl_social.agents.robot.qp_types import QpSolution, QpWeights
 from marl_social.models.candidates import ScenePrediction
 from marl_social.sim.agent_spec import VehicleParams
 from marl_social.sim.dynamics import DT_S

@@ -37,14 +37,13 @@ conditions (agents/robot/active_set.py); only if that fails does OSQP iterate on
 
 from __future__ import annotations
 
-from dataclasses import dataclass
-
 import numpy as np
 import osqp
 import scipy.sparse as sp
 
 from marl_social.agents.robot.active_set import ActiveSetSolver
 from marl_social.agents.robot.condensed_qp import CondensedLayout
+from marl_social.agents.robot.qp_types import QpSolution, QpWeights
 
 _OK = frozenset(int(s) for s in (osqp.SolverStatus.OSQP_SOLVED,
                                   osqp.SolverStatus.OSQP_SOLVED_INACCURATE))
@@ -82,43 +81,6 @@ _STRUCTURE_FIELDS = ("_a_off", "_v_off", "_s_off", "_c_off", "n_vars", "_a_idx",
                      "_lower_template", "_upper_template", "_p_initial", "_active_set",
                      "_condensed", "_tree", "_p_offdiag")
 _STRUCTURES: dict[tuple, dict] = {}
-
-
-@dataclass(frozen=True)
-class QpWeights:
-    """The cost weights of one branch (SI units, per second of plan).
-
-    Attributes:
-        speed: w_v on (v - v_ref)^2 [1 / (m/s)^2 / s].
-        accel: w_a on a^2 [1 / (m/s^2)^2 / s].
-        jerk: w_j on jerk^2 [1 / (m/s^3)^2 / s].
-        comfort: w_c on the braking beyond the comfortable deceleration, squared
-            [1 / (m/s^2)^2 / s].
-    """
-
-    speed: float
-    accel: float
-    jerk: float
-    comfort: float = 0.0
-
-
-@dataclass(frozen=True)
-class QpSolution:
-    """One solve of the QP.
-
-    Attributes:
-        solved: OSQP reached a solution within its tolerances that meets the bounds.
-        cost: the objective 0.5 x'Px + q'x (constant terms left out).
-        accel_mps2: (L, N) accelerations per branch [m/s^2].
-        speed_mps: (L, N) speeds at the end of each step [m/s].
-        progress_m: (L, N) progress along the route at the end of each step [m].
-    """
-
-    solved: bool
-    cost: float
-    accel_mps2: np.ndarray
-    speed_mps: np.ndarray
-    progress_m: np.ndarray
 
 
 class ContingencyQp:

@@ -11,10 +11,11 @@ import scipy.sparse as sp
 
 from marl_social.agents.robot import qp
 from marl_social.agents.robot.mpc import MpcConfig
+from marl_social.agents.robot.qp_types import QpWeights
 from marl_social.sim.dynamics import DT_S
 
 CONFIG = MpcConfig()
-WEIGHTS = qp.QpWeights(CONFIG.w_speed, CONFIG.w_accel, CONFIG.w_jerk, CONFIG.w_comfort)
+WEIGHTS = QpWeights(CONFIG.w_speed, CONFIG.w_accel, CONFIG.w_jerk, CONFIG.w_comfort)
 N = CONFIG.n_steps
 DATA = Path(__file__).parent / "data"
 

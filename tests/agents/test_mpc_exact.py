@@ -13,12 +13,13 @@ import scipy.sparse.linalg as spla
 from marl_social.agents.robot import active_set, qp
 from marl_social.agents.robot.corridor import provably_infeasible, reachable_progress
 from marl_social.agents.robot.mpc import MpcConfig
+from marl_social.agents.robot.qp_types import QpWeights
 from marl_social.sim.agent_spec import VehicleParams
 from marl_social.sim.dynamics import DT_S
 
 CONFIG = MpcConfig()
 VEHICLE = VehicleParams()
-WEIGHTS = qp.QpWeights(CONFIG.w_speed, CONFIG.w_accel, CONFIG.w_jerk, CONFIG.w_comfort)
+WEIGHTS = QpWeights(CONFIG.w_speed, CONFIG.w_accel, CONFIG.w_jerk, CONFIG.w_comfort)
 N = CONFIG.n_steps
 
 

@@ -12,11 +12,12 @@ import pytest
 
 from marl_social.agents.robot import qp
 from marl_social.agents.robot.mpc import ContingencyMpc, MpcConfig
+from marl_social.agents.robot.qp_types import QpSolution
 from marl_social.sim.agent_spec import VehicleParams
 from tests.agents.test_condensed_qp import _captured, _qp
 
 
-def _bits(solution: qp.QpSolution) -> tuple:
+def _bits(solution: QpSolution) -> tuple:
     return (solution.solved, solution.cost, solution.accel_mps2.tobytes(),
             solution.speed_mps.tobytes(), solution.progress_m.tobytes())
 
