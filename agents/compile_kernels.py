@@ -77,7 +77,7 @@ def compile_kernels(parts: tuple[str, ...] | list[str] = PARTS) -> None:
 
 def _solve_one_tree_qp() -> None:
     """One small QP through the tree solver (its kernels compile at their first call)."""
-    from marl_social.agents.robot.mpc import MpcConfig
+    from marl_social.agents.robot.mpc_types import MpcConfig
     from marl_social.agents.robot.qp import DAQP_MAX_BRANCHES, ContingencyQp
     from marl_social.agents.robot.qp_types import QpWeights
     from marl_social.sim.dynamics import DT_S

@@ -6,8 +6,8 @@ will go. The robot plans this as a contingency pair (Alsterda & Gerdes, "Conting
 ACC 2019): one extra branch in which every such pedestrian steps off now and walks across at
 `walk_speed_mps`, with probability `p_step_off`, next to the branches in which they keep
 waiting (the belief's hypotheses). With the MPC's soft comfortable-deceleration bound
-(mpc.MpcConfig.comfort_decel_mps2) the shared trunk slows early enough for the "steps off now"
-branch to stop gently, so that a pedestrian who does step off needs no hard braking.
+(mpc_types.MpcConfig.comfort_decel_mps2) the shared trunk slows early enough for the "steps off
+now" branch to stop gently, so that a pedestrian who does step off needs no hard braking.
 
 The robot's model of a waiting pedestrian (gap acceptance, as the simulated pedestrians and
 real ones behave): it steps off only in front of a car that can still stop before the crosswalk
@@ -192,8 +192,8 @@ class CurbPedestrians:
 
         For a pedestrian the robot planned a "steps off now" branch for, now walking on or
         near its crosswalk (within `curb_reach_m`), the contingency came true: the robot
-        prepared a comfortable stop for it (mpc.MpcConfig.comfort_decel_mps2, a soft bound),
-        and meets it with that bound (the comfort weight times this factor) rather than with
+        prepared a comfortable stop for it (mpc_types.MpcConfig.comfort_decel_mps2, a soft
+        bound), and meets it with that bound (the comfort weight times this factor) rather than with
         the nominal cost alone, which trades a later, harder stop for speed. The factor is the
         time the branch was planned over `prepared_full_s`, capped at 1: a branch planned
         for an instant has not slowed the robot, and holding it to the comfortable bound then

@@ -49,7 +49,7 @@ as much as driving 2 m/s slower for 5 s.
 from __future__ import annotations
 
 import itertools
-from dataclasses import dataclass, replace
+from dataclasses import replace
 
 import numpy as np
 
@@ -66,6 +66,7 @@ from marl_social.agents.robot.corridor import (
     reachable_progress,
     route_curvature,
 )
+from marl_social.agents.robot.mpc_types import MpcConfig, MpcResult
 from marl_social.agents.robot.qp import ContingencyQp
 from marl_social.agents.robot.qp_types import QpSolution, QpWeights
 from marl_social.models.candidates import ScenePrediction
@@ -77,126 +78,6 @@ MAX_MODE_OBJECTS = 3  # per branch, objects beyond this many with two plausible 
 INFEASIBLE_MARGIN_M = 0.5  # bounds violated by more than this even at best skip the QP [m]
 ROOM_M = 0.1  # a stay-behind bound gives way to where braking gets the robot plus this [m]
 STANDSTILL_MARGIN_M = 0.05  # at rest, plans going no further than the room + this stay [m]
-
-
-@dataclass(frozen=True)
-class MpcConfig:
-    """The MPC's configuration (module docstring for the weights).
-
-    Attributes:
-        plan_dt_s: plan step [s].
-        horizon_s: planning horizon [s] (holds a comfortable stop from the speed limit).
-        trunk_s: the shared first segment [s].
-        epsilon: tail threshold on beliefs.
-        w_speed: weight on (v - v_ref)^2 [1 / (m/s)^2 / s].
-        w_accel: weight on a^2 [1 / (m/s^2)^2 / s].
-        w_jerk: weight on jerk^2 [1 / (m/s^3)^2 / s].
-        jerk_max_mps3: hard jerk bound [m/s^3].
-        lat_accel_max_mps2: lateral acceleration allowed on curves [m/s^2].
-        min_gap_m: longitudinal gap kept to an object on the path [m].
-        pedestrian_gap_m: longitudinal gap kept to a pedestrian [m].
-        lateral_margin_m: clearance on each side of the robot for the corridor [m].
-        pedestrian_margin_m: a pedestrian walking towards the robot's path is in its way
-            within this clearance: it has the right of way on the carriageway (4.2 m: from the
-            next lane's far edge); one standing on the curb or walking away is not [m].
-        pedestrian_clearance_m: clearance on each side of the robot to any pedestrian, also
-            one walking away: the robot goes again once it has left the crosswalk [m].
-        time_headway_s: time headway to an object ahead [s].
-        headway_ramp_s: the headway grows from 0 to time_headway_s over this time [s].
-        terminal_headway_s: headway on the last plan step (room to stop beyond it) [s].
-        pass_margin_s: the robot is past an object this long before it arrives [s].
-        curvature_window_m: a route vertex this close to a step's guessed position bounds it [m].
-        position_tolerance_m: a stay-behind bound may give way by up to this much, but no more
-            than braking at half the limit needs (tracking noise on a bound it waits at) [m].
-        rest_mps: below this speed the robot is at rest: it may always stay where it is [m/s].
-        standstill_s: at rest with no plan going further than a bound's room, the robot
-            brakes to rest over this time (standstill: it does not creep on) [s].
-        comfort_decel_mps2: braking beyond this is penalized by w_comfort (soft bound) [m/s^2].
-        w_comfort: weight on the braking beyond comfort_decel_mps2, squared
-            [1 / (m/s^2)^2 / s].
-        w_pull_up: weight of the pull-up term on (s - line)^2 while the robot drives up to a
-            stop line it stands short of (`plan`'s pull_up_to_m) [1 / m^2 / s].
-    """
-
-    plan_dt_s: float = 0.25
-    horizon_s: float = 6.0
-    trunk_s: float = 0.5
-    epsilon: float = 0.02
-    w_speed: float = 1.0
-    w_accel: float = 10.0
-    w_jerk: float = 2.0
-    jerk_max_mps3: float = 15.0
-    lat_accel_max_mps2: float = 3.0
-    min_gap_m: float = 1.0
-    pedestrian_gap_m: float = 2.0
-    lateral_margin_m: float = 0.5
-    pedestrian_margin_m: float = 4.2
-    pedestrian_clearance_m: float = 1.5
-    time_headway_s: float = 1.0
-    headway_ramp_s: float = 3.0
-    terminal_headway_s: float = 1.5
-    pass_margin_s: float = 2.5
-    curvature_window_m: float = 5.0
-    position_tolerance_m: float = 0.5
-    rest_mps: float = 0.3
-    standstill_s: float = 0.5
-    comfort_decel_mps2: float = 2.5
-    w_comfort: float = 100.0
-    w_pull_up: float = 30.0
-
-    def __post_init__(self):
-        if not self.horizon_s > self.trunk_s >= self.plan_dt_s > 0.0:
-            raise ValueError("MpcConfig: need horizon_s > trunk_s >= plan_dt_s > 0")
-
-    @property
-    def n_steps(self) -> int:
-        """N plan steps."""
-        return round(self.horizon_s / self.plan_dt_s)
-
-    @property
-    def n_trunk(self) -> int:
-        """Shared first steps."""
-        return round(self.trunk_s / self.plan_dt_s)
-
-    @property
-    def plan_times_s(self) -> np.ndarray:
-        """(N,) times of the ends of the plan steps [s] (where scenes are predicted)."""
-        return (np.arange(self.n_steps) + 1) * self.plan_dt_s
-
-    def headway_s(self) -> np.ndarray:
-        """(N,) the time headway of each step's stay-behind row [s]."""
-        h = self.time_headway_s * np.minimum(1.0, self.plan_times_s / self.headway_ramp_s)
-        h[-1] = max(h[-1], self.terminal_headway_s)
-        return h
-
-
-@dataclass(frozen=True)
-class MpcResult:
-    """The result of one MPC solve.
-
-    Attributes:
-        accel_mps2: the acceleration to apply now [m/s^2].
-        feasible: a plan met every live branch's constraints (else: hardest braking).
-        live: (L,) bool, the hypotheses planned for.
-        weights: (L,) the renormalized beliefs (0 where not live).
-        modes: per hypothesis, the chosen mode per object on its path (empty if not live).
-        accel_plan: (B, N) accelerations of the B live branches [m/s^2] (NaN if infeasible).
-        speed_plan: (B, N) their speeds at the end of each step [m/s].
-        progress_plan: (B, N) their progress from the current position [m].
-        cost: the expected cost J (inf if infeasible).
-        jerk_relaxed: no plan met the jerk bound; the plan (if feasible) ignores it.
-    """
-
-    accel_mps2: float
-    feasible: bool
-    live: np.ndarray
-    weights: np.ndarray
-    modes: tuple
-    accel_plan: np.ndarray
-    speed_plan: np.ndarray
-    progress_plan: np.ndarray
-    cost: float
-    jerk_relaxed: bool = False
 
 
 class ContingencyMpc:

@@ -49,7 +49,8 @@ import numpy as np
 
 from marl_social.agents.params import RobotModelParams, parse_planner_params
 from marl_social.agents.robot.curb import CurbConfig, CurbPedestrians
-from marl_social.agents.robot.mpc import ContingencyMpc, MpcConfig, MpcResult
+from marl_social.agents.robot.mpc import ContingencyMpc
+from marl_social.agents.robot.mpc_types import MpcConfig, MpcResult
 from marl_social.agents.robot.phase_branches import PhaseBranches
 from marl_social.agents.robot.right_of_way import RightOfWay, RightOfWayConfig
 from marl_social.agents.robot.signal_stop import SignalStops

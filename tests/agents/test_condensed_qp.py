@@ -10,7 +10,7 @@ import pytest
 import scipy.sparse as sp
 
 from marl_social.agents.robot import qp
-from marl_social.agents.robot.mpc import MpcConfig
+from marl_social.agents.robot.mpc_types import MpcConfig
 from marl_social.agents.robot.qp_types import QpWeights
 from marl_social.sim.dynamics import DT_S
 

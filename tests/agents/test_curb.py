@@ -6,7 +6,8 @@ import numpy as np
 import pytest
 
 from marl_social.agents.robot.curb import CurbConfig, CurbPedestrians
-from marl_social.agents.robot.mpc import MpcConfig, plan
+from marl_social.agents.robot.mpc import plan
+from marl_social.agents.robot.mpc_types import MpcConfig
 from marl_social.models.candidates import ScenePrediction
 from marl_social.perception.tracking import TrackSet
 from marl_social.sim.agent_spec import VehicleParams

@@ -6,7 +6,8 @@ import numpy as np
 import pytest
 
 from marl_social.agents.robot.corridor import mode_bounds, objects_on_path
-from marl_social.agents.robot.mpc import ContingencyMpc, MpcConfig, plan
+from marl_social.agents.robot.mpc import ContingencyMpc, plan
+from marl_social.agents.robot.mpc_types import MpcConfig
 from marl_social.models.candidates import ScenePrediction
 from marl_social.sim.agent_spec import VehicleParams
 from marl_social.sim.dynamics import DT_S, bicycle_step

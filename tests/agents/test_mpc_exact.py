@@ -12,7 +12,7 @@ import scipy.sparse.linalg as spla
 
 from marl_social.agents.robot import active_set, qp
 from marl_social.agents.robot.corridor import provably_infeasible, reachable_progress
-from marl_social.agents.robot.mpc import MpcConfig
+from marl_social.agents.robot.mpc_types import MpcConfig
 from marl_social.agents.robot.qp_types import QpWeights
 from marl_social.sim.agent_spec import VehicleParams
 from marl_social.sim.dynamics import DT_S

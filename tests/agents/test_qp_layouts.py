@@ -11,7 +11,8 @@ import numpy as np
 import pytest
 
 from marl_social.agents.robot import qp
-from marl_social.agents.robot.mpc import ContingencyMpc, MpcConfig
+from marl_social.agents.robot.mpc import ContingencyMpc
+from marl_social.agents.robot.mpc_types import MpcConfig
 from marl_social.agents.robot.qp_types import QpSolution
 from marl_social.sim.agent_spec import VehicleParams
 from tests.agents.test_condensed_qp import _captured, _qp

@@ -5,7 +5,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from marl_social.agents.robot.mpc import ContingencyMpc, MpcConfig
+from marl_social.agents.robot.mpc import ContingencyMpc
+from marl_social.agents.robot.mpc_types import MpcConfig
 from marl_social.agents.robot.right_of_way import RightOfWay, RightOfWayConfig
 from marl_social.models.candidates import ScenePrediction
 from marl_social.scenarios import make_scenario
