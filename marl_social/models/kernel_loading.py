@@ -10,23 +10,14 @@ is not configured) before it compiles.
 
 from __future__ import annotations
 
-from pathlib import Path
+import functools
 
-from marl_social.sim.kernel_cache import load_kernels, will_compile
+from marl_social.sim.kernel_cache import load_kernels
 
 _KERNEL_FILES = ("gap_kernels", "cost_kernels")
 
 
+@functools.cache  # called at every decision: a cached call, not load_kernels' lookup
 def load() -> tuple:
     """(models.gap_kernels, models.cost_kernels), imported (and if need be compiled) once."""
     return load_kernels("marl_social.models", _KERNEL_FILES, "the planners' numba kernels", 30)
-
-
-def _cache_dir() -> Path:
-    """Where numba keeps the kernels' machine code when it can write there (__pycache__)."""
-    return Path(__file__).with_name("__pycache__")
-
-
-def _will_compile(here: Path | None = None) -> bool:
-    """Whether a planner kernel file in `here` (default: this package) will compile."""
-    return will_compile(Path(__file__).parent if here is None else here, _KERNEL_FILES)

@@ -13,6 +13,7 @@ agents/compile_kernels.py compiles what is missing ahead of a parallel run.
 
 from __future__ import annotations
 
+import functools
 import importlib
 import importlib.util
 import logging
@@ -74,6 +75,7 @@ def load_kernels(package: str, names: tuple[str, ...], what: str,
     return _LOADED[key]
 
 
+@functools.cache  # asked for ~10-30 times per env step: a cached call, not load_kernels' lookup
 def route_kernels() -> ModuleType:
     """sim.route_kernels (the route projection and the lane test), loaded once."""
     return load_kernels("marl_social.sim", ("route_kernels",),

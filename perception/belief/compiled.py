@@ -9,6 +9,7 @@ sim/kernel_cache.load_kernels, which loads the planners' kernels too).
 
 from __future__ import annotations
 
+import functools
 from types import ModuleType
 
 from marl_social.sim.kernel_cache import load_kernels
@@ -18,6 +19,7 @@ from marl_social.sim.kernel_cache import load_kernels
 PAIRWISE_MAX = 128
 
 
+@functools.cache  # called at every belief kernel use: a cached call, not load_kernels' lookup
 def kernels() -> ModuleType:
     """perception.belief.belief_kernels, imported (and if need be compiled) once."""
     return load_kernels("marl_social.perception.belief", ("belief_kernels",),

@@ -3,8 +3,12 @@
 from __future__ import annotations
 
 import os
+from pathlib import Path
 
 from marl_social.models import kernel_loading
+from marl_social.sim.kernel_cache import will_compile
+
+_CACHE_DIR = Path(kernel_loading.__file__).with_name("__pycache__")
 
 
 def _kernel_files(folder, cached: bool, cache_older: bool = False):
@@ -30,11 +34,11 @@ def test_a_cold_or_stale_cache_is_told_apart_from_a_fresh_one(tmp_path, monkeypa
     _kernel_files(cold, cached=False)
     _kernel_files(stale, cached=True, cache_older=True)  # a kernel file edited since
     _kernel_files(fresh, cached=True)
-    assert kernel_loading._will_compile(cold)
-    assert kernel_loading._will_compile(stale)
-    assert not kernel_loading._will_compile(fresh)
+    assert will_compile(cold, kernel_loading._KERNEL_FILES)
+    assert will_compile(stale, kernel_loading._KERNEL_FILES)
+    assert not will_compile(fresh, kernel_loading._KERNEL_FILES)
     monkeypatch.setenv("NUMBA_CACHE_DIR", str(tmp_path))  # cached elsewhere: cannot tell
-    assert not kernel_loading._will_compile(cold)
+    assert not will_compile(cold, kernel_loading._KERNEL_FILES)
 
 
 def test_the_kernels_load_once_and_are_then_cached_beside_their_source():
@@ -42,5 +46,6 @@ def test_the_kernels_load_once_and_are_then_cached_beside_their_source():
     assert kernel_loading.load() == first
     assert [k.__name__ for k in first] == ["marl_social.models.gap_kernels",
                                            "marl_social.models.cost_kernels"]
-    if os.access(kernel_loading._cache_dir(), os.W_OK) and not os.environ.get("NUMBA_CACHE_DIR"):
-        assert not kernel_loading._will_compile()  # what was compiled is on disk now
+    if os.access(_CACHE_DIR, os.W_OK) and not os.environ.get("NUMBA_CACHE_DIR"):
+        # what was compiled is on disk now
+        assert not will_compile(_CACHE_DIR.parent, kernel_loading._KERNEL_FILES)
