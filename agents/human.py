@@ -12,8 +12,11 @@ held to the end of the horizon; all candidates rolled out at once), and samples
     u ~ P(u) = softmax(-beta * Q*(x_hat, u))                                      (eq. 8)
 
 with the episode's seeded generator; beta = inf is the argmin (perfectly rational), beta -> 0
-uniform. Others are predicted at constant velocity from the human's tracks. The human chooses
-its acceleration along its route (path-velocity decomposition); pure pursuit steers.
+uniform. Others are predicted at constant velocity from the human's tracks; with the planner
+parameter `expects_yield` (DriverParams), a vehicle that must give way in a conflict zone ahead
+of it and can stop before it at a comfortable deceleration is expected to
+(models/yield_expectation.py). The human chooses its acceleration along its route
+(path-velocity decomposition); pure pursuit steers.
 
 The road's rules come from the static map along the human's own route
 (sim/route_rules.py) and what it sees:
@@ -60,6 +63,7 @@ from marl_social.models.driver import (
     driver_q_values,
 )
 from marl_social.models.steering import pure_pursuit
+from marl_social.models.yield_expectation import YieldExpectation
 from marl_social.sim.agent_spec import AgentSpec
 from marl_social.sim.observation import Measurements, ObservationLayout
 from marl_social.sim.road_map import RoadMap
@@ -107,6 +111,8 @@ class BoltzmannDriver(BoltzmannPolicy):
         self.stop_lines_s = stop_line_positions(self.route, road_map)  # (S,) [m]
         self.yield_conflicts = tuple(c for c in route_conflicts(self.route, road_map)
                                      if c.yields)
+        expectation = YieldExpectation(road_map) if params.expects_yield else None
+        self.yield_expectation = expectation if expectation and expectation.applies else None
         curve = CurveSpeed(self.route, CURVE_LAT_ACCEL_MPS2, 0.5 * spec.vehicle.length_m)
         self.curve_speed = None if curve.is_straight else curve
         # (S,) [m] and (S,) head index of the signal lines on its route
@@ -128,9 +134,17 @@ class BoltzmannDriver(BoltzmannPolicy):
         self._tracks = None
 
     def predict(self, tracks) -> ScenePrediction:
-        """The others at constant velocity (the tracks are kept for the right of way)."""
+        """The others at constant velocity, or, with `expects_yield`, as models/yield_expectation.py.
+
+        The tracks are kept for the right of way.
+        """
         self._tracks = tracks
-        return super().predict(tracks)
+        if self.yield_expectation is None or not len(tracks):
+            return super().predict(tracks)
+        xy = self.yield_expectation.predict_xy(
+            tracks.xy, tracks.velocity, tracks.heading_rad, tracks.length_m, tracks.width_m,
+            tracks.is_pedestrian, self._times)
+        return ScenePrediction.from_tracks(tracks, self._times, predicted_xy=xy)
 
     def road_rules(self, s0: float, v: float) -> RoadRules | None:
         """The rules of this decision (see the module docstring); None where none applies.

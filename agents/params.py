@@ -41,9 +41,14 @@ class DriverParams:
 
     Attributes:
         beta: rationality of the Boltzmann choice (eq. 8) [1/cost]; inf = argmin, 0 = uniform.
+        expects_yield: it expects a car that must give way in a conflict zone ahead of it to
+            stop before the zone if it can at a comfortable deceleration
+            (models/yield_expectation.py); False (the default): every other vehicle at
+            constant velocity.
     """
 
     beta: float = 5.0
+    expects_yield: bool = False
 
     CHECKS: ClassVar[tuple] = (("beta", _nonnegative, "must be >= 0"),)
 
@@ -76,11 +81,14 @@ class RobotModelParams:
         theta_hat: cost weights it assumes for the humans (None: BeliefConfig's default).
         beta_hat: the humans' rationality it assumes [1/cost] (None: BeliefConfig's default).
         epsilon: tail threshold on beliefs, in [0, 1) (None: BeliefConfig's default).
+        human_expects_yield: it assumes the humans expect a car that must give way to stop
+            before the zone if it comfortably can (BeliefConfig.human_expects_yield).
     """
 
     theta_hat: CostWeights | None = None
     beta_hat: float | None = None
     epsilon: float | None = None
+    human_expects_yield: bool = False
 
     CHECKS: ClassVar[tuple] = (
         ("beta_hat", _nonnegative, "must be >= 0"),

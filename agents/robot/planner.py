@@ -150,6 +150,8 @@ def robot_configs(spec: AgentSpec, planner: str | RobotVariant = "social",
         updates["theta_hat"] = params.theta_hat
     if params.beta_hat is not None:
         updates["beta_hat"] = params.beta_hat
+    if params.human_expects_yield:
+        updates["human_expects_yield"] = True
     if variant.infer_beta:
         updates["beta_grid_hat"] = BETA_GRID_HAT
     if variant.weighting is HypothesisWeighting.PRESENT_LIVE:

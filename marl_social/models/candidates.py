@@ -56,9 +56,9 @@ class ScenePrediction:
     mask: np.ndarray
 
     @classmethod
-    def from_tracks(cls, tracks, times_s: np.ndarray, mask: np.ndarray | None = None
-                    ) -> ScenePrediction:
-        """One hypothesis: every track of a TrackSet at constant velocity.
+    def from_tracks(cls, tracks, times_s: np.ndarray, mask: np.ndarray | None = None,
+                    predicted_xy: np.ndarray | None = None) -> ScenePrediction:
+        """One hypothesis: every track of a TrackSet at constant velocity (or as predicted).
 
         Footprints are at the tracks' headings (TrackSet.heading_rad, perception/tracking.py).
 
@@ -66,8 +66,12 @@ class ScenePrediction:
             tracks: the TrackSet, M tracks.
             times_s: (T,) prediction times [s].
             mask: (1, M) bool, the tracks present in the scene (default: all).
+            predicted_xy: (M, T, 2) the tracks' positions at times_s [m] (default: constant
+                velocity, TrackSet.predict_xy).
         """
-        xy = tracks.predict_xy(times_s)[None]  # (1, M, T, 2)
+        if predicted_xy is None:
+            predicted_xy = tracks.predict_xy(times_s)
+        xy = predicted_xy[None]  # (1, M, T, 2)
         heading = tracks.heading_rad[None, :, None].repeat(xy.shape[2], axis=2)  # (1, M, T)
         radius = 0.5 * np.hypot(tracks.length_m, tracks.width_m)
         m = len(tracks)

@@ -36,6 +36,12 @@ class IntersectionParams(ScenarioParams):
             marl_social.sim.costs.FEATURE_NAMES order); empty = the default CostWeights.
         human_blind: the left-turners cannot see the eastbound lane(s) west of the junction
             (they turn whatever comes; they cannot act as sensors).
+        human_expects_yield: every human expects a car that must give way in a conflict zone
+            ahead of it (the robot at its stop line or red light, a left-turner before the
+            oncoming lane) to stop before the zone if it can at 3 m/s^2, and predicts it at
+            constant velocity only otherwise (models/yield_expectation.py); the robot's model
+            of the humans assumes the same. False (the default): every other vehicle at
+            constant velocity.
         human_sensor_range_m, human_half_fov_deg, human_pos_noise_m: every human's view.
         robot_speed_mps, robot_desired_speed_mps: the robot's initial and cruise speeds [m/s].
         robot_sensor_range_m, robot_half_fov_deg, robot_pos_noise_m: its view.
@@ -47,6 +53,7 @@ class IntersectionParams(ScenarioParams):
     human_beta: float = 5.0
     human_theta: tuple = ()
     human_blind: bool = False
+    human_expects_yield: bool = False
     human_sensor_range_m: float = 80.0
     human_half_fov_deg: float = 60.0
     human_pos_noise_m: float = 0.05
@@ -101,7 +108,7 @@ def human_spec(params: IntersectionParams, name: str, state, v_desired_mps: floa
         sensor=SensorParams(p.human_sensor_range_m, math.radians(p.human_half_fov_deg),
                             pos_noise_m=p.human_pos_noise_m, blind_regions=blind),
         vehicle=VehicleParams(), v_desired_mps=v_desired_mps, cost_weights=theta,
-        planner={"beta": p.human_beta},
+        planner={"beta": p.human_beta, "expects_yield": p.human_expects_yield},
     )
 
 
@@ -122,5 +129,6 @@ def robot_spec(params: IntersectionParams, x_m: float, front_y_m: float) -> Agen
         sensor=SensorParams(p.robot_sensor_range_m, math.radians(p.robot_half_fov_deg),
                             pos_noise_m=p.robot_pos_noise_m),
         vehicle=vehicle, v_desired_mps=p.robot_desired_speed_mps, cost_weights=THETA_ROBOT,
-        planner={"beta_hat": p.robot_beta_hat, "epsilon": p.robot_epsilon},
+        planner={"beta_hat": p.robot_beta_hat, "epsilon": p.robot_epsilon,
+                 "human_expects_yield": p.human_expects_yield},
     )

@@ -59,6 +59,10 @@ class BeliefConfig:
             objects it reacts to besides the hypothesised pedestrian [m] (a generic driver's:
             SensorParams' default, not a scenario's).
         human_half_fov_rad: half-angle of that assumed field of view [rad] (likewise).
+        human_expects_yield: the robot assumes a human expects a car that must give way in a
+            conflict zone ahead of it (the robot itself included) to stop before the zone if it
+            comfortably can (models/yield_expectation.py, the humans' DriverParams.
+            expects_yield); False (the default): at constant velocity.
         walking_speed_min_mps: a seen pedestrian moving at least this fast along a hypothesis'
             walking direction is stepping onto the crosswalk [m/s].
         outlier_prob: weight rho of a uniform outlier component in P(a_obs | x)
@@ -104,6 +108,7 @@ class BeliefConfig:
     v_traffic_grid_mps: tuple = ()
     human_range_m: float = 50.0
     human_half_fov_rad: float = math.radians(70.0)
+    human_expects_yield: bool = False
     walking_speed_min_mps: float = 0.5
     outlier_prob: float = 0.05
     max_log_likelihood_ratio: float = 2.5

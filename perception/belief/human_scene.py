@@ -3,7 +3,9 @@
 `HumanScenes` holds, for the L hidden-agent hypotheses, each one's hidden agent predicted at the
 planner's times, and builds a human's L scenes: the hypothesised agent (a hypothesised vehicle
 only if inside the view the robot assumes a human has), plus the vehicles the robot tracks and
-the robot itself in that view, at constant velocity (`others_scene`). What every human of a
+the robot itself in that view, at constant velocity but for a vehicle that must give way and
+can stop before the zone, which the human expects to do so (models/yield_expectation.py, as the
+human drivers themselves predict; `others_scene`). What every human of a
 step shares is built once per step; a scene without others once per set of hypotheses.
 """
 
@@ -15,6 +17,7 @@ from dataclasses import fields
 import numpy as np
 
 from marl_social.models.candidates import ScenePrediction
+from marl_social.models.yield_expectation import YieldExpectation
 from marl_social.perception.belief import compiled
 from marl_social.perception.belief.config import BeliefConfig
 from marl_social.perception.belief.hypotheses import Hypothesis, hypothesis_objects
@@ -36,13 +39,17 @@ class HumanScenes:
         times_s: (T,) the human's planner times [s].
         config: BeliefConfig (the view the robot assumes a human has).
         vehicle: the footprint of the robot itself (as the humans see it).
+        yield_expectation: how the humans predict who gives way (the static map's zones);
+            None: every object at constant velocity.
     """
 
     def __init__(self, hypotheses: list[Hypothesis], times_s: np.ndarray, config: BeliefConfig,
-                 vehicle: VehicleParams):
+                 vehicle: VehicleParams, yield_expectation: YieldExpectation | None = None):
         """Predict every hypothesis' hidden agent at times_s."""
         self.config = config
         self.vehicle = vehicle
+        self.yield_expectation = (yield_expectation if yield_expectation is not None
+                                  and yield_expectation.applies else None)
         self._times = times_s
         self._present = np.array([h.present for h in hypotheses])
         self._hyp_scene = hypothesis_objects(hypotheses, self._times)
@@ -73,7 +80,8 @@ class HumanScenes:
         """What the robot assumes the human reacts to besides the hypothesised pedestrian.
 
         One hypothesis (L = 1): the vehicles the robot tracks (other than the human) and the
-        robot itself inside the human's assumed field of view, at constant velocity; None if
+        robot itself inside the human's assumed field of view, at constant velocity but for a
+        vehicle expected to give way (`_predict_step_objects`); None if
         there is nothing. Seen pedestrians are left to the hypotheses (a crossing one is the
         detected hypothesis).
 
@@ -122,7 +130,10 @@ class HumanScenes:
 
     def _predict_step_objects(self, step: dict, decoded: DecodedObservation,
                               tracks: TrackSet) -> None:
-        """Add to `step` the objects' predictions at constant velocity and their footprints.
+        """Add to `step` the objects' predictions and their footprints.
+
+        At constant velocity, but for a vehicle expected to stop before a zone it must give way
+        in (models/yield_expectation.py), as the human drivers predict their tracks.
 
         "pred" (N + 1, T, 2) [m], "heading" (N + 1,) [rad], "length", "width", "radius"
         (N + 1,) [m], "is_ped" (N + 1,) bool.
@@ -134,10 +145,15 @@ class HumanScenes:
         length = np.append(tracks.length_m, veh.length_m)
         width = np.append(tracks.width_m, veh.width_m)
         ego_heading = math.atan2(ego[EGO_INDEX["sin_psi"]], ego[EGO_INDEX["cos_psi"]])
-        step.update(pred=step["xy"][:, None, :] + vel[:, None, :] * self._times[None, :, None],
-                    heading=np.append(tracks.heading_rad, ego_heading), length=length,
-                    width=width, radius=0.5 * np.hypot(length, width),
-                    is_ped=np.append(tracks.is_pedestrian, False))
+        heading = np.append(tracks.heading_rad, ego_heading)
+        is_ped = np.append(tracks.is_pedestrian, False)
+        if self.yield_expectation is None:
+            pred = step["xy"][:, None, :] + vel[:, None, :] * self._times[None, :, None]
+        else:
+            pred = self.yield_expectation.predict_xy(step["xy"], vel, heading, length, width,
+                                                     is_ped, self._times)
+        step.update(pred=pred, heading=heading, length=length, width=width,
+                    radius=0.5 * np.hypot(length, width), is_ped=is_ped)
 
     def hypothesis_scene(self, others: ScenePrediction | None = None,
                          viewer: tuple | None = None) -> ScenePrediction:

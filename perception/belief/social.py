@@ -59,6 +59,7 @@ import numpy as np
 from marl_social.models.candidates import ScenePrediction
 from marl_social.models.driver import DriverModel, RoadRules, rule_abiding_totals
 from marl_social.models.gap_evaluation import vehicle_gap_evaluation
+from marl_social.models.yield_expectation import YieldExpectation
 from marl_social.perception.belief import compiled
 from marl_social.perception.belief.action_model import (
     action_log_likelihood,
@@ -149,7 +150,9 @@ class SocialLikelihood:
         # the speed feature theta_speed (v - v_ref)^2 per planner step, in simulator-step units
         self._speed_weight = config.theta_hat.speed * (self._candidates.plan_dt_s / DT_S)
         self._v_ref_column = self.traffic_grid_mps[:, None, None, None]  # (V, 1, 1, 1) [m/s]
-        self.scenes = HumanScenes(hypotheses, self._times, config, self.model.vehicle)
+        self.scenes = HumanScenes(
+            hypotheses, self._times, config, self.model.vehicle,
+            YieldExpectation(road_map) if config.human_expects_yield else None)
         self._beta_grid = np.asarray(config.beta_grid_hat, dtype=np.float64)
         self._beta_prior = np.full(len(self._beta_grid), 1.0 / max(len(self._beta_grid), 1))
         self._conflicts: dict[str, tuple] = {}  # route name -> its yield conflicts

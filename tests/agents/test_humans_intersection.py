@@ -10,8 +10,14 @@ import pytest
 
 import marl_social
 from marl_social.agents.human import STOP_REACH_M
+from marl_social.models.candidates import ScenePrediction
+from marl_social.models.driver import driver_q_values
+from marl_social.models.yield_expectation import YieldExpectation
+from marl_social.perception.tracking import TrackSet
 from marl_social.scenarios import SCENARIOS
 from marl_social.scenarios.t_intersection import STOP_LINE_Y_M, TIntersection
+from marl_social.sim.agent_spec import VehicleParams
+from marl_social.sim.observation import EGO_INDEX
 from marl_social.sim.road_map import Route
 from marl_social.sim.route_rules import route_conflicts
 
@@ -173,3 +179,83 @@ def test_left_turners_wait_in_near_and_not_in_far():
     far_first = [not left_turner_waits(r, "human_0", "human_1") for r in far_runs]
     assert np.mean(near) >= 0.9
     assert np.mean(far_first) == 1.0
+
+
+def _v3_best_accel(robot_front_gap_m: float, robot_speed_mps: float, v3_x_m: float,
+                   expects_yield: bool = True) -> float:
+    """V3's most likely acceleration [m/s^2] at v3_x_m on the eastbound lane at 11 m/s, tracking
+    the robot in the stem heading north at robot_speed_mps with its front robot_front_gap_m
+    short of the lane; V3 with the scenario knob human_expects_yield = expects_yield."""
+    env = marl_social.parallel_env(scenario="t_intersection", hidden_vehicle="near",
+                                   n_humans=0, human_expects_yield=expects_yield)
+    v3 = marl_social.policies(env)["human_0"]
+    env.close()
+    car = VehicleParams()
+    xy = np.array([[1.75, -3.5 - robot_front_gap_m - 0.5 * car.length_m]])
+    velocity = np.array([[0.0, robot_speed_mps]])
+    tracks = TrackSet(np.array([1]), xy, velocity, np.array([0.1]), np.array([car.length_m]),
+                      np.array([car.width_m]), np.array([False]), np.array([True]),
+                      np.array([0.0]), np.array([0.5 * np.pi]))
+    scene = v3.predict(tracks)
+    if not expects_yield:  # the default: every other vehicle at constant velocity
+        assert v3.yield_expectation is None
+        np.testing.assert_array_equal(
+            scene.xy, ScenePrediction.from_tracks(tracks, v3.model.plan_times_s).xy)
+    s0, _ = v3.route.project_point(v3_x_m, -1.75)
+    q = driver_q_values(v3.model, v3.route, s0, 11.0, 0.0, scene, v3.crosswalks,
+                        v3.road_rules(s0, 11.0))[0]
+    return float(v3.model.first_actions_mps2[int(np.argmin(q))])
+
+
+@pytest.mark.parametrize("v3_x_m", [-25.0, -18.0])
+def test_a_driver_expecting_yield_does_not_brake_for_a_car_creeping_to_its_lane(v3_x_m):
+    """human_expects_yield: the robot creeps past its stop line at 1.5-1.9 m/s, its front 1-2 m
+    short of the eastbound lane; V3 expects it to give way (it can stop at under 2 m/s^2) and
+    keeps its speed. By default V3 predicts it at constant velocity into its lane and brakes
+    hard."""
+    for gap, speed in [(2.0, 1.9), (1.0, 1.5)]:
+        assert _v3_best_accel(gap, speed, v3_x_m) >= 0.0
+        assert _v3_best_accel(gap, speed, v3_x_m, expects_yield=False) <= -4.0
+
+
+def test_a_driver_expecting_yield_brakes_for_a_car_too_fast_to_stop():
+    """human_expects_yield: the robot 2 m short of the lane at 5 m/s (6.25 m/s^2 to stop): V3
+    takes it to pull out and brakes hard."""
+    assert _v3_best_accel(2.0, 5.0, -12.0) <= -4.0
+
+
+@pytest.mark.parametrize("expects_yield", [True, False])
+def test_the_robots_model_of_a_human_predicts_the_robot_as_the_humans_do(expects_yield):
+    """The robot's model of a human (perception/belief/human_scene.py) predicts the robot
+    itself as the humans do: with human_expects_yield a creeping robot stops at the lane's
+    edge, by default it drives on at constant velocity."""
+    env = marl_social.parallel_env(scenario="t_intersection", hidden_vehicle="none",
+                                   n_humans=1, human_expects_yield=expects_yield)
+    obs, _ = env.reset(seed=0)
+    robot = marl_social.policies(env)["robot_0"]
+    robot.reset(0)
+    social = robot.belief.social
+    decoded = env.obs_layout.decode(obs["robot_0"])
+    env.close()
+    car = VehicleParams()
+    ego = decoded.ego.copy()  # the robot creeping north 2 m short of the lane at 1.9 m/s
+    ego_xy = np.array([1.75, -3.5 - 2.0 - 0.5 * car.length_m])
+    ego[[EGO_INDEX["x"], EGO_INDEX["y"]]] = ego_xy
+    ego[[EGO_INDEX["cos_psi"], EGO_INDEX["sin_psi"]]] = (0.0, 1.0)
+    ego[EGO_INDEX["v"]] = 1.9
+    moved = dataclasses.replace(decoded, ego=ego)
+    empty, empty_xy = np.zeros(0), np.zeros((0, 2))
+    no_tracks = TrackSet(np.zeros(0, dtype=np.int64), empty_xy, empty_xy, empty, empty, empty,
+                         np.zeros(0, dtype=bool), np.zeros(0, dtype=bool), empty, empty)
+    # a human in the left-turn lane looking west at the junction
+    scene = social.others_scene(np.array([10.0, 1.75]), np.pi, 2, moved, no_tracks)
+    times = social.model.plan_times_s
+    expected = YieldExpectation(env.road_map).predict_xy(
+        ego_xy[None], np.array([[0.0, 1.9]]), np.array([0.5 * np.pi]),
+        np.array([car.length_m]), np.array([car.width_m]), np.array([False]), times)
+    if not expects_yield:
+        expected = ego_xy + np.array([0.0, 1.9]) * times[:, None]
+    np.testing.assert_allclose(scene.xy[0, 0], expected.reshape(-1, 2),
+                               atol=1e-5)  # float32 observation
+    front_y = scene.xy[0, 0, :, 1].max() + 0.5 * car.length_m
+    assert front_y == pytest.approx(-3.5) if expects_yield else front_y > 0.0
