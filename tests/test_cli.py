@@ -159,3 +159,21 @@ def test_bench_planners_times_the_intersections_without_a_pedestrian_line(monkey
     monkeypatch.undo()
     with pytest.raises(ValueError, match="bench planners: scenario 'long_road'"):
         env_bench.bench_planners(n_episodes=1, scenario="long_road")
+
+
+@pytest.mark.parametrize("scenario, knob", [("t_intersection", "hidden_speed_mps"),
+                                            ("signalized_intersection", "cross_speed_mps")])
+def test_record_randomizes_an_intersection_with_its_own_range(tmp_path, scenario, knob):
+    """`record --scenario` at an intersection draws that scenario's randomization (not the
+    crosswalk's, whose knobs it does not have) and records its humans' decisions."""
+    from marl_social.data.decisions import load_decisions
+    from marl_social.evaluation.run import RANDOMIZATIONS, scenario_randomized_overrides
+
+    out = tmp_path / "decisions.npz"
+    assert main(["record", "--scenario", scenario, "--decisions", "--episodes", "1",
+                 "--robot-planner", "cruise", "--max-cycles", "15", "-o", str(out)]) == 0
+    assert len(load_decisions(out).chosen) > 0
+    drawn = scenario_randomized_overrides(3, scenario)
+    lo, hi = RANDOMIZATIONS[scenario][knob]
+    assert set(drawn) == set(RANDOMIZATIONS[scenario]) and lo <= drawn[knob] <= hi
+    assert scenario_randomized_overrides(3, "long_road") == {}

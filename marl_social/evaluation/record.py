@@ -103,10 +103,11 @@ def episode_decisions(result, source: str = "") -> DecisionSet | None:
 
 
 def _record_one(job):
-    from marl_social.evaluation.run import randomized_overrides, run_episode
+    from marl_social.evaluation.run import run_episode, scenario_randomized_overrides
 
     scenario, seed, max_cycles, overrides, randomize, segment_steps, stride_steps = job
-    params = {**(randomized_overrides(seed) if randomize else {}), **overrides}
+    params = {**(scenario_randomized_overrides(seed, scenario) if randomize else {}),
+              **overrides}
     decisions = segment_steps is None
     result = run_episode(scenario, seed=seed, max_cycles=max_cycles,
                          record_human_decisions=decisions, **params)
@@ -123,7 +124,8 @@ def record_demonstrations(scenario: str = "occluded_crosswalk", seeds=range(20),
     """Run one episode per seed and cut the humans into demonstrations.
 
     Each episode runs its built-in planners, with `overrides` on top of
-    run.randomized_overrides(seed) when randomize.
+    run.scenario_randomized_overrides(seed, scenario) when randomize (the scenario's own
+    randomization: the occluded crosswalk's "paper" preset, each intersection's own range).
     """
     overrides = dict(overrides or {})
     jobs = [(scenario, int(s), max_cycles, overrides, randomize, segment_steps, stride_steps)

@@ -171,6 +171,9 @@ RANDOMIZATIONS: dict[str, dict[str, tuple[float, float]]] = {
     },
 }
 INTEGER_KNOBS = frozenset({"n_humans", "n_cross"})  # drawn uniformly from the integers lo..hi
+# the preset recordings and studies randomize a scenario with (scenarios not listed: none)
+SCENARIO_PRESETS = {"occluded_crosswalk": "paper", "t_intersection": "t_intersection",
+                    "signalized_intersection": "signalized_intersection"}
 
 
 def randomized_overrides(seed: int, preset: str = "paper") -> dict:
@@ -202,6 +205,20 @@ def randomized_overrides(seed: int, preset: str = "paper") -> dict:
                   else float(rng.uniform(lo, hi)))
             for key, (lo, hi) in RANDOMIZATIONS[preset].items()}
 
+
+
+def scenario_randomized_overrides(seed: int, scenario: str) -> dict:
+    """The randomization recordings and studies start from: the scenario's own preset.
+
+    `randomized_overrides(seed, SCENARIO_PRESETS[scenario])` (the occluded crosswalk's
+    "paper", each intersection's own range); {} for a scenario without a preset (long_road).
+
+    Args:
+        seed: the episode's seed.
+        scenario: a scenario name.
+    """
+    preset = SCENARIO_PRESETS.get(scenario)
+    return randomized_overrides(seed, preset) if preset is not None else {}
 
 def interaction_timings(result: EpisodeResult, robot: str = "robot_0", human: str = "human_0",
                         pedestrian: str = "pedestrian_0", brake_mps2: float = 1.0) -> dict:

@@ -119,7 +119,7 @@ def _scenario_fields(spec: StudySpec) -> tuple[type, dict]:
 
 def _check_names(spec: StudySpec, params_cls: type, fields: dict) -> None:
     from marl_social.agents.registry import ROBOT_PLANNERS
-    from marl_social.evaluation.run import randomized_overrides
+    from marl_social.evaluation.run import scenario_randomized_overrides
 
     for name in spec.param_names:
         if name not in fields:
@@ -134,8 +134,8 @@ def _check_names(spec: StudySpec, params_cls: type, fields: dict) -> None:
         raise _spec_error(spec.source, "pedestrians", f"scenario {spec.scenario!r} has no "
                           "pedestrian variants; remove the key")
     if spec.randomize:
-        foreign = sorted(set(randomized_overrides(0)) - set(fields))
-        if foreign:
+        foreign = sorted(set(scenario_randomized_overrides(0, spec.scenario)) - set(fields))
+        if foreign:  # a preset that does not fit its scenario (SCENARIO_PRESETS)
             raise _spec_error(spec.source, "randomize", "run.randomized_overrides sets "
                               f"{foreign}, which scenario {spec.scenario!r} does not have; "
                               "set randomize = false")
@@ -247,7 +247,7 @@ def expand(spec: StudySpec) -> list[Run]:
     Raises:
         ValueError: naming the spec file and the key at fault.
     """
-    from marl_social.evaluation.run import randomized_overrides
+    from marl_social.evaluation.run import scenario_randomized_overrides
     from marl_social.scenarios.base import make_params
 
     params_cls, fields = _scenario_fields(spec)
@@ -260,7 +260,8 @@ def expand(spec: StudySpec) -> list[Run]:
     if n_runs > MAX_RUNS:
         raise ValueError(f"{spec.source}: {n_runs} runs (planners x pedestrians x "
                          f"{_sweep_keys(spec)} x seeds): at most {MAX_RUNS}")
-    randomized = {s: randomized_overrides(s) if spec.randomize else {} for s in spec.seeds}
+    randomized = {s: scenario_randomized_overrides(s, spec.scenario) if spec.randomize else {}
+                  for s in spec.seeds}
     runs, seen = [], set()
     for planner, pedestrian in itertools.product(spec.planners, pedestrians):
         for values in itertools.product(*(v for _, v in swept)):

@@ -13,7 +13,7 @@ A study is a TOML spec; the built-in ones live in `marl_social/studies/specs/`
     planners = ["social", "aggressive"]   # default: social, aggressive, conservative, oracle
     pedestrians = ["crossing", "none"]    # default: crossing, waiting, none
     max_cycles = 150                      # episode length limit [steps of 0.1 s]
-    randomize = true                      # start every run from run.randomized_overrides(seed)
+    randomize = true                      # start from run.scenario_randomized_overrides
     sample_seed = 0                       # seeds the [random] draws
     metrics = ["robot_collision", "time_to_pass_s"]   # default: DEFAULT_METRICS
 
@@ -28,8 +28,8 @@ A study is a TOML spec; the built-in ones live in `marl_social/studies/specs/`
 Every [random] parameter is an axis of n distinct values (drawn deterministically from
 sample_seed and the parameter's name; integer parameters draw distinct integers in [low, high]);
 the grid and random axes are combined by cartesian product. A run's overrides are, in order of
-precedence (last wins): `run.randomized_overrides(seed)` if randomize, [fixed], the run's
-grid/random point, its planner (`robot_planner`) and its pedestrian variant. A spec is fully
+precedence (last wins): `run.scenario_randomized_overrides(seed, scenario)` if randomize,
+[fixed], the run's grid/random point, its planner (`robot_planner`) and its pedestrian variant. A spec is fully
 validated before anything runs: unknown keys, parameters, planners or metrics and values the
 scenario rejects are a `ValueError` naming the file and the key.
 """
@@ -93,7 +93,9 @@ class StudySpec:
         grid: parameter -> tuple of values (cartesian product).
         random: parameter -> draw rule ({low, high, n[, log]} or {choices, n}).
         max_cycles: episode length limit [steps].
-        randomize: start every run from `run.randomized_overrides(seed)`.
+        randomize: start every run from `run.scenario_randomized_overrides(seed, scenario)`
+            (the occluded crosswalk's "paper" preset, each intersection's own; none for
+            long_road).
         sample_seed: seeds the [random] draws.
         metrics: `run_episode` metric names stored per run.
     """
