@@ -13,6 +13,7 @@ import dataclasses
 import math
 from abc import ABC, abstractmethod
 from dataclasses import dataclass
+from pathlib import Path
 
 import numpy as np
 
@@ -82,6 +83,36 @@ class ScenarioParams:
         bracket = "(" if low_open else "["
         upper = f"{high:g}" + (" or inf" if allow_inf else "")
         self._check(ok, field_name, f"must be in {bracket}{low:g}, {upper}]{suffix}")
+
+    def _normalize_cost_weights(self, field_name: str, fit_file: bool = False) -> None:
+        """Store a cost-weights field as 6 numbers (FEATURE_NAMES order), () for the default.
+
+        Accepts (), None, a mapping of feature names or 6 numbers; with `fit_file` also the
+        path of a `marl-social irl fit` result (its direction at the default weights' norm,
+        agents/irl.robot_model_from_fit; an empty path means the default). A bad value or
+        file is a ValueError naming the field.
+        """
+        value = getattr(self, field_name)
+        where = f"{type(self).__name__}.{field_name}"
+        if fit_file and isinstance(value, (str, Path)):
+            from marl_social.agents.irl.laplace import load_fit, robot_model_from_fit
+
+            if not str(value).strip():
+                value = ()
+            else:
+                try:
+                    model, _ = robot_model_from_fit(load_fit(value))
+                except (OSError, ValueError) as err:
+                    raise ValueError(f"{where}: {err}") from None
+                value = tuple(model.as_array().tolist())
+        if value in ((), None):
+            object.__setattr__(self, field_name, ())
+            return
+        try:
+            theta = CostWeights.from_any(value).as_array()
+        except (TypeError, ValueError) as err:
+            raise ValueError(f"{where}: {err}") from None
+        object.__setattr__(self, field_name, tuple(theta.tolist()))
 
     def _check_types(self) -> None:
         """Every bool, int and float field holds a value of its type (float fields: no NaN)."""

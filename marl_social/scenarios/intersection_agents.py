@@ -45,6 +45,9 @@ class IntersectionParams(ScenarioParams):
         human_sensor_range_m, human_half_fov_deg, human_pos_noise_m: every human's view.
         robot_speed_mps, robot_desired_speed_mps: the robot's initial and cruise speeds [m/s].
         robot_sensor_range_m, robot_half_fov_deg, robot_pos_noise_m: its view.
+        robot_theta_hat: its model of the humans' cost weights (a mapping of feature names, 6
+            numbers, or the path of a `marl-social irl fit` result); empty = its default
+            (perception/belief/config.ROBOT_THETA_HAT).
         robot_beta_hat, robot_epsilon: its model of the humans' rationality and its tail
             threshold on beliefs.
         speed_limit_mps: legal limit [m/s].
@@ -62,20 +65,15 @@ class IntersectionParams(ScenarioParams):
     robot_sensor_range_m: float = 80.0
     robot_half_fov_deg: float = 110.0
     robot_pos_noise_m: float = 0.05
+    robot_theta_hat: tuple = ()
     robot_beta_hat: float = 0.3
     robot_epsilon: float = 0.05
     speed_limit_mps: float = 13.9
 
     def __post_init__(self):
         super().__post_init__()
-        if self.human_theta in ((), None):
-            object.__setattr__(self, "human_theta", ())
-        else:
-            try:
-                theta = CostWeights.from_any(self.human_theta).as_array()
-            except (TypeError, ValueError) as err:
-                raise ValueError(f"{type(self).__name__}.human_theta: {err}") from None
-            object.__setattr__(self, "human_theta", tuple(theta.tolist()))
+        self._normalize_cost_weights("human_theta")
+        self._normalize_cost_weights("robot_theta_hat", fit_file=True)  # or an irl fit file
         for name in ("robot_speed_mps", "robot_desired_speed_mps"):
             self._check_range(name, 0.0, MAX_VEHICLE_SPEED_MPS, "m/s")
         self._check(self.human_beta >= 0.0, "human_beta", "must be >= 0 (inf allowed)")
@@ -123,12 +121,15 @@ def robot_spec(params: IntersectionParams, x_m: float, front_y_m: float) -> Agen
     p = params
     vehicle = VehicleParams()
     y = front_y_m - 0.5 * vehicle.length_m
+    planner = {"beta_hat": p.robot_beta_hat, "epsilon": p.robot_epsilon,
+               "human_expects_yield": p.human_expects_yield}
+    if p.robot_theta_hat:
+        planner["theta_hat"] = p.robot_theta_hat
     return AgentSpec(
         "robot_0", "vehicle", "robot",
         np.array([x_m, y, 0.5 * math.pi, p.robot_speed_mps]),
         sensor=SensorParams(p.robot_sensor_range_m, math.radians(p.robot_half_fov_deg),
                             pos_noise_m=p.robot_pos_noise_m),
         vehicle=vehicle, v_desired_mps=p.robot_desired_speed_mps, cost_weights=THETA_ROBOT,
-        planner={"beta_hat": p.robot_beta_hat, "epsilon": p.robot_epsilon,
-                 "human_expects_yield": p.human_expects_yield},
+        planner=planner,
     )

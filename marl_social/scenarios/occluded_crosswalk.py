@@ -17,7 +17,6 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from pathlib import Path
 
 import numpy as np
 
@@ -132,27 +131,8 @@ class OccludedCrosswalkParams(ScenarioParams):
 
     def __post_init__(self):
         super().__post_init__()
-        if isinstance(self.robot_theta_hat, (str, Path)):  # a `marl-social irl fit` result
-            from marl_social.agents.irl.laplace import load_fit, robot_model_from_fit
-
-            theta_hat = ()  # an empty path means the default weights, like ()
-            if str(self.robot_theta_hat).strip():
-                try:
-                    model, _ = robot_model_from_fit(load_fit(self.robot_theta_hat))
-                except (OSError, ValueError) as err:
-                    raise ValueError(f"OccludedCrosswalkParams.robot_theta_hat: {err}") from None
-                theta_hat = tuple(model.as_array().tolist())
-            object.__setattr__(self, "robot_theta_hat", theta_hat)
-        for name in ("human_theta", "robot_theta_hat"):
-            value = getattr(self, name)
-            if value in ((), None):
-                object.__setattr__(self, name, ())
-                continue
-            try:
-                theta = CostWeights.from_any(value).as_array()
-            except (TypeError, ValueError) as err:
-                raise ValueError(f"OccludedCrosswalkParams.{name}: {err}") from None
-            object.__setattr__(self, name, tuple(theta.tolist()))
+        self._normalize_cost_weights("human_theta")
+        self._normalize_cost_weights("robot_theta_hat", fit_file=True)  # or an irl fit file
         self._check(0 <= self.n_humans <= MAX_HUMANS, "n_humans", f"must be in [0, {MAX_HUMANS}]")
         self._check(self.robot_beta_hat >= 0.0, "robot_beta_hat", "must be >= 0 (inf allowed)")
         self._check(0.0 <= self.robot_epsilon < 1.0, "robot_epsilon", "must be in [0, 1)")

@@ -138,6 +138,8 @@ def test_robot_planners_run(planner):
     ({"human_start_m": 500.0}, "human_start_m"),
     ({"robot_half_fov_deg": 0.0}, "robot_half_fov_deg"),
     ({"human_theta": [1.0, 2.0]}, "human_theta"),
+    ({"robot_theta_hat": {"speed": "fast"}}, "robot_theta_hat"),
+    ({"robot_theta_hat": "no/such/theta.json"}, "robot_theta_hat"),
     ({"robot_start_back_m": -1.0}, "robot_start_back_m"),
 ])
 def test_bad_knobs_name_the_field(overrides, field):
@@ -148,3 +150,35 @@ def test_bad_knobs_name_the_field(overrides, field):
 def test_unknown_knob_is_rejected():
     with pytest.raises(ValueError, match="unknown scenario parameter.*pedestrian"):
         make_scenario("t_intersection", pedestrian="crossing")
+
+
+@pytest.mark.parametrize("scenario", ["t_intersection", "signalized_intersection"])
+def test_the_robots_model_of_the_humans_takes_cost_weights_or_an_irl_fit(scenario, tmp_path):
+    """robot_theta_hat, as at the crosswalk: weights (a mapping) or a `marl-social irl fit`
+    file reach the robot's belief (its model of the humans); () keeps its default."""
+    import json
+
+    from marl_social.perception.belief.config import ROBOT_THETA_HAT
+    from marl_social.sim.costs import CostWeights
+
+    def theta_hat(**overrides) -> np.ndarray:
+        env = marl_social.parallel_env(scenario=scenario, **overrides)
+        robot = marl_social.policies(env)["robot_0"]
+        env.close()
+        return robot.belief.config.theta_hat.as_array()
+
+    np.testing.assert_array_equal(theta_hat(), ROBOT_THETA_HAT.as_array())
+    weights = {"speed": 2.0, "accel": 0.3, "jerk": 0.1, "safety": 4.0, "crosswalk": 800.0}
+    np.testing.assert_array_equal(theta_hat(robot_theta_hat=weights),
+                                  CostWeights(**weights).as_array())
+    direction = np.array([1.0, 0.1, 0.1, 1.0, 1000.0])
+    fit = {"format": "marl-social-irl/1",
+           "features": ["tracking", "speed", "accel", "jerk", "safety", "crosswalk"],
+           "fitted": ["speed", "accel", "jerk", "safety", "crosswalk"],
+           "theta": [None, *(2.0 * direction).tolist()],
+           "direction": [None, *(direction / np.linalg.norm(direction)).tolist()],
+           "scale": 2.0 * float(np.linalg.norm(direction))}
+    (tmp_path / "theta.json").write_text(json.dumps(fit))
+    learned = theta_hat(robot_theta_hat=str(tmp_path / "theta.json"))
+    np.testing.assert_allclose(learned[1:] / np.linalg.norm(learned[1:]),
+                               direction / np.linalg.norm(direction))
