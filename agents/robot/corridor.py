@@ -18,6 +18,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from marl_social.models.candidates import ScenePrediction
+from marl_social.sim.kernel_cache import route_kernels
 from marl_social.sim.road_map import Route
 
 BEHIND, PAST = "behind", "past"
@@ -49,12 +50,21 @@ class PathObject:
     pass_margin: bool = True
 
 
-def _corners(xy: np.ndarray, heading: np.ndarray, length_m: np.ndarray,
-             width_m: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """(4, ...) x and (4, ...) y of the corners of rectangles (xy (..., 2), heading (...)) [m].
+def numpy_footprint_extent(route: Route, xy: np.ndarray, heading: np.ndarray,
+                           length_m: np.ndarray, width_m: np.ndarray) -> np.ndarray:
+    """sim/route_kernels.project_footprints in numpy: its reference (the same bits, tested).
 
-    The corners: front left, front right, rear right, rear left; length_m and width_m
-    broadcast against heading (...) [m].
+    Args:
+        route: the route.
+        xy: (P, N, 2) rectangle centres [m].
+        heading: (P, N) their headings [rad].
+        length_m: (P, 1) lengths [m].
+        width_m: (P, 1) widths [m].
+
+    Returns:
+        (5, P, N): the corners' smallest and largest arc length, smallest and largest lateral
+        offset, |their mean lateral offset| [m]. The corners: front left, front right, rear
+        right, rear left.
     """
     half_l, half_w = 0.5 * length_m, 0.5 * width_m
     c, s = np.cos(heading), np.sin(heading)
@@ -63,7 +73,10 @@ def _corners(xy: np.ndarray, heading: np.ndarray, length_m: np.ndarray,
     dy = np.empty((4,) + heading.shape)
     dx[0], dx[1], dx[2], dx[3] = lc - ws, lc + ws, ws - lc, -lc - ws
     dy[0], dy[1], dy[2], dy[3] = ls + wc, ls - wc, -ls - wc, wc - ls
-    return xy[..., 0] + dx, xy[..., 1] + dy
+    arc, lateral = route.project_xy(xy[..., 0] + dx, xy[..., 1] + dy)  # (4, P, N)
+    centre = np.abs((((lateral[0] + lateral[1]) + lateral[2]) + lateral[3]) / 4.0)
+    return np.stack([arc.min(axis=0), arc.max(axis=0), lateral.min(axis=0),
+                     lateral.max(axis=0), centre])
 
 
 def occupied_spans(occupied: np.ndarray, rows: np.ndarray | None = None
@@ -126,20 +139,21 @@ def objects_on_path(route: Route, scene: ScenePrediction, s0: float, robot_lengt
     src_l, src_m = np.nonzero(use)  # (P,) the projected (hypothesis, object) pairs
     xy, heading = scene.xy[src_l, src_m], scene.heading[src_l, src_m]  # (P, N, 2), (P, N)
     is_ped = scene.is_pedestrian[src_l, src_m]
-    length = scene.length_m[src_l, src_m][:, None]  # (P, 1)
-    width = scene.width_m[src_l, src_m][:, None]
-    s, lateral = route.project_xy(*_corners(xy, heading, length, width))  # (4, P, N)
-    s_rear, s_front = s.min(axis=0), s.max(axis=0)  # (P, N)
-    lat_min, lat_max = lateral.min(axis=0), lateral.max(axis=0)
+    # the footprints' corners projected on the route, their extents: one compiled pass
+    # (sim/route_kernels.project_footprints; its numpy reference: numpy_footprint_extent)
+    extent = np.empty((5,) + heading.shape)  # (5, P, N)
+    route_kernels().project_footprints(
+        np.ascontiguousarray(xy[..., 0]), np.ascontiguousarray(xy[..., 1]), np.cos(heading),
+        np.sin(heading), 0.5 * scene.length_m[src_l, src_m], 0.5 * scene.width_m[src_l, src_m],
+        route.kernel_segment_table, extent)
+    s_rear, s_front, lat_min, lat_max, centre = extent  # (P, N) each
     clearance = lateral_margin_m if pedestrian_clearance_m is None else pedestrian_clearance_m
     half = 0.5 * robot_width_m + np.where(is_ped, clearance, lateral_margin_m)[:, None]
     overlap = (lat_min <= half) & (lat_max >= -half)
     if pedestrian_margin_m is not None and is_ped.any():
         # a pedestrian heading for the corridor is in the way from further out (it has the
         # right of way on the carriageway); one standing or walking away is not
-        wide = 0.5 * robot_width_m + pedestrian_margin_m
-        centre = np.abs((((lateral[0] + lateral[1]) + lateral[2]) + lateral[3])
-                        / 4.0)  # (P, N) the corners' mean
+        wide = 0.5 * robot_width_m + pedestrian_margin_m  # centre: |the corners' mean|
         closing = np.empty(centre.shape, dtype=bool)
         closing[:, 1:] = centre[:, 1:] - centre[:, :-1] < -1e-3
         closing[:, 0] = (closing[:, 1] if centre.shape[-1] > 1

@@ -100,3 +100,44 @@ def on_lanes(x, y, heading, segments, seg_heading, lane_ends, lane_length, lane_
                     and dpsi <= tolerance_rad):
                 found = True
         out[i] = found
+
+
+@numba.njit(cache=True)
+def project_footprints(x, y, cos_h, sin_h, half_length, half_width, segments, out):
+    """The extent along and across a route of rectangles, in one pass (agents/robot/corridor.py).
+
+    Rectangle (p, n): centre (x, y), heading with cosine cos_h and sine sin_h (numpy's, given),
+    half length half_length[p] and half width half_width[p]. Its corners, in the order and
+    with the arithmetic of corridor._corners' numpy (front left, front right, rear right,
+    rear left: centre + (l c - w s, l s + w c), ...), are projected like `project_points`.
+
+    Args:
+        x: (P, N) centres' x [m].
+        y: (P, N) centres' y [m].
+        cos_h: (P, N) cosines of the headings.
+        sin_h: (P, N) sines of the headings.
+        half_length: (P,) half lengths [m].
+        half_width: (P,) half widths [m].
+        segments: (6, S) the route's segments (project_points').
+        out: (5, P, N) out: the corners' smallest and largest arc length [m], smallest and
+            largest lateral offset [m], and |mean lateral offset| (((l0 + l1) + l2) + l3) / 4
+            [m].
+    """
+    n_seg = segments.shape[1]
+    for p in range(x.shape[0]):
+        hl = half_length[p]
+        hw = half_width[p]
+        for n in range(x.shape[1]):
+            c = cos_h[p, n]
+            s = sin_h[p, n]
+            lc, ls, wc, ws = hl * c, hl * s, hw * c, hw * s
+            xc, yc = x[p, n], y[p, n]
+            s0, l0, _ = _project_one(xc + (lc - ws), yc + (ls + wc), segments, 0, n_seg)
+            s1, l1, _ = _project_one(xc + (lc + ws), yc + (ls - wc), segments, 0, n_seg)
+            s2, l2, _ = _project_one(xc + (ws - lc), yc + (-ls - wc), segments, 0, n_seg)
+            s3, l3, _ = _project_one(xc + (-lc - ws), yc + (wc - ls), segments, 0, n_seg)
+            out[0, p, n] = min(min(min(s0, s1), s2), s3)
+            out[1, p, n] = max(max(max(s0, s1), s2), s3)
+            out[2, p, n] = min(min(min(l0, l1), l2), l3)
+            out[3, p, n] = max(max(max(l0, l1), l2), l3)
+            out[4, p, n] = abs((((l0 + l1) + l2) + l3) / 4.0)

@@ -136,3 +136,30 @@ def test_on_lanes_matches_numpy_bit_for_bit(seed, n_lanes, n_objects):
         want = route_rules._numpy_on_lanes(tuple(lanes), xy, heading)
         got = route_rules.on_lanes(lanes, xy, heading)
     assert got.dtype == bool and np.array_equal(got, want)
+
+
+@settings(max_examples=100, deadline=None)
+@given(SEEDS, st.booleans(), st.sampled_from([(1, 1), (3, 24), (13, 24)]))
+def test_footprint_extents_match_numpy_bit_for_bit(seed, straight, shape):
+    """route_kernels.project_footprints (the robot's corridor) equals its numpy reference
+    (agents/robot/corridor.numpy_footprint_extent) bit for bit, signed zeros included, on a
+    straight (one segment) or bent route, rectangles near and on it at any heading."""
+    from marl_social.agents.robot.corridor import numpy_footprint_extent
+    from marl_social.sim.kernel_cache import route_kernels
+
+    rng = np.random.default_rng(seed)
+    route = Route([[-50.0, 1.75], [150.0, 1.75]]) if straight else _route(rng)
+    xy = _points(rng, route, shape)
+    xy[~np.isfinite(xy)] = 0.0
+    heading = rng.uniform(-4.0, 4.0, size=shape)
+    heading[rng.random(shape) < 0.2] = 0.0
+    length = rng.uniform(0.3, 6.0, size=(shape[0], 1))
+    width = rng.uniform(0.3, 2.5, size=(shape[0], 1))
+    with np.errstate(invalid="ignore", over="ignore"):
+        expected = numpy_footprint_extent(route, xy, heading, length, width)
+        got = np.empty((5,) + shape)
+        route_kernels().project_footprints(
+            np.ascontiguousarray(xy[..., 0]), np.ascontiguousarray(xy[..., 1]), np.cos(heading),
+            np.sin(heading), 0.5 * length[:, 0], 0.5 * width[:, 0], route.kernel_segment_table,
+            got)
+    assert _same(got, expected)
