@@ -85,16 +85,21 @@ def write_summary_csv(gs: GroupStats, metrics: list[str], path: Path) -> Path:
 
 
 def _metric_table(table: StudyTable, gs: GroupStats, metric: str) -> list[str]:
-    """Markdown table of one metric: rows (pedestrian, swept point), columns planners."""
+    """Markdown table of one metric: rows (pedestrian, swept point), columns planners.
+
+    The pedestrian column is left out for a scenario without pedestrian variants (every
+    run's pedestrian is "").
+    """
     planners = table.order("planner")
-    row_cols = ["pedestrian", *table.swept]
-    index = gs.index()
     rows = list(dict.fromkeys(g[1:] for g in gs.groups))
+    with_pedestrian = any(row[0] != "" for row in rows)
+    row_cols = ["pedestrian", *table.swept] if with_pedestrian else list(table.swept)
+    index = gs.index()
     rate, st = table.is_rate[metric], gs.stats[metric]
     lines = ["| " + " | ".join([*row_cols, *planners]) + " |",
              "|" + "---|" * (len(row_cols) + len(planners))]
     for row in rows:
-        cells = [display(c) for c in row]
+        cells = [display(c) for c in (row if with_pedestrian else row[1:])]
         for p in planners:
             i = index.get((p, *row))
             if i is None:

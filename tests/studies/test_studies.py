@@ -416,3 +416,19 @@ def test_a_built_in_spec_is_recorded_without_this_machines_path():
 
     source = load_spec("rationality", validate=False).source
     assert source == "marl_social/studies/specs/rationality.toml"
+
+
+def test_a_study_without_pedestrian_variants_has_no_pedestrian_column(tmp_path):
+    """The committed T-intersection study (docs/studies/yield-expectation) analysed again:
+    its tables' rows are the swept points alone, no empty pedestrian column."""
+    import shutil
+
+    from marl_social.studies.analysis import analyze
+
+    source = Path(__file__).resolve().parents[2] / "docs" / "studies" / "yield-expectation"
+    for name in ("results.csv", "study.json"):
+        shutil.copy(source / name, tmp_path / name)
+    analyze(tmp_path, plots=False)
+    summary = (tmp_path / "summary.md").read_text()
+    assert "| hidden_vehicle | human_expects_yield | social | aggressive |" in summary
+    assert "pedestrian |" not in summary
