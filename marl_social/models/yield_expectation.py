@@ -16,8 +16,12 @@ line at walking pace is not expected to pull into the main road's lane a metre a
 fast to stop comfortably is. Pedestrians and vehicles at rest (<= MOVING_SPEED_MPS) keep the
 constant-velocity prediction. A map without conflict zones changes nothing.
 
-The human drivers (agents/human.py) and the robot's model of them (perception/belief/
-human_scene.py) both predict through `YieldExpectation.predict_xy`.
+It is the humans' option, off by default: a human driver predicts through
+`YieldExpectation.predict_xy` when its planner parameter `expects_yield` is set
+(agents/human.py; the intersection scenarios' knob `human_expects_yield`), and the robot's
+model of the humans when BeliefConfig.human_expects_yield is (perception/belief/
+human_scene.py; the robot's planner parameter `human_expects_yield`, set by the same knob).
+What it changes at the intersections: docs/scenarios.md, docs/studies/yield-expectation.md.
 """
 
 from __future__ import annotations
