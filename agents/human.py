@@ -111,8 +111,8 @@ class BoltzmannDriver(BoltzmannPolicy):
         self.stop_lines_s = stop_line_positions(self.route, road_map)  # (S,) [m]
         self.yield_conflicts = tuple(c for c in route_conflicts(self.route, road_map)
                                      if c.yields)
-        expectation = YieldExpectation(road_map) if params.expects_yield else None
-        self.yield_expectation = expectation if expectation and expectation.applies else None
+        self.yield_expectation = (YieldExpectation(road_map) if params.expects_yield
+                                  and road_map.conflict_zones else None)
         curve = CurveSpeed(self.route, CURVE_LAT_ACCEL_MPS2, 0.5 * spec.vehicle.length_m)
         self.curve_speed = None if curve.is_straight else curve
         # (S,) [m] and (S,) head index of the signal lines on its route

@@ -50,35 +50,6 @@ class PathObject:
     pass_margin: bool = True
 
 
-def numpy_footprint_extent(route: Route, xy: np.ndarray, heading: np.ndarray,
-                           length_m: np.ndarray, width_m: np.ndarray) -> np.ndarray:
-    """sim/route_kernels.project_footprints in numpy: its reference (the same bits, tested).
-
-    Args:
-        route: the route.
-        xy: (P, N, 2) rectangle centres [m].
-        heading: (P, N) their headings [rad].
-        length_m: (P, 1) lengths [m].
-        width_m: (P, 1) widths [m].
-
-    Returns:
-        (5, P, N): the corners' smallest and largest arc length, smallest and largest lateral
-        offset, |their mean lateral offset| [m]. The corners: front left, front right, rear
-        right, rear left.
-    """
-    half_l, half_w = 0.5 * length_m, 0.5 * width_m
-    c, s = np.cos(heading), np.sin(heading)
-    lc, ls, wc, ws = half_l * c, half_l * s, half_w * c, half_w * s
-    dx = np.empty((4,) + heading.shape)
-    dy = np.empty((4,) + heading.shape)
-    dx[0], dx[1], dx[2], dx[3] = lc - ws, lc + ws, ws - lc, -lc - ws
-    dy[0], dy[1], dy[2], dy[3] = ls + wc, ls - wc, -ls - wc, wc - ls
-    arc, lateral = route.project_xy(xy[..., 0] + dx, xy[..., 1] + dy)  # (4, P, N)
-    centre = np.abs((((lateral[0] + lateral[1]) + lateral[2]) + lateral[3]) / 4.0)
-    return np.stack([arc.min(axis=0), arc.max(axis=0), lateral.min(axis=0),
-                     lateral.max(axis=0), centre])
-
-
 def occupied_spans(occupied: np.ndarray, rows: np.ndarray | None = None
                    ) -> list[tuple[int, int, int]]:
     """(row, first step, last step) of the rows of occupied (P, N) bool with a True, in order.
@@ -140,7 +111,7 @@ def objects_on_path(route: Route, scene: ScenePrediction, s0: float, robot_lengt
     xy, heading = scene.xy[src_l, src_m], scene.heading[src_l, src_m]  # (P, N, 2), (P, N)
     is_ped = scene.is_pedestrian[src_l, src_m]
     # the footprints' corners projected on the route, their extents: one compiled pass
-    # (sim/route_kernels.project_footprints; its numpy reference: numpy_footprint_extent)
+    # (sim/route_kernels.project_footprints; its numpy reference: tests/sim/test_route_kernels.py)
     extent = np.empty((5,) + heading.shape)  # (5, P, N)
     route_kernels().project_footprints(
         np.ascontiguousarray(xy[..., 0]), np.ascontiguousarray(xy[..., 1]), np.cos(heading),

@@ -119,7 +119,6 @@ def _scenario_fields(spec: StudySpec) -> tuple[type, dict]:
 
 def _check_names(spec: StudySpec, params_cls: type, fields: dict) -> None:
     from marl_social.agents.registry import ROBOT_PLANNERS
-    from marl_social.evaluation.run import scenario_randomized_overrides
 
     for name in spec.param_names:
         if name not in fields:
@@ -133,12 +132,6 @@ def _check_names(spec: StudySpec, params_cls: type, fields: dict) -> None:
     if spec.pedestrians is not None and "pedestrian" not in fields:
         raise _spec_error(spec.source, "pedestrians", f"scenario {spec.scenario!r} has no "
                           "pedestrian variants; remove the key")
-    if spec.randomize:
-        foreign = sorted(set(scenario_randomized_overrides(0, spec.scenario)) - set(fields))
-        if foreign:  # a preset that does not fit its scenario (SCENARIO_PRESETS)
-            raise _spec_error(spec.source, "randomize", "run.randomized_overrides sets "
-                              f"{foreign}, which scenario {spec.scenario!r} does not have; "
-                              "set randomize = false")
     valid = available_metrics(spec.scenario)
     bad = [m for m in spec.metrics if m not in valid]
     if bad:

@@ -138,13 +138,42 @@ def test_on_lanes_matches_numpy_bit_for_bit(seed, n_lanes, n_objects):
     assert got.dtype == bool and np.array_equal(got, want)
 
 
+def _reference_footprint_extent(route: Route, xy: np.ndarray, heading: np.ndarray,
+                           length_m: np.ndarray, width_m: np.ndarray) -> np.ndarray:
+    """The numpy corners, projection and extents that sim/route_kernels.project_footprints
+    replaced in agents/robot/corridor.objects_on_path, as they stood.
+
+    Args:
+        route: the route.
+        xy: (P, N, 2) rectangle centres [m].
+        heading: (P, N) their headings [rad].
+        length_m: (P, 1) lengths [m].
+        width_m: (P, 1) widths [m].
+
+    Returns:
+        (5, P, N): the corners' smallest and largest arc length, smallest and largest lateral
+        offset, |their mean lateral offset| [m]. The corners: front left, front right, rear
+        right, rear left.
+    """
+    half_l, half_w = 0.5 * length_m, 0.5 * width_m
+    c, s = np.cos(heading), np.sin(heading)
+    lc, ls, wc, ws = half_l * c, half_l * s, half_w * c, half_w * s
+    dx = np.empty((4,) + heading.shape)
+    dy = np.empty((4,) + heading.shape)
+    dx[0], dx[1], dx[2], dx[3] = lc - ws, lc + ws, ws - lc, -lc - ws
+    dy[0], dy[1], dy[2], dy[3] = ls + wc, ls - wc, -ls - wc, wc - ls
+    arc, lateral = route.project_xy(xy[..., 0] + dx, xy[..., 1] + dy)  # (4, P, N)
+    centre = np.abs((((lateral[0] + lateral[1]) + lateral[2]) + lateral[3]) / 4.0)
+    return np.stack([arc.min(axis=0), arc.max(axis=0), lateral.min(axis=0),
+                     lateral.max(axis=0), centre])
+
+
 @settings(max_examples=100, deadline=None)
 @given(SEEDS, st.booleans(), st.sampled_from([(1, 1), (3, 24), (13, 24)]))
 def test_footprint_extents_match_numpy_bit_for_bit(seed, straight, shape):
-    """route_kernels.project_footprints (the robot's corridor) equals its numpy reference
-    (agents/robot/corridor.numpy_footprint_extent) bit for bit, signed zeros included, on a
-    straight (one segment) or bent route, rectangles near and on it at any heading."""
-    from marl_social.agents.robot.corridor import numpy_footprint_extent
+    """route_kernels.project_footprints (the robot's corridor) equals the numpy it replaced
+    bit for bit, signed zeros included, on a straight (one segment) or bent route, rectangles
+    near and on it at any heading."""
     from marl_social.sim.kernel_cache import route_kernels
 
     rng = np.random.default_rng(seed)
@@ -156,7 +185,7 @@ def test_footprint_extents_match_numpy_bit_for_bit(seed, straight, shape):
     length = rng.uniform(0.3, 6.0, size=(shape[0], 1))
     width = rng.uniform(0.3, 2.5, size=(shape[0], 1))
     with np.errstate(invalid="ignore", over="ignore"):
-        expected = numpy_footprint_extent(route, xy, heading, length, width)
+        expected = _reference_footprint_extent(route, xy, heading, length, width)
         got = np.empty((5,) + shape)
         route_kernels().project_footprints(
             np.ascontiguousarray(xy[..., 0]), np.ascontiguousarray(xy[..., 1]), np.cos(heading),
