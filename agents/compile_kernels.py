@@ -2,8 +2,8 @@
 
 Four parts are compiled on first use and cached on disk (`cache=True`, in each package's
 __pycache__): the planners' kernels (models/kernel_loading.py, ~30 s on 2 cores), the
-belief's (perception/belief/compiled.py, ~15 s), the MPC's tree solver
-(agents/robot/tree_ipm.py, ~10 s) and the route projection and lane test
+belief's (perception/belief/compiled.py, ~15 s), the MPC's tree solver and
+condensed QP's assembly (agents/robot/tree_ipm.py, qp_kernels.py, ~10 s) and the route projection and lane test
 (sim/route_kernels.py, ~2-3 s). A process that finds no cache compiles them itself, so on
 a fresh install several processes started at once (a test run on every core, a study's
 workers, a vector env's) each compile the same kernels. `compile_kernels` compiles them once,
@@ -27,7 +27,7 @@ PARTS = ("planners", "belief", "tree", "route")
 _FILES = {
     "planners": ("marl_social.models.kernel_loading", ("gap_kernels", "cost_kernels")),
     "belief": ("marl_social.perception.belief.compiled", ("belief_kernels",)),
-    "tree": ("marl_social.agents.robot.qp", ("tree_ipm",)),
+    "tree": ("marl_social.agents.robot.qp", ("tree_ipm", "qp_kernels")),
     "route": ("marl_social.sim.road_map", ("route_kernels",)),
 }
 
@@ -65,6 +65,9 @@ def compile_kernels(parts: tuple[str, ...] | list[str] = PARTS) -> None:
 
         compiled.kernels()
     if "tree" in parts:
+        from marl_social.agents.robot.condensed_qp import qp_kernels
+
+        qp_kernels()
         _solve_one_tree_qp()
     if "route" in parts:  # a route of several segments projects through the kernel
         from marl_social.sim.road_map import Lane, Route

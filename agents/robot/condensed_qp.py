@@ -21,13 +21,22 @@ to the braking beyond it, which meets the sparse QP's comfort row at no cost.
 
 from __future__ import annotations
 
+import functools
+
 import daqp
 import numpy as np
 import scipy.sparse as sp
 
-_DAQP_INF = 1e30  # DAQP's infinity
-_NO_BOUND = 1e19  # a bound of the sparse QP beyond this is none (qp.py's infinity is 1e20)
+from marl_social.sim.kernel_cache import load_kernels
+
 _SOLVED = (1, 2)  # DAQP's exit flags of an optimum (2: optimal, soft constraints violated)
+
+
+@functools.cache  # once per solve: a cached call, not load_kernels' lookup
+def qp_kernels():
+    """agents/robot/qp_kernels.py (row bounds, DAQP's inputs, the full solution), loaded once."""
+    return load_kernels("marl_social.agents.robot", ("qp_kernels",),
+                        "the MPC's QP kernels", 5)[0]
 
 
 class CondensedLayout:
@@ -101,7 +110,6 @@ class CondensedLayout:
                                   rows["up"][trunk_first], rows["jerk"], rows["comfort"]])
         self.m_matrix = np.ascontiguousarray(a_matrix[general] @ t)
         self.m_v0 = a_matrix[general] @ t_v0
-        self._comfort_rows = slice(len(general) - n_a, len(general))
         self._accel_rows = rows["accel"]
         self._slack_rows = rows["comfort"]  # a + c >= -comfort_decel, one per slack
         # which branches share each acceleration (and slack) variable
@@ -142,46 +150,20 @@ class CondensedLayout:
         n_a = self.n_accel
         comfort_w = weights if comfort is None else weights * comfort
         factors = np.concatenate([weights, comfort_w, weights * goal_weight])
-        slack_weight = self._member @ comfort_w
-        free = np.concatenate([np.ones(n_a, bool), slack_weight > 0.0])
+        free = np.concatenate([np.ones(n_a, bool), self._member @ comfort_w > 0.0])
         h_full = np.dot(factors[None], self._h_flat).reshape(self.nz, self.nz)
         f_full = v0 * (factors @ self.f_blocks) + self.t_matrix.T @ q
-        bl, bu = self.general_bounds(lower, upper, v0)
-        bl[self._comfort_rows][~free[n_a:]] = -_DAQP_INF  # a slack fixed at 0: no comfort row
-        rows = (bl > -_NO_BOUND) | (bu < _NO_BOUND)
-        all_free = bool(free.all())
-        kept = np.flatnonzero(free)
-        h = h_full if all_free else h_full.take(kept, axis=0).take(kept, axis=1)
-        m = self.m_matrix[rows] if all_free else self.m_matrix[rows].take(kept, axis=1)
-        z_lower = np.concatenate([lower[self._accel_rows], np.zeros(n_a)])[free]
-        z_upper = np.concatenate([upper[self._accel_rows], np.full(n_a, _DAQP_INF)])[free]
-        b_lower = np.maximum(np.concatenate([z_lower, bl[rows]]), -_DAQP_INF)
-        b_upper = np.minimum(np.concatenate([z_upper, bu[rows]]), _DAQP_INF)
-        sense = np.zeros(len(b_lower), np.int32)
-        z_free, fval, exitflag, _ = daqp.solve(h, f_full[free], m, b_upper, b_lower, sense)
+        h, f, m, b_upper, b_lower = qp_kernels().daqp_inputs(
+            h_full, f_full, self.m_matrix, self.m_v0, float(v0), lower, upper,
+            self._trunk_rows, self._trunk_pos, self._single_rows, self._single_pos,
+            self._accel_rows, free)
+        z_free, fval, exitflag, _ = daqp.solve(h, f, m, b_upper, b_lower,
+                                               np.zeros(len(b_lower), np.int32))
         if exitflag not in _SOLVED or not np.all(np.isfinite(z_free)):
             return None
-        z = np.zeros(2 * n_a)
-        z[free] = z_free
         # a slack of weight 0 takes the braking beyond the comfortable deceleration: the sparse
         # QP's comfort row holds, at no cost
-        fixed = ~free[n_a:]
-        z[n_a:][fixed] = np.maximum(0.0, lower[self._slack_rows][fixed] - z[:n_a][fixed])
+        z = qp_kernels().full_solution(z_free, free, lower, self._slack_rows)
         x = self.t_matrix @ z + v0 * self.t_v0
         const = 0.5 * v0 * v0 * float(factors @ self.c_blocks) + v0 * float(q @ self.t_v0)
         return x, float(fval) + const
-
-    def general_bounds(self, lower: np.ndarray, upper: np.ndarray, v0: float
-                       ) -> tuple[np.ndarray, np.ndarray]:
-        """The condensed rows' bounds from the sparse QP's (m,) bounds and v0 [m/s].
-
-        A trunk step's row takes the tightest of its L copies' bounds.
-        """
-        lo = np.empty(self.n_general)
-        up = np.empty(self.n_general)
-        lo[self._trunk_pos] = lower[self._trunk_rows].max(axis=0)
-        up[self._trunk_pos] = upper[self._trunk_rows].min(axis=0)
-        lo[self._single_pos] = lower[self._single_rows]
-        up[self._single_pos] = upper[self._single_rows]
-        shift = v0 * self.m_v0
-        return lo - shift, up - shift

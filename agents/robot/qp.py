@@ -42,7 +42,7 @@ import osqp
 import scipy.sparse as sp
 
 from marl_social.agents.robot.active_set import ActiveSetSolver
-from marl_social.agents.robot.condensed_qp import CondensedLayout
+from marl_social.agents.robot.condensed_qp import CondensedLayout, qp_kernels
 from marl_social.agents.robot.qp_types import QpSolution, QpWeights
 
 _OK = frozenset(int(s) for s in (osqp.SolverStatus.OSQP_SOLVED,
@@ -78,7 +78,8 @@ _STRUCTURE_FIELDS = ("_a_off", "_v_off", "_s_off", "_c_off", "n_vars", "_a_idx",
                      "_s_idx", "_c_idx", "_p_slot", "_p_rows", "_p_cols", "_p_coef",
                      "_p_branch", "_p_comfort", "_p_progress_slot", "_p_progress_branch",
                      "_a_matrix", "_rows",
-                     "_lower_template", "_upper_template", "_p_initial", "_active_set",
+                     "_lower_template", "_upper_template", "_first_dyn_rows", "_p_initial",
+                     "_active_set",
                      "_condensed", "_tree", "_p_offdiag")
 _STRUCTURES: dict[tuple, dict] = {}
 
@@ -299,25 +300,24 @@ class ContingencyQp:
         lower[dyn_s] = upper[dyn_s] = 0.0
         lower[self._rows["slack"]] = 0.0
         self._lower_template, self._upper_template = lower, upper
+        # the first step's dynamics rows, whose bounds take v0 (contiguous, for the kernel)
+        self._first_dyn_rows = (dyn_v[:, 0].copy(), dyn_s[:, 0].copy())
 
     def _bounds(self, v0: float, prev_accel: float, v_max: np.ndarray, s_low: np.ndarray,
                 s_up: np.ndarray, accel_min: float, accel_max: float, jerk_max: float,
-                comfort_decel: float | None) -> tuple[np.ndarray, np.ndarray]:
-        r, dt = self._rows, self.dt_s
-        lower, upper = self._lower_template.copy(), self._upper_template.copy()
-        lower[r["dyn_v"][:, 0]] = upper[r["dyn_v"][:, 0]] = v0
-        lower[r["dyn_s"][:, 0]] = upper[r["dyn_s"][:, 0]] = v0 * dt
-        lower[r["speed"]], upper[r["speed"]] = 0.0, v_max
-        lower[r["low"]] = np.maximum(s_low, -_INF)
-        upper[r["up"]] = np.minimum(s_up, _INF)
-        jerk = r["jerk"]
-        lower[jerk], upper[jerk] = -jerk_max * dt, jerk_max * dt
-        first = jerk[0]
-        lower[first] = prev_accel - jerk_max * self.first_dt_s
-        upper[first] = prev_accel + jerk_max * self.first_dt_s
-        lower[r["accel"]], upper[r["accel"]] = accel_min, accel_max
-        lower[r["comfort"]] = -_INF if comfort_decel is None else -comfort_decel
-        return lower, upper
+                comfort_decel: float | None) -> tuple[np.ndarray, np.ndarray, bool]:
+        """(m,) lower and upper row bounds for this solve; whether a lower exceeds its upper.
+
+        By more than 1e-9 (agents/robot/qp_kernels.sparse_bounds). The arguments are
+        `solve`'s; v_max, s_low and s_up (L, N).
+        """
+        r = self._rows
+        return qp_kernels().sparse_bounds(
+            self._lower_template, self._upper_template, self._first_dyn_rows[0],
+            self._first_dyn_rows[1], r["speed"], r["low"], r["up"], r["jerk"], r["accel"],
+            r["comfort"], float(v0), self.dt_s, self.first_dt_s, float(prev_accel), v_max, s_low,
+            s_up, float(accel_min), float(accel_max), float(jerk_max),
+            -_INF if comfort_decel is None else -float(comfort_decel), _INF)
 
     # -- solve --------------------------------------------------------------------------------
 
@@ -347,9 +347,9 @@ class ContingencyQp:
             goal_m: the progress the pull-up term draws the plan to [m].
         """
         weights = np.asarray(weights, dtype=np.float64)
-        lower, upper = self._bounds(v0, prev_accel, v_max, s_low, s_up, accel_min, accel_max,
-                                    jerk_max, comfort_decel)
-        if np.any(lower > upper + 1e-9):
+        lower, upper, infeasible = self._bounds(v0, prev_accel, v_max, s_low, s_up, accel_min,
+                                                accel_max, jerk_max, comfort_decel)
+        if infeasible:
             return self._count(self.failed(), "")
         self._q_last = self._q_vector(weights, v_ref_mps, prev_accel, goal_weight, goal_m)
         if self._condensed is not None:

@@ -53,7 +53,7 @@ def _tight(p: sp.csc_matrix, q: np.ndarray, a: sp.csc_matrix, lower: np.ndarray,
 
 
 def _reference(problem: qp.ContingencyQp, args: dict) -> tuple[np.ndarray, float]:
-    lower, upper = problem._bounds(args["v0"], args["prev_accel"], args["v_max"], args["s_low"],
+    lower, upper, _ = problem._bounds(args["v0"], args["prev_accel"], args["v_max"], args["s_low"],
                                    args["s_up"], args["accel_min"], args["accel_max"],
                                    args["jerk_max"], args["comfort_decel"])
     p = problem._p_matrix(args["weights"])
@@ -121,7 +121,7 @@ def test_an_infeasible_qp_is_reported_infeasible_by_daqp_and_by_the_fallback():
     args = _captured()[5]  # a two-branch QP
     args = {**args, "v0": 10.0, "s_up": np.full_like(args["s_up"], 0.5)}
     problem = _qp(2)
-    lower, upper = problem._bounds(args["v0"], args["prev_accel"], args["v_max"], args["s_low"],
+    lower, upper, _ = problem._bounds(args["v0"], args["prev_accel"], args["v_max"], args["s_low"],
                                    args["s_up"], args["accel_min"], args["accel_max"],
                                    args["jerk_max"], args["comfort_decel"])
     q = problem._q_vector(args["weights"], args["v_ref_mps"], args["prev_accel"])

@@ -45,7 +45,7 @@ def _at_rest_behind_a_close_bound():
 
 def _reference(problem: qp.ContingencyQp, args: dict) -> tuple[np.ndarray, float]:
     """The same QP by OSQP alone at a tight tolerance, with all the iterations it needs."""
-    lower, upper = problem._bounds(args["v0"], args["prev_accel"], args["v_max"], args["s_low"],
+    lower, upper, _ = problem._bounds(args["v0"], args["prev_accel"], args["v_max"], args["s_low"],
                                    args["s_up"], args["accel_min"], args["accel_max"],
                                    args["jerk_max"], args["comfort_decel"])
     p = problem._p_matrix(args["weights"])

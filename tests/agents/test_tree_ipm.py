@@ -21,7 +21,7 @@ def _captured() -> list[dict]:
 
 
 def _tree_status(problem: qp.ContingencyQp, args: dict) -> int:
-    lower, upper = problem._bounds(args["v0"], args["prev_accel"], args["v_max"], args["s_low"],
+    lower, upper, _ = problem._bounds(args["v0"], args["prev_accel"], args["v_max"], args["s_low"],
                                    args["s_up"], args["accel_min"], args["accel_max"],
                                    args["jerk_max"], args["comfort_decel"])
     tree = problem._tree
