@@ -13,6 +13,7 @@ Objects beside or behind the robot now are ignored.
 
 from __future__ import annotations
 
+import itertools
 from dataclasses import dataclass
 
 import numpy as np
@@ -93,62 +94,49 @@ def objects_on_path(route: Route, scene: ScenePrediction, s0: float, robot_lengt
         L lists of PathObject.
     """
     n_hyp, n_obj = scene.mask.shape
-    if n_obj == 0 or not scene.mask.any():
+    mask = scene.mask
+    if n_obj == 0 or not mask.any():
         return [[] for _ in range(n_hyp)]
+    kernels = route_kernels()
     # project each distinct prediction once: an object present in several hypotheses and
     # predicted alike in every one (a tracked one) from the first, the others where present
-    mask = scene.mask
-    shared = np.zeros(n_obj, dtype=bool)
-    if n_hyp > 1 and (mask.sum(axis=0) > 1).any():
-        shared = (np.all(scene.xy == scene.xy[:1], axis=(0, 2, 3))
-                  & np.all(scene.heading == scene.heading[:1], axis=(0, 2))
-                  & np.all(scene.length_m == scene.length_m[:1], axis=0)
-                  & np.all(scene.width_m == scene.width_m[:1], axis=0)
-                  & np.all(scene.is_pedestrian == scene.is_pedestrian[:1], axis=0))  # (M,)
-    use = mask & ~shared[None]
-    use[0] |= shared & mask.any(axis=0)
-    src_l, src_m = np.nonzero(use)  # (P,) the projected (hypothesis, object) pairs
-    xy, heading = scene.xy[src_l, src_m], scene.heading[src_l, src_m]  # (P, N, 2), (P, N)
-    is_ped = scene.is_pedestrian[src_l, src_m]
+    # (sim/route_kernels.distinct_predictions; numpy reference: tests/agents/test_corridor_objects.py)
+    shared = np.empty(n_obj, dtype=bool)
+    pair = np.empty((n_hyp, n_obj), dtype=np.int64)  # (L, M) the pair standing for each
+    source = np.empty((2, n_hyp * n_obj), dtype=np.int64)
+    n_pair = kernels.distinct_predictions(scene.xy, scene.heading, scene.length_m,
+                                          scene.width_m, scene.is_pedestrian, mask, shared,
+                                          pair, source)
     # the footprints' corners projected on the route, their extents: one compiled pass
     # (sim/route_kernels.project_footprints; its numpy reference: tests/sim/test_route_kernels.py)
+    heading = scene.heading[source[0, :n_pair], source[1, :n_pair]]  # (P, N)
     extent = np.empty((5,) + heading.shape)  # (5, P, N)
-    route_kernels().project_footprints(
-        np.ascontiguousarray(xy[..., 0]), np.ascontiguousarray(xy[..., 1]), np.cos(heading),
-        np.sin(heading), 0.5 * scene.length_m[src_l, src_m], 0.5 * scene.width_m[src_l, src_m],
-        route.kernel_segment_table, extent)
-    s_rear, s_front, lat_min, lat_max, centre = extent  # (P, N) each
+    kernels.project_footprints(scene.xy, np.cos(heading), np.sin(heading), scene.length_m,
+                               scene.width_m, source, route.kernel_segment_table, extent)
+    # in the corridor: the lateral extent overlaps the robot's width plus the clearance (a
+    # pedestrian heading for the corridor, its distance to the route shrinking, is in the way
+    # from further out: it has the right of way on the carriageway; one standing or walking
+    # away is not), and the projection is not clamped at the route's ends; relevant: not
+    # beside or behind the robot now (its rear short of the robot's front: not the robot's to
+    # yield to; a car alongside that drifts into the corridor in its prediction is one)
+    # (sim/route_kernels.corridor_occupancy; numpy reference: tests/agents/test_corridor_objects.py)
     clearance = lateral_margin_m if pedestrian_clearance_m is None else pedestrian_clearance_m
-    half = 0.5 * robot_width_m + np.where(is_ped, clearance, lateral_margin_m)[:, None]
-    overlap = (lat_min <= half) & (lat_max >= -half)
-    if pedestrian_margin_m is not None and is_ped.any():
-        # a pedestrian heading for the corridor is in the way from further out (it has the
-        # right of way on the carriageway); one standing or walking away is not
-        wide = 0.5 * robot_width_m + pedestrian_margin_m  # centre: |the corners' mean|
-        closing = np.empty(centre.shape, dtype=bool)
-        closing[:, 1:] = centre[:, 1:] - centre[:, :-1] < -1e-3
-        closing[:, 0] = (closing[:, 1] if centre.shape[-1] > 1
-                         else centre[:, 0] - (centre[:, 0] + 1.0) < -1e-3)
-        near = (lat_min <= wide) & (lat_max >= -wide)
-        overlap |= near & closing & is_ped[:, None]
-    # an object whose projection is clamped at the route's ends is not on the path
-    occupied = overlap & (s_front > 0.0) & (s_rear < route.length_m)  # (P, N)
-    # beside or behind the robot now (its rear short of the robot's front): not the robot's to
-    # yield to; a car alongside that drifts into the corridor in its prediction is one
-    relevant = occupied.any(axis=-1) & (s_rear[:, 0] >= s0 + 0.5 * robot_length_m)  # (P,)
-    out: list[list[PathObject]] = [[] for _ in range(n_hyp)]
-    if not relevant.any():
-        return out
-    pair = np.full((n_hyp, n_obj), -1)
-    pair[src_l, src_m] = np.arange(len(src_l))
-    pair = np.where(shared[None], pair[:1], pair)  # shared objects: the first hypothesis' pair
-    objects = [None] * len(src_l)
-    for i, first, last in occupied_spans(occupied, relevant):
-        objects[i] = PathObject(occupied[i], s_rear[i], s_front[i], first, last,
-                                bool(is_ped[i]))
-    for l in np.flatnonzero(mask.any(axis=1)):
-        out[l] = [objects[i] for i in pair[l][mask[l]] if objects[i] is not None]
-    return out
+    widen = pedestrian_margin_m is not None
+    occupied = np.empty(heading.shape, dtype=bool)  # (P, N)
+    span = np.empty((n_pair, 3), dtype=np.int64)  # (P, 3) first, last occupied step, kind
+    listed = np.empty((n_hyp, n_obj), dtype=np.int64)  # (L, M) each one's relevant pairs
+    half = 0.5 * robot_width_m
+    n_relevant = kernels.corridor_occupancy(
+        extent, scene.is_pedestrian, source, half + clearance, half + lateral_margin_m, widen,
+        half + pedestrian_margin_m if widen else 0.0, route.length_m, s0 + 0.5 * robot_length_m,
+        mask, pair, occupied, span, listed)
+    if not n_relevant:
+        return [[] for _ in range(n_hyp)]
+    s_rear, s_front = extent[0], extent[1]  # (P, N) each
+    objects = {i: PathObject(occupied[i], s_rear[i], s_front[i], first, last, bool(ped))
+               for i, (first, last, ped) in enumerate(span.tolist()) if first >= 0}
+    return [[objects[i] for i in itertools.takewhile((0).__le__, row)]
+            for row in listed.tolist()]
 
 
 @dataclass(frozen=True)

@@ -103,35 +103,37 @@ def on_lanes(x, y, heading, segments, seg_heading, lane_ends, lane_length, lane_
 
 
 @numba.njit(cache=True)
-def project_footprints(x, y, cos_h, sin_h, half_length, half_width, segments, out):
+def project_footprints(xy, cos_h, sin_h, length_m, width_m, source, segments, out):
     """The extent along and across a route of rectangles, in one pass (agents/robot/corridor.py).
 
-    Rectangle (p, n): centre (x, y), heading with cosine cos_h and sine sin_h (numpy's, given),
-    half length half_length[p] and half width half_width[p]. Its corners, in the order and
+    Rectangle (p, n) is object m of hypothesis l (l, m = source[:, p]) at step n: centre
+    xy[l, m, n], heading with cosine cos_h[p, n] and sine sin_h[p, n] (numpy's, given), half
+    length 0.5 length_m[l, m] and half width 0.5 width_m[l, m]. Its corners, in the order and
     with the arithmetic of corridor._corners' numpy (front left, front right, rear right,
     rear left: centre + (l c - w s, l s + w c), ...), are projected like `project_points`.
 
     Args:
-        x: (P, N) centres' x [m].
-        y: (P, N) centres' y [m].
-        cos_h: (P, N) cosines of the headings.
-        sin_h: (P, N) sines of the headings.
-        half_length: (P,) half lengths [m].
-        half_width: (P,) half widths [m].
+        xy: (L, M, N, 2) centres [m].
+        cos_h: (P, N) cosines of the projected pairs' headings.
+        sin_h: (P, N) their sines.
+        length_m: (L, M) lengths [m].
+        width_m: (L, M) widths [m].
+        source: (2, >= P) int64, the hypothesis and the object of each projected pair.
         segments: (6, S) the route's segments (project_points').
         out: (5, P, N) out: the corners' smallest and largest arc length [m], smallest and
             largest lateral offset [m], and |mean lateral offset| (((l0 + l1) + l2) + l3) / 4
             [m].
     """
     n_seg = segments.shape[1]
-    for p in range(x.shape[0]):
-        hl = half_length[p]
-        hw = half_width[p]
-        for n in range(x.shape[1]):
+    for p in range(cos_h.shape[0]):
+        hyp, obj = source[0, p], source[1, p]
+        hl = 0.5 * length_m[hyp, obj]
+        hw = 0.5 * width_m[hyp, obj]
+        for n in range(cos_h.shape[1]):
             c = cos_h[p, n]
             s = sin_h[p, n]
             lc, ls, wc, ws = hl * c, hl * s, hw * c, hw * s
-            xc, yc = x[p, n], y[p, n]
+            xc, yc = xy[hyp, obj, n, 0], xy[hyp, obj, n, 1]
             s0, l0, _ = _project_one(xc + (lc - ws), yc + (ls + wc), segments, 0, n_seg)
             s1, l1, _ = _project_one(xc + (lc + ws), yc + (ls - wc), segments, 0, n_seg)
             s2, l2, _ = _project_one(xc + (ws - lc), yc + (-ls - wc), segments, 0, n_seg)
@@ -141,3 +143,147 @@ def project_footprints(x, y, cos_h, sin_h, half_length, half_width, segments, ou
             out[2, p, n] = min(min(min(l0, l1), l2), l3)
             out[3, p, n] = max(max(max(l0, l1), l2), l3)
             out[4, p, n] = abs((((l0 + l1) + l2) + l3) / 4.0)
+
+
+@numba.njit(cache=True)
+def distinct_predictions(xy, heading, length_m, width_m, is_pedestrian, mask, shared, pair,
+                         source):
+    """Which (hypothesis, object) predictions agents/robot/corridor.py projects, in one pass.
+
+    Object m is shared when some object is present in more than one hypothesis and m is
+    predicted alike (==, so NaN never is) in every hypothesis, the first included: position,
+    heading, length, width and kind. A shared object present anywhere is projected once, as
+    the first hypothesis' (l = 0); any other as present (mask). The projected pairs are
+    numbered in row-major (hypothesis, object) order, np.nonzero's.
+
+    Args:
+        xy: (L, M, N, 2) predicted positions [m].
+        heading: (L, M, N) predicted headings [rad].
+        length_m: (L, M) lengths [m].
+        width_m: (L, M) widths [m].
+        is_pedestrian: (L, M) bool.
+        mask: (L, M) bool, present in that hypothesis.
+        shared: (M,) bool, out: predicted alike in every hypothesis (all False when no object
+            is present in more than one).
+        pair: (L, M) int64, out: the number of the projected pair that stands for object m
+            of hypothesis l where present (a shared object: its l = 0 pair), else -1.
+        source: (2, L M) int64, out: the hypothesis and the object of pair p in column p.
+
+    Returns:
+        P, the number of projected pairs.
+    """
+    n_hyp, n_obj = mask.shape
+    several = False
+    if n_hyp > 1:
+        for m in range(n_obj):
+            count = 0
+            for l in range(n_hyp):
+                count += mask[l, m]
+            several = several or count > 1
+    for m in range(n_obj):
+        alike = several
+        for l in range(n_hyp):
+            if not alike:
+                break
+            alike = (length_m[l, m] == length_m[0, m] and width_m[l, m] == width_m[0, m]
+                     and is_pedestrian[l, m] == is_pedestrian[0, m])
+            for n in range(heading.shape[2]):
+                if not (alike and heading[l, m, n] == heading[0, m, n]
+                        and xy[l, m, n, 0] == xy[0, m, n, 0]
+                        and xy[l, m, n, 1] == xy[0, m, n, 1]):
+                    alike = False
+                    break
+        shared[m] = alike
+    count = 0
+    for l in range(n_hyp):
+        for m in range(n_obj):
+            pair[l, m] = -1
+            present = mask[l, m]
+            if shared[m] and l == 0:
+                for k in range(n_hyp):
+                    present = present or mask[k, m]
+            elif shared[m]:
+                present = False
+            if present:
+                pair[l, m] = count
+                source[0, count], source[1, count] = l, m
+                count += 1
+    for l in range(1, n_hyp):
+        for m in range(n_obj):
+            if shared[m] and mask[l, m]:
+                pair[l, m] = pair[0, m]
+    return count
+
+
+@numba.njit(cache=True)
+def corridor_occupancy(extent, is_pedestrian, source, half_pedestrian_m, half_other_m, widen,
+                       closing_half_m, route_length_m, rear_from_m, mask, pair, occupied, span,
+                       listed):
+    """When each projected footprint occupies the robot's corridor (agents/robot/corridor.py).
+
+    Footprint p is in the corridor at step n when its lateral extent overlaps
+    [-half, half] (half_pedestrian_m for a pedestrian, else half_other_m) or, for a pedestrian
+    with `widen`, overlaps [-closing_half_m, closing_half_m] while closing in
+    (|mean lateral offset| shrinking by more than 1 mm from the previous step; the first step
+    as the second, or, with one step, c - (c + 1) < -1e-3), and its extent along the route is
+    within (0, route_length_m). It is relevant when occupied at some step and its rear at the
+    first step is at or beyond rear_from_m. The comparisons of the numpy formulation
+    (tests/agents/test_corridor_objects.py), no arithmetic but those differences.
+
+    Args:
+        extent: (5, P, N) project_footprints' out [m].
+        is_pedestrian: (L, M) bool.
+        source: (2, >= P) int64, the hypothesis and the object of each projected pair.
+        half_pedestrian_m: half the corridor's width for a pedestrian [m].
+        half_other_m: for anything else [m].
+        widen: whether a pedestrian closing in is in it within closing_half_m.
+        closing_half_m: half the corridor's width for a pedestrian closing in [m].
+        route_length_m: the route's length [m].
+        rear_from_m: the smallest rear arc length at the first step of a relevant one [m].
+        mask: (L, M) bool, object m present in hypothesis l.
+        pair: (L, M) distinct_predictions' pair numbers.
+        occupied: (P, N) bool, out: in the corridor at step n.
+        span: (P, 3) int64, out: first and last occupied step of a relevant footprint (else
+            -1, -1) and whether it is a pedestrian's (1, else 0).
+        listed: (L, M) int64, out: per hypothesis, the pair numbers of its relevant objects in
+            object order, then -1.
+
+    Returns:
+        the number of relevant footprints.
+    """
+    n_pair, n_step = occupied.shape
+    n_relevant = 0
+    for p in range(n_pair):
+        ped = is_pedestrian[source[0, p], source[1, p]]
+        half = half_pedestrian_m if ped else half_other_m
+        first, last = -1, -1
+        for n in range(n_step):
+            lat_min, lat_max = extent[2, p, n], extent[3, p, n]
+            inside = lat_min <= half and lat_max >= -half
+            if ped and widen and not inside:
+                if n_step == 1:
+                    closing = extent[4, p, 0] - (extent[4, p, 0] + 1.0) < -1e-3
+                else:
+                    k = max(n, 1)
+                    closing = extent[4, p, k] - extent[4, p, k - 1] < -1e-3
+                inside = closing and lat_min <= closing_half_m and lat_max >= -closing_half_m
+            inside = inside and extent[1, p, n] > 0.0 and extent[0, p, n] < route_length_m
+            occupied[p, n] = inside
+            if inside:
+                if first < 0:
+                    first = n
+                last = n
+        if first >= 0 and extent[0, p, 0] >= rear_from_m:
+            span[p, 0], span[p, 1] = first, last
+            n_relevant += 1
+        else:
+            span[p, 0], span[p, 1] = -1, -1
+        span[p, 2] = 1 if ped else 0
+    listed[:] = -1
+    for l in range(mask.shape[0]):
+        k = 0
+        for m in range(mask.shape[1]):
+            if mask[l, m] and span[pair[l, m], 0] >= 0:
+                listed[l, k] = pair[l, m]
+                k += 1
+    return n_relevant
