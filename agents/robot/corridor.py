@@ -75,7 +75,8 @@ def occupied_spans(occupied: np.ndarray, rows: np.ndarray | None = None
 def objects_on_path(route: Route, scene: ScenePrediction, s0: float, robot_length_m: float,
                     robot_width_m: float, lateral_margin_m: float,
                     pedestrian_margin_m: float | None = None,
-                    pedestrian_clearance_m: float | None = None) -> list[list[PathObject]]:
+                    pedestrian_clearance_m: float | None = None,
+                    mask: np.ndarray | None = None) -> list[list[PathObject]]:
     """Per hypothesis, the predicted objects that occupy the robot's corridor.
 
     Args:
@@ -89,18 +90,20 @@ def objects_on_path(route: Route, scene: ScenePrediction, s0: float, robot_lengt
             shrinking) is in the way already within this clearance (None: lateral_margin_m) [m].
         pedestrian_clearance_m: the clearance to any pedestrian, also one walking away
             (None: lateral_margin_m) [m].
+        mask: (L, M) bool, the objects of each hypothesis to look at, in place of scene.mask
+            (None: scene.mask).
 
     Returns:
         L lists of PathObject.
     """
-    n_hyp, n_obj = scene.mask.shape
-    mask = scene.mask
+    mask = scene.mask if mask is None else mask
+    n_hyp, n_obj = mask.shape
     if n_obj == 0 or not mask.any():
         return [[] for _ in range(n_hyp)]
     kernels = route_kernels()
     # project each distinct prediction once: an object present in several hypotheses and
     # predicted alike in every one (a tracked one) from the first, the others where present
-    # (sim/route_kernels.distinct_predictions; numpy reference: tests/agents/test_corridor_objects.py)
+    # (sim/route_kernels.distinct_predictions; numpy reference: tests/agents/test_corridor_kernels.py)
     shared = np.empty(n_obj, dtype=bool)
     pair = np.empty((n_hyp, n_obj), dtype=np.int64)  # (L, M) the pair standing for each
     source = np.empty((2, n_hyp * n_obj), dtype=np.int64)
@@ -119,7 +122,7 @@ def objects_on_path(route: Route, scene: ScenePrediction, s0: float, robot_lengt
     # away is not), and the projection is not clamped at the route's ends; relevant: not
     # beside or behind the robot now (its rear short of the robot's front: not the robot's to
     # yield to; a car alongside that drifts into the corridor in its prediction is one)
-    # (sim/route_kernels.corridor_occupancy; numpy reference: tests/agents/test_corridor_objects.py)
+    # (sim/route_kernels.corridor_occupancy; numpy reference: tests/agents/test_corridor_kernels.py)
     clearance = lateral_margin_m if pedestrian_clearance_m is None else pedestrian_clearance_m
     widen = pedestrian_margin_m is not None
     occupied = np.empty(heading.shape, dtype=bool)  # (P, N)
@@ -254,15 +257,15 @@ def mode_bounds(objects: list[PathObject], modes: tuple[str, ...], n_steps: int,
     Returns:
         s_low (N,) and s_up (N,) [m]: s_low <= s <= ... and s + h v <= s_up.
     """
-    s_low, s_up = np.full(n_steps, -np.inf), np.full(n_steps, np.inf)
+    s_low, s_up = np.empty(n_steps), np.empty(n_steps)
+    s_low[:], s_up[:] = -np.inf, np.inf
     half = 0.5 * robot_length_m
     for obj, mode in zip(objects, modes):
         k0, k1 = obj.k_first, obj.k_last
         gap = gap_m if pedestrian_gap_m is None or not obj.is_pedestrian else pedestrian_gap_m
-        if mode == BEHIND:
-            limit = np.full(n_steps, np.inf)
-            limit[k0:k1 + 1] = obj.s_rear_m[k0:k1 + 1] - gap - half - s0
-            s_up = np.minimum(s_up, limit)
+        if mode == BEHIND:  # min(s_up, inf) elsewhere leaves it as it is
+            steps = slice(k0, k1 + 1)
+            np.minimum(s_up[steps], obj.s_rear_m[steps] - gap - half - s0, out=s_up[steps])
         else:
             need = np.full(n_steps, -np.inf)
             need[k0:k1 + 1] = obj.s_front_m[k0:k1 + 1] + gap + half - s0
@@ -334,13 +337,14 @@ def reachable_progress(v0: float, prev_accel: float, accel_max_mps2: float,
         dt_s: plan step [s].
         v_max_mps: (N,) the speed bound of each plan step [m/s].
     """
-    n = len(v_max_mps)
-    accel = np.minimum(accel_max_mps2, prev_accel + jerk_max_mps3 * (first_dt_s
-                                                                     + dt_s * np.arange(n)))
-    climb = np.cumsum(accel * dt_s)
-    # v_k = min(v0 + climb_k, min_{j <= k} v_max_j + climb_k - climb_j), and v >= 0
-    speed = np.maximum(climb + np.minimum(v0, np.minimum.accumulate(v_max_mps - climb)), 0.0)
-    return np.cumsum(0.5 * dt_s * (np.concatenate([[v0], speed[:-1]]) + speed))
+    # v_k = min(v0 + climb_k, min_{j <= k} v_max_j + climb_k - climb_j), and v >= 0, climb
+    # the sum of the accelerations times dt: one compiled pass (sim/route_kernels.
+    # reachable_progress; its numpy reference: tests/agents/test_corridor_kernels.py)
+    out = np.empty(len(v_max_mps))
+    route_kernels().reachable_progress(float(v0), float(prev_accel), float(accel_max_mps2),
+                                       float(jerk_max_mps3), float(first_dt_s), float(dt_s),
+                                       np.asarray(v_max_mps, dtype=np.float64), out)
+    return out
 
 
 def provably_infeasible(s_low: np.ndarray, s_up: np.ndarray, reachable_m: np.ndarray,
@@ -357,5 +361,9 @@ def provably_infeasible(s_low: np.ndarray, s_up: np.ndarray, reachable_m: np.nda
         reachable_m: (N,) the upper bound on progress of reachable_progress [m].
         margin_m: the violation that still does not count as infeasible [m].
     """
-    need = np.maximum.accumulate(s_low, axis=-1)
-    return bool(np.any(need > np.minimum(s_up, reachable_m) + margin_m))
+    # np.maximum.accumulate(s_low) > np.minimum(s_up, reachable_m) + margin_m anywhere, in one
+    # compiled pass (sim/route_kernels.progress_infeasible; numpy reference: tests/agents/
+    # test_corridor_kernels.py)
+    return bool(route_kernels().progress_infeasible(
+        np.asarray(s_low, dtype=np.float64), np.asarray(s_up, dtype=np.float64),
+        np.asarray(reachable_m, dtype=np.float64), float(margin_m)))

@@ -49,7 +49,6 @@ as much as driving 2 m/s slower for 5 s.
 from __future__ import annotations
 
 import itertools
-from dataclasses import replace
 
 import numpy as np
 
@@ -72,6 +71,7 @@ from marl_social.agents.robot.qp_types import QpSolution, QpWeights
 from marl_social.models.candidates import ScenePrediction
 from marl_social.sim.agent_spec import VehicleParams
 from marl_social.sim.dynamics import DT_S
+from marl_social.sim.kernel_cache import route_kernels
 from marl_social.sim.road_map import Route
 
 MAX_MODE_OBJECTS = 3  # per branch, objects beyond this many with two plausible modes stay behind
@@ -97,6 +97,8 @@ class ContingencyMpc:
         self._static: tuple[Route, np.ndarray | None, StaticBoxes] | None = None
         self._headway = config.headway_s()
         self._plan_times = config.plan_times_s
+        # (N,) the speed braking at half the limit loses by the end of each step [m/s]
+        self._brake_decel = 0.5 * vehicle.brake_max_mps2 * self._plan_times
         self._reach = np.zeros(config.n_steps)  # _braking_reach(v0), set by plan
         # reachable_progress of this plan's state per (speed bound array, jerk bound): every
         # mode and joint QP of one curvature iteration shares them (reset by plan)
@@ -147,6 +149,8 @@ class ContingencyMpc:
         if self._curvature is None or self._curvature[0] is not route:
             self._curvature = (route, route_curvature(route))
         vertex_s, kappa = self._curvature[1]
+        if len(kappa) == 0:  # a straight route: v_cap alone (np.minimum(inf, v_cap))
+            return np.full(len(s_lo), v_cap, dtype=np.float64), False
         bound = curvature_speed_bound(vertex_s, kappa, s_lo, s_hi, c.curvature_window_m,
                                       c.lat_accel_max_mps2)
         return np.minimum(bound, v_cap), bool(np.isfinite(bound).any())
@@ -208,10 +212,9 @@ class ContingencyMpc:
                 - s0)
         wall = min(wall, stop_at_m - s0)
         # only the live branches' objects are planned for: the others are not projected
-        scene = replace(scene, mask=scene.mask & live[:, None])
         per_hyp = objects_on_path(route, scene, s0, veh.length_m, veh.width_m,
                                   c.lateral_margin_m, c.pedestrian_margin_m,
-                                  c.pedestrian_clearance_m)
+                                  c.pedestrian_clearance_m, scene.mask & live[:, None])
         if extra_objects is not None:
             per_hyp = [objs + list(more) for objs, more in zip(per_hyp, extra_objects)]
         live_idx = np.flatnonzero(live)
@@ -294,11 +297,13 @@ class ContingencyMpc:
         Args:
             v0: the robot's speed [m/s].
         """
-        c = self.config
-        v_brake = np.maximum(v0 - 0.5 * self.vehicle.brake_max_mps2 * self._plan_times, 0.0)
-        v_start = np.concatenate([[v0], v_brake[:-1]])
-        s_brake = np.cumsum(0.5 * (v_start + v_brake) * c.plan_dt_s)
-        return s_brake + self._headway * v_brake + ROOM_M
+        # v = max(v0 - decel, 0), the progress the sum of 0.5 (v_{k-1} + v_k) dt, plus headway
+        # times v and ROOM_M: one compiled pass (sim/route_kernels.braking_reach; its numpy
+        # reference: tests/agents/test_corridor_kernels.py)
+        out = np.empty(len(self._brake_decel))
+        route_kernels().braking_reach(float(v0), self._brake_decel, self.config.plan_dt_s,
+                                      self._headway, ROOM_M, out)
+        return out
 
     def _branch_bounds(self, objects: list[PathObject], modes: tuple, bounds: tuple):
         c, veh = self.config, self.vehicle
@@ -336,7 +341,7 @@ class ContingencyMpc:
             self._reachable.append((v_max, jerk_max, reachable))
         if provably_infeasible(s_low, s_up, reachable, INFEASIBLE_MARGIN_M):
             return qp.failed()
-        v_max_b = np.broadcast_to(v_max, s_low.shape)
+        v_max_b = v_max[None].repeat(len(s_low), 0)  # (L, N), a copy: cheaper than a view
         return qp.solve(weights, v0, prev, v_ref, v_max_b, s_low, s_up,
                         -veh.brake_max_mps2, veh.accel_max_mps2, jerk_max,
                         self.config.comfort_decel_mps2, comfort, *self._goal)
@@ -354,8 +359,7 @@ class ContingencyMpc:
             two = (len([o for o in options if len(o) == 2]) < MAX_MODE_OBJECTS
                    and (pass_pedestrians or not obj.is_pedestrian)
                    and past_reachable(obj, v0, v_cap, veh.accel_max_mps2, c.plan_dt_s, s0,
-                                      veh.length_m, c.min_gap_m, margin,
-                                      np.broadcast_to(v_max, (c.n_steps,))))
+                                      veh.length_m, c.min_gap_m, margin, v_max))
             options.append((BEHIND, PAST) if two else (BEHIND,))
         combos = list(itertools.product(*options))
         if len(combos) == 1:

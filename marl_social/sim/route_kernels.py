@@ -228,7 +228,7 @@ def corridor_occupancy(extent, is_pedestrian, source, half_pedestrian_m, half_ot
     as the second, or, with one step, c - (c + 1) < -1e-3), and its extent along the route is
     within (0, route_length_m). It is relevant when occupied at some step and its rear at the
     first step is at or beyond rear_from_m. The comparisons of the numpy formulation
-    (tests/agents/test_corridor_objects.py), no arithmetic but those differences.
+    (tests/agents/test_corridor_kernels.py), no arithmetic but those differences.
 
     Args:
         extent: (5, P, N) project_footprints' out [m].
@@ -287,3 +287,96 @@ def corridor_occupancy(extent, is_pedestrian, source, half_pedestrian_m, half_ot
                 listed[l, k] = pair[l, m]
                 k += 1
     return n_relevant
+
+
+@numba.njit(cache=True)
+def braking_reach(v0, decel, dt_s, headway_s, room_m, out):
+    """agents/robot/mpc.py's _braking_reach: the numpy arithmetic's bits, in one pass.
+
+    v_k = max(v0 - decel_k, 0) (np.maximum: NaN stays), the progress sum over j <= k of
+    ((v_{j-1} + v_j) 0.5) dt (v_{-1} = v0; np.cumsum's sequential sum, its first term as
+    it is), out_k = (progress_k + headway_k v_k) + room.
+
+    Args:
+        v0: the robot's speed [m/s].
+        decel: (N,) the speed lost by the end of each plan step [m/s].
+        dt_s: the plan step [s].
+        headway_s: (N,) the time headway of each step [s].
+        room_m: added to each [m].
+        out: (N,) out [m].
+    """
+    v_prev, progress = v0, 0.0
+    for k in range(decel.shape[0]):
+        v = v0 - decel[k]
+        if v < 0.0:  # noqa: PLR1730 - np.maximum(v, 0.0): NaN stays (max() would drop it)
+            v = 0.0
+        step = 0.5 * (v_prev + v) * dt_s
+        progress = step if k == 0 else progress + step
+        out[k] = progress + headway_s[k] * v + room_m
+        v_prev = v
+
+
+@numba.njit(cache=True)
+def progress_infeasible(s_low, s_up, reachable_m, margin_m):
+    """corridor.provably_infeasible's test, its numpy comparisons' answer, in one pass.
+
+    need = np.maximum.accumulate(s_low) along each row (a NaN stays), and the answer is
+    whether need > np.minimum(s_up, reachable_m) + margin_m anywhere (NaN: no).
+
+    Args:
+        s_low: (L, N) lower bounds on progress [m].
+        s_up: (L, N) upper bounds on progress plus headway times speed [m].
+        reachable_m: (N,) the reachable progress [m].
+        margin_m: the violation that still does not count [m].
+    """
+    for l in range(s_low.shape[0]):
+        need = s_low[l, 0]
+        for k in range(s_low.shape[1]):
+            low = s_low[l, k]
+            if not math.isnan(need) and (low > need or math.isnan(low)):
+                need = low
+            up, reach = s_up[l, k], reachable_m[k]
+            cap = up if (up < reach or math.isnan(up)) else reach
+            if need > cap + margin_m:
+                return True
+    return False
+
+
+@numba.njit(cache=True)
+def reachable_progress(v0, prev_accel, accel_max_mps2, jerk_max_mps3, first_dt_s, dt_s,
+                       v_max_mps, out):
+    """corridor.reachable_progress: the numpy arithmetic's bits, in one pass.
+
+    a_k = min(accel_max, prev + jerk (first_dt + dt k)), climb_k the sequential sum of a_j dt
+    (np.cumsum), speed_k = max(climb_k + min(v0, min over j <= k of (v_max_j - climb_j)), 0)
+    (np.minimum / np.maximum: NaN stays), out_k the sequential sum of (0.5 dt) (v_{j-1} + v_j)
+    (v_{-1} = v0).
+
+    Args:
+        v0: the robot's speed [m/s].
+        prev_accel: its previous acceleration command [m/s^2].
+        accel_max_mps2: its largest acceleration [m/s^2].
+        jerk_max_mps3: the jerk bound [m/s^3].
+        first_dt_s: the time the first acceleration may change in [s].
+        dt_s: plan step [s].
+        v_max_mps: (N,) the speed bound of each plan step [m/s].
+        out: (N,) out: the upper bound on the progress at the end of each step [m].
+    """
+    half_dt = 0.5 * dt_s
+    climb, bound, v_prev, progress = 0.0, 0.0, v0, 0.0
+    for k in range(v_max_mps.shape[0]):
+        accel = prev_accel + jerk_max_mps3 * (first_dt_s + dt_s * k)
+        if accel_max_mps2 < accel or math.isnan(accel_max_mps2):
+            accel = accel_max_mps2
+        climb = accel * dt_s if k == 0 else climb + accel * dt_s
+        room = v_max_mps[k] - climb
+        if k == 0 or math.isnan(room) or (room < bound and not math.isnan(bound)):
+            bound = room
+        low = bound if (bound < v0 or math.isnan(bound)) else v0
+        speed = climb + low
+        if speed < 0.0:  # noqa: PLR1730 - np.maximum(speed, 0.0): NaN stays
+            speed = 0.0
+        step = half_dt * (v_prev + speed)
+        progress = step if k == 0 else progress + step
+        out[k] = progress
+        v_prev = speed

@@ -129,3 +129,99 @@ def test_objects_on_path_match_numpy_bit_for_bit(seed, straight, margins):
         want = _reference_objects_on_path(*args)
         got = objects_on_path(*args)
     assert _same_objects(got, want)
+
+
+def _reference_braking_reach(v0, decel, dt_s, headway_s, room_m):
+    """ContingencyMpc._braking_reach's numpy as it stood (decel: 0.5 brake_max times t)."""
+    v_brake = np.maximum(v0 - decel, 0.0)
+    v_start = np.concatenate([[v0], v_brake[:-1]])
+    s_brake = np.cumsum(0.5 * (v_start + v_brake) * dt_s)
+    return s_brake + headway_s * v_brake + room_m
+
+
+def _reference_reachable_progress(v0, prev_accel, accel_max_mps2, jerk_max_mps3, first_dt_s,
+                                  dt_s, v_max_mps):
+    """corridor.reachable_progress's numpy as it stood."""
+    n = len(v_max_mps)
+    accel = np.minimum(accel_max_mps2, prev_accel + jerk_max_mps3 * (first_dt_s
+                                                                     + dt_s * np.arange(n)))
+    climb = np.cumsum(accel * dt_s)
+    speed = np.maximum(climb + np.minimum(v0, np.minimum.accumulate(v_max_mps - climb)), 0.0)
+    return np.cumsum(0.5 * dt_s * (np.concatenate([[v0], speed[:-1]]) + speed))
+
+
+def _reference_provably_infeasible(s_low, s_up, reachable_m, margin_m):
+    """corridor.provably_infeasible's numpy as it stood."""
+    need = np.maximum.accumulate(s_low, axis=-1)
+    return bool(np.any(need > np.minimum(s_up, reachable_m) + margin_m))
+
+
+def _odd(rng: np.random.Generator, a: np.ndarray, p: float = 0.05) -> np.ndarray:
+    """a with a fraction p of its entries replaced by special values."""
+    special = np.array([0.0, -0.0, np.inf, -np.inf, np.nan])
+    pick = rng.random(a.shape) < p
+    a = a.copy()
+    a[pick] = rng.choice(special, int(pick.sum()))
+    return a
+
+
+@settings(max_examples=300, deadline=None)
+@given(SEEDS, st.integers(1, 30), st.booleans())
+def test_braking_reach_matches_numpy_bit_for_bit(seed, n_steps, special):
+    from marl_social.sim.kernel_cache import route_kernels
+
+    rng = np.random.default_rng(seed)
+    dt = float(rng.choice([0.25, 0.1, 0.3]))
+    times = (np.arange(n_steps) + 1) * dt
+    decel = 0.5 * float(rng.uniform(2.0, 9.0)) * times
+    headway = rng.uniform(0.0, 1.5, n_steps)
+    v0 = float(rng.choice([0.0, rng.uniform(0.0, 0.5), rng.uniform(0.0, 20.0)]))
+    if special:
+        v0 = float(_odd(rng, np.array([v0]), 0.5)[0])
+        headway = _odd(rng, headway)
+    with np.errstate(invalid="ignore", over="ignore"):
+        want = _reference_braking_reach(v0, decel, dt, headway, 0.1)
+        got = np.empty(n_steps)
+        route_kernels().braking_reach(v0, decel, dt, headway, 0.1, got)
+    assert _same(got, want)
+
+
+@settings(max_examples=300, deadline=None)
+@given(SEEDS, st.integers(1, 30), st.booleans())
+def test_reachable_progress_matches_numpy_bit_for_bit(seed, n_steps, special):
+    from marl_social.agents.robot.corridor import reachable_progress
+
+    rng = np.random.default_rng(seed)
+    v0 = float(rng.choice([0.0, rng.uniform(0.0, 15.0)]))
+    prev = float(rng.choice([0.0, -0.0, rng.uniform(-8.0, 3.0)]))
+    a_max, jerk = float(rng.uniform(1.0, 4.0)), float(rng.choice([15.0, 36.0, 0.0]))
+    dt = float(rng.choice([0.25, 0.1]))
+    v_max = rng.uniform(0.0, 15.0, n_steps)
+    v_max[rng.random(n_steps) < 0.2] = 0.0
+    if special:
+        v_max = _odd(rng, v_max, 0.2)
+        v0, prev = (float(x) for x in _odd(rng, np.array([v0, prev]), 0.3))
+    with np.errstate(invalid="ignore", over="ignore"):
+        want = _reference_reachable_progress(v0, prev, a_max, jerk, 0.1, dt, v_max)
+        got = reachable_progress(v0, prev, a_max, jerk, 0.1, dt, v_max)
+    assert _same(got, want)
+
+
+@settings(max_examples=300, deadline=None)
+@given(SEEDS, st.integers(1, 5), st.integers(1, 30), st.booleans())
+def test_provably_infeasible_matches_numpy(seed, n_branches, n_steps, special):
+    from marl_social.agents.robot.corridor import provably_infeasible
+
+    rng = np.random.default_rng(seed)
+    reach = np.cumsum(rng.uniform(0.0, 3.0, n_steps))
+    s_low = np.full((n_branches, n_steps), -np.inf)
+    s_up = np.full((n_branches, n_steps), np.inf)
+    for a, scale in ((s_low, 0.7), (s_up, 1.0)):  # bounds at some steps, near the reach
+        pick = rng.random(a.shape) < 0.3
+        a[pick] = (np.broadcast_to(reach, a.shape) * scale * rng.uniform(0.5, 1.5, a.shape))[pick]
+    if special:
+        s_low, s_up, reach = _odd(rng, s_low), _odd(rng, s_up), _odd(rng, reach)
+    margin = float(rng.choice([0.0, 0.5, 1.5]))
+    with np.errstate(invalid="ignore", over="ignore"):
+        want = _reference_provably_infeasible(s_low, s_up, reach, margin)
+    assert provably_infeasible(s_low, s_up, reach, margin) is want
