@@ -99,7 +99,8 @@ class ContingencyMpc:
         self._plan_times = config.plan_times_s
         # (N,) the speed braking at half the limit loses by the end of each step [m/s]
         self._brake_decel = 0.5 * vehicle.brake_max_mps2 * self._plan_times
-        self._reach = np.zeros(config.n_steps)  # _braking_reach(v0), set by plan
+        self._n_steps = config.n_steps  # N (a property computed at each access)
+        self._reach = np.zeros(self._n_steps)  # _braking_reach(v0), set by plan
         # reachable_progress of this plan's state per (speed bound array, jerk bound): every
         # mode and joint QP of one curvature iteration shares them (reset by plan)
         self._reachable: list[tuple[np.ndarray, float, np.ndarray]] = []
@@ -199,7 +200,7 @@ class ContingencyMpc:
             live = beliefs == beliefs.max()
         weights = np.where(live, beliefs, 0.0)
         weights = weights / weights.sum()
-        n = c.n_steps
+        n = self._n_steps
         v_cap = min(speed_limit_mps, veh.speed_max_mps)
         v_ref = min(v_ref_mps, v_cap)
         # a braking command larger than the speed left is realized only in part (v >= 0)
@@ -308,7 +309,7 @@ class ContingencyMpc:
     def _branch_bounds(self, objects: list[PathObject], modes: tuple, bounds: tuple):
         c, veh = self.config, self.vehicle
         wall, margin, s0 = bounds[4:]
-        s_low, s_up = mode_bounds(objects, modes, c.n_steps, s0, veh.length_m, c.min_gap_m,
+        s_low, s_up = mode_bounds(objects, modes, self._n_steps, s0, veh.length_m, c.min_gap_m,
                                   margin, c.pedestrian_gap_m)
         s_up = np.minimum(s_up, wall)
         # noise on a tracked object's position moves a bound the robot stopped at by a few cm:
@@ -376,9 +377,10 @@ class ContingencyMpc:
 
     def _solve_joint(self, per_hyp, live_idx, weights, chosen, bounds,
                      jerk_max: float | None = None) -> QpSolution:
-        rel = [self._branch_bounds(per_hyp[l], m, bounds) for l, m in zip(live_idx, chosen)]
-        s_low = np.stack([r[0] for r in rel])
-        s_up = np.stack([r[1] for r in rel])
+        s_low = np.empty((len(live_idx), self._n_steps))  # (L, N), a row per branch
+        s_up = np.empty_like(s_low)
+        for row, (l, m) in enumerate(zip(live_idx, chosen)):
+            s_low[row], s_up[row] = self._branch_bounds(per_hyp[l], m, bounds)
         return self._solve(self._qp(len(live_idx)), weights[live_idx], s_low, s_up, bounds,
                            self._comfort[live_idx], jerk_max)
 

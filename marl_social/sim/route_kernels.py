@@ -290,6 +290,22 @@ def corridor_occupancy(extent, is_pedestrian, source, half_pedestrian_m, half_ot
 
 
 @numba.njit(cache=True)
+def _np_minimum(a, b):
+    """np.minimum(a, b) of two floats: a NaN stays, a tie gives b (numpy's, +-0 included)."""
+    if math.isnan(a):
+        return a
+    return a if a < b else b  # noqa: FURB136 - the tie order is the point
+
+
+@numba.njit(cache=True)
+def _np_maximum(a, b):
+    """np.maximum(a, b) of two floats: a NaN stays, a tie gives b (numpy's, +-0 included)."""
+    if math.isnan(a):
+        return a
+    return a if a > b else b  # noqa: FURB136 - the tie order is the point
+
+
+@numba.njit(cache=True)
 def braking_reach(v0, decel, dt_s, headway_s, room_m, out):
     """agents/robot/mpc.py's _braking_reach: the numpy arithmetic's bits, in one pass.
 
@@ -307,9 +323,7 @@ def braking_reach(v0, decel, dt_s, headway_s, room_m, out):
     """
     v_prev, progress = v0, 0.0
     for k in range(decel.shape[0]):
-        v = v0 - decel[k]
-        if v < 0.0:  # noqa: PLR1730 - np.maximum(v, 0.0): NaN stays (max() would drop it)
-            v = 0.0
+        v = _np_maximum(v0 - decel[k], 0.0)
         step = 0.5 * (v_prev + v) * dt_s
         progress = step if k == 0 else progress + step
         out[k] = progress + headway_s[k] * v + room_m
@@ -332,12 +346,9 @@ def progress_infeasible(s_low, s_up, reachable_m, margin_m):
     for l in range(s_low.shape[0]):
         need = s_low[l, 0]
         for k in range(s_low.shape[1]):
-            low = s_low[l, k]
-            if not math.isnan(need) and (low > need or math.isnan(low)):
-                need = low
-            up, reach = s_up[l, k], reachable_m[k]
-            cap = up if (up < reach or math.isnan(up)) else reach
-            if need > cap + margin_m:
+            if k > 0:
+                need = _np_maximum(need, s_low[l, k])
+            if need > _np_minimum(s_up[l, k], reachable_m[k]) + margin_m:
                 return True
     return False
 
@@ -365,17 +376,11 @@ def reachable_progress(v0, prev_accel, accel_max_mps2, jerk_max_mps3, first_dt_s
     half_dt = 0.5 * dt_s
     climb, bound, v_prev, progress = 0.0, 0.0, v0, 0.0
     for k in range(v_max_mps.shape[0]):
-        accel = prev_accel + jerk_max_mps3 * (first_dt_s + dt_s * k)
-        if accel_max_mps2 < accel or math.isnan(accel_max_mps2):
-            accel = accel_max_mps2
+        accel = _np_minimum(accel_max_mps2, prev_accel + jerk_max_mps3 * (first_dt_s + dt_s * k))
         climb = accel * dt_s if k == 0 else climb + accel * dt_s
         room = v_max_mps[k] - climb
-        if k == 0 or math.isnan(room) or (room < bound and not math.isnan(bound)):
-            bound = room
-        low = bound if (bound < v0 or math.isnan(bound)) else v0
-        speed = climb + low
-        if speed < 0.0:  # noqa: PLR1730 - np.maximum(speed, 0.0): NaN stays
-            speed = 0.0
+        bound = room if k == 0 else _np_minimum(bound, room)
+        speed = _np_maximum(climb + _np_minimum(v0, bound), 0.0)
         step = half_dt * (v_prev + speed)
         progress = step if k == 0 else progress + step
         out[k] = progress

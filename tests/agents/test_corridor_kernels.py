@@ -175,7 +175,9 @@ def test_braking_reach_matches_numpy_bit_for_bit(seed, n_steps, special):
     times = (np.arange(n_steps) + 1) * dt
     decel = 0.5 * float(rng.uniform(2.0, 9.0)) * times
     headway = rng.uniform(0.0, 1.5, n_steps)
-    v0 = float(rng.choice([0.0, rng.uniform(0.0, 0.5), rng.uniform(0.0, 20.0)]))
+    v0 = float(rng.choice([0.0, -0.0, rng.uniform(0.0, 0.5), rng.uniform(0.0, 20.0)]))
+    if rng.random() < 0.2:  # v0 - decel exactly +-0
+        decel[rng.integers(n_steps)] = v0
     if special:
         v0 = float(_odd(rng, np.array([v0]), 0.5)[0])
         headway = _odd(rng, headway)
@@ -198,6 +200,9 @@ def test_reachable_progress_matches_numpy_bit_for_bit(seed, n_steps, special):
     dt = float(rng.choice([0.25, 0.1]))
     v_max = rng.uniform(0.0, 15.0, n_steps)
     v_max[rng.random(n_steps) < 0.2] = 0.0
+    if rng.random() < 0.3:  # at rest, no climb: ties of +0 and -0 everywhere
+        v0, prev, jerk = float(rng.choice([0.0, -0.0])), -0.0, 0.0
+        v_max = rng.choice([0.0, -0.0], n_steps)
     if special:
         v_max = _odd(rng, v_max, 0.2)
         v0, prev = (float(x) for x in _odd(rng, np.array([v0, prev]), 0.3))
