@@ -218,9 +218,9 @@ def route_curvature(route: Route) -> tuple[np.ndarray, np.ndarray]:
 
 
 def curvature_speed_bound(vertex_s: np.ndarray, vertex_kappa: np.ndarray, s_lo: np.ndarray,
-                          s_hi: np.ndarray, window_m: float,
-                          lat_accel_max_mps2: float) -> np.ndarray:
-    """(N,) v <= sqrt(a_lat / kappa) over the positions a step may have [m/s] (inf: straight).
+                          s_hi: np.ndarray, window_m: float, lat_accel_max_mps2: float,
+                          v_cap_mps: float = np.inf) -> tuple[np.ndarray, bool]:
+    """(N,) v <= min(v_cap, sqrt(a_lat / kappa)) over the positions a step may have [m/s].
 
     Args:
         vertex_s: (V,) arc lengths of the route's vertices [m].
@@ -229,14 +229,24 @@ def curvature_speed_bound(vertex_s: np.ndarray, vertex_kappa: np.ndarray, s_lo: 
         s_hi: (N,) largest arc length each plan step may reach [m].
         window_m: vertices this far outside [s_lo, s_hi] count too (the footprint's extent) [m].
         lat_accel_max_mps2: the lateral acceleration allowed [m/s^2].
+        v_cap_mps: the speed cap [m/s] (inf: none).
+
+    Returns:
+        the (N,) bounds [m/s] and whether a curve bounds the speed at some step (its bound
+        finite, before the cap).
     """
-    if len(vertex_kappa) == 0:
-        return np.full(len(s_lo), np.inf)
-    near = ((vertex_s[None] >= s_lo[:, None] - window_m)
-            & (vertex_s[None] <= s_hi[:, None] + window_m))
-    kappa = np.where(near, vertex_kappa[None], 0.0).max(axis=1)
-    with np.errstate(divide="ignore"):
-        return np.sqrt(lat_accel_max_mps2 / kappa)
+    out = np.empty(len(s_lo))
+    if len(vertex_kappa) == 0:  # straight: np.minimum(inf, v_cap)
+        out[:] = v_cap_mps
+        return out, False
+    # the largest curvature near each step, its bound, capped: one compiled pass
+    # (sim/route_kernels.curvature_speed_bound; numpy reference: tests/agents/
+    # test_corridor_kernels.py)
+    curved = route_kernels().curvature_speed_bound(
+        np.asarray(vertex_s, dtype=np.float64), np.asarray(vertex_kappa, dtype=np.float64),
+        np.asarray(s_lo, dtype=np.float64), np.asarray(s_hi, dtype=np.float64),
+        float(window_m), float(lat_accel_max_mps2), float(v_cap_mps), out)
+    return out, bool(curved)
 
 
 def mode_bounds(objects: list[PathObject], modes: tuple[str, ...], n_steps: int, s0: float,

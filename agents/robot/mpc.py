@@ -150,11 +150,8 @@ class ContingencyMpc:
         if self._curvature is None or self._curvature[0] is not route:
             self._curvature = (route, route_curvature(route))
         vertex_s, kappa = self._curvature[1]
-        if len(kappa) == 0:  # a straight route: v_cap alone (np.minimum(inf, v_cap))
-            return np.full(len(s_lo), v_cap, dtype=np.float64), False
-        bound = curvature_speed_bound(vertex_s, kappa, s_lo, s_hi, c.curvature_window_m,
-                                      c.lat_accel_max_mps2)
-        return np.minimum(bound, v_cap), bool(np.isfinite(bound).any())
+        return curvature_speed_bound(vertex_s, kappa, s_lo, s_hi, c.curvature_window_m,
+                                     c.lat_accel_max_mps2, v_cap)
 
     def plan(self, route: Route, s0: float, v0: float, prev_accel: float, v_ref_mps: float,
              speed_limit_mps: float, scene: ScenePrediction, beliefs: np.ndarray,

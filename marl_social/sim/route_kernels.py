@@ -385,3 +385,41 @@ def reachable_progress(v0, prev_accel, accel_max_mps2, jerk_max_mps3, first_dt_s
         progress = step if k == 0 else progress + step
         out[k] = progress
         v_prev = speed
+
+
+@numba.njit(cache=True, error_model="numpy")
+def curvature_speed_bound(vertex_s, vertex_kappa, s_lo, s_hi, window_m, lat_accel_max_mps2,
+                          v_cap_mps, out):
+    """agents/robot/corridor.curvature_speed_bound, capped at v_cap: numpy's bits, one pass.
+
+    Per step k: kappa_k = the largest curvature of the vertices within [s_lo_k - window,
+    s_hi_k + window] (0 where there is none; np.max: a NaN stays), the bound
+    sqrt(a_lat / kappa_k) (division by zero: inf, numpy's error model), out_k =
+    np.minimum(bound, v_cap) (_np_minimum).
+
+    Args:
+        vertex_s: (V,) arc lengths of the route's vertices [m].
+        vertex_kappa: (V,) their curvatures [1/m], V >= 1.
+        s_lo: (N,) smallest arc length each plan step may reach [m].
+        s_hi: (N,) largest [m].
+        window_m: vertices this far outside [s_lo, s_hi] count too [m].
+        lat_accel_max_mps2: the lateral acceleration allowed [m/s^2].
+        v_cap_mps: the speed cap [m/s].
+        out: (N,) out: the speed bound of each step [m/s].
+
+    Returns:
+        whether the curvature bound is finite at some step (a curve bounds the speed).
+    """
+    curved = False
+    for k in range(s_lo.shape[0]):
+        lo = s_lo[k] - window_m
+        hi = s_hi[k] + window_m
+        kappa = 0.0
+        for v in range(vertex_s.shape[0]):
+            near = vertex_s[v] >= lo and vertex_s[v] <= hi
+            value = vertex_kappa[v] if near else 0.0
+            kappa = value if v == 0 else _np_maximum(kappa, value)
+        bound = math.sqrt(lat_accel_max_mps2 / kappa)
+        curved = curved or math.isfinite(bound)
+        out[k] = _np_minimum(bound, v_cap_mps)
+    return curved

@@ -230,3 +230,42 @@ def test_provably_infeasible_matches_numpy(seed, n_branches, n_steps, special):
     with np.errstate(invalid="ignore", over="ignore"):
         want = _reference_provably_infeasible(s_low, s_up, reach, margin)
     assert provably_infeasible(s_low, s_up, reach, margin) is want
+
+
+def _reference_curvature_speed_bound(vertex_s, vertex_kappa, s_lo, s_hi, window_m,
+                                     lat_accel_max_mps2, v_cap_mps):
+    """corridor.curvature_speed_bound's numpy as it stood, and ContingencyMpc._speed_bound's
+    cap and curve test on it."""
+    if len(vertex_kappa) == 0:
+        bound = np.full(len(s_lo), np.inf)
+    else:
+        near = ((vertex_s[None] >= s_lo[:, None] - window_m)
+                & (vertex_s[None] <= s_hi[:, None] + window_m))
+        kappa = np.where(near, vertex_kappa[None], 0.0).max(axis=1)
+        with np.errstate(divide="ignore"):
+            bound = np.sqrt(lat_accel_max_mps2 / kappa)
+    return np.minimum(bound, v_cap_mps), bool(np.isfinite(bound).any())
+
+
+@settings(max_examples=300, deadline=None)
+@given(SEEDS, st.integers(0, 20), st.integers(1, 30), st.booleans())
+def test_curvature_speed_bound_matches_numpy_bit_for_bit(seed, n_vertices, n_steps, special):
+    from marl_social.agents.robot.corridor import curvature_speed_bound, route_curvature
+
+    rng = np.random.default_rng(seed)
+    if rng.random() < 0.5 and n_vertices:  # a real route's vertices
+        route = _route(rng)
+        vertex_s, kappa = route_curvature(route)
+    else:
+        vertex_s = np.sort(rng.uniform(0.0, 100.0, n_vertices))
+        kappa = rng.choice([0.0, 1e-3, 0.05, 0.2], n_vertices) * rng.uniform(0.5, 2.0, n_vertices)
+    s_lo = rng.uniform(-10.0, 100.0, n_steps)
+    s_hi = s_lo + rng.uniform(0.0, 20.0, n_steps)
+    v_cap = float(rng.choice([np.inf, 8.0, rng.uniform(0.0, 15.0)]))
+    if special:
+        kappa, s_lo = _odd(rng, kappa, 0.1), _odd(rng, s_lo, 0.1)
+    with np.errstate(invalid="ignore", over="ignore"):
+        want, want_curved = _reference_curvature_speed_bound(vertex_s, kappa, s_lo, s_hi, 2.5,
+                                                             2.0, v_cap)
+        got, curved = curvature_speed_bound(vertex_s, kappa, s_lo, s_hi, 2.5, 2.0, v_cap)
+    assert _same(got, want) and curved is want_curved
