@@ -285,9 +285,34 @@ def mode_bounds(objects: list[PathObject], modes: tuple[str, ...], n_steps: int,
     return s_low, s_up
 
 
+def full_acceleration_progress(v0: float, v_cap_mps: float, accel_max_mps2: float,
+                               dt_s: float, n_steps: int,
+                               v_max_mps: np.ndarray | None = None) -> np.ndarray:
+    """(N,) the progress of full acceleration under the steps' speed bounds [m].
+
+    v_k = min(v_k-1 + a dt, v_max_k, v_cap), v >= 0, the progress the sum of
+    0.5 (v_k-1 + v_k) dt (past_reachable's test of an object without a pass margin).
+
+    Args:
+        v0: the robot's speed [m/s].
+        v_cap_mps: its speed cap [m/s].
+        accel_max_mps2: its largest acceleration [m/s^2].
+        dt_s: plan step [s].
+        n_steps: N plan steps.
+        v_max_mps: (N,) the speed bound of each plan step [m/s] (None: v_cap only).
+    """
+    t = dt_s * np.arange(1, n_steps + 1)
+    cap = (np.full(n_steps, v_cap_mps) if v_max_mps is None
+           else np.minimum(v_max_mps, v_cap_mps))
+    v = accel_max_mps2 * t + np.minimum(v0, np.minimum.accumulate(cap - accel_max_mps2 * t))
+    v = np.maximum(v, 0.0)
+    return np.cumsum(0.5 * (np.concatenate([[v0], v[:-1]]) + v) * dt_s)
+
+
 def past_reachable(obj: PathObject, v0: float, v_cap_mps: float, accel_max_mps2: float,
                    dt_s: float, s0: float, robot_length_m: float, gap_m: float,
-                   pass_margin_steps: int, v_max_mps: np.ndarray | None = None) -> bool:
+                   pass_margin_steps: int, v_max_mps: np.ndarray | None = None,
+                   full_progress_m: np.ndarray | None = None) -> bool:
     """Whether full acceleration (capped at v_cap) gets the robot past `obj` in time.
 
     Args:
@@ -302,6 +327,8 @@ def past_reachable(obj: PathObject, v0: float, v_cap_mps: float, accel_max_mps2:
         pass_margin_steps: as in mode_bounds.
         v_max_mps: (N,) the speed bound of each plan step (e.g. its curves) [m/s]; used for
             an object without a pass margin (None: v_cap only).
+        full_progress_m: (N,) full_acceleration_progress of these arguments, if known (None:
+            computed here when needed) [m].
     """
     t_cap = max(0.0, (v_cap_mps - v0) / accel_max_mps2)
 
@@ -314,12 +341,9 @@ def past_reachable(obj: PathObject, v0: float, v_cap_mps: float, accel_max_mps2:
     if not obj.pass_margin:
         # past it at every step it is on the path (its front there may keep moving ahead),
         # accelerating fully under the steps' speed bounds: v_k = min(v_k-1 + a dt, v_max_k)
-        n = len(obj.s_front_m)
-        t = dt_s * np.arange(1, n + 1)
-        cap = np.full(n, v_cap_mps) if v_max_mps is None else np.minimum(v_max_mps, v_cap_mps)
-        v = accel_max_mps2 * t + np.minimum(v0, np.minimum.accumulate(cap - accel_max_mps2 * t))
-        v = np.maximum(v, 0.0)
-        s = np.cumsum(0.5 * (np.concatenate([[v0], v[:-1]]) + v) * dt_s)
+        s = (full_acceleration_progress(v0, v_cap_mps, accel_max_mps2, dt_s,
+                                        len(obj.s_front_m), v_max_mps)
+             if full_progress_m is None else full_progress_m)
         k = slice(obj.k_first, obj.k_last + 1)
         return bool(np.all(s[k] >= obj.s_front_m[k] + ahead))
     k = obj.k_first - pass_margin_steps

@@ -58,6 +58,7 @@ from marl_social.agents.robot.corridor import (
     PathObject,
     StaticBoxes,
     curvature_speed_bound,
+    full_acceleration_progress,
     mode_bounds,
     objects_on_path,
     past_reachable,
@@ -104,6 +105,7 @@ class ContingencyMpc:
         # reachable_progress of this plan's state per (speed bound array, jerk bound): every
         # mode and joint QP of one curvature iteration shares them (reset by plan)
         self._reachable: list[tuple[np.ndarray, float, np.ndarray]] = []
+        self._full: tuple[np.ndarray, np.ndarray] | None = None  # set by _full_progress
         self._comfort = np.ones(0)  # (L,) comfort weight factor per hypothesis, set by plan
         self._goal = (0.0, 0.0)  # the pull-up term (weight, progress to the line), set by plan
 
@@ -219,6 +221,7 @@ class ContingencyMpc:
         margin = round(c.pass_margin_s / c.plan_dt_s)
         self._reach = self._braking_reach(v0)  # _branch_bounds' room, for this v0
         self._reachable = []
+        self._full = None  # _full_progress' (speed bound array, progress) of this plan
         # the curvature bound needs the positions, which the plan decides: guess them (constant
         # speed), solve, and widen the guess to the solution's positions until it holds them
         # or the wider guess bounds the speed as before (the same QP again)
@@ -344,6 +347,18 @@ class ContingencyMpc:
                         -veh.brake_max_mps2, veh.accel_max_mps2, jerk_max,
                         self.config.comfort_decel_mps2, comfort, *self._goal)
 
+    def _full_progress(self, v0: float, v_cap: float, v_max: np.ndarray) -> np.ndarray:
+        """(N,) corridor.full_acceleration_progress of this plan's v0 and v_cap [m].
+
+        Computed once per speed bound array v_max (N,) [m/s]: every branch's objects share it
+        (reset by plan).
+        """
+        if self._full is None or self._full[0] is not v_max:
+            self._full = (v_max, full_acceleration_progress(
+                v0, v_cap, self.vehicle.accel_max_mps2, self.config.plan_dt_s, self._n_steps,
+                v_max))
+        return self._full[1]
+
     def _choose_modes(self, objects: list[PathObject], bounds: tuple, v_cap: float,
                       pass_pedestrians: bool, hyp: int) -> tuple:
         """The cheapest feasible mode per object of branch `hyp` (alone, one QP each).
@@ -357,7 +372,9 @@ class ContingencyMpc:
             two = (len([o for o in options if len(o) == 2]) < MAX_MODE_OBJECTS
                    and (pass_pedestrians or not obj.is_pedestrian)
                    and past_reachable(obj, v0, v_cap, veh.accel_max_mps2, c.plan_dt_s, s0,
-                                      veh.length_m, c.min_gap_m, margin, v_max))
+                                      veh.length_m, c.min_gap_m, margin, v_max,
+                                      None if obj.pass_margin
+                                      else self._full_progress(v0, v_cap, v_max)))
             options.append((BEHIND, PAST) if two else (BEHIND,))
         combos = list(itertools.product(*options))
         if len(combos) == 1:
