@@ -13,7 +13,6 @@ Objects beside or behind the robot now are ignored.
 
 from __future__ import annotations
 
-import itertools
 from dataclasses import dataclass
 
 import numpy as np
@@ -128,18 +127,22 @@ def objects_on_path(route: Route, scene: ScenePrediction, s0: float, robot_lengt
     occupied = np.empty(heading.shape, dtype=bool)  # (P, N)
     span = np.empty((n_pair, 3), dtype=np.int64)  # (P, 3) first, last occupied step, kind
     listed = np.empty((n_hyp, n_obj), dtype=np.int64)  # (L, M) each one's relevant pairs
+    n_listed = np.empty(n_hyp, dtype=np.int64)  # (L,) how many
     half = 0.5 * robot_width_m
     n_relevant = kernels.corridor_occupancy(
         extent, scene.is_pedestrian, source, half + clearance, half + lateral_margin_m, widen,
         half + pedestrian_margin_m if widen else 0.0, route.length_m, s0 + 0.5 * robot_length_m,
-        mask, pair, occupied, span, listed)
+        mask, pair, occupied, span, listed, n_listed)
     if not n_relevant:
         return [[] for _ in range(n_hyp)]
     s_rear, s_front = extent[0], extent[1]  # (P, N) each
     objects = {i: PathObject(occupied[i], s_rear[i], s_front[i], first, last, bool(ped))
                for i, (first, last, ped) in enumerate(span.tolist()) if first >= 0}
-    return [[objects[i] for i in itertools.takewhile((0).__le__, row)]
-            for row in listed.tolist()]
+    out: list[list[PathObject]] = [[] for _ in range(n_hyp)]
+    for l, count in enumerate(n_listed.tolist()):
+        if count:
+            out[l] = [objects[i] for i in listed[l, :count].tolist()]
+    return out
 
 
 @dataclass(frozen=True)

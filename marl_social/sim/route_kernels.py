@@ -218,7 +218,7 @@ def distinct_predictions(xy, heading, length_m, width_m, is_pedestrian, mask, sh
 @numba.njit(cache=True)
 def corridor_occupancy(extent, is_pedestrian, source, half_pedestrian_m, half_other_m, widen,
                        closing_half_m, route_length_m, rear_from_m, mask, pair, occupied, span,
-                       listed):
+                       listed, n_listed):
     """When each projected footprint occupies the robot's corridor (agents/robot/corridor.py).
 
     Footprint p is in the corridor at step n when its lateral extent overlaps
@@ -247,6 +247,7 @@ def corridor_occupancy(extent, is_pedestrian, source, half_pedestrian_m, half_ot
             -1, -1) and whether it is a pedestrian's (1, else 0).
         listed: (L, M) int64, out: per hypothesis, the pair numbers of its relevant objects in
             object order, then -1.
+        n_listed: (L,) int64, out: how many each hypothesis has.
 
     Returns:
         the number of relevant footprints.
@@ -286,6 +287,7 @@ def corridor_occupancy(extent, is_pedestrian, source, half_pedestrian_m, half_ot
             if mask[l, m] and span[pair[l, m], 0] >= 0:
                 listed[l, k] = pair[l, m]
                 k += 1
+        n_listed[l] = k
     return n_relevant
 
 
