@@ -311,20 +311,17 @@ class ContingencyMpc:
         wall, margin, s0 = bounds[4:]
         s_low, s_up = mode_bounds(objects, modes, self._n_steps, s0, veh.length_m, c.min_gap_m,
                                   margin, c.pedestrian_gap_m)
-        s_up = np.minimum(s_up, wall)
         # noise on a tracked object's position moves a bound the robot stopped at by a few cm:
         # up to position_tolerance_m, a bound is never tighter than firm braking now gets (nor
-        # than staying where it is, at rest), so noise alone does not make it infeasible
-        v0 = bounds[0]
-        reach = self._reach
-        if v0 > c.rest_mps:
-            s_up = np.maximum(s_up, np.minimum(reach, s_up + c.position_tolerance_m))
-        else:
-            # at rest the robot can always stay where it stands (it cannot back up): noise that
-            # moves a bound it waits at behind it, by any amount, does not make it infeasible;
-            # a plan that only uses the room does not move it (plan: standstill)
-            s_up = np.maximum(s_up, reach)
-        return s_low, np.maximum(s_up, 0.0)
+        # than staying where it is, at rest), so noise alone does not make it infeasible; at
+        # rest the robot can always stay where it stands (it cannot back up): noise that moves
+        # a bound it waits at behind it, by any amount, does not make it infeasible, and a plan
+        # that only uses the room does not move it (plan: standstill). Within the wall, >= 0:
+        # one compiled pass in place (sim/route_kernels.give_way_bound; its numpy reference:
+        # tests/agents/test_corridor_kernels.py)
+        route_kernels().give_way_bound(s_up, float(wall), self._reach, c.position_tolerance_m,
+                                       bool(bounds[0] > c.rest_mps), s_up)
+        return s_low, s_up
 
     def _solve(self, qp: ContingencyQp, weights: np.ndarray, s_low: np.ndarray,
                s_up: np.ndarray, bounds: tuple, comfort: np.ndarray,

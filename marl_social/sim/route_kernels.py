@@ -425,3 +425,27 @@ def curvature_speed_bound(vertex_s, vertex_kappa, s_lo, s_hi, window_m, lat_acce
         curved = curved or math.isfinite(bound)
         out[k] = _np_minimum(bound, v_cap_mps)
     return curved
+
+
+@numba.njit(cache=True)
+def give_way_bound(s_up, wall_m, reach_m, tolerance_m, moving, out):
+    """agents/robot/mpc.py's _branch_bounds after mode_bounds: numpy's bits, in one pass.
+
+    up = np.minimum(s_up, wall); moving: np.maximum(up, np.minimum(reach, up + tolerance)),
+    at rest: np.maximum(up, reach); then np.maximum(up, 0) (_np_minimum / _np_maximum).
+
+    Args:
+        s_up: (N,) upper bounds on progress plus headway times speed [m].
+        wall_m: the static limit (a box, a stop line) relative to the robot [m].
+        reach_m: (N,) _braking_reach [m].
+        tolerance_m: how far a bound gives way to the braking reach when moving [m].
+        moving: whether the robot is moving (above its rest speed).
+        out: (N,) out [m] (may be s_up).
+    """
+    for k in range(s_up.shape[0]):
+        up = _np_minimum(s_up[k], wall_m)
+        if moving:
+            up = _np_maximum(up, _np_minimum(reach_m[k], up + tolerance_m))
+        else:
+            up = _np_maximum(up, reach_m[k])
+        out[k] = _np_maximum(up, 0.0)

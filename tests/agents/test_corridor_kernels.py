@@ -269,3 +269,33 @@ def test_curvature_speed_bound_matches_numpy_bit_for_bit(seed, n_vertices, n_ste
                                                              2.0, v_cap)
         got, curved = curvature_speed_bound(vertex_s, kappa, s_lo, s_hi, 2.5, 2.0, v_cap)
     assert _same(got, want) and curved is want_curved
+
+
+def _reference_give_way_bound(s_up, wall_m, reach_m, tolerance_m, moving):
+    """ContingencyMpc._branch_bounds' numpy after mode_bounds, as it stood."""
+    s_up = np.minimum(s_up, wall_m)
+    if moving:
+        s_up = np.maximum(s_up, np.minimum(reach_m, s_up + tolerance_m))
+    else:
+        s_up = np.maximum(s_up, reach_m)
+    return np.maximum(s_up, 0.0)
+
+
+@settings(max_examples=300, deadline=None)
+@given(SEEDS, st.integers(1, 30), st.booleans(), st.booleans())
+def test_give_way_bound_matches_numpy_bit_for_bit(seed, n_steps, moving, special):
+    from marl_social.sim.kernel_cache import route_kernels
+
+    rng = np.random.default_rng(seed)
+    reach = np.cumsum(rng.uniform(0.0, 2.0, n_steps)) + 0.1
+    s_up = np.where(rng.random(n_steps) < 0.5, np.inf,
+                    reach + rng.normal(0.0, 0.2, n_steps) * rng.choice([0.01, 1.0, 10.0]))
+    s_up[rng.random(n_steps) < 0.1] = 0.0
+    wall = float(rng.choice([np.inf, rng.uniform(-1.0, 30.0), 0.0, -0.0]))
+    if special:
+        s_up, reach = _odd(rng, s_up, 0.2), _odd(rng, reach, 0.2)
+    with np.errstate(invalid="ignore", over="ignore"):
+        want = _reference_give_way_bound(s_up, wall, reach, 0.05, moving)
+        got = s_up.copy()
+        route_kernels().give_way_bound(got, wall, reach, 0.05, moving, got)
+    assert _same(got, want)
