@@ -10,6 +10,15 @@ first NaN if there is one) gives the arc length cum_s[k] + t and the signed late
 dx_k rel_y - dy_k rel_x. `on_lanes` tests objects against lanes with it (sim/route_rules.py,
 tests/sim/test_route_kernels.py). No fast-math (no contraction into fused multiply-adds), no threads:
 each value gets numpy's bits. Compiled once, cached in __pycache__ (cache=True).
+
+The robot's corridor and MPC glue (agents/robot/corridor.py, mpc.py) runs here too, each kernel
+the numpy it replaced, operation for operation (tests/agents/test_corridor_kernels.py keeps that
+numpy and checks them bit for bit): which predictions to project (`distinct_predictions`), their
+footprints' extents (`project_footprints`), when they occupy the corridor
+(`corridor_occupancy`), the braking reach, the reachable progress and the infeasibility test,
+the curvature speed bound and a branch's give-way bound. Sums are np.cumsum's sequential ones;
+np.minimum / np.maximum are `_np_minimum` / `_np_maximum` (a NaN stays, a tie gives the second
+operand, as numpy's do); no reduction is reordered.
 """
 
 from __future__ import annotations
