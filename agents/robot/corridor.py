@@ -74,7 +74,8 @@ def occupied_spans(occupied: np.ndarray, rows: np.ndarray | None = None
 def objects_on_path(route: Route, scene: ScenePrediction, s0: float, robot_length_m: float,
                     robot_width_m: float, lateral_margin_m: float,
                     pedestrian_margin_m: float | None = None,
-                    pedestrian_clearance_m: float | None = None) -> list[list[PathObject]]:
+                    pedestrian_clearance_m: float | None = None,
+                    mask: np.ndarray | None = None) -> list[list[PathObject]]:
     """Per hypothesis, the predicted objects that occupy the robot's corridor.
 
     Args:
@@ -88,66 +89,59 @@ def objects_on_path(route: Route, scene: ScenePrediction, s0: float, robot_lengt
             shrinking) is in the way already within this clearance (None: lateral_margin_m) [m].
         pedestrian_clearance_m: the clearance to any pedestrian, also one walking away
             (None: lateral_margin_m) [m].
+        mask: (L, M) bool, the objects of each hypothesis to look at, in place of scene.mask
+            (None: scene.mask).
 
     Returns:
         L lists of PathObject.
     """
-    n_hyp, n_obj = scene.mask.shape
-    if n_obj == 0 or not scene.mask.any():
+    mask = scene.mask if mask is None else mask
+    n_hyp, n_obj = mask.shape
+    if n_obj == 0 or not mask.any():
         return [[] for _ in range(n_hyp)]
+    kernels = route_kernels()
     # project each distinct prediction once: an object present in several hypotheses and
     # predicted alike in every one (a tracked one) from the first, the others where present
-    mask = scene.mask
-    shared = np.zeros(n_obj, dtype=bool)
-    if n_hyp > 1 and (mask.sum(axis=0) > 1).any():
-        shared = (np.all(scene.xy == scene.xy[:1], axis=(0, 2, 3))
-                  & np.all(scene.heading == scene.heading[:1], axis=(0, 2))
-                  & np.all(scene.length_m == scene.length_m[:1], axis=0)
-                  & np.all(scene.width_m == scene.width_m[:1], axis=0)
-                  & np.all(scene.is_pedestrian == scene.is_pedestrian[:1], axis=0))  # (M,)
-    use = mask & ~shared[None]
-    use[0] |= shared & mask.any(axis=0)
-    src_l, src_m = np.nonzero(use)  # (P,) the projected (hypothesis, object) pairs
-    xy, heading = scene.xy[src_l, src_m], scene.heading[src_l, src_m]  # (P, N, 2), (P, N)
-    is_ped = scene.is_pedestrian[src_l, src_m]
+    # (sim/route_kernels.distinct_predictions; numpy reference: tests/agents/test_corridor_kernels.py)
+    shared = np.empty(n_obj, dtype=bool)
+    pair = np.empty((n_hyp, n_obj), dtype=np.int64)  # (L, M) the pair standing for each
+    source = np.empty((2, n_hyp * n_obj), dtype=np.int64)
+    n_pair = kernels.distinct_predictions(scene.xy, scene.heading, scene.length_m,
+                                          scene.width_m, scene.is_pedestrian, mask, shared,
+                                          pair, source)
     # the footprints' corners projected on the route, their extents: one compiled pass
     # (sim/route_kernels.project_footprints; its numpy reference: tests/sim/test_route_kernels.py)
+    heading = scene.heading[source[0, :n_pair], source[1, :n_pair]]  # (P, N)
     extent = np.empty((5,) + heading.shape)  # (5, P, N)
-    route_kernels().project_footprints(
-        np.ascontiguousarray(xy[..., 0]), np.ascontiguousarray(xy[..., 1]), np.cos(heading),
-        np.sin(heading), 0.5 * scene.length_m[src_l, src_m], 0.5 * scene.width_m[src_l, src_m],
-        route.kernel_segment_table, extent)
-    s_rear, s_front, lat_min, lat_max, centre = extent  # (P, N) each
+    kernels.project_footprints(scene.xy, np.cos(heading), np.sin(heading), scene.length_m,
+                               scene.width_m, source, route.kernel_segment_table, extent)
+    # in the corridor: the lateral extent overlaps the robot's width plus the clearance (a
+    # pedestrian heading for the corridor, its distance to the route shrinking, is in the way
+    # from further out: it has the right of way on the carriageway; one standing or walking
+    # away is not), and the projection is not clamped at the route's ends; relevant: not
+    # beside or behind the robot now (its rear short of the robot's front: not the robot's to
+    # yield to; a car alongside that drifts into the corridor in its prediction is one)
+    # (sim/route_kernels.corridor_occupancy; numpy reference: tests/agents/test_corridor_kernels.py)
     clearance = lateral_margin_m if pedestrian_clearance_m is None else pedestrian_clearance_m
-    half = 0.5 * robot_width_m + np.where(is_ped, clearance, lateral_margin_m)[:, None]
-    overlap = (lat_min <= half) & (lat_max >= -half)
-    if pedestrian_margin_m is not None and is_ped.any():
-        # a pedestrian heading for the corridor is in the way from further out (it has the
-        # right of way on the carriageway); one standing or walking away is not
-        wide = 0.5 * robot_width_m + pedestrian_margin_m  # centre: |the corners' mean|
-        closing = np.empty(centre.shape, dtype=bool)
-        closing[:, 1:] = centre[:, 1:] - centre[:, :-1] < -1e-3
-        closing[:, 0] = (closing[:, 1] if centre.shape[-1] > 1
-                         else centre[:, 0] - (centre[:, 0] + 1.0) < -1e-3)
-        near = (lat_min <= wide) & (lat_max >= -wide)
-        overlap |= near & closing & is_ped[:, None]
-    # an object whose projection is clamped at the route's ends is not on the path
-    occupied = overlap & (s_front > 0.0) & (s_rear < route.length_m)  # (P, N)
-    # beside or behind the robot now (its rear short of the robot's front): not the robot's to
-    # yield to; a car alongside that drifts into the corridor in its prediction is one
-    relevant = occupied.any(axis=-1) & (s_rear[:, 0] >= s0 + 0.5 * robot_length_m)  # (P,)
+    widen = pedestrian_margin_m is not None
+    occupied = np.empty(heading.shape, dtype=bool)  # (P, N)
+    span = np.empty((n_pair, 3), dtype=np.int64)  # (P, 3) first, last occupied step, kind
+    listed = np.empty((n_hyp, n_obj), dtype=np.int64)  # (L, M) each one's relevant pairs
+    n_listed = np.empty(n_hyp, dtype=np.int64)  # (L,) how many
+    half = 0.5 * robot_width_m
+    n_relevant = kernels.corridor_occupancy(
+        extent, scene.is_pedestrian, source, half + clearance, half + lateral_margin_m, widen,
+        half + pedestrian_margin_m if widen else 0.0, route.length_m, s0 + 0.5 * robot_length_m,
+        mask, pair, occupied, span, listed, n_listed)
+    if not n_relevant:
+        return [[] for _ in range(n_hyp)]
+    s_rear, s_front = extent[0], extent[1]  # (P, N) each
+    objects = {i: PathObject(occupied[i], s_rear[i], s_front[i], first, last, bool(ped))
+               for i, (first, last, ped) in enumerate(span.tolist()) if first >= 0}
     out: list[list[PathObject]] = [[] for _ in range(n_hyp)]
-    if not relevant.any():
-        return out
-    pair = np.full((n_hyp, n_obj), -1)
-    pair[src_l, src_m] = np.arange(len(src_l))
-    pair = np.where(shared[None], pair[:1], pair)  # shared objects: the first hypothesis' pair
-    objects = [None] * len(src_l)
-    for i, first, last in occupied_spans(occupied, relevant):
-        objects[i] = PathObject(occupied[i], s_rear[i], s_front[i], first, last,
-                                bool(is_ped[i]))
-    for l in np.flatnonzero(mask.any(axis=1)):
-        out[l] = [objects[i] for i in pair[l][mask[l]] if objects[i] is not None]
+    for l, count in enumerate(n_listed.tolist()):
+        if count:
+            out[l] = [objects[i] for i in listed[l, :count].tolist()]
     return out
 
 
@@ -227,9 +221,9 @@ def route_curvature(route: Route) -> tuple[np.ndarray, np.ndarray]:
 
 
 def curvature_speed_bound(vertex_s: np.ndarray, vertex_kappa: np.ndarray, s_lo: np.ndarray,
-                          s_hi: np.ndarray, window_m: float,
-                          lat_accel_max_mps2: float) -> np.ndarray:
-    """(N,) v <= sqrt(a_lat / kappa) over the positions a step may have [m/s] (inf: straight).
+                          s_hi: np.ndarray, window_m: float, lat_accel_max_mps2: float,
+                          v_cap_mps: float = np.inf) -> tuple[np.ndarray, bool]:
+    """(N,) v <= min(v_cap, sqrt(a_lat / kappa)) over the positions a step may have [m/s].
 
     Args:
         vertex_s: (V,) arc lengths of the route's vertices [m].
@@ -238,14 +232,24 @@ def curvature_speed_bound(vertex_s: np.ndarray, vertex_kappa: np.ndarray, s_lo: 
         s_hi: (N,) largest arc length each plan step may reach [m].
         window_m: vertices this far outside [s_lo, s_hi] count too (the footprint's extent) [m].
         lat_accel_max_mps2: the lateral acceleration allowed [m/s^2].
+        v_cap_mps: the speed cap [m/s] (inf: none).
+
+    Returns:
+        the (N,) bounds [m/s] and whether a curve bounds the speed at some step (its bound
+        finite, before the cap).
     """
-    if len(vertex_kappa) == 0:
-        return np.full(len(s_lo), np.inf)
-    near = ((vertex_s[None] >= s_lo[:, None] - window_m)
-            & (vertex_s[None] <= s_hi[:, None] + window_m))
-    kappa = np.where(near, vertex_kappa[None], 0.0).max(axis=1)
-    with np.errstate(divide="ignore"):
-        return np.sqrt(lat_accel_max_mps2 / kappa)
+    out = np.empty(len(s_lo))
+    if len(vertex_kappa) == 0:  # straight: np.minimum(inf, v_cap)
+        out[:] = v_cap_mps
+        return out, False
+    # the largest curvature near each step, its bound, capped: one compiled pass
+    # (sim/route_kernels.curvature_speed_bound; numpy reference: tests/agents/
+    # test_corridor_kernels.py)
+    curved = route_kernels().curvature_speed_bound(
+        np.asarray(vertex_s, dtype=np.float64), np.asarray(vertex_kappa, dtype=np.float64),
+        np.asarray(s_lo, dtype=np.float64), np.asarray(s_hi, dtype=np.float64),
+        float(window_m), float(lat_accel_max_mps2), float(v_cap_mps), out)
+    return out, bool(curved)
 
 
 def mode_bounds(objects: list[PathObject], modes: tuple[str, ...], n_steps: int, s0: float,
@@ -266,15 +270,15 @@ def mode_bounds(objects: list[PathObject], modes: tuple[str, ...], n_steps: int,
     Returns:
         s_low (N,) and s_up (N,) [m]: s_low <= s <= ... and s + h v <= s_up.
     """
-    s_low, s_up = np.full(n_steps, -np.inf), np.full(n_steps, np.inf)
+    s_low, s_up = np.empty(n_steps), np.empty(n_steps)
+    s_low[:], s_up[:] = -np.inf, np.inf
     half = 0.5 * robot_length_m
     for obj, mode in zip(objects, modes):
         k0, k1 = obj.k_first, obj.k_last
         gap = gap_m if pedestrian_gap_m is None or not obj.is_pedestrian else pedestrian_gap_m
-        if mode == BEHIND:
-            limit = np.full(n_steps, np.inf)
-            limit[k0:k1 + 1] = obj.s_rear_m[k0:k1 + 1] - gap - half - s0
-            s_up = np.minimum(s_up, limit)
+        if mode == BEHIND:  # min(s_up, inf) elsewhere leaves it as it is
+            steps = slice(k0, k1 + 1)
+            np.minimum(s_up[steps], obj.s_rear_m[steps] - gap - half - s0, out=s_up[steps])
         else:
             need = np.full(n_steps, -np.inf)
             need[k0:k1 + 1] = obj.s_front_m[k0:k1 + 1] + gap + half - s0
@@ -284,9 +288,34 @@ def mode_bounds(objects: list[PathObject], modes: tuple[str, ...], n_steps: int,
     return s_low, s_up
 
 
+def full_acceleration_progress(v0: float, v_cap_mps: float, accel_max_mps2: float,
+                               dt_s: float, n_steps: int,
+                               v_max_mps: np.ndarray | None = None) -> np.ndarray:
+    """(N,) the progress of full acceleration under the steps' speed bounds [m].
+
+    v_k = min(v_k-1 + a dt, v_max_k, v_cap), v >= 0, the progress the sum of
+    0.5 (v_k-1 + v_k) dt (past_reachable's test of an object without a pass margin).
+
+    Args:
+        v0: the robot's speed [m/s].
+        v_cap_mps: its speed cap [m/s].
+        accel_max_mps2: its largest acceleration [m/s^2].
+        dt_s: plan step [s].
+        n_steps: N plan steps.
+        v_max_mps: (N,) the speed bound of each plan step [m/s] (None: v_cap only).
+    """
+    t = dt_s * np.arange(1, n_steps + 1)
+    cap = (np.full(n_steps, v_cap_mps) if v_max_mps is None
+           else np.minimum(v_max_mps, v_cap_mps))
+    v = accel_max_mps2 * t + np.minimum(v0, np.minimum.accumulate(cap - accel_max_mps2 * t))
+    v = np.maximum(v, 0.0)
+    return np.cumsum(0.5 * (np.concatenate([[v0], v[:-1]]) + v) * dt_s)
+
+
 def past_reachable(obj: PathObject, v0: float, v_cap_mps: float, accel_max_mps2: float,
                    dt_s: float, s0: float, robot_length_m: float, gap_m: float,
-                   pass_margin_steps: int, v_max_mps: np.ndarray | None = None) -> bool:
+                   pass_margin_steps: int, v_max_mps: np.ndarray | None = None,
+                   full_progress_m: np.ndarray | None = None) -> bool:
     """Whether full acceleration (capped at v_cap) gets the robot past `obj` in time.
 
     Args:
@@ -301,6 +330,8 @@ def past_reachable(obj: PathObject, v0: float, v_cap_mps: float, accel_max_mps2:
         pass_margin_steps: as in mode_bounds.
         v_max_mps: (N,) the speed bound of each plan step (e.g. its curves) [m/s]; used for
             an object without a pass margin (None: v_cap only).
+        full_progress_m: (N,) full_acceleration_progress of these arguments, if known (None:
+            computed here when needed) [m].
     """
     t_cap = max(0.0, (v_cap_mps - v0) / accel_max_mps2)
 
@@ -313,12 +344,9 @@ def past_reachable(obj: PathObject, v0: float, v_cap_mps: float, accel_max_mps2:
     if not obj.pass_margin:
         # past it at every step it is on the path (its front there may keep moving ahead),
         # accelerating fully under the steps' speed bounds: v_k = min(v_k-1 + a dt, v_max_k)
-        n = len(obj.s_front_m)
-        t = dt_s * np.arange(1, n + 1)
-        cap = np.full(n, v_cap_mps) if v_max_mps is None else np.minimum(v_max_mps, v_cap_mps)
-        v = accel_max_mps2 * t + np.minimum(v0, np.minimum.accumulate(cap - accel_max_mps2 * t))
-        v = np.maximum(v, 0.0)
-        s = np.cumsum(0.5 * (np.concatenate([[v0], v[:-1]]) + v) * dt_s)
+        s = (full_acceleration_progress(v0, v_cap_mps, accel_max_mps2, dt_s,
+                                        len(obj.s_front_m), v_max_mps)
+             if full_progress_m is None else full_progress_m)
         k = slice(obj.k_first, obj.k_last + 1)
         return bool(np.all(s[k] >= obj.s_front_m[k] + ahead))
     k = obj.k_first - pass_margin_steps
@@ -346,13 +374,14 @@ def reachable_progress(v0: float, prev_accel: float, accel_max_mps2: float,
         dt_s: plan step [s].
         v_max_mps: (N,) the speed bound of each plan step [m/s].
     """
-    n = len(v_max_mps)
-    accel = np.minimum(accel_max_mps2, prev_accel + jerk_max_mps3 * (first_dt_s
-                                                                     + dt_s * np.arange(n)))
-    climb = np.cumsum(accel * dt_s)
-    # v_k = min(v0 + climb_k, min_{j <= k} v_max_j + climb_k - climb_j), and v >= 0
-    speed = np.maximum(climb + np.minimum(v0, np.minimum.accumulate(v_max_mps - climb)), 0.0)
-    return np.cumsum(0.5 * dt_s * (np.concatenate([[v0], speed[:-1]]) + speed))
+    # v_k = min(v0 + climb_k, min_{j <= k} v_max_j + climb_k - climb_j), and v >= 0, climb
+    # the sum of the accelerations times dt: one compiled pass (sim/route_kernels.
+    # reachable_progress; its numpy reference: tests/agents/test_corridor_kernels.py)
+    out = np.empty(len(v_max_mps))
+    route_kernels().reachable_progress(float(v0), float(prev_accel), float(accel_max_mps2),
+                                       float(jerk_max_mps3), float(first_dt_s), float(dt_s),
+                                       np.asarray(v_max_mps, dtype=np.float64), out)
+    return out
 
 
 def provably_infeasible(s_low: np.ndarray, s_up: np.ndarray, reachable_m: np.ndarray,
@@ -369,5 +398,9 @@ def provably_infeasible(s_low: np.ndarray, s_up: np.ndarray, reachable_m: np.nda
         reachable_m: (N,) the upper bound on progress of reachable_progress [m].
         margin_m: the violation that still does not count as infeasible [m].
     """
-    need = np.maximum.accumulate(s_low, axis=-1)
-    return bool(np.any(need > np.minimum(s_up, reachable_m) + margin_m))
+    # np.maximum.accumulate(s_low) > np.minimum(s_up, reachable_m) + margin_m anywhere, in one
+    # compiled pass (sim/route_kernels.progress_infeasible; numpy reference: tests/agents/
+    # test_corridor_kernels.py)
+    return bool(route_kernels().progress_infeasible(
+        np.asarray(s_low, dtype=np.float64), np.asarray(s_up, dtype=np.float64),
+        np.asarray(reachable_m, dtype=np.float64), float(margin_m)))

@@ -238,15 +238,16 @@ class CurbPedestrians:
         """
         c = self.config
         empty = np.zeros((0, len(times_s), 2)), np.zeros(0)
-        if len(tracks) == 0 or not self._crossings:
+        standing = tracks.is_pedestrian
+        if self._crossings and standing.any():  # most steps: no pedestrian, or none standing
+            standing = standing & (np.linalg.norm(tracks.velocity, axis=1) < c.standing_mps)
+            if standing.any():  # only standing pedestrians are projected
+                _, lateral, _ = self.route.project(tracks.xy[standing])
+                standing[standing] = np.abs(lateral) > self._corridor_half
+        if not (self._crossings and standing.any()):  # no one to step off: no one waits
             self.wait_s.clear()
             self.ignored.clear()
             return empty
-        standing = tracks.is_pedestrian & (np.linalg.norm(tracks.velocity, axis=1)
-                                           < c.standing_mps)
-        if standing.any():  # only standing pedestrians are projected (most steps: none)
-            _, lateral, _ = self.route.project(tracks.xy[standing])
-            standing[standing] = np.abs(lateral) > self._corridor_half
         xy_out, heading_out, seen = [], [], set()
         for i, s_near in self._crossings:
             cw = self.crosswalks[i]

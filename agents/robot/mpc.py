@@ -49,7 +49,6 @@ as much as driving 2 m/s slower for 5 s.
 from __future__ import annotations
 
 import itertools
-from dataclasses import replace
 
 import numpy as np
 
@@ -59,6 +58,7 @@ from marl_social.agents.robot.corridor import (
     PathObject,
     StaticBoxes,
     curvature_speed_bound,
+    full_acceleration_progress,
     mode_bounds,
     objects_on_path,
     past_reachable,
@@ -72,6 +72,7 @@ from marl_social.agents.robot.qp_types import QpSolution, QpWeights
 from marl_social.models.candidates import ScenePrediction
 from marl_social.sim.agent_spec import VehicleParams
 from marl_social.sim.dynamics import DT_S
+from marl_social.sim.kernel_cache import route_kernels
 from marl_social.sim.road_map import Route
 
 MAX_MODE_OBJECTS = 3  # per branch, objects beyond this many with two plausible modes stay behind
@@ -97,10 +98,14 @@ class ContingencyMpc:
         self._static: tuple[Route, np.ndarray | None, StaticBoxes] | None = None
         self._headway = config.headway_s()
         self._plan_times = config.plan_times_s
-        self._reach = np.zeros(config.n_steps)  # _braking_reach(v0), set by plan
+        # (N,) the speed braking at half the limit loses by the end of each step [m/s]
+        self._brake_decel = 0.5 * vehicle.brake_max_mps2 * self._plan_times
+        self._n_steps = config.n_steps  # N (a property computed at each access)
+        self._reach = np.zeros(self._n_steps)  # _braking_reach(v0), set by plan
         # reachable_progress of this plan's state per (speed bound array, jerk bound): every
         # mode and joint QP of one curvature iteration shares them (reset by plan)
         self._reachable: list[tuple[np.ndarray, float, np.ndarray]] = []
+        self._full: tuple[np.ndarray, np.ndarray] | None = None  # set by _full_progress
         self._comfort = np.ones(0)  # (L,) comfort weight factor per hypothesis, set by plan
         self._goal = (0.0, 0.0)  # the pull-up term (weight, progress to the line), set by plan
 
@@ -147,9 +152,8 @@ class ContingencyMpc:
         if self._curvature is None or self._curvature[0] is not route:
             self._curvature = (route, route_curvature(route))
         vertex_s, kappa = self._curvature[1]
-        bound = curvature_speed_bound(vertex_s, kappa, s_lo, s_hi, c.curvature_window_m,
-                                      c.lat_accel_max_mps2)
-        return np.minimum(bound, v_cap), bool(np.isfinite(bound).any())
+        return curvature_speed_bound(vertex_s, kappa, s_lo, s_hi, c.curvature_window_m,
+                                     c.lat_accel_max_mps2, v_cap)
 
     def plan(self, route: Route, s0: float, v0: float, prev_accel: float, v_ref_mps: float,
              speed_limit_mps: float, scene: ScenePrediction, beliefs: np.ndarray,
@@ -195,7 +199,7 @@ class ContingencyMpc:
             live = beliefs == beliefs.max()
         weights = np.where(live, beliefs, 0.0)
         weights = weights / weights.sum()
-        n = c.n_steps
+        n = self._n_steps
         v_cap = min(speed_limit_mps, veh.speed_max_mps)
         v_ref = min(v_ref_mps, v_cap)
         # a braking command larger than the speed left is realized only in part (v >= 0)
@@ -208,16 +212,16 @@ class ContingencyMpc:
                 - s0)
         wall = min(wall, stop_at_m - s0)
         # only the live branches' objects are planned for: the others are not projected
-        scene = replace(scene, mask=scene.mask & live[:, None])
         per_hyp = objects_on_path(route, scene, s0, veh.length_m, veh.width_m,
                                   c.lateral_margin_m, c.pedestrian_margin_m,
-                                  c.pedestrian_clearance_m)
+                                  c.pedestrian_clearance_m, scene.mask & live[:, None])
         if extra_objects is not None:
             per_hyp = [objs + list(more) for objs, more in zip(per_hyp, extra_objects)]
         live_idx = np.flatnonzero(live)
         margin = round(c.pass_margin_s / c.plan_dt_s)
         self._reach = self._braking_reach(v0)  # _branch_bounds' room, for this v0
         self._reachable = []
+        self._full = None  # _full_progress' (speed bound array, progress) of this plan
         # the curvature bound needs the positions, which the plan decides: guess them (constant
         # speed), solve, and widen the guess to the solution's positions until it holds them
         # or the wider guess bounds the speed as before (the same QP again)
@@ -294,31 +298,30 @@ class ContingencyMpc:
         Args:
             v0: the robot's speed [m/s].
         """
-        c = self.config
-        v_brake = np.maximum(v0 - 0.5 * self.vehicle.brake_max_mps2 * self._plan_times, 0.0)
-        v_start = np.concatenate([[v0], v_brake[:-1]])
-        s_brake = np.cumsum(0.5 * (v_start + v_brake) * c.plan_dt_s)
-        return s_brake + self._headway * v_brake + ROOM_M
+        # v = max(v0 - decel, 0), the progress the sum of 0.5 (v_{k-1} + v_k) dt, plus headway
+        # times v and ROOM_M: one compiled pass (sim/route_kernels.braking_reach; its numpy
+        # reference: tests/agents/test_corridor_kernels.py)
+        out = np.empty(len(self._brake_decel))
+        route_kernels().braking_reach(float(v0), self._brake_decel, self.config.plan_dt_s,
+                                      self._headway, ROOM_M, out)
+        return out
 
     def _branch_bounds(self, objects: list[PathObject], modes: tuple, bounds: tuple):
         c, veh = self.config, self.vehicle
         wall, margin, s0 = bounds[4:]
-        s_low, s_up = mode_bounds(objects, modes, c.n_steps, s0, veh.length_m, c.min_gap_m,
+        s_low, s_up = mode_bounds(objects, modes, self._n_steps, s0, veh.length_m, c.min_gap_m,
                                   margin, c.pedestrian_gap_m)
-        s_up = np.minimum(s_up, wall)
         # noise on a tracked object's position moves a bound the robot stopped at by a few cm:
         # up to position_tolerance_m, a bound is never tighter than firm braking now gets (nor
-        # than staying where it is, at rest), so noise alone does not make it infeasible
-        v0 = bounds[0]
-        reach = self._reach
-        if v0 > c.rest_mps:
-            s_up = np.maximum(s_up, np.minimum(reach, s_up + c.position_tolerance_m))
-        else:
-            # at rest the robot can always stay where it stands (it cannot back up): noise that
-            # moves a bound it waits at behind it, by any amount, does not make it infeasible;
-            # a plan that only uses the room does not move it (plan: standstill)
-            s_up = np.maximum(s_up, reach)
-        return s_low, np.maximum(s_up, 0.0)
+        # than staying where it is, at rest), so noise alone does not make it infeasible; at
+        # rest the robot can always stay where it stands (it cannot back up): noise that moves
+        # a bound it waits at behind it, by any amount, does not make it infeasible, and a plan
+        # that only uses the room does not move it (plan: standstill). Within the wall, >= 0:
+        # one compiled pass in place (sim/route_kernels.give_way_bound; its numpy reference:
+        # tests/agents/test_corridor_kernels.py)
+        route_kernels().give_way_bound(s_up, float(wall), self._reach, c.position_tolerance_m,
+                                       bool(bounds[0] > c.rest_mps), s_up)
+        return s_low, s_up
 
     def _solve(self, qp: ContingencyQp, weights: np.ndarray, s_low: np.ndarray,
                s_up: np.ndarray, bounds: tuple, comfort: np.ndarray,
@@ -336,10 +339,22 @@ class ContingencyMpc:
             self._reachable.append((v_max, jerk_max, reachable))
         if provably_infeasible(s_low, s_up, reachable, INFEASIBLE_MARGIN_M):
             return qp.failed()
-        v_max_b = np.broadcast_to(v_max, s_low.shape)
+        v_max_b = v_max[None].repeat(len(s_low), 0)  # (L, N), a copy: cheaper than a view
         return qp.solve(weights, v0, prev, v_ref, v_max_b, s_low, s_up,
                         -veh.brake_max_mps2, veh.accel_max_mps2, jerk_max,
                         self.config.comfort_decel_mps2, comfort, *self._goal)
+
+    def _full_progress(self, v0: float, v_cap: float, v_max: np.ndarray) -> np.ndarray:
+        """(N,) corridor.full_acceleration_progress of this plan's v0 and v_cap [m].
+
+        Computed once per speed bound array v_max (N,) [m/s]: every branch's objects share it
+        (reset by plan).
+        """
+        if self._full is None or self._full[0] is not v_max:
+            self._full = (v_max, full_acceleration_progress(
+                v0, v_cap, self.vehicle.accel_max_mps2, self.config.plan_dt_s, self._n_steps,
+                v_max))
+        return self._full[1]
 
     def _choose_modes(self, objects: list[PathObject], bounds: tuple, v_cap: float,
                       pass_pedestrians: bool, hyp: int) -> tuple:
@@ -354,8 +369,9 @@ class ContingencyMpc:
             two = (len([o for o in options if len(o) == 2]) < MAX_MODE_OBJECTS
                    and (pass_pedestrians or not obj.is_pedestrian)
                    and past_reachable(obj, v0, v_cap, veh.accel_max_mps2, c.plan_dt_s, s0,
-                                      veh.length_m, c.min_gap_m, margin,
-                                      np.broadcast_to(v_max, (c.n_steps,))))
+                                      veh.length_m, c.min_gap_m, margin, v_max,
+                                      None if obj.pass_margin
+                                      else self._full_progress(v0, v_cap, v_max)))
             options.append((BEHIND, PAST) if two else (BEHIND,))
         combos = list(itertools.product(*options))
         if len(combos) == 1:
@@ -372,9 +388,10 @@ class ContingencyMpc:
 
     def _solve_joint(self, per_hyp, live_idx, weights, chosen, bounds,
                      jerk_max: float | None = None) -> QpSolution:
-        rel = [self._branch_bounds(per_hyp[l], m, bounds) for l, m in zip(live_idx, chosen)]
-        s_low = np.stack([r[0] for r in rel])
-        s_up = np.stack([r[1] for r in rel])
+        s_low = np.empty((len(live_idx), self._n_steps))  # (L, N), a row per branch
+        s_up = np.empty_like(s_low)
+        for row, (l, m) in enumerate(zip(live_idx, chosen)):
+            s_low[row], s_up[row] = self._branch_bounds(per_hyp[l], m, bounds)
         return self._solve(self._qp(len(live_idx)), weights[live_idx], s_low, s_up, bounds,
                            self._comfort[live_idx], jerk_max)
 

@@ -187,12 +187,13 @@ class RightOfWay:
         front = centre + half_length_m[:, None]
         # where its front would be if it slowed for the robot (speeds between plan steps)
         t = np.asarray(times_s, dtype=np.float64)
-        dt = np.diff(t, prepend=0.0)
-        speed = np.diff(s_lane, axis=1) / dt[1:]  # (W, N-1) [m/s]
+        dt = t[1:] - t[:-1]  # (N-1,) between plan steps [s]
+        speed = (s_lane[:, 1:] - s_lane[:, :-1]) / dt  # (W, N-1) [m/s]
         slowed = np.maximum(speed - c.follower_decel_mps2
                             * np.maximum(t[1:] - c.follower_reaction_s, 0.0), 0.0)
-        yielding_front = front[:, :1] + np.concatenate(
-            [np.zeros((len(front), 1)), np.cumsum(slowed * dt[1:], axis=1)], axis=1)
+        advance = np.zeros(s_lane.shape)  # (W, N) from the first step [m]
+        np.cumsum(slowed * dt, axis=1, out=advance[:, 1:])
+        yielding_front = front[:, :1] + advance
         # it has reached the zone; a car already past the join is a car ahead (the corridor's)
         claimed = (front >= conflict.s_enter_m) & (rear[:, :1] <= conflict.s_exit_m)  # (W, N)
         made = [None] * len(claimed)

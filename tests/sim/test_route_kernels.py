@@ -184,11 +184,20 @@ def test_footprint_extents_match_numpy_bit_for_bit(seed, straight, shape):
     heading[rng.random(shape) < 0.2] = 0.0
     length = rng.uniform(0.3, 6.0, size=(shape[0], 1))
     width = rng.uniform(0.3, 2.5, size=(shape[0], 1))
+    # the rectangles as objects of hypotheses, gathered from them in a shuffled order
+    n_hyp = 3
+    hyp = rng.integers(0, n_hyp, shape[0])
+    obj = rng.permutation(shape[0])
+    scene_xy = rng.normal(size=(n_hyp, shape[0]) + shape[1:] + (2,))
+    scene_length, scene_width = rng.uniform(size=(2, n_hyp, shape[0]))
+    scene_xy[hyp, obj] = xy
+    scene_length[hyp, obj], scene_width[hyp, obj] = length[:, 0], width[:, 0]
+    # (2, >= P): columns past the P pairs are not read
+    source = np.hstack([np.vstack([hyp, obj]), np.full((2, 2), 10**6)]).astype(np.int64)
     with np.errstate(invalid="ignore", over="ignore"):
         expected = _reference_footprint_extent(route, xy, heading, length, width)
         got = np.empty((5,) + shape)
-        route_kernels().project_footprints(
-            np.ascontiguousarray(xy[..., 0]), np.ascontiguousarray(xy[..., 1]), np.cos(heading),
-            np.sin(heading), 0.5 * length[:, 0], 0.5 * width[:, 0], route.kernel_segment_table,
-            got)
+        route_kernels().project_footprints(scene_xy, np.cos(heading), np.sin(heading),
+                                           scene_length, scene_width, source,
+                                           route.kernel_segment_table, got)
     assert _same(got, expected)
