@@ -75,7 +75,10 @@ def compile_kernels(parts: tuple[str, ...] | list[str] = PARTS) -> None:
 
         points = [[0.0, 0.0], [10.0, 0.0], [20.0, 5.0]]
         Route(points, "compile_kernels").project(np.zeros(2))
-        on_lanes([Lane(np.array(points), 3.5)], np.zeros((1, 2)), np.zeros(1))  # the lane test
+        lanes = [Lane(np.array(points), 3.5)]
+        on_lanes(lanes, np.zeros((1, 2)), np.zeros(1))  # the lane test, headings contiguous
+        on_lanes(lanes, np.zeros((2, 2)), np.zeros((2, 3))[:, 2])  # and a column of a table
+        _plan_once()
 
 
 def _solve_one_tree_qp() -> None:
@@ -94,3 +97,32 @@ def _solve_one_tree_qp() -> None:
              v_max=np.full((n_branches, n), 15.0), s_low=np.full((n_branches, n), -np.inf),
              s_up=np.repeat(stop_m[:, None], n, axis=1), accel_min=-8.0, accel_max=3.0,
              jerk_max=c.jerk_max_mps3)
+
+
+def _plan_once() -> None:
+    """One MPC plan (agents/robot/mpc.py): the corridor and MPC kernels compile now.
+
+    A curved route with a stop line, a pedestrian walking across and a car ahead in two
+    hypotheses: sim/route_kernels.py's robot kernels compile at their first call, with the
+    argument types a robot's decision gives them.
+    """
+    from marl_social.agents.robot.mpc import plan
+    from marl_social.agents.robot.mpc_types import MpcConfig
+    from marl_social.models.candidates import ScenePrediction
+    from marl_social.sim.agent_spec import VehicleParams
+    from marl_social.sim.road_map import Route
+
+    c = MpcConfig()
+    times = np.asarray(c.plan_times_s)
+    route = Route([[0.0, 0.0], [40.0, 0.0], [60.0, 10.0], [70.0, 30.0]], "compile_kernels")
+    walker = np.stack([np.full(len(times), 30.0), -4.0 + 1.3 * times], axis=-1)  # (T, 2) [m]
+    car = np.stack([45.0 + 2.0 * times, np.zeros(len(times))], axis=-1)
+    both = np.ones((2, 2), bool)
+    scene = ScenePrediction(
+        np.repeat(np.stack([walker, car])[None], 2, axis=0),
+        np.repeat(np.array([[np.pi / 2], [0.0]]) * np.ones(len(times)), 2, axis=0).reshape(
+            2, 2, -1),
+        np.array([[0.6, 4.5]] * 2), np.array([[0.6, 1.8]] * 2), np.array([[0.3, 2.4]] * 2),
+        both & [True, False], both & [[True], [False]] | both & [False, True])
+    plan(c, VehicleParams(), route, 10.0, 8.0, 0.0, 10.0, 13.9, scene, np.array([0.3, 0.7]),
+         stop_at_m=50.0)
