@@ -62,12 +62,13 @@ def vehicle_gap_evaluation(cands: CandidateSet, theta: np.ndarray, v_ref_mps: fl
     The rollouts, the gaps and the step costs are compiled loops (models/gap_kernels.py,
     cost_kernels.py; they read the route's per-segment pose table, Route.segment_pose_table and
     vertex_s_m); np.exp and np.tanh stay in numpy. What the kernels do not take takes
-    evaluate_candidates itself: a non-finite or -0.0 speed, a huge speed or arc length, and
-    MAX_KERNEL_OBJECTS or more objects (models/circle_gaps.py).
+    evaluate_candidates itself: a non-finite or -0.0 speed, a huge speed or arc length,
+    MAX_KERNEL_OBJECTS or more objects (models/circle_gaps.py), and no continuations (the
+    kernels count the first actions as plans / continuations).
     """
     if not (abs(v0) < _LARGEST_SPEED_MPS and abs(s0) < _LARGEST_ARC_LENGTH_M) or (
             v0 == 0.0 and math.copysign(1.0, v0) < 0.0) or (
-            scene.mask.shape[1] >= MAX_KERNEL_OBJECTS):
+            scene.mask.shape[1] >= MAX_KERNEL_OBJECTS) or len(cands.continuations_mps2) == 0:
         return evaluate_candidates(cands, theta, v_ref_mps, vehicle, route, s0, v0, prev_accel,
                                    scene, crosswalks, geometry=True, yield_zones=yield_zones,
                                    yield_margin_s=yield_margin_s, curve_speed=curve_speed,
