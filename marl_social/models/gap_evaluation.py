@@ -66,13 +66,33 @@ def vehicle_gap_evaluation(cands: CandidateSet, theta: np.ndarray, v_ref_mps: fl
     MAX_KERNEL_OBJECTS or more objects (models/circle_gaps.py), and no continuations (the
     kernels count the first actions as plans / continuations).
     """
-    if not (abs(v0) < _LARGEST_SPEED_MPS and abs(s0) < _LARGEST_ARC_LENGTH_M) or (
-            v0 == 0.0 and math.copysign(1.0, v0) < 0.0) or (
-            scene.mask.shape[1] >= MAX_KERNEL_OBJECTS) or len(cands.continuations_mps2) == 0:
+    evaluation = kernel_gap_evaluation(cands, theta, v_ref_mps, vehicle, route, s0, v0,
+                                       prev_accel, scene, crosswalks, yield_zones,
+                                       yield_margin_s, curve_speed)
+    if evaluation is None:
         return evaluate_candidates(cands, theta, v_ref_mps, vehicle, route, s0, v0, prev_accel,
                                    scene, crosswalks, geometry=True, yield_zones=yield_zones,
                                    yield_margin_s=yield_margin_s, curve_speed=curve_speed,
                                    vehicle_gaps_only=True)
+    return evaluation
+
+
+def kernel_gap_evaluation(cands: CandidateSet, theta: np.ndarray, v_ref_mps: float,
+                          vehicle: VehicleParams, route: Route, s0: float, v0: float,
+                          prev_accel: float, scene: ScenePrediction,
+                          crosswalks: tuple[Crosswalk, ...], yield_zones: tuple = (),
+                          yield_margin_s: float = 0.0, curve_speed: CurveSpeed | None = None
+                          ) -> CandidateEvaluation | None:
+    """`vehicle_gap_evaluation` by the kernels; None where they do not take the case.
+
+    The arguments and the result are vehicle_gap_evaluation's (None: its cases for
+    evaluate_candidates). The result's arrays are C-contiguous float64, as
+    models/driver.py's compiled totals take them without a copy.
+    """
+    if not (abs(v0) < _LARGEST_SPEED_MPS and abs(s0) < _LARGEST_ARC_LENGTH_M) or (
+            v0 == 0.0 and math.copysign(1.0, v0) < 0.0) or (
+            scene.mask.shape[1] >= MAX_KERNEL_OBJECTS) or len(cands.continuations_mps2) == 0:
+        return None
     kernels, cost_kernels = _KERNELS or _kernels()
     plan = _prepared_plan(cands, vehicle)
     n_cont = plan.plan_shape[1]
