@@ -203,10 +203,9 @@ class BoltzmannDriver(BoltzmannPolicy):
         """(A,) Q* of each first acceleration (eq. 11) along the driver's route."""
         if len(self.signal_lines_s):
             self.signals_seen.update(decoded.signal_states())
-        x, y = float(decoded.ego[0]), float(decoded.ego[1])
-        v = float(decoded.ego[4])
+        x, y, cos_psi, sin_psi, v = decoded.ego[:5].tolist()  # exact, as float() of each
         s0, _ = self.route.project_point(x, y)
-        self._last_pose = (x, y, math.atan2(float(decoded.ego[3]), float(decoded.ego[2])), v, s0)
+        self._last_pose = (x, y, math.atan2(sin_psi, cos_psi), v, s0)
         rules = self.road_rules(s0, v)
         q = driver_q_values(self.model, self.route, s0, v, self.prev_accel, scene,
                             self.crosswalks, rules)[0]

@@ -104,7 +104,7 @@ class BoltzmannPedestrian(BoltzmannPolicy):
         """(A,) Q of each walking speed in model.speeds_mps along its route."""
         wants_to_cross = self.crossing and self.time_s >= self.start_delay_s
         v_ref = self.model.v_walk_mps if wants_to_cross else 0.0
-        x, y = self._last_xy = (float(decoded.ego[0]), float(decoded.ego[1]))
+        x, y = self._last_xy = tuple(decoded.ego[:2].tolist())  # exact, as float() of each
         # walk_along's projection, for act (None: it projects itself)
         self._last_projection = None
         if self.route.n_segments == 1:  # project's arithmetic on Python floats

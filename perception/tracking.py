@@ -344,24 +344,29 @@ class Tracker:
 
     def tracks(self) -> TrackSet:
         """The current tracks, ascending object id."""
+        if not self._tracks:
+            return _NO_TRACKS
         ids = sorted(self._tracks)
-        if not ids:
-            z2 = np.zeros((0, 2))
-            z0 = np.zeros(0)
-            return TrackSet(np.zeros(0, dtype=np.int64), z2, z2, z0, z0, z0, np.zeros(0, bool),
-                            np.zeros(0, bool), z0, z0, np.zeros((0, 2, 2)))
         tracks = [self._tracks[i] for i in ids]
+        attrs = [self._attrs[i] for i in ids]
         seen = self._seen_now
-        # one row per track: state (4), position std, length, width, is_pedestrian, seen,
-        # time unseen, measured box heading
-        table = np.array([[*track[0], track[1].pos_std_m, *self._attrs[i][:3],
-                           float(i in seen), track[3], self._attrs[i][3]]
-                          for i, track in zip(ids, tracks)])
+        # one row per track: state (4), position std, length, width, time unseen, measured box
+        # heading; and two rows of flags: is_pedestrian, seen
+        table = np.array([[*track[0], track[1].pos_std_m, attr[0], attr[1], track[3], attr[3]]
+                          for track, attr in zip(tracks, attrs)])
+        flags = np.array([[attr[2] > 0.5 for attr in attrs], [i in seen for i in ids]])
+        velocity = table[:, 2:4]
         return TrackSet(
-            np.array(ids, dtype=np.int64), table[:, 0:2], table[:, 2:4], table[:, 4],
-            table[:, 5], table[:, 6], table[:, 7] > 0.5, table[:, 8] > 0.5, table[:, 9],
-            track_heading(table[:, 2:4], table[:, 10]), np.array([track[2] for track in tracks]),
+            np.array(ids, dtype=np.int64), table[:, 0:2], velocity, table[:, 4], table[:, 5],
+            table[:, 6], flags[0], flags[1], table[:, 7],
+            track_heading(velocity, table[:, 8]), np.array([track[2] for track in tracks]),
         )
+
+
+# the TrackSet of no tracks (its arrays hold nothing: sharing it is safe)
+_NO_TRACKS = TrackSet(np.zeros(0, dtype=np.int64), np.zeros((0, 2)), np.zeros((0, 2)),
+                      np.zeros(0), np.zeros(0), np.zeros(0), np.zeros(0, bool),
+                      np.zeros(0, bool), np.zeros(0), np.zeros(0), np.zeros((0, 2, 2)))
 
 
 def track_heading(velocity_mps: np.ndarray, measured_heading_rad: np.ndarray) -> np.ndarray:

@@ -69,15 +69,23 @@ class ScenePrediction:
             predicted_xy: (M, T, 2) the tracks' positions at times_s [m] (default: constant
                 velocity, TrackSet.predict_xy).
         """
-        if predicted_xy is None:
-            predicted_xy = tracks.predict_xy(times_s)
-        xy = predicted_xy[None]  # (1, M, T, 2)
-        heading = tracks.heading_rad[None, :, None].repeat(xy.shape[2], axis=2)  # (1, M, T)
+        if predicted_xy is None and _float_arrays(tracks.xy, tracks.velocity, tracks.heading_rad,
+                                                  times_s):
+            # predict_xy's arithmetic and the repeated headings in one compiled call
+            xy, heading = _scene_kernels().constant_velocity_scene(
+                tracks.xy, tracks.velocity, tracks.heading_rad, times_s)
+        else:
+            if predicted_xy is None:
+                predicted_xy = tracks.predict_xy(times_s)
+            xy = predicted_xy[None]  # (1, M, T, 2)
+            heading = tracks.heading_rad[None, :, None].repeat(xy.shape[2], axis=2)  # (1, M, T)
         radius = 0.5 * np.hypot(tracks.length_m, tracks.width_m)
-        m = len(tracks)
+        if mask is None:  # every track: a copy of a row of Trues (faster than np.ones)
+            m = len(tracks)
+            mask = (_ALL_PRESENT[:, :m] if m <= _ALL_PRESENT.shape[1]
+                    else np.ones((1, m), dtype=bool)).copy()
         return cls(xy, heading, tracks.length_m[None], tracks.width_m[None], radius[None],
-                   tracks.is_pedestrian[None],
-                   np.ones((1, m), dtype=bool) if mask is None else mask)
+                   tracks.is_pedestrian[None], mask)
 
     def with_extra(self, xy, heading, length_m, width_m, is_pedestrian, mask) -> ScenePrediction:
         """Append one object per hypothesis.
@@ -110,6 +118,30 @@ class ScenePrediction:
             append(self.radius_m, radius), append(self.is_pedestrian, is_pedestrian),
             append(self.mask, mask),
         )
+
+
+_ALL_PRESENT = np.ones((1, 64), dtype=bool)
+_ALL_PRESENT.setflags(write=False)
+
+
+def _float_arrays(xy, velocity, heading, times_s) -> bool:
+    """Whether scene_kernels.constant_velocity_scene takes these: float64 (M, 2), (M, 2), (M,), (T,)."""
+    return (type(xy) is type(velocity) is type(heading) is type(times_s) is np.ndarray
+            and xy.dtype == velocity.dtype == heading.dtype == times_s.dtype == np.float64
+            and times_s.ndim == 1 and xy.shape == velocity.shape == (len(heading), 2)
+            and heading.ndim == 1)
+
+
+def _scene_kernels():
+    """models/scene_kernels.py, imported (compiled if need be) at the first call."""
+    if not _SCENE_KERNELS:
+        from marl_social.models import kernel_loading
+
+        _SCENE_KERNELS.append(kernel_loading.load_all()[2])
+    return _SCENE_KERNELS[0]
+
+
+_SCENE_KERNELS: list = []  # [models.scene_kernels] once loaded
 
 
 @dataclass(frozen=True)

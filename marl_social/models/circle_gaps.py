@@ -153,6 +153,31 @@ def _scene_layout(length_m: np.ndarray, width_m: np.ndarray, is_pedestrian: np.n
     return hit
 
 
+# id(along of _scene_layout) -> (that along, it and its circles' radius (L, M) as C-contiguous
+# float64 arrays, read-only); emptied when it reaches _MAX_LAYOUTS entries
+_KERNEL_LAYOUTS: dict[int, tuple] = {}
+
+
+def _kernel_layout(length_m, width_m, is_pedestrian) -> tuple[np.ndarray, np.ndarray]:
+    """_scene_layout's along (L, M, C) [m] and radius[..., 0] (L, M) [m] as the kernels take them.
+
+    C-contiguous float64, read-only, remembered for the layout (np.ascontiguousarray of the
+    same values: the same bits).
+    """
+    along, radius = _scene_layout(length_m, width_m, is_pedestrian)
+    hit = _KERNEL_LAYOUTS.get(id(along))
+    if hit is not None and hit[0] is along:
+        return hit[1]
+    out = (np.ascontiguousarray(along, dtype=np.float64),
+           np.ascontiguousarray(radius[..., 0], dtype=np.float64))
+    for array in out:
+        array.setflags(write=False)
+    if len(_KERNEL_LAYOUTS) >= _MAX_LAYOUTS:
+        _KERNEL_LAYOUTS.clear()
+    _KERNEL_LAYOUTS[id(along)] = (along, out)
+    return out
+
+
 def _scene_circles(scene) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """`scene_circles` computed."""
     along, radius = _scene_layout(scene.length_m, scene.width_m, scene.is_pedestrian)
@@ -180,9 +205,11 @@ def scene_circle_inputs(scene) -> tuple[np.ndarray, ...]:
         radii (L, M) [m].
     """
     def compute():
-        along, radius = _scene_layout(scene.length_m, scene.width_m, scene.is_pedestrian)
-        return tuple(np.ascontiguousarray(a, dtype=np.float64) for a in (
-            scene.xy, np.cos(scene.heading), np.sin(scene.heading), along, radius[..., 0]))
+        along, radius = _kernel_layout(scene.length_m, scene.width_m, scene.is_pedestrian)
+        heading = scene.heading
+        return (np.ascontiguousarray(scene.xy, dtype=np.float64),
+                np.ascontiguousarray(np.cos(heading), dtype=np.float64),
+                np.ascontiguousarray(np.sin(heading), dtype=np.float64), along, radius)
 
     if scene.xy.flags.writeable:  # a scene of this step (e.g. from the tracks): nothing to recall
         return compute()

@@ -217,10 +217,10 @@ def walk_costs(speeds, n_t, v_ref_mps, prev_speed, dt_s, weights, safety_exp, pr
     return cost
 
 
-@numba.njit([(_array(2), _array(2), _F8, _F8, _array(1), _array(4), _array(2, _B1),
-              _array(3), _array(4), _array(2, _B1), _array(3), _F8)], **_JIT)
-def step_costs(v, a_eff, v_ref_mps, prev_accel, weights, safety_exp, present, occupancy_tanh,
-               scene_tanh, pair, zone_sums, scale):
+@numba.njit([(_array(4), _F8, _F8, _array(1), _array(4), _array(2, _B1), _array(3), _array(4),
+              _array(2, _B1), _array(3), _F8)], **_JIT)
+def step_costs(motion, v_ref_mps, prev_accel, weights, safety_exp, present, occupancy_tanh,
+               scene_tanh, is_pedestrian, zone_sums, scale):
     """sim/costs.step_cost of the candidates, times scale, as vehicle_gap_evaluation sums it.
 
     The terms w_speed (v - v_ref)^2, w_accel a^2, w_jerk (a_k - a_{k-1})^2, w_safety times the
@@ -231,8 +231,8 @@ def step_costs(v, a_eff, v_ref_mps, prev_accel, weights, safety_exp, present, oc
     then zone by zone (sim/costs._feature_terms).
 
     Args:
-        v: (P, T) speeds of the plans [m/s].
-        a_eff: (P, T) their effective accelerations [m/s^2].
+        motion: (3, A, C, T) the P = A x C plans' speeds [m/s], travel [m] and effective
+            accelerations [m/s^2] (gap_kernels.plan_evaluation's).
         v_ref_mps: the reference speed [m/s].
         prev_accel: the acceleration before the plans [m/s^2].
         weights: (5,) the weights of speed, accel, jerk, safety and conflict.
@@ -243,13 +243,20 @@ def step_costs(v, a_eff, v_ref_mps, prev_accel, weights, safety_exp, present, oc
             of a vehicle and a pedestrian and of the zones (R = 0: no conflict to add).
         scene_tanh: (W, L, T, M) tanh of the objects' crosswalk occupancy arguments
             (gap_kernels.scene_occupancy_arguments), M < circle_gaps.MAX_KERNEL_OBJECTS.
-        pair: (L, M) the pedestrians present.
+        is_pedestrian: (L, M) the pedestrians (those present pair with the ego).
         zone_sums: (Z, L, T) per zone the present objects' summed claims on it.
         scale: plan_dt / DT_S.
 
     Returns:
-        (L, P, T) the step costs.
+        (L, A, C, T) the step costs.
     """
+    n_first_actions, n_cont, n_t = motion.shape[1], motion.shape[2], motion.shape[3]
+    v = motion[0].reshape((n_first_actions * n_cont, n_t))
+    a_eff = motion[2].reshape((n_first_actions * n_cont, n_t))
+    pair = np.empty(present.shape, dtype=np.bool_)
+    for h in range(present.shape[0]):
+        for m in range(present.shape[1]):
+            pair[h, m] = present[h, m] and is_pedestrian[h, m]
     w_speed, w_accel, w_jerk, w_safety, w_conflict = (weights[0], weights[1], weights[2],
                                                       weights[3], weights[4])
     n_hyp, n_obj = present.shape
@@ -289,7 +296,7 @@ def step_costs(v, a_eff, v_ref_mps, prev_accel, weights, safety_exp, present, oc
                     term = w_conflict * _conflict(occupancy_tanh, scene_sums, p, h, t)
                     total = total + term if (started or w_safety != 0.0) else term
                 cost[h, p, t] = total * scale
-    return cost
+    return cost.reshape((n_hyp, n_first_actions, n_cont, n_t))
 
 
 # _nan_min / _nan_max: gap_kernels' twins, kept in this file on purpose: numba's cache of

@@ -28,7 +28,7 @@ from marl_social.models.candidates import (
     collision_free_totals,
     evaluate_candidates,
 )
-from marl_social.models.gap_evaluation import vehicle_gap_evaluation
+from marl_social.models.gap_evaluation import kernel_gap_evaluation, vehicle_gap_evaluation
 from marl_social.sim.agent_spec import VehicleParams
 from marl_social.sim.costs import CostWeights
 from marl_social.sim.road_map import Crosswalk, Route
@@ -217,16 +217,36 @@ def _compiled_evaluation(ev: CandidateEvaluation) -> bool:
 def _compiled_totals(ev: CandidateEvaluation, model: DriverModel, s0: float,
                      rules: RoadRules | None) -> np.ndarray:
     """rule_abiding_totals in one compiled call (models/cost_kernels.rule_abiding_totals)."""
-    _, cost_kernels = kernel_loading.load()
-    stop_s_m = None if rules is None else rules.stop_s_m
     excess = None if rules is None else ev.curve_excess_mps  # no rules: none applies
-    return cost_kernels.rule_abiding_totals(
+    return _kernel_totals(
         ev.step_cost, np.ascontiguousarray(ev.min_vehicle_gap_m, dtype=np.float64),
         np.ascontiguousarray(ev.vehicle_clearance_m, dtype=np.float64),
-        np.ascontiguousarray(ev.travel_m), float(s0), 0.5 * model.vehicle.length_m,
+        np.ascontiguousarray(ev.travel_m),
+        None if excess is None else np.ascontiguousarray(excess, dtype=np.float64),
+        model, s0, rules)
+
+
+def _kernel_totals(step_cost: np.ndarray, vehicle_gap: np.ndarray, clearance: np.ndarray,
+                   travel: np.ndarray, excess: np.ndarray | None, model: DriverModel, s0: float,
+                   rules: RoadRules | None) -> np.ndarray:
+    """`_compiled_totals` of an evaluation's arrays, C-contiguous float64 already.
+
+    Args:
+        step_cost: (L, A, C, T) the step costs.
+        vehicle_gap: (L, A, C) the vehicle gaps [m].
+        clearance: (L, A, C) the vehicle clearances [m].
+        travel: (A, C, T) the distance travelled [m].
+        excess: (A, C) the curve-speed excess [m/s]; None: no curve speed (or no rules).
+        model: the driver's model (its vehicle length).
+        s0: its arc length [m].
+        rules: the road's rules (None: none).
+    """
+    _, cost_kernels = kernel_loading.load()
+    stop_s_m = None if rules is None else rules.stop_s_m
+    return cost_kernels.rule_abiding_totals(
+        step_cost, vehicle_gap, clearance, travel, float(s0), 0.5 * model.vehicle.length_m,
         0.0 if stop_s_m is None else float(stop_s_m), stop_s_m is not None,
-        _NO_EXCESS if excess is None else np.ascontiguousarray(excess, dtype=np.float64),
-        excess is not None)
+        _NO_EXCESS if excess is None else excess, excess is not None)
 
 
 _NO_EXCESS = np.zeros((0, 0))
@@ -253,6 +273,15 @@ def driver_q_values(model: DriverModel, route: Route, s0: float, v0: float, prev
         predicted object, or past a stop line not yet served, are excluded
         (rule_abiding_totals).
     """
+    candidates, theta = _model_constants(model)
+    extra = () if rules is None else (rules.yield_zones, model.yield_margin_s,
+                                      rules.curve_speed)
+    ev = kernel_gap_evaluation(candidates, theta, model.v_desired_mps, model.vehicle, route, s0,
+                               v0, prev_accel, scene, crosswalks, *extra)
+    if ev is not None:  # the kernels' evaluation: their totals take its arrays as they are
+        return _kernel_totals(ev.step_cost, ev.min_vehicle_gap_m, ev.vehicle_clearance_m,
+                              ev.travel_m, None if rules is None else ev.curve_excess_mps,
+                              model, s0, rules).min(axis=-1)
     ev = _evaluate(model, route, s0, v0, prev_accel, scene, crosswalks, rules, False)
     return rule_abiding_totals(ev, model, s0, rules).min(axis=-1)
 

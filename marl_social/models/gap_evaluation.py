@@ -62,35 +62,55 @@ def vehicle_gap_evaluation(cands: CandidateSet, theta: np.ndarray, v_ref_mps: fl
     The rollouts, the gaps and the step costs are compiled loops (models/gap_kernels.py,
     cost_kernels.py; they read the route's per-segment pose table, Route.segment_pose_table and
     vertex_s_m); np.exp and np.tanh stay in numpy. What the kernels do not take takes
-    evaluate_candidates itself: a non-finite or -0.0 speed, a huge speed or arc length, and
-    MAX_KERNEL_OBJECTS or more objects (models/circle_gaps.py).
+    evaluate_candidates itself: a non-finite or -0.0 speed, a huge speed or arc length,
+    MAX_KERNEL_OBJECTS or more objects (models/circle_gaps.py), and no continuations (the
+    kernels count the first actions as plans / continuations).
     """
-    if not (abs(v0) < _LARGEST_SPEED_MPS and abs(s0) < _LARGEST_ARC_LENGTH_M) or (
-            v0 == 0.0 and math.copysign(1.0, v0) < 0.0) or (
-            scene.mask.shape[1] >= MAX_KERNEL_OBJECTS):
+    evaluation = kernel_gap_evaluation(cands, theta, v_ref_mps, vehicle, route, s0, v0,
+                                       prev_accel, scene, crosswalks, yield_zones,
+                                       yield_margin_s, curve_speed)
+    if evaluation is None:
         return evaluate_candidates(cands, theta, v_ref_mps, vehicle, route, s0, v0, prev_accel,
                                    scene, crosswalks, geometry=True, yield_zones=yield_zones,
                                    yield_margin_s=yield_margin_s, curve_speed=curve_speed,
                                    vehicle_gaps_only=True)
+    return evaluation
+
+
+def kernel_gap_evaluation(cands: CandidateSet, theta: np.ndarray, v_ref_mps: float,
+                          vehicle: VehicleParams, route: Route, s0: float, v0: float,
+                          prev_accel: float, scene: ScenePrediction,
+                          crosswalks: tuple[Crosswalk, ...], yield_zones: tuple = (),
+                          yield_margin_s: float = 0.0, curve_speed: CurveSpeed | None = None
+                          ) -> CandidateEvaluation | None:
+    """`vehicle_gap_evaluation` by the kernels; None where they do not take the case.
+
+    The arguments and the result are vehicle_gap_evaluation's (None: its cases for
+    evaluate_candidates). The result's arrays are C-contiguous float64, as
+    models/driver.py's compiled totals take them without a copy.
+    """
+    if not (abs(v0) < _LARGEST_SPEED_MPS and abs(s0) < _LARGEST_ARC_LENGTH_M) or (
+            v0 == 0.0 and math.copysign(1.0, v0) < 0.0) or (
+            scene.mask.shape[1] >= MAX_KERNEL_OBJECTS) or len(cands.continuations_mps2) == 0:
+        return None
     kernels, cost_kernels = _KERNELS or _kernels()
     plan = _prepared_plan(cands, vehicle)
-    n_first_actions, n_cont, _ = plan.plan_shape
+    n_cont = plan.plan_shape[1]
     scene_xy, cos_heading, sin_heading, scene_along, other_r = scene_circle_inputs(scene)
-    n_hyp = len(scene.mask)
     weights = _weights(theta)  # speed, accel, jerk, safety, conflict
     w_safety, w_conflict = weights[3], weights[4]
     present = np.ascontiguousarray(scene.mask)
     crosswalk_rows, zone_rows, zone_sizes, zone_sums = _conflict_rows(
         scene, crosswalks if w_conflict != 0.0 else (), yield_zones if w_conflict != 0.0 else (),
         yield_margin_s, plan.dt_s)
-    (v, ds, a_eff, excess, exp_arg, clearance, vehicle_gap, occupancy,
-     scene_occupancy) = kernels.plan_evaluation(
+    is_pedestrian = np.ascontiguousarray(scene.is_pedestrian)
+    motion, excess, exp_arg, occupancy, scene_occupancy, gaps = kernels.plan_evaluation(
         plan.increments, n_cont, float(v0), float(s0), float(plan.dt_s), plan.continuations,
         plan.n_first, curve_speed is not None,
         _NO_CURVE if curve_speed is None else curve_speed.v_max_mps, CURVE_PROFILE_STEP_M,
         route.vertex_s_m, route.segment_pose_table, plan.ego_along, plan.ego_circle_r, scene_xy,
         cos_heading, sin_heading, scene_along, other_r,
-        np.ascontiguousarray(scene.radius_m, dtype=float), present & ~scene.is_pedestrian,
+        np.ascontiguousarray(scene.radius_m, dtype=float), present, is_pedestrian,
         w_safety != 0.0, plan.ego_radius, crosswalk_rows, zone_rows, zone_sizes,
         OCCUPANCY_SOFTNESS_M)
     if w_safety != 0.0:
@@ -98,16 +118,13 @@ def vehicle_gap_evaluation(cands: CandidateSet, theta: np.ndarray, v_ref_mps: fl
     if len(occupancy):
         np.tanh(occupancy, out=occupancy)
         np.tanh(scene_occupancy, out=scene_occupancy)
-    cost = cost_kernels.step_costs(v, a_eff, float(v_ref_mps), float(prev_accel), weights,
-                                   exp_arg, present, occupancy, scene_occupancy,
-                                   present & scene.is_pedestrian, zone_sums, plan.cost_scale)
-    plan_shape = plan.plan_shape
-    hyp_shape = (n_hyp, n_first_actions, n_cont)
-    return CandidateEvaluation(
-        cost.reshape((n_hyp,) + plan_shape), v.reshape(plan_shape), a_eff.reshape(plan_shape),
-        None, None, None, vehicle_gap.reshape(hyp_shape), None, ds.reshape(plan_shape),
-        clearance.reshape(hyp_shape),
-        None if curve_speed is None else excess.reshape(plan_shape[:2]))
+    cost = cost_kernels.step_costs(motion, float(v_ref_mps), float(prev_accel), weights,
+                                   exp_arg, present, occupancy, scene_occupancy, is_pedestrian,
+                                   zone_sums, plan.cost_scale)
+    v, ds, a_eff = motion  # (A, C, T) each
+    clearance, vehicle_gap = gaps  # (L, A, C) each
+    return CandidateEvaluation(cost, v, a_eff, None, None, None, vehicle_gap, None, ds,
+                               clearance, None if curve_speed is None else excess)
 
 
 _LARGEST_SPEED_MPS = 1e6  # the kernels' v0 and s0 bounds (the curve-speed grid index of any

@@ -74,11 +74,22 @@ def _curve_cap(s, v_max, step_m):
 
 
 @numba.njit(cache=True)
-def _segment(s, cum_s, n_seg):
-    """Route.pose_at's segment of arc length s: searchsorted(cum_s, s, 'right') - 1, clamped."""
+def _segment(s, cum_s, n_seg, hint=0):
+    """Route.pose_at's segment of arc length s: searchsorted(cum_s, s, 'right') - 1, clamped.
+
+    cum_s is sorted, so that index lo is the one with cum_s[lo - 1] <= s < cum_s[lo] (the ends
+    count as -inf and +inf): `hint` + 1, the segment after it, is tried first (a plan's arc
+    lengths grow step by step), then bisection.
+    """
     if n_seg == 1:
         return 0
-    lo, hi = 0, len(cum_s)  # the first index whose cum_s exceeds s
+    n = len(cum_s)
+    lo = hint + 1
+    if 0 < lo < n and cum_s[lo - 1] <= s and not cum_s[lo] <= s:
+        return min(hint, n_seg - 1)
+    if lo + 1 < n and cum_s[lo] <= s and not cum_s[lo + 1] <= s:
+        return min(lo, n_seg - 1)
+    lo, hi = 0, n  # the first index whose cum_s exceeds s
     while lo < hi:
         mid = (lo + hi) // 2
         if cum_s[mid] <= s:
@@ -173,10 +184,11 @@ def plan_poses(increments, n_cont, v0, s0, dt_s, continuations, n_first, has_cur
     xy = np.empty((n_plans, n_t, 2))
     ego_x = np.empty((n_circles, n_plans, n_t))
     ego_y = np.empty((n_circles, n_plans, n_t))
+    k = 0
     for p in range(n_plans):
         for t in range(n_t):
             s = s0 + ds[p, t]
-            k = _segment(s, cum_s, n_seg)
+            k = _segment(s, cum_s, n_seg, k)
             local = s - cum_s[k]
             x = pose_table[k, 0] + local * pose_table[k, 2]
             y = pose_table[k, 1] + local * pose_table[k, 3]
@@ -443,35 +455,49 @@ def scene_occupancy_arguments(scene_xy, scene_radius, crosswalks, softness_m):
 
 @numba.njit([(_array(2), _I8, _F8, _F8, _F8, _array(1), _I8, _B1, _array(1), _F8, _array(1),
               _array(2), _array(1), _F8, _array(4), _array(3), _array(3), _array(3), _array(2),
-              _array(2), _array(2, _B1), _B1, _F8, _array(2), _array(3), _array(1, _I8), _F8)],
-            **_JIT)
+              _array(2), _array(2, _B1), _array(2, _B1), _B1, _F8, _array(2), _array(3),
+              _array(1, _I8), _F8)], **_JIT)
 def plan_evaluation(increments, n_cont, v0, s0, dt_s, continuations, n_first, has_curve, v_max,
                     curve_step_m, cum_s, pose_table, along, ego_r, scene_xy, cos_heading,
-                    sin_heading, scene_along, other_r, scene_radius, vehicles, clipped,
-                    ego_radius, crosswalks, zones, zone_sizes, softness_m):
+                    sin_heading, scene_along, other_r, scene_radius, present, is_pedestrian,
+                    clipped, ego_radius, crosswalks, zones, zone_sizes, softness_m):
     """`plan_poses`, then `circle_gaps` and `occupancy_arguments` of its plans, in one call.
 
     The arguments are theirs (see them); ego_x and ego_y come from plan_poses, other_x and
     other_y from `scene_circles` (scene_xy, cos_heading, sin_heading, scene_along: its
-    arguments); and `scene_occupancy_arguments` of the crosswalks (scene_radius (L, M): the
-    objects' bounding radii [m]).
+    arguments), circle_gaps' vehicles are present & ~is_pedestrian ((L, M) bool each); and
+    `scene_occupancy_arguments` of the crosswalks (scene_radius (L, M): the objects' bounding
+    radii [m]).
 
-    Returns:
-        v, ds, a_eff (P, T), curve_excess (P,) of plan_poses; the gaps or -max(gap, 0)
-        (L, P, T, M), the clearance and the vehicle gap (L, P) of circle_gaps; the tanh
-        arguments (W + Z, P, T) of occupancy_arguments and (W, L, T, M) of
-        scene_occupancy_arguments.
+    Returns (A = P / n_cont first actions; few arrays, as each returned array costs a
+    microsecond or so to hand to Python):
+        (3, A, C, T) v, ds and a_eff of plan_poses; its curve_excess (A, C) ((0, C) without a
+        curve speed); the gaps or -max(gap, 0) (L, P, T, M), and (2, L, A, C) the clearance
+        and the vehicle gap of circle_gaps; the tanh arguments (W + Z, P, T) of
+        occupancy_arguments and (W, L, T, M) of scene_occupancy_arguments.
     """
     v, ds, a_eff, excess, xy, ego_x, ego_y = plan_poses(
         increments, n_cont, v0, s0, dt_s, continuations, n_first, has_curve, v_max,
         curve_step_m, cum_s, pose_table, along)
     other_x, other_y = scene_circles(scene_xy, cos_heading, sin_heading, scene_along)
+    vehicles = np.empty(present.shape, dtype=np.bool_)
+    for h in range(present.shape[0]):
+        for m in range(present.shape[1]):
+            vehicles[h, m] = present[h, m] and not is_pedestrian[h, m]
     gap, clearance, vehicle_gap = circle_gaps(ego_x, ego_y, ego_r, other_x, other_y, other_r,
                                               vehicles, clipped)
     soft = occupancy_arguments(xy, ego_x, ego_y, ego_r, ego_radius, crosswalks, zones,
                                zone_sizes, softness_m)
     scene_soft = scene_occupancy_arguments(scene_xy, scene_radius, crosswalks, softness_m)
-    return v, ds, a_eff, excess, gap, clearance, vehicle_gap, soft, scene_soft
+    n_plans, n_t = v.shape
+    n_first_actions = n_plans // n_cont
+    motion = np.empty((3, n_plans, n_t))
+    motion[0], motion[1], motion[2] = v, ds, a_eff
+    gaps = np.empty((2,) + clearance.shape)
+    gaps[0], gaps[1] = clearance, vehicle_gap
+    return (motion.reshape((3, n_first_actions, n_cont, n_t)), excess.reshape(
+        (n_first_actions if has_curve else 0, n_cont)), gap, soft, scene_soft,
+        gaps.reshape((2, clearance.shape[0], n_first_actions, n_cont)))
 
 
 @numba.njit([(_array(2), _F8, _F8, _array(1), _array(2), _F8, _array(4), _array(3), _array(3),

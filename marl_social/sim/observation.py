@@ -25,6 +25,7 @@ footprint]; sensor ranges and ray depths in [0, longest sensor range]; half-angl
 
 from __future__ import annotations
 
+import functools
 import math
 from dataclasses import dataclass, field
 
@@ -145,6 +146,9 @@ class DecodedObservation:
         return self.slots[self.slots[:, 0] > 0.5]
 
 
+_NO_SIGNALS = np.zeros((0, SIGNAL_DIM))  # DecodedObservation.signals without signal slots
+
+
 def _argmax(values: list) -> int:
     """np.argmax of a few Python floats: the first NaN if there is one, else the first largest."""
     best = 0
@@ -203,17 +207,21 @@ class ObservationLayout:
     def slot_index(self, field: str) -> int:
         return SLOT_FIELDS.index(field)
 
+    @functools.cached_property
+    def _decode_bounds(self) -> tuple:
+        """(size, (n_slots, SLOT_DIM), end of the slots, end of the rays): once per layout."""
+        return self.size, (self.n_slots, SLOT_DIM), EGO_DIM + self.n_slots * SLOT_DIM, \
+            self._rays_end
+
     def decode(self, obs) -> DecodedObservation:
         obs = np.asarray(obs)
-        if obs.shape != (self.size,):
-            raise ValueError(f"observation: expected shape ({self.size},), got {obs.shape}")
-        k0 = EGO_DIM
-        k1 = k0 + self.n_slots * SLOT_DIM
-        k2 = self._rays_end
-        if self.n_signals == 0:
-            return DecodedObservation(obs[:k0], obs[k0:k1].reshape(self.n_slots, SLOT_DIM),
-                                      obs[k1:k2])
-        return DecodedObservation(obs[:k0], obs[k0:k1].reshape(self.n_slots, SLOT_DIM),
+        size, slots_shape, k1, k2 = self._decode_bounds
+        if obs.shape != (size,):
+            raise ValueError(f"observation: expected shape ({size},), got {obs.shape}")
+        if self.n_signals == 0:  # the shared empty signal block (it holds nothing to change)
+            return DecodedObservation(obs[:EGO_DIM], obs[EGO_DIM:k1].reshape(slots_shape),
+                                      obs[k1:k2], _NO_SIGNALS)
+        return DecodedObservation(obs[:EGO_DIM], obs[EGO_DIM:k1].reshape(slots_shape),
                                   obs[k1:k2], obs[k2:].reshape(self.n_signals, SIGNAL_DIM))
 
     def encode(self, xy, heading, speed, sensor_range, sensor_half_angle, is_pedestrian,

@@ -13,7 +13,7 @@ _CACHE_DIR = Path(kernel_loading.__file__).with_name("__pycache__")
 
 def _kernel_files(folder, cached: bool, cache_older: bool = False):
     (folder / "__pycache__").mkdir()
-    for name in ("gap_kernels", "cost_kernels"):
+    for name in kernel_loading._KERNEL_FILES:
         source = folder / f"{name}.py"
         source.write_text("# kernels\n")
         if cached:
