@@ -41,14 +41,18 @@ _FULL_SOLUTION = _F1(_IN_F1, _IN_B1, _IN_F1, _IN_I1)
 
 @numba.njit(cache=True)
 def _nan_max(a, b):
-    """np.maximum(a, b) of two floats: the larger, NaN if either is NaN."""
-    return b if (b > a or np.isnan(b)) else a
+    """np.maximum(a, b) of two floats: a NaN stays, a tie gives b (numpy's, +-0 included)."""
+    if np.isnan(a):
+        return a
+    return a if a > b else b  # noqa: FURB136 - the tie order is the point
 
 
 @numba.njit(cache=True)
 def _nan_min(a, b):
-    """np.minimum(a, b) of two floats: the smaller, NaN if either is NaN."""
-    return b if (b < a or np.isnan(b)) else a
+    """np.minimum(a, b) of two floats: a NaN stays, a tie gives b (numpy's, +-0 included)."""
+    if np.isnan(a):
+        return a
+    return a if a < b else b  # noqa: FURB136 - the tie order is the point
 
 
 @numba.njit(_SPARSE_BOUNDS, cache=True)

@@ -73,7 +73,7 @@ def _same_bits(a: np.ndarray, b: np.ndarray) -> bool:
     return a.shape == b.shape and a.dtype == b.dtype and a.tobytes() == b.tobytes()
 
 
-def _compare(layout, lower, upper, v0, free, rng):
+def _compare(layout, lower, upper, v0, free, rng, zero_solution=False):
     nz = layout.nz
     h_full, f_full = rng.normal(size=(nz, nz)), rng.normal(size=nz)
     got = qp_kernels().daqp_inputs(
@@ -81,7 +81,8 @@ def _compare(layout, lower, upper, v0, free, rng):
         layout._trunk_pos, layout._single_rows, layout._single_pos, layout._accel_rows, free)
     want = _numpy_inputs(layout, h_full, f_full, lower, upper, v0, free)
     assert all(_same_bits(g, w) for g, w in zip(got, want))
-    z_free = rng.normal(size=int(free.sum()))
+    z_free = (np.where(rng.random(int(free.sum())) < 0.5, 0.0, -0.0) if zero_solution
+              else rng.normal(size=int(free.sum())))
     assert _same_bits(qp_kernels().full_solution(z_free, free, lower, layout._slack_rows),
                       _numpy_solution(layout, z_free, free, lower))
 
@@ -138,3 +139,20 @@ def test_the_row_bounds_are_numpys(n_branches, seed, special, v0, prev_accel, co
         values.flat[rng.integers(0, values.size, size=len(special))] = special
     v_max = np.broadcast_to(rng.uniform(0.0, 15.0, size=N), shape)
     assert _same_bounds(problem, v0, prev_accel, v_max, s_low, s_up, -8.0, 3.0, 10.0, comfort)
+
+
+@pytest.mark.parametrize("n_branches", [1, 2, 3])
+def test_signed_zero_ties_are_numpys(n_branches):
+    """Every bound +0 or -0 at random and v0 = 0: the trunk rows' maxima and minima, the clips
+    and the fixed slacks' max(0, lower - a) meet ties of signed zeros; numpy gives the second."""
+    problem = _qp(n_branches)
+    layout = problem._condensed
+    rng = np.random.default_rng(n_branches)
+    m = problem._a_matrix.shape[0]
+    for _ in range(20):
+        lower, upper = (np.where(rng.random(m) < 0.5, 0.0, -0.0) for _ in range(2))
+        free = np.concatenate([np.ones(layout.n_accel, bool), rng.random(layout.n_accel) < 0.5])
+        _compare(layout, lower, upper, 0.0, free, rng, zero_solution=True)
+    shape = (n_branches, N)
+    zeros = [np.where(rng.random(shape) < 0.5, 0.0, -0.0) for _ in range(3)]
+    assert _same_bounds(problem, 0.0, -0.0, *zeros, -8.0, 3.0, 10.0, None)
