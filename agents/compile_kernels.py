@@ -2,9 +2,10 @@
 
 Four parts are compiled on first use and cached on disk (`cache=True`, in each package's
 __pycache__): the planners' kernels (models/kernel_loading.py, ~30 s on 2 cores), the
-belief's (perception/belief/compiled.py, ~15 s), the MPC's tree solver and
-condensed QP's assembly (agents/robot/tree_ipm.py, qp_kernels.py, ~10 s) and the route projection and lane test
-(sim/route_kernels.py, ~2-3 s). A process that finds no cache compiles them itself, so on
+belief's (perception/belief/compiled.py, ~15 s), the MPC's ("tree": its tree solver, its QP's
+assembly, the corridor test and its bounds: agents/robot/tree_ipm.py, qp_kernels.py,
+corridor_kernels.py, ~15 s; one MPC plan compiles the last) and the route projection and lane
+test (sim/route_kernels.py, ~2-3 s). A process that finds no cache compiles them itself, so on
 a fresh install several processes started at once (a test run on every core, a study's
 workers, a vector env's) each compile the same kernels. `compile_kernels` compiles them once,
 before such processes start; the parts are independent, so two processes can compile two of
@@ -28,7 +29,7 @@ _FILES = {
     "planners": ("marl_social.models.kernel_loading",
                  ("gap_kernels", "cost_kernels", "scene_kernels")),
     "belief": ("marl_social.perception.belief.compiled", ("belief_kernels",)),
-    "tree": ("marl_social.agents.robot.qp", ("tree_ipm", "qp_kernels")),
+    "tree": ("marl_social.agents.robot.qp", ("tree_ipm", "qp_kernels", "corridor_kernels")),
     "route": ("marl_social.sim.road_map", ("route_kernels",)),
 }
 
@@ -70,6 +71,7 @@ def compile_kernels(parts: tuple[str, ...] | list[str] = PARTS) -> None:
 
         qp_kernels()
         _solve_one_tree_qp()
+        _plan_once()
     if "route" in parts:  # a route of several segments projects through the kernel
         from marl_social.sim.road_map import Lane, Route
         from marl_social.sim.route_rules import on_lanes
@@ -79,7 +81,6 @@ def compile_kernels(parts: tuple[str, ...] | list[str] = PARTS) -> None:
         lanes = [Lane(np.array(points), 3.5)]
         on_lanes(lanes, np.zeros((1, 2)), np.zeros(1))  # the lane test, headings contiguous
         on_lanes(lanes, np.zeros((2, 2)), np.zeros((2, 3))[:, 2])  # and a column of a table
-        _plan_once()
 
 
 def _solve_one_tree_qp() -> None:
@@ -104,8 +105,9 @@ def _plan_once() -> None:
     """One MPC plan (agents/robot/mpc.py): the corridor and MPC kernels compile now.
 
     A curved route with a stop line, a pedestrian walking across and a car ahead in two
-    hypotheses: sim/route_kernels.py's robot kernels compile at their first call, with the
-    argument types a robot's decision gives them.
+    hypotheses: agents/robot/corridor_kernels.py's kernels (and sim/route_kernels'
+    project_footprints) compile at their first call, with the argument types a robot's
+    decision gives them.
     """
     from marl_social.agents.robot.mpc import plan
     from marl_social.agents.robot.mpc_types import MpcConfig

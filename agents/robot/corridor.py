@@ -13,13 +13,21 @@ Objects beside or behind the robot now are ignored.
 
 from __future__ import annotations
 
+import functools
 from dataclasses import dataclass
 
 import numpy as np
 
 from marl_social.models.candidates import ScenePrediction
-from marl_social.sim.kernel_cache import route_kernels
+from marl_social.sim.kernel_cache import load_kernels, route_kernels
 from marl_social.sim.road_map import Route
+
+
+@functools.cache  # asked for several times per plan: a cached call, not load_kernels' lookup
+def corridor_kernels():
+    """agents/robot/corridor_kernels.py (the corridor test, the MPC's bounds), loaded once."""
+    return load_kernels("marl_social.agents.robot", ("corridor_kernels",),
+                        "the robot's corridor kernels", 5)[0]
 
 BEHIND, PAST = "behind", "past"
 
@@ -99,10 +107,10 @@ def objects_on_path(route: Route, scene: ScenePrediction, s0: float, robot_lengt
     n_hyp, n_obj = mask.shape
     if n_obj == 0 or not mask.any():
         return [[] for _ in range(n_hyp)]
-    kernels = route_kernels()
+    kernels = corridor_kernels()
     # project each distinct prediction once: an object present in several hypotheses and
     # predicted alike in every one (a tracked one) from the first, the others where present
-    # (sim/route_kernels.distinct_predictions; numpy reference: tests/agents/test_corridor_kernels.py)
+    # (corridor_kernels.distinct_predictions; numpy reference: tests/agents/test_corridor_kernels.py)
     shared = np.empty(n_obj, dtype=bool)
     pair = np.empty((n_hyp, n_obj), dtype=np.int64)  # (L, M) the pair standing for each
     source = np.empty((2, n_hyp * n_obj), dtype=np.int64)
@@ -113,15 +121,15 @@ def objects_on_path(route: Route, scene: ScenePrediction, s0: float, robot_lengt
     # (sim/route_kernels.project_footprints; its numpy reference: tests/sim/test_route_kernels.py)
     heading = scene.heading[source[0, :n_pair], source[1, :n_pair]]  # (P, N)
     extent = np.empty((5,) + heading.shape)  # (5, P, N)
-    kernels.project_footprints(scene.xy, np.cos(heading), np.sin(heading), scene.length_m,
-                               scene.width_m, source, route.kernel_segment_table, extent)
+    route_kernels().project_footprints(scene.xy, np.cos(heading), np.sin(heading),
+                                       scene.length_m, scene.width_m, source, route.kernel_segment_table, extent)
     # in the corridor: the lateral extent overlaps the robot's width plus the clearance (a
     # pedestrian heading for the corridor, its distance to the route shrinking, is in the way
     # from further out: it has the right of way on the carriageway; one standing or walking
     # away is not), and the projection is not clamped at the route's ends; relevant: not
     # beside or behind the robot now (its rear short of the robot's front: not the robot's to
     # yield to; a car alongside that drifts into the corridor in its prediction is one)
-    # (sim/route_kernels.corridor_occupancy; numpy reference: tests/agents/test_corridor_kernels.py)
+    # (corridor_kernels.corridor_occupancy; numpy reference: tests/agents/test_corridor_kernels.py)
     clearance = lateral_margin_m if pedestrian_clearance_m is None else pedestrian_clearance_m
     widen = pedestrian_margin_m is not None
     occupied = np.empty(heading.shape, dtype=bool)  # (P, N)
@@ -243,9 +251,9 @@ def curvature_speed_bound(vertex_s: np.ndarray, vertex_kappa: np.ndarray, s_lo: 
         out[:] = v_cap_mps
         return out, False
     # the largest curvature near each step, its bound, capped: one compiled pass
-    # (sim/route_kernels.curvature_speed_bound; numpy reference: tests/agents/
+    # (corridor_kernels.curvature_speed_bound; numpy reference: tests/agents/
     # test_corridor_kernels.py)
-    curved = route_kernels().curvature_speed_bound(
+    curved = corridor_kernels().curvature_speed_bound(
         np.asarray(vertex_s, dtype=np.float64), np.asarray(vertex_kappa, dtype=np.float64),
         np.asarray(s_lo, dtype=np.float64), np.asarray(s_hi, dtype=np.float64),
         float(window_m), float(lat_accel_max_mps2), float(v_cap_mps), out)
@@ -375,10 +383,10 @@ def reachable_progress(v0: float, prev_accel: float, accel_max_mps2: float,
         v_max_mps: (N,) the speed bound of each plan step [m/s].
     """
     # v_k = min(v0 + climb_k, min_{j <= k} v_max_j + climb_k - climb_j), and v >= 0, climb
-    # the sum of the accelerations times dt: one compiled pass (sim/route_kernels.
+    # the sum of the accelerations times dt: one compiled pass (corridor_kernels.
     # reachable_progress; its numpy reference: tests/agents/test_corridor_kernels.py)
     out = np.empty(len(v_max_mps))
-    route_kernels().reachable_progress(float(v0), float(prev_accel), float(accel_max_mps2),
+    corridor_kernels().reachable_progress(float(v0), float(prev_accel), float(accel_max_mps2),
                                        float(jerk_max_mps3), float(first_dt_s), float(dt_s),
                                        np.asarray(v_max_mps, dtype=np.float64), out)
     return out
@@ -399,8 +407,8 @@ def provably_infeasible(s_low: np.ndarray, s_up: np.ndarray, reachable_m: np.nda
         margin_m: the violation that still does not count as infeasible [m].
     """
     # np.maximum.accumulate(s_low) > np.minimum(s_up, reachable_m) + margin_m anywhere, in one
-    # compiled pass (sim/route_kernels.progress_infeasible; numpy reference: tests/agents/
+    # compiled pass (corridor_kernels.progress_infeasible; numpy reference: tests/agents/
     # test_corridor_kernels.py)
-    return bool(route_kernels().progress_infeasible(
+    return bool(corridor_kernels().progress_infeasible(
         np.asarray(s_low, dtype=np.float64), np.asarray(s_up, dtype=np.float64),
         np.asarray(reachable_m, dtype=np.float64), float(margin_m)))

@@ -57,6 +57,7 @@ from marl_social.agents.robot.corridor import (
     PAST,
     PathObject,
     StaticBoxes,
+    corridor_kernels,
     curvature_speed_bound,
     full_acceleration_progress,
     mode_bounds,
@@ -72,7 +73,6 @@ from marl_social.agents.robot.qp_types import QpSolution, QpWeights
 from marl_social.models.candidates import ScenePrediction
 from marl_social.sim.agent_spec import VehicleParams
 from marl_social.sim.dynamics import DT_S
-from marl_social.sim.kernel_cache import route_kernels
 from marl_social.sim.road_map import Route
 
 MAX_MODE_OBJECTS = 3  # per branch, objects beyond this many with two plausible modes stay behind
@@ -299,10 +299,10 @@ class ContingencyMpc:
             v0: the robot's speed [m/s].
         """
         # v = max(v0 - decel, 0), the progress the sum of 0.5 (v_{k-1} + v_k) dt, plus headway
-        # times v and ROOM_M: one compiled pass (sim/route_kernels.braking_reach; its numpy
+        # times v and ROOM_M: one compiled pass (corridor_kernels.braking_reach; its numpy
         # reference: tests/agents/test_corridor_kernels.py)
         out = np.empty(len(self._brake_decel))
-        route_kernels().braking_reach(float(v0), self._brake_decel, self.config.plan_dt_s,
+        corridor_kernels().braking_reach(float(v0), self._brake_decel, self.config.plan_dt_s,
                                       self._headway, ROOM_M, out)
         return out
 
@@ -317,9 +317,9 @@ class ContingencyMpc:
         # rest the robot can always stay where it stands (it cannot back up): noise that moves
         # a bound it waits at behind it, by any amount, does not make it infeasible, and a plan
         # that only uses the room does not move it (plan: standstill). Within the wall, >= 0:
-        # one compiled pass in place (sim/route_kernels.give_way_bound; its numpy reference:
+        # one compiled pass in place (corridor_kernels.give_way_bound; its numpy reference:
         # tests/agents/test_corridor_kernels.py)
-        route_kernels().give_way_bound(s_up, float(wall), self._reach, c.position_tolerance_m,
+        corridor_kernels().give_way_bound(s_up, float(wall), self._reach, c.position_tolerance_m,
                                        bool(bounds[0] > c.rest_mps), s_up)
         return s_low, s_up
 

@@ -1,5 +1,5 @@
-"""corridor.objects_on_path (sim/route_kernels' distinct_predictions, project_footprints and
-corridor_occupancy) against the numpy formulation it replaced, bit for bit.
+"""The robot's corridor and MPC kernels (agents/robot/corridor_kernels.py; with
+sim/route_kernels.project_footprints) against the numpy formulation they replaced, bit for bit.
 
 The numpy is written out here as it stood (its footprint extents: tests/sim/
 test_route_kernels.py's reference); random scenes of 1-5 hypotheses, 0-6 objects, 1-24 steps,
@@ -168,7 +168,7 @@ def _odd(rng: np.random.Generator, a: np.ndarray, p: float = 0.05) -> np.ndarray
 @settings(max_examples=300, deadline=None)
 @given(SEEDS, st.integers(1, 30), st.booleans())
 def test_braking_reach_matches_numpy_bit_for_bit(seed, n_steps, special):
-    from marl_social.sim.kernel_cache import route_kernels
+    from marl_social.agents.robot.corridor import corridor_kernels
 
     rng = np.random.default_rng(seed)
     dt = float(rng.choice([0.25, 0.1, 0.3]))
@@ -184,7 +184,7 @@ def test_braking_reach_matches_numpy_bit_for_bit(seed, n_steps, special):
     with np.errstate(invalid="ignore", over="ignore"):
         want = _reference_braking_reach(v0, decel, dt, headway, 0.1)
         got = np.empty(n_steps)
-        route_kernels().braking_reach(v0, decel, dt, headway, 0.1, got)
+        corridor_kernels().braking_reach(v0, decel, dt, headway, 0.1, got)
     assert _same(got, want)
 
 
@@ -284,7 +284,7 @@ def _reference_give_way_bound(s_up, wall_m, reach_m, tolerance_m, moving):
 @settings(max_examples=300, deadline=None)
 @given(SEEDS, st.integers(1, 30), st.booleans(), st.booleans())
 def test_give_way_bound_matches_numpy_bit_for_bit(seed, n_steps, moving, special):
-    from marl_social.sim.kernel_cache import route_kernels
+    from marl_social.agents.robot.corridor import corridor_kernels
 
     rng = np.random.default_rng(seed)
     reach = np.cumsum(rng.uniform(0.0, 2.0, n_steps)) + 0.1
@@ -297,5 +297,5 @@ def test_give_way_bound_matches_numpy_bit_for_bit(seed, n_steps, moving, special
     with np.errstate(invalid="ignore", over="ignore"):
         want = _reference_give_way_bound(s_up, wall, reach, 0.05, moving)
         got = s_up.copy()
-        route_kernels().give_way_bound(got, wall, reach, 0.05, moving, got)
+        corridor_kernels().give_way_bound(got, wall, reach, 0.05, moving, got)
     assert _same(got, want)
