@@ -386,9 +386,9 @@ def reachable_progress(v0: float, prev_accel: float, accel_max_mps2: float,
     # the sum of the accelerations times dt: one compiled pass (corridor_kernels.
     # reachable_progress; its numpy reference: tests/agents/test_corridor_kernels.py)
     out = np.empty(len(v_max_mps))
-    corridor_kernels().reachable_progress(float(v0), float(prev_accel), float(accel_max_mps2),
-                                       float(jerk_max_mps3), float(first_dt_s), float(dt_s),
-                                       np.asarray(v_max_mps, dtype=np.float64), out)
+    corridor_kernels().reachable_progress(
+        float(v0), float(prev_accel), float(accel_max_mps2), float(jerk_max_mps3),
+        float(first_dt_s), float(dt_s), np.asarray(v_max_mps, dtype=np.float64), out)
     return out
 
 

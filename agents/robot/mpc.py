@@ -303,7 +303,7 @@ class ContingencyMpc:
         # reference: tests/agents/test_corridor_kernels.py)
         out = np.empty(len(self._brake_decel))
         corridor_kernels().braking_reach(float(v0), self._brake_decel, self.config.plan_dt_s,
-                                      self._headway, ROOM_M, out)
+                                         self._headway, ROOM_M, out)
         return out
 
     def _branch_bounds(self, objects: list[PathObject], modes: tuple, bounds: tuple):
@@ -319,8 +319,9 @@ class ContingencyMpc:
         # that only uses the room does not move it (plan: standstill). Within the wall, >= 0:
         # one compiled pass in place (corridor_kernels.give_way_bound; its numpy reference:
         # tests/agents/test_corridor_kernels.py)
-        corridor_kernels().give_way_bound(s_up, float(wall), self._reach, c.position_tolerance_m,
-                                       bool(bounds[0] > c.rest_mps), s_up)
+        corridor_kernels().give_way_bound(s_up, float(wall), self._reach,
+                                          c.position_tolerance_m, bool(bounds[0] > c.rest_mps),
+                                          s_up)
         return s_low, s_up
 
     def _solve(self, qp: ContingencyQp, weights: np.ndarray, s_low: np.ndarray,
