@@ -75,7 +75,8 @@ class OwnSensors:
         if len(self._present_idx) == 0 or len(depth) == 0:
             return out
         depth = depth.astype(np.float64)
-        x, y, c, s, rng, half = decoded.ego[_EGO_VIEW].tolist()  # float32 -> Python floats
+        ego = decoded.ego.tolist()  # float32 -> Python floats (a list: cheaper than indexing)
+        x, y, c, s, rng, half = [ego[i] for i in _EGO_VIEW]
         angles = self._ray_angles(half, len(depth))
         rel_x, rel_y = self._region_x - x, self._region_y - y  # (P, K)
         # np.hypot and np.arctan2 in numpy, the wrapping, the rays' lookup and the count
