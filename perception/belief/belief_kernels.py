@@ -487,3 +487,59 @@ def route_projections(xy, segments):
                 lateral_out[i] = dx * ry - dy * rx
                 k_out[i] = k
     return s_out, lateral_out, k_out
+
+
+@numba.njit((_array(1), _array(1), _array(1), _array(1), _array(2), _F8, _B1), **_JIT)
+def path_matches(along, lateral, v_along, v_floor, bounds, v_min, vehicle):
+    """(H,) bool: own_sensors._PathGroup.matches after its coordinates, the same comparisons.
+
+    Seen agent j (of n) is in hypothesis k's bin if |lateral_j| <= b0_k, b1_k <= along_j <= b2_k
+    and, for a vehicle, v_along_j >= v_floor_j, b3_k <= v_along_j < b4_k; for a pedestrian,
+    b3_k <= along_j <= b4_k and v_along_j > -v_min, or v_along_j >= v_min.
+
+    Args:
+        along: (n,) coordinate along the path [m].
+        lateral: (n,) coordinate across it [m].
+        v_along: (n,) speed along the path [m/s].
+        v_floor: (n,) its floor [m/s] (vehicles only).
+        bounds: (5, H) each hypothesis' bounds [m] or [m/s] (`_PathGroup.bounds`).
+        v_min: the pedestrians' walking speed threshold [m/s].
+        vehicle: the path's kind.
+    """
+    n_h, n = bounds.shape[1], len(along)
+    out = np.zeros(n_h, dtype=np.bool_)
+    for k in range(n_h):
+        for j in range(n):
+            a, v = along[j], v_along[j]
+            if not (abs(lateral[j]) <= bounds[0, k] and a >= bounds[1, k] and a <= bounds[2, k]):
+                continue
+            if vehicle:
+                hit = v >= v_floor[j] and v >= bounds[3, k] and v < bounds[4, k]
+            else:
+                hit = (a >= bounds[3, k] and a <= bounds[4, k] and v > -v_min) or v >= v_min
+            if hit:
+                out[k] = True
+                break
+    return out
+
+
+@numba.njit((_array(1), _array(1)), **_JIT)
+def normalized_outer(a, b):
+    """(n m,) np.multiply.outer(a, b).ravel() divided by its np.add.reduce (n m <= 128).
+
+    bayes.joint_bayes_update's normalized joint prior: the products, numpy's pairwise sum
+    (`_pairwise_sum`), then each product divided by it.
+
+    Args:
+        a: (n,) the first belief.
+        b: (m,) the second belief.
+    """
+    n, m = len(a), len(b)
+    out = np.empty(n * m)
+    for i in range(n):
+        for j in range(m):
+            out[i * m + j] = a[i] * b[j]
+    total = _pairwise_sum(out, 0, n * m)
+    for k in range(n * m):
+        out[k] = out[k] / total
+    return out

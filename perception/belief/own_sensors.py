@@ -75,7 +75,8 @@ class OwnSensors:
         if len(self._present_idx) == 0 or len(depth) == 0:
             return out
         depth = depth.astype(np.float64)
-        x, y, c, s, rng, half = decoded.ego[_EGO_VIEW].tolist()  # float32 -> Python floats
+        ego = decoded.ego.tolist()  # float32 -> Python floats (a list: cheaper than indexing)
+        x, y, c, s, rng, half = [ego[i] for i in _EGO_VIEW]
         angles = self._ray_angles(half, len(depth))
         rel_x, rel_y = self._region_x - x, self._region_y - y  # (P, K)
         # np.hypot and np.arctan2 in numpy, the wrapping, the rays' lookup and the count
@@ -197,6 +198,7 @@ class _PathGroup:
                 bounds.append((h.half_width_m + MATCH_MARGIN_M, lo - MATCH_MARGIN_M,
                                min(hi + MATCH_MARGIN_M, road_end), h.curb_offset_m, road_end))
         self.bounds = np.array(bounds, dtype=np.float64).T[..., None]  # (B, H, 1)
+        self._bounds = np.ascontiguousarray(self.bounds[..., 0])  # (B, H), for the kernel
         route = self.first._route
         # a vehicle path's segments for belief_kernels.route_projections (paths.LanePaths')
         self._route_heading = route.segment_heading_rad if route is not None else None
@@ -225,22 +227,26 @@ class _PathGroup:
             velocity: (n, 2) their velocities [m/s].
             walking_speed_min_mps: pedestrians only.
         """
+        # the coordinates and speeds in numpy, the bins' comparisons compiled
+        # (belief_kernels.path_matches)
         if self.kind == "vehicle":
             s, lateral, heading = self._path_coords(xy)
             speed = np.hypot(velocity[:, 0], velocity[:, 1])
             v_along = velocity[:, 0] * np.cos(heading) + velocity[:, 1] * np.sin(heading)
-            half, lo, hi, lo_v, hi_v = self.bounds
-            inside = (np.abs(lateral) <= half) & (s >= lo) & (s <= hi)
-            along = v_along >= speed * math.cos(VEHICLE_MATCH_HEADING_RAD)
-            return np.any(inside & along & (v_along >= lo_v) & (v_along < hi_v), axis=1)
+            return compiled.kernels().path_matches(
+                _f8(s), _f8(lateral), _f8(v_along),
+                _f8(speed * math.cos(VEHICLE_MATCH_HEADING_RAD)), self._bounds,
+                float(walking_speed_min_mps), True)
         along, across = self.first.corridor_coords(xy)
-        v_along = velocity @ self.first.walk_dir
-        half, lo, hi, curb, road_end = self.bounds
-        inside = (np.abs(across) <= half) & (along >= lo) & (along <= hi)
-        on_road = (along >= curb) & (along <= road_end)
-        crossing = (on_road & (v_along > -walking_speed_min_mps)) | (
-            v_along >= walking_speed_min_mps)
-        return np.any(inside & crossing, axis=1)
+        v_along = _f8(velocity @ self.first.walk_dir)
+        return compiled.kernels().path_matches(_f8(along), _f8(across), v_along, v_along,
+                                               self._bounds, float(walking_speed_min_mps),
+                                               False)
+
+
+def _f8(values) -> np.ndarray:
+    """Values (n,) as a C-contiguous float64 array (the kernels' input; no copy if it is)."""
+    return np.ascontiguousarray(values, dtype=np.float64)
 
 
 def _path_groups(hypotheses: list[Hypothesis]) -> list[_PathGroup]:

@@ -326,3 +326,60 @@ def test_route_projections_are_route_project(seed, n_points, n):
     want_s, want_lateral, want_heading = route.project(xy)
     assert _same(s, want_s) and _same(lateral, want_lateral)
     assert _same(route.segment_heading_rad[k], want_heading)
+
+
+def _reference_path_matches(along, lateral, v_along, v_floor, bounds, v_min, vehicle):
+    """own_sensors._PathGroup.matches' comparisons as they stood in numpy (bounds (5, H, 1))."""
+    half, lo, hi, b3, b4 = bounds
+    inside = (np.abs(lateral) <= half) & (along >= lo) & (along <= hi)
+    if vehicle:
+        return np.any(inside & (v_along >= v_floor) & (v_along >= b3) & (v_along < b4), axis=1)
+    on_road = (along >= b3) & (along <= b4)
+    crossing = (on_road & (v_along > -v_min)) | (v_along >= v_min)
+    return np.any(inside & crossing, axis=1)
+
+
+_SPECIAL = np.array([np.nan, np.inf, -np.inf, 0.0, -0.0, 1.0, -1.0, 0.3, -0.3])
+
+
+@settings(max_examples=400, deadline=None)
+@given(seed=SEEDS, n=st.integers(0, 6), n_h=st.integers(0, 8), vehicle=st.booleans())
+def test_path_matches_are_numpys(seed, n, n_h, vehicle):
+    """The bins' comparisons, with NaN, +-inf and +-0 among the coordinates and the bounds."""
+    rng = np.random.default_rng(seed)
+
+    def values(shape, scale):
+        out = rng.normal(size=shape) * scale
+        special = rng.random(shape) < 0.25
+        out[special] = rng.choice(_SPECIAL, int(special.sum()))
+        return out
+
+    along, lateral, v_along, v_floor = (values(n, s) for s in (5.0, 2.0, 2.0, 1.0))
+    lo = values(n_h, 3.0)
+    with np.errstate(invalid="ignore"):  # -inf + inf
+        bounds = np.stack([np.abs(values(n_h, 2.0)), lo, lo + np.abs(values(n_h, 4.0)),
+                           values(n_h, 2.0), values(n_h, 4.0)])  # (5, H)
+    v_min = float(rng.choice([0.3, 0.0, -0.0]))
+    got = compiled.kernels().path_matches(along, lateral, v_along, v_floor, bounds, v_min,
+                                          vehicle)
+    want = _reference_path_matches(along, lateral, v_along, v_floor, bounds[..., None], v_min,
+                                   vehicle)
+    assert got.dtype == np.bool_ and np.array_equal(got, want)
+
+
+@settings(max_examples=400, deadline=None)
+@given(seed=SEEDS, n=st.integers(1, 20), m=st.integers(1, 6))
+def test_normalized_outer_is_numpys(seed, n, m):
+    """joint_bayes_update's normalized joint prior, with NaN, +-inf and +-0 among the beliefs."""
+    rng = np.random.default_rng(seed)
+    a, b = rng.dirichlet(np.full(n, 0.5)), rng.dirichlet(np.full(m, 0.5))
+    for v in (a, b):
+        special = rng.random(len(v)) < 0.15
+        v[special] = rng.choice(_SPECIAL, int(special.sum()))
+    if rng.random() < 0.1:
+        a[:] = rng.choice([0.0, -0.0])
+    with np.errstate(all="ignore"):
+        prior = np.multiply.outer(a, b).ravel()
+        want = prior / np.add.reduce(prior)
+        got = compiled.kernels().normalized_outer(a, b)
+    assert _same(got, want)
