@@ -27,7 +27,7 @@ PARTS = ("planners", "belief", "tree", "route")
 # each part: the module whose folder holds its kernel files, and those files' names
 _FILES = {
     "planners": ("marl_social.models.kernel_loading",
-                 ("gap_kernels", "cost_kernels", "scene_kernels")),
+                 ("gap_kernels", "cost_kernels", "scene_kernels", "zone_kernels")),
     "belief": ("marl_social.perception.belief.compiled", ("belief_kernels",)),
     "tree": ("marl_social.agents.robot.qp", ("tree_ipm", "qp_kernels", "corridor_kernels")),
     "route": ("marl_social.sim.road_map", ("route_kernels",)),

@@ -25,6 +25,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from marl_social.models import kernel_loading
 from marl_social.models.candidates import (
     CandidateEvaluation,
     CandidateSet,
@@ -150,8 +151,6 @@ def _weights(theta: np.ndarray) -> np.ndarray:
 
 def _kernels() -> tuple:
     """(gap_kernels, cost_kernels), imported at the first call (importing numba takes a while)."""
-    from marl_social.models import kernel_loading
-
     _KERNELS[:] = kernel_loading.load()
     return tuple(_KERNELS)
 
@@ -255,7 +254,7 @@ def _conflict_rows(scene: ScenePrediction, crosswalks: tuple, yield_zones: tuple
 
 def _zone_claims(scene: ScenePrediction, zone_edges: np.ndarray, priority: np.ndarray,
                  margin_s: float, dt_s: float) -> np.ndarray:
-    """candidates.zone_claims, bit for bit, with its geometry in gap_kernels.
+    """candidates.zone_claims, bit for bit, with its geometry in models/zone_kernels.py.
 
     Args:
         scene: the predicted objects (L hypotheses, M objects, T steps).
@@ -275,8 +274,7 @@ def _zone_claims(scene: ScenePrediction, zone_edges: np.ndarray, priority: np.nd
     # footprint.circle_layout of the claimants, remembered for their sizes (circle_gaps)
     along, radius = _scene_layout(scene.length_m[rows, cols], scene.width_m[rows, cols],
                                   scene.is_pedestrian[rows, cols])
-    gap_kernels, _ = _KERNELS or _kernels()
-    arguments = gap_kernels.zone_claim_arguments(
+    arguments = kernel_loading.load_all()[3].zone_claim_arguments(  # models/zone_kernels.py
         np.ascontiguousarray(scene.xy[rows, cols]), dt_s, round(margin_s / dt_s) + 1,
         np.cos(heading), np.sin(heading), along, radius, zone_edges,
         OCCUPANCY_SOFTNESS_M)

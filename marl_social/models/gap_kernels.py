@@ -24,7 +24,8 @@ The module is imported at the first evaluation (importing numba takes a few tent
 second); `cache=True` keeps the machine code next to it (__pycache__), so only the first
 process after a change compiles. numba's cache notices changes of a function's own file only,
 so a compiled function here calls only compiled functions of this module (the pedestrian's
-`walk_geometry` is here for that reason; cost_kernels.py calls nothing of it). Every kernel
+`walk_geometry` is here for that reason; cost_kernels.py calls nothing of it). The objects'
+conflict-zone claims, a job of their own, are models/zone_kernels.py. Every kernel
 has one signature: read-only C-contiguous arrays (writable ones convert to them), so one
 compilation serves every call.
 """
@@ -362,66 +363,6 @@ def occupancy_arguments(xy, ego_x, ego_y, ego_r, ego_radius, crosswalks, zones, 
                         inside = _nan_min(inside, d) if e else d
                     depth = _nan_max(depth, inside + ego_r) if k else inside + ego_r
                 out[n_cw + z, p, t] = 0.5 * depth / softness_m
-    return out
-
-
-@numba.njit((_array(3), _F8, _I8, _array(2), _array(2), _array(2), _array(2), _array(2),
-              _F8), **_JIT)
-def zone_claim_arguments(xy, dt_s, n_offsets, cos_heading, sin_heading, along, radius, edges,
-                         softness_m):
-    """The arguments of np.tanh of candidates.zone_claims' occupancies, per time offset.
-
-    As zone_claims computes them: each object's velocity is np.gradient's of its positions
-    (zero for one step), its position offset j dt_s ahead at that velocity (j < n_offsets),
-    its covering circles placed along its heading, and the zone's occupancy argument 0.5 depth /
-    softness with depth the largest over the circles of the smallest signed distance inside
-    the zone's edges plus the circle's radius (occupancy_arguments' zone rows).
-
-    Args:
-        xy: (P, T, 2) the claimants' predicted positions [m].
-        dt_s: the planner step [s].
-        n_offsets: J, the offsets 0, dt_s, ..., (J - 1) dt_s.
-        cos_heading: (P, T) np.cos of their predicted headings.
-        sin_heading: (P, T) np.sin of them.
-        along: (P, C) footprint.circle_layout's offsets along the heading [m].
-        radius: (P, C) the circles' radii [m].
-        edges: (V, 5) the zone's edges (sim/costs._polygon_edges): start x, y, vector x, y,
-            length [m].
-        softness_m: sim/costs.OCCUPANCY_SOFTNESS_M [m].
-
-    Returns:
-        (J, P, T) 0.5 depth / softness.
-    """
-    n_plans, n_t = cos_heading.shape
-    out = np.empty((n_offsets, n_plans, n_t))
-    for p in range(n_plans):
-        for t in range(n_t):
-            vx = vy = 0.0
-            if n_t > 1:
-                if t == 0:
-                    vx = (xy[p, 1, 0] - xy[p, 0, 0]) / dt_s
-                    vy = (xy[p, 1, 1] - xy[p, 0, 1]) / dt_s
-                elif t == n_t - 1:
-                    vx = (xy[p, t, 0] - xy[p, t - 1, 0]) / dt_s
-                    vy = (xy[p, t, 1] - xy[p, t - 1, 1]) / dt_s
-                else:
-                    vx = (xy[p, t + 1, 0] - xy[p, t - 1, 0]) / (2.0 * dt_s)
-                    vy = (xy[p, t + 1, 1] - xy[p, t - 1, 1]) / (2.0 * dt_s)
-            for j in range(n_offsets):
-                offset = j * dt_s
-                ahead_x = xy[p, t, 0] + offset * vx
-                ahead_y = xy[p, t, 1] + offset * vy
-                depth = 0.0
-                for k in range(along.shape[1]):
-                    x = ahead_x + along[p, k] * cos_heading[p, t]
-                    y = ahead_y + along[p, k] * sin_heading[p, t]
-                    inside = 0.0
-                    for e in range(len(edges)):
-                        px, py, ex, ey, length = edges[e]
-                        d = (ex * (y - py) - ey * (x - px)) / length
-                        inside = _nan_min(inside, d) if e else d
-                    depth = _nan_max(depth, inside + radius[p, k]) if k else inside + radius[p, k]
-                out[j, p, t] = 0.5 * depth / softness_m
     return out
 
 

@@ -1,6 +1,6 @@
 """Loading the compiled (numba) kernels once per process, with a word when they compile.
 
-`models/gap_kernels.py`, `models/cost_kernels.py` and `models/scene_kernels.py` are compiled at
+`models/gap_kernels.py`, `cost_kernels.py`, `scene_kernels.py` and `zone_kernels.py` are compiled at
 their import (one fixed signature each, `cache=True`). From numba's on-disk cache that takes under a second; with no
 cache -- the first run after an install or after an edit of a kernel file -- numba compiles
 them, about 30 s on a 2-core machine, before the first decision. So that such a first run
@@ -14,12 +14,12 @@ import functools
 
 from marl_social.sim.kernel_cache import load_kernels
 
-_KERNEL_FILES = ("gap_kernels", "cost_kernels", "scene_kernels")
+_KERNEL_FILES = ("gap_kernels", "cost_kernels", "scene_kernels", "zone_kernels")
 
 
 @functools.cache  # called at every decision: a cached call, not load_kernels' lookup
 def load_all() -> tuple:
-    """(models.gap_kernels, models.cost_kernels, models.scene_kernels), imported once."""
+    """(models.gap_kernels, cost_kernels, scene_kernels, zone_kernels), imported once."""
     return load_kernels("marl_social.models", _KERNEL_FILES, "the planners' numba kernels", 30)
 
 
