@@ -110,7 +110,8 @@ def objects_on_path(route: Route, scene: ScenePrediction, s0: float, robot_lengt
     kernels = corridor_kernels()
     # project each distinct prediction once: an object present in several hypotheses and
     # predicted alike in every one (a tracked one) from the first, the others where present
-    # (corridor_kernels.distinct_predictions; numpy reference: tests/agents/test_corridor_kernels.py)
+    # (corridor_kernels.distinct_predictions; numpy reference:
+    # tests/agents/test_corridor_kernels.py)
     shared = np.empty(n_obj, dtype=bool)
     pair = np.empty((n_hyp, n_obj), dtype=np.int64)  # (L, M) the pair standing for each
     source = np.empty((2, n_hyp * n_obj), dtype=np.int64)
@@ -122,7 +123,8 @@ def objects_on_path(route: Route, scene: ScenePrediction, s0: float, robot_lengt
     heading = scene.heading[source[0, :n_pair], source[1, :n_pair]]  # (P, N)
     extent = np.empty((5,) + heading.shape)  # (5, P, N)
     route_kernels().project_footprints(scene.xy, np.cos(heading), np.sin(heading),
-                                       scene.length_m, scene.width_m, source, route.kernel_segment_table, extent)
+                                       scene.length_m, scene.width_m, source,
+                                       route.kernel_segment_table, extent)
     # in the corridor: the lateral extent overlaps the robot's width plus the clearance (a
     # pedestrian heading for the corridor, its distance to the route shrinking, is in the way
     # from further out: it has the right of way on the carriageway; one standing or walking

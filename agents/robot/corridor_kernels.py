@@ -166,6 +166,8 @@ def corridor_occupancy(extent, is_pedestrian, source, half_pedestrian_m, half_ot
     return n_relevant
 
 
+# _np_minimum / _np_maximum: qp_kernels.py's twins, kept in this file on purpose: numba's cache
+# of a kernel notices edits of its own file only
 @numba.njit(cache=True)
 def _np_minimum(a, b):
     """np.minimum(a, b) of two floats: a NaN stays, a tie gives b (numpy's, +-0 included)."""

@@ -17,6 +17,8 @@ agents/compile_kernels.py's "tree" part compiles it ahead.
 
 from __future__ import annotations
 
+import math
+
 import numba
 import numpy as np
 from numba import types
@@ -39,20 +41,22 @@ _DAQP_INPUTS = types.Tuple((_F2, _F1, _F2, _F1, _F1))(
 _FULL_SOLUTION = _F1(_IN_F1, _IN_B1, _IN_F1, _IN_I1)
 
 
+# _np_minimum / _np_maximum: corridor_kernels.py's twins, kept in this file on purpose: numba's
+# cache of a kernel notices edits of its own file only
 @numba.njit(cache=True)
-def _nan_max(a, b):
-    """np.maximum(a, b) of two floats: a NaN stays, a tie gives b (numpy's, +-0 included)."""
-    if np.isnan(a):
-        return a
-    return a if a > b else b  # noqa: FURB136 - the tie order is the point
-
-
-@numba.njit(cache=True)
-def _nan_min(a, b):
+def _np_minimum(a, b):
     """np.minimum(a, b) of two floats: a NaN stays, a tie gives b (numpy's, +-0 included)."""
-    if np.isnan(a):
+    if math.isnan(a):
         return a
     return a if a < b else b  # noqa: FURB136 - the tie order is the point
+
+
+@numba.njit(cache=True)
+def _np_maximum(a, b):
+    """np.maximum(a, b) of two floats: a NaN stays, a tie gives b (numpy's, +-0 included)."""
+    if math.isnan(a):
+        return a
+    return a if a > b else b  # noqa: FURB136 - the tie order is the point
 
 
 @numba.njit(_SPARSE_BOUNDS, cache=True)
@@ -110,9 +114,9 @@ def sparse_bounds(lower_template, upper_template, first_dyn_v, first_dyn_s, spee
             lower[speed_rows[l, k]] = 0.0
             upper[speed_rows[l, k]] = v_max[l, k]
         for k in range(n_steps):
-            lower[low_rows[l, k]] = _nan_max(s_low[l, k], -infinity)
+            lower[low_rows[l, k]] = _np_maximum(s_low[l, k], -infinity)
         for k in range(n_steps):
-            upper[up_rows[l, k]] = _nan_min(s_up[l, k], infinity)
+            upper[up_rows[l, k]] = _np_minimum(s_up[l, k], infinity)
     jerk_low, jerk_up = -jerk_max * dt_s, jerk_max * dt_s
     for j in range(len(jerk_rows)):
         lower[jerk_rows[j]] = jerk_low
@@ -170,8 +174,8 @@ def daqp_inputs(h_full, f_full, m_matrix, m_v0, v0, lower, upper, trunk_rows, tr
     for k in range(len(trunk_pos)):
         low, high = lower[trunk_rows[0, k]], upper[trunk_rows[0, k]]
         for b in range(1, trunk_rows.shape[0]):
-            low = _nan_max(low, lower[trunk_rows[b, k]])
-            high = _nan_min(high, upper[trunk_rows[b, k]])
+            low = _np_maximum(low, lower[trunk_rows[b, k]])
+            high = _np_minimum(high, upper[trunk_rows[b, k]])
         lo[trunk_pos[k]] = low
         up[trunk_pos[k]] = high
     for k in range(len(single_pos)):
@@ -207,11 +211,11 @@ def daqp_inputs(h_full, f_full, m_matrix, m_v0, v0, lower, upper, trunk_rows, tr
             low, high = lower[accel_rows[var]], upper[accel_rows[var]]
         else:
             low, high = 0.0, DAQP_INF
-        b_lower[i] = _nan_max(low, -DAQP_INF)
-        b_upper[i] = _nan_min(high, DAQP_INF)
+        b_lower[i] = _np_maximum(low, -DAQP_INF)
+        b_upper[i] = _np_minimum(high, DAQP_INF)
     for r in range(n_rows):
-        b_lower[n_free + r] = _nan_max(lo[rows[r]], -DAQP_INF)
-        b_upper[n_free + r] = _nan_min(up[rows[r]], DAQP_INF)
+        b_lower[n_free + r] = _np_maximum(lo[rows[r]], -DAQP_INF)
+        b_upper[n_free + r] = _np_minimum(up[rows[r]], DAQP_INF)
     return h, f, a, b_upper, b_lower
 
 
@@ -238,5 +242,5 @@ def full_solution(z_free, free, lower, slack_rows):
             k += 1
     for j in range(n_a):
         if not free[n_a + j]:
-            z[n_a + j] = _nan_max(0.0, lower[slack_rows[j]] - z[j])
+            z[n_a + j] = _np_maximum(0.0, lower[slack_rows[j]] - z[j])
     return z

@@ -15,6 +15,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from marl_social.models import kernel_loading
 from marl_social.models.circle_gaps import (
     circle_pair_gap,
     scene_circles,
@@ -72,7 +73,7 @@ class ScenePrediction:
         if predicted_xy is None and _float_arrays(tracks.xy, tracks.velocity, tracks.heading_rad,
                                                   times_s):
             # predict_xy's arithmetic and the repeated headings in one compiled call
-            xy, heading = _scene_kernels().constant_velocity_scene(
+            xy, heading = kernel_loading.load_all()[2].constant_velocity_scene(  # scene_kernels
                 tracks.xy, tracks.velocity, tracks.heading_rad, times_s)
         else:
             if predicted_xy is None:
@@ -125,23 +126,14 @@ _ALL_PRESENT.setflags(write=False)
 
 
 def _float_arrays(xy, velocity, heading, times_s) -> bool:
-    """Whether scene_kernels.constant_velocity_scene takes these: float64 (M, 2), (M, 2), (M,), (T,)."""
+    """Whether scene_kernels.constant_velocity_scene takes these arrays.
+
+    float64 xy (M, 2), velocity (M, 2), heading (M,) and times_s (T,).
+    """
     return (type(xy) is type(velocity) is type(heading) is type(times_s) is np.ndarray
             and xy.dtype == velocity.dtype == heading.dtype == times_s.dtype == np.float64
             and times_s.ndim == 1 and xy.shape == velocity.shape == (len(heading), 2)
             and heading.ndim == 1)
-
-
-def _scene_kernels():
-    """models/scene_kernels.py, imported (compiled if need be) at the first call."""
-    if not _SCENE_KERNELS:
-        from marl_social.models import kernel_loading
-
-        _SCENE_KERNELS.append(kernel_loading.load_all()[2])
-    return _SCENE_KERNELS[0]
-
-
-_SCENE_KERNELS: list = []  # [models.scene_kernels] once loaded
 
 
 @dataclass(frozen=True)

@@ -125,10 +125,35 @@ def _immutable(array: np.ndarray) -> bool:
     return True
 
 
-# circle_layout of the scene objects' dimensions, by their bytes (a scene's objects keep
-# their sizes from step to step); read-only arrays; emptied when it reaches this many entries
+# circle_layout of the scene objects' dimensions and its kernel forms (_layout_entry), by their
+# bytes (a scene's objects keep their sizes from step to step); read-only arrays; emptied when
+# it reaches this many entries
 _MAX_LAYOUTS = 256
-_LAYOUTS: dict[tuple, tuple[np.ndarray, np.ndarray]] = {}
+_LAYOUTS: dict[tuple, tuple[np.ndarray, ...]] = {}
+
+
+def _layout_entry(length_m: np.ndarray, width_m: np.ndarray, is_pedestrian: np.ndarray
+                  ) -> tuple[np.ndarray, ...]:
+    """circle_layout's along and radius (L, M, C) [m] and their kernel forms, once per input.
+
+    The kernel forms: along and radius[..., 0] (L, M) as C-contiguous float64 (the same bits).
+    Every array read-only.
+    """
+    length_m, width_m = np.asarray(length_m), np.asarray(width_m)
+    is_pedestrian = np.asarray(is_pedestrian)
+    key = (length_m.dtype, width_m.dtype, is_pedestrian.dtype, length_m.shape, width_m.shape,
+           is_pedestrian.shape, length_m.tobytes(), width_m.tobytes(), is_pedestrian.tobytes())
+    hit = _LAYOUTS.get(key)
+    if hit is None:
+        along, radius = circle_layout(length_m, width_m, is_pedestrian)
+        hit = (along, radius, np.ascontiguousarray(along, dtype=np.float64),
+               np.ascontiguousarray(radius[..., 0], dtype=np.float64))
+        for array in hit:
+            array.setflags(write=False)
+        if len(_LAYOUTS) >= _MAX_LAYOUTS:
+            _LAYOUTS.clear()
+        _LAYOUTS[key] = hit
+    return hit
 
 
 def _scene_layout(length_m: np.ndarray, width_m: np.ndarray, is_pedestrian: np.ndarray
@@ -138,44 +163,16 @@ def _scene_layout(length_m: np.ndarray, width_m: np.ndarray, is_pedestrian: np.n
     Returns:
         along (L, M, C) [m] and radius (L, M, C) [m], read-only.
     """
-    length_m, width_m = np.asarray(length_m), np.asarray(width_m)
-    is_pedestrian = np.asarray(is_pedestrian)
-    key = (length_m.dtype, width_m.dtype, is_pedestrian.dtype, length_m.shape, width_m.shape,
-           is_pedestrian.shape, length_m.tobytes(), width_m.tobytes(), is_pedestrian.tobytes())
-    hit = _LAYOUTS.get(key)
-    if hit is None:
-        hit = circle_layout(length_m, width_m, is_pedestrian)
-        for array in hit:
-            array.setflags(write=False)
-        if len(_LAYOUTS) >= _MAX_LAYOUTS:
-            _LAYOUTS.clear()
-        _LAYOUTS[key] = hit
-    return hit
-
-
-# id(along of _scene_layout) -> (that along, it and its circles' radius (L, M) as C-contiguous
-# float64 arrays, read-only); emptied when it reaches _MAX_LAYOUTS entries
-_KERNEL_LAYOUTS: dict[int, tuple] = {}
+    return _layout_entry(length_m, width_m, is_pedestrian)[:2]
 
 
 def _kernel_layout(length_m, width_m, is_pedestrian) -> tuple[np.ndarray, np.ndarray]:
     """_scene_layout's along (L, M, C) [m] and radius[..., 0] (L, M) [m] as the kernels take them.
 
-    C-contiguous float64, read-only, remembered for the layout (np.ascontiguousarray of the
+    C-contiguous float64, read-only, remembered with the layout (np.ascontiguousarray of the
     same values: the same bits).
     """
-    along, radius = _scene_layout(length_m, width_m, is_pedestrian)
-    hit = _KERNEL_LAYOUTS.get(id(along))
-    if hit is not None and hit[0] is along:
-        return hit[1]
-    out = (np.ascontiguousarray(along, dtype=np.float64),
-           np.ascontiguousarray(radius[..., 0], dtype=np.float64))
-    for array in out:
-        array.setflags(write=False)
-    if len(_KERNEL_LAYOUTS) >= _MAX_LAYOUTS:
-        _KERNEL_LAYOUTS.clear()
-    _KERNEL_LAYOUTS[id(along)] = (along, out)
-    return out
+    return _layout_entry(length_m, width_m, is_pedestrian)[2:]
 
 
 def _scene_circles(scene) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
