@@ -152,16 +152,9 @@ def joint_bayes_update(prior_l: np.ndarray, prior_v: np.ndarray, own_log_lik: np
         own log-likelihood) (L,).
     """
     n, n_v = len(prior_l), len(prior_v)
+    prior = np.multiply.outer(prior_l, prior_v).ravel()
+    predicted = transition @ (prior / np.add.reduce(prior))
     kernels = compiled.kernels()
-    if (n * n_v <= compiled.PAIRWISE_MAX and type(prior_l) is type(prior_v) is np.ndarray
-            and prior_l.dtype == prior_v.dtype == np.float64):
-        # the same arithmetic compiled (belief_kernels.normalized_outer)
-        prior = kernels.normalized_outer(np.ascontiguousarray(prior_l),
-                                         np.ascontiguousarray(prior_v))
-        predicted = transition @ prior
-    else:
-        prior = np.multiply.outer(prior_l, prior_v).ravel()
-        predicted = transition @ (prior / np.add.reduce(prior))
     social = np.ascontiguousarray(social_log_lik, dtype=np.float64)
     with np.errstate(invalid="ignore"):
         evidence = np.exp(kernels.joint_log_likelihood(

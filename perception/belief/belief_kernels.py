@@ -521,25 +521,3 @@ def path_matches(along, lateral, v_along, v_floor, bounds, v_min, vehicle):
                 out[k] = True
                 break
     return out
-
-
-@numba.njit((_array(1), _array(1)), **_JIT)
-def normalized_outer(a, b):
-    """(n m,) np.multiply.outer(a, b).ravel() divided by its np.add.reduce (n m <= 128).
-
-    bayes.joint_bayes_update's normalized joint prior: the products, numpy's pairwise sum
-    (`_pairwise_sum`), then each product divided by it.
-
-    Args:
-        a: (n,) the first belief.
-        b: (m,) the second belief.
-    """
-    n, m = len(a), len(b)
-    out = np.empty(n * m)
-    for i in range(n):
-        for j in range(m):
-            out[i * m + j] = a[i] * b[j]
-    total = _pairwise_sum(out, 0, n * m)
-    for k in range(n * m):
-        out[k] = out[k] / total
-    return out

@@ -356,30 +356,11 @@ def test_path_matches_are_numpys(seed, n, n_h, vehicle):
 
     along, lateral, v_along, v_floor = (values(n, s) for s in (5.0, 2.0, 2.0, 1.0))
     lo = values(n_h, 3.0)
-    with np.errstate(invalid="ignore"):  # -inf + inf
-        bounds = np.stack([np.abs(values(n_h, 2.0)), lo, lo + np.abs(values(n_h, 4.0)),
-                           values(n_h, 2.0), values(n_h, 4.0)])  # (5, H)
+    bounds = np.stack([np.abs(values(n_h, 2.0)), lo, lo + np.abs(values(n_h, 4.0)),
+                       values(n_h, 2.0), values(n_h, 4.0)])  # (5, H)
     v_min = float(rng.choice([0.3, 0.0, -0.0]))
     got = compiled.kernels().path_matches(along, lateral, v_along, v_floor, bounds, v_min,
                                           vehicle)
     want = _reference_path_matches(along, lateral, v_along, v_floor, bounds[..., None], v_min,
                                    vehicle)
     assert got.dtype == np.bool_ and np.array_equal(got, want)
-
-
-@settings(max_examples=400, deadline=None)
-@given(seed=SEEDS, n=st.integers(1, 20), m=st.integers(1, 6))
-def test_normalized_outer_is_numpys(seed, n, m):
-    """joint_bayes_update's normalized joint prior, with NaN, +-inf and +-0 among the beliefs."""
-    rng = np.random.default_rng(seed)
-    a, b = rng.dirichlet(np.full(n, 0.5)), rng.dirichlet(np.full(m, 0.5))
-    for v in (a, b):
-        special = rng.random(len(v)) < 0.15
-        v[special] = rng.choice(_SPECIAL, int(special.sum()))
-    if rng.random() < 0.1:
-        a[:] = rng.choice([0.0, -0.0])
-    with np.errstate(all="ignore"):
-        prior = np.multiply.outer(a, b).ravel()
-        want = prior / np.add.reduce(prior)
-        got = compiled.kernels().normalized_outer(a, b)
-    assert _same(got, want)
