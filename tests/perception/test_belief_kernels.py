@@ -356,8 +356,9 @@ def test_path_matches_are_numpys(seed, n, n_h, vehicle):
 
     along, lateral, v_along, v_floor = (values(n, s) for s in (5.0, 2.0, 2.0, 1.0))
     lo = values(n_h, 3.0)
-    bounds = np.stack([np.abs(values(n_h, 2.0)), lo, lo + np.abs(values(n_h, 4.0)),
-                       values(n_h, 2.0), values(n_h, 4.0)])  # (5, H)
+    with np.errstate(invalid="ignore"):  # -inf + inf
+        bounds = np.stack([np.abs(values(n_h, 2.0)), lo, lo + np.abs(values(n_h, 4.0)),
+                           values(n_h, 2.0), values(n_h, 4.0)])  # (5, H)
     v_min = float(rng.choice([0.3, 0.0, -0.0]))
     got = compiled.kernels().path_matches(along, lateral, v_along, v_floor, bounds, v_min,
                                           vehicle)
