@@ -284,18 +284,47 @@ def step_costs(motion, v_ref_mps, prev_accel, weights, safety_exp, present, occu
         started = True
     add_conflict = len(occupancy_tanh) > 0 and w_conflict != 0.0
     scene_sums = _scene_sums(scene_tanh, pair, zone_sums)
+    # term by term over the whole (L, P, T) array, each loop's innermost axis the steps: every
+    # element sees the per-step order of the reference (own, then + safety, then + conflict,
+    # then x scale), the branches decided once, not per element
     cost = np.empty((n_hyp, n_plans, n_t))
+    for h in range(n_hyp):
+        cost[h] = own
+    if w_safety != 0.0:  # np.sum over the present objects of fewer than 8 values >= +0
+        summed = np.empty((n_plans, n_t))
+        for h in range(n_hyp):
+            summed[:] = -0.0
+            for m in range(n_obj):  # an absent object adds +0.0: nothing once 0.0 + is taken
+                if present[h, m]:
+                    for p in range(n_plans):
+                        for t in range(n_t):
+                            summed[p, t] += safety_exp[h, p, t, m]
+            for p in range(n_plans):
+                for t in range(n_t):
+                    term = (0.0 + summed[p, t]) * w_safety
+                    cost[h, p, t] = cost[h, p, t] + term if started else term
+    if add_conflict:
+        n_rows = len(occupancy_tanh)
+        half = np.empty((n_rows, n_plans, n_t))  # the ego's occupancy 0.5 (1 + tanh)
+        for r in range(n_rows):
+            for p in range(n_plans):
+                for t in range(n_t):
+                    half[r, p, t] = 0.5 * (1.0 + occupancy_tanh[r, p, t])
+        added = started or w_safety != 0.0
+        conflict = np.empty(n_t)
+        for h in range(n_hyp):
+            for p in range(n_plans):
+                conflict[:] = 0.0
+                for r in range(n_rows):  # row by row from 0.0 (`_conflict`'s order)
+                    for t in range(n_t):
+                        conflict[t] = conflict[t] + half[r, p, t] * scene_sums[r, h, t]
+                for t in range(n_t):
+                    term = w_conflict * conflict[t]
+                    cost[h, p, t] = cost[h, p, t] + term if added else term
     for h in range(n_hyp):
         for p in range(n_plans):
             for t in range(n_t):
-                total = own[p, t]
-                if w_safety != 0.0:  # np.sum of fewer than 8 values >= +0
-                    term = _present_sum(safety_exp[h, p, t], present[h], n_obj) * w_safety
-                    total = total + term if started else term
-                if add_conflict:
-                    term = w_conflict * _conflict(occupancy_tanh, scene_sums, p, h, t)
-                    total = total + term if (started or w_safety != 0.0) else term
-                cost[h, p, t] = total * scale
+                cost[h, p, t] = cost[h, p, t] * scale
     return cost.reshape((n_hyp, n_first_actions, n_cont, n_t))
 
 
