@@ -393,8 +393,51 @@ class ContingencyMpc:
         s_up = np.empty_like(s_low)
         for row, (l, m) in enumerate(zip(live_idx, chosen)):
             s_low[row], s_up[row] = self._branch_bounds(per_hyp[l], m, bounds)
-        return self._solve(self._qp(len(live_idx)), weights[live_idx], s_low, s_up, bounds,
-                           self._comfort[live_idx], jerk_max)
+        comfort = self._comfort[live_idx]
+        # branches alike in all but their weight -- the same bounds and comfort factor, e.g.
+        # hidden pedestrians whose walks stay out of the corridor over the horizon -- have the
+        # same plan: for a given trunk the QP separates into its branches, and alike ones
+        # minimize the same strictly convex cost over the same set; so they are solved as one
+        # branch of their summed weight (a smaller QP, the same optimum) and copied back
+        first, inverse = distinct_branches(s_low, s_up, comfort)
+        if len(first) == len(live_idx):
+            return self._solve(self._qp(len(live_idx)), weights[live_idx], s_low, s_up, bounds,
+                               comfort, jerk_max)
+        merged = np.zeros(len(first))
+        np.add.at(merged, inverse, weights[live_idx])
+        solution = self._solve(self._qp(len(first)), merged, s_low[first], s_up[first], bounds,
+                               comfort[first], jerk_max)
+        return QpSolution(solution.solved, solution.cost, solution.accel_mps2[inverse],
+                          solution.speed_mps[inverse], solution.progress_m[inverse])
+
+
+def distinct_branches(s_low: np.ndarray, s_up: np.ndarray, comfort: np.ndarray
+                      ) -> tuple[np.ndarray, np.ndarray]:
+    """The first of each group of alike branches and each branch's group.
+
+    Alike: equal progress bounds and comfort factor (exactly; NaN never equals).
+
+    Args:
+        s_low: (L, N) lower progress bounds [m].
+        s_up: (L, N) upper progress bounds [m].
+        comfort: (L,) comfort weight factors.
+
+    Returns:
+        first: (G,) the row of each group's first branch, increasing; inverse: (L,) the group
+        of each branch (first[inverse[l]] is alike branch l).
+    """
+    first: list[int] = []
+    inverse = np.empty(len(comfort), dtype=np.intp)
+    for l in range(len(comfort)):
+        for g, k in enumerate(first):
+            if (comfort[k] == comfort[l] and np.array_equal(s_low[k], s_low[l])
+                    and np.array_equal(s_up[k], s_up[l])):
+                inverse[l] = g
+                break
+        else:
+            inverse[l] = len(first)
+            first.append(l)
+    return np.array(first, dtype=np.intp), inverse
 
 
 def plan(config: MpcConfig, vehicle: VehicleParams, route: Route, s0: float, v0: float,

@@ -6,7 +6,8 @@ import numpy as np
 import pytest
 
 from marl_social.agents.robot.corridor import mode_bounds, objects_on_path
-from marl_social.agents.robot.mpc import ContingencyMpc, plan
+from marl_social.agents.robot import mpc as mpc_module
+from marl_social.agents.robot.mpc import ContingencyMpc, distinct_branches, plan
 from marl_social.agents.robot.mpc_types import MpcConfig
 from marl_social.models.candidates import ScenePrediction
 from marl_social.sim.agent_spec import VehicleParams
@@ -278,6 +279,43 @@ def test_car_stopped_in_the_next_lane_does_not_block_the_robot():
     blocked = plan(CONFIG, VEHICLE, ROUTE, 130.0, 11.5, 0.0, 11.5, 13.9, across,
                    np.array([1.0]))
     assert blocked.accel_mps2 < 0.0
+
+
+def test_alike_branches_are_planned_as_one_with_the_same_optimum(monkeypatch):
+    """Two branches with the same bounds and comfort factor (the same crossing pedestrian at
+    b = 0.3 and 0.2) beside a third: a QP of two branches, whose plans, copied back, are the
+    three-branch QP's optimum."""
+    scene = _scene([False, True, True])
+    beliefs = np.array([0.5, 0.3, 0.2])
+    merged_mpc = ContingencyMpc(CONFIG, VEHICLE)
+    merged = merged_mpc.plan(ROUTE, 60.0, 11.5, 0.0, 11.5, 13.9, scene, beliefs)
+    assert set(merged_mpc._qps) == {2}
+    monkeypatch.setattr(mpc_module, "distinct_branches",
+                        lambda s_low, s_up, comfort: (np.arange(len(comfort)),
+                                                      np.arange(len(comfort))))
+    full_mpc = ContingencyMpc(CONFIG, VEHICLE)
+    full = full_mpc.plan(ROUTE, 60.0, 11.5, 0.0, 11.5, 13.9, scene, beliefs)
+    assert set(full_mpc._qps) == {3}
+    assert merged.feasible and full.feasible
+    assert np.array_equal(merged.accel_plan[1], merged.accel_plan[2])
+    for merged_plan, full_plan in ((merged.accel_plan, full.accel_plan),
+                                   (merged.speed_plan, full.speed_plan),
+                                   (merged.progress_plan, full.progress_plan)):
+        np.testing.assert_allclose(merged_plan, full_plan, atol=1e-6)
+    assert merged.cost == pytest.approx(full.cost, rel=1e-9, abs=1e-9)
+
+
+def test_distinct_branches_groups_equal_rows_only():
+    s_low = np.array([[0.0, 1.0], [0.0, 1.0], [0.0, 1.0], [0.0, np.nan], [0.0, np.nan]])
+    s_up = np.full((5, 2), np.inf)
+    s_up[2, 1] = 9.0
+    comfort = np.array([1.0, 1.0, 1.0, 1.0, 1.0])
+    first, inverse = distinct_branches(s_low, s_up, comfort)
+    assert first.tolist() == [0, 2, 3, 4]  # a NaN bound never equals: not merged
+    assert inverse.tolist() == [0, 0, 1, 2, 3]
+    comfort[1] = 0.5  # another comfort factor: another branch
+    first, inverse = distinct_branches(s_low, s_up, comfort)
+    assert first.tolist() == [0, 1, 2, 3, 4] and inverse.tolist() == [0, 1, 2, 3, 4]
 
 
 def test_qp_is_built_once_per_number_of_branches_and_reused():
