@@ -213,6 +213,11 @@ class RobotPlanner:
         self._hypothesis_objects = self.belief.hypothesis_objects(self._times)
         self._hypothesis_crosswalk = np.array(
             [h.crosswalk_index if h.kind == "pedestrian" else -1 for h in self.belief.hypotheses])
+        # (L,) bool each, fixed with the hypotheses: the hidden agent present, a vehicle
+        self._present = np.array([h.present for h in self.belief.hypotheses])
+        self._vehicle = np.array([h.kind == "vehicle" for h in self.belief.hypotheses])
+        for flags in (self._present, self._vehicle):
+            flags.setflags(write=False)
         self._truth: TrackSet | None = None
         veh = spec.vehicle
         self.curb = CurbPedestrians(
@@ -272,8 +277,7 @@ class RobotPlanner:
         car's: every one not ruled out by its sensors), only "none" for `aggressive` and
         `oracle`.
         """
-        hyps = self.belief.hypotheses
-        none = np.array([not h.present for h in hyps])
+        none = ~self._present
         weighting = self.variant.weighting
         if weighting is HypothesisWeighting.NONE_ONLY:
             return none.astype(np.float64)
@@ -284,8 +288,7 @@ class RobotPlanner:
         # a hidden car is one of many small progress and speed bins, each below epsilon: the
         # conservative robot keeps every one its sensors have not ruled out (its belief, from
         # its own sensors only, still at least epsilon times its prior)
-        vehicle = np.array([h.kind == "vehicle" for h in hyps])
-        present_live |= vehicle & (b >= self.mpc.epsilon * self.belief.prior)
+        present_live |= self._vehicle & (b >= self.mpc.epsilon * self.belief.prior)
         if not present_live.any():
             return none.astype(np.float64)
         return present_live / present_live.sum()
@@ -317,7 +320,7 @@ class RobotPlanner:
         weights = self.hypothesis_weights()
         # contingencies (comfortable braking, a factor of the comfort weight per branch): a
         # hidden agent, a pedestrian stepping off the curb
-        contingent = np.array([h.present for h in self.belief.hypotheses])
+        contingent = self._present
         # the tracked objects in every branch, each hypothesis' hidden agent in its own (a
         # hypothesised vehicle as a car on its lane)
         s0, _ = self.route.project_point(x, y)

@@ -80,6 +80,8 @@ class SignalStops:
             signal_states: {head index: state} of the heads it reads now (its observation).
         """
         self.seen.update(signal_states)
+        if not len(self.lines_m):  # no signal line on its route
+            return np.inf
         c = self.config
         front = s0 + self._half
         due = np.flatnonzero(self.lines_m + c.near_m >= front)

@@ -5,8 +5,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from marl_social.agents.robot.corridor import mode_bounds, objects_on_path
 from marl_social.agents.robot import mpc as mpc_module
+from marl_social.agents.robot.corridor import mode_bounds, objects_on_path
 from marl_social.agents.robot.mpc import ContingencyMpc, distinct_branches, plan
 from marl_social.agents.robot.mpc_types import MpcConfig
 from marl_social.models.candidates import ScenePrediction
