@@ -9,8 +9,8 @@ from marl_social.agents.robot import qp, tree_ipm
 from tests.agents.test_condensed_qp import CONFIG, WEIGHTS, _qp, _reference
 from tests.agents.test_condensed_qp import _captured as captured  # by file name
 
-# the cases whose tree solve stalls at a degenerate optimum (status 3: polished by the
-# active-set solve); the others converge (status 0)
+# the cases whose tree solve stalls at a degenerate optimum (status 3: its settled iterate
+# taken as it is, the multipliers drifting); the others converge (status 0)
 DEGENERATE = (0, 1)
 
 
@@ -55,6 +55,48 @@ def test_the_tree_solver_agrees_with_a_tight_osqp_on_captured_qps(case):
 def test_the_tree_solver_agrees_with_a_tight_osqp_with_the_pull_up_term(case):
     _agrees_with_tight_osqp({**_captured()[case], "goal_weight": CONFIG.w_pull_up,
                              "goal_m": 6.0})
+
+
+@pytest.mark.parametrize("case", DEGENERATE)
+def test_a_settled_iterate_meeting_the_rows_is_taken_without_the_active_set_polish(
+        case, monkeypatch):
+    def no_polish(*args, **kwargs):
+        raise AssertionError("polished a settled iterate that meets the rows")
+
+    problem = _qp(len(_captured()[case]["weights"]))
+    monkeypatch.setattr(problem._active_set, "solve_near", no_polish)
+    sol = problem.solve(**_captured()[case])
+    x, cost = _reference(problem, _captured()[case])
+    assert sol.solved and problem.last_solver == "tree"
+    assert np.allclose(sol.accel_mps2, x[problem._a_idx], atol=1e-6)
+    assert sol.cost == pytest.approx(cost, abs=1e-6)
+
+
+def test_a_settled_iterate_off_the_rows_is_polished_by_the_active_set(monkeypatch):
+    """A stalled tree solve whose iterate misses a row (here: moved off its dynamics by
+    4e-7) is made exact by the active-set solve, which agrees with a tight OSQP."""
+    args = _captured()[DEGENERATE[0]]
+    problem = _qp(len(args["weights"]))
+    solve, polished = problem._tree.solve, []
+
+    def off_rows(*a, **k):
+        status, x, info = solve(*a, **k)
+        assert status == 3
+        return status, x + 4e-7, info  # rows off by more than TREE_PRIMAL_TOL
+
+    near = problem._active_set.solve_near
+
+    def counted(*a, **k):
+        polished.append(True)
+        return near(*a, **k)
+
+    monkeypatch.setattr(problem._tree, "solve", off_rows)
+    monkeypatch.setattr(problem._active_set, "solve_near", counted)
+    sol = problem.solve(**args)
+    x, cost = _reference(problem, args)
+    assert polished and sol.solved and problem.last_solver == "tree"
+    assert np.allclose(sol.accel_mps2, x[problem._a_idx], atol=1e-6)
+    assert sol.cost == pytest.approx(cost, abs=1e-6)
 
 
 def test_the_tree_solver_is_deterministic():
