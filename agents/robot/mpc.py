@@ -125,7 +125,7 @@ class ContingencyMpc:
         """Build the QP layouts of 1..max_branches branches now, not at their first plan.
 
         A layout's structure (qp.py: index maps, A, the condensed or tree form; 5-140 ms,
-        and the tree solver's kernels loaded with the first 4+-branch one) depends only on
+        and the tree solver's kernels loaded with the first 3+-branch one) depends only on
         the number of branches and this configuration; it is kept process-wide, so that a
         plan that meets a new number of live branches does not build it within its decision.
         The QPs themselves (warm starts) stay per episode (`reset`).

@@ -57,9 +57,11 @@ ROUND_ITER = 200
 MAX_ITER = 4000
 MAX_ROUNDS = 8  # 18 200 iterations in all; then the QP has failed (unless solved inaccurately)
 # the QPs of at most this many branches are solved condensed by DAQP (condensed_qp.py), with
-# OSQP as the fallback; DAQP's dense setup grows as (rows x variables^2): beyond 3 branches
-# (180+ variables) OSQP's sparse solve is faster
-DAQP_MAX_BRANCHES = 3
+# OSQP as the fallback; DAQP's cost grows with its active set's size times variables^2: from 3
+# branches (114-136 variables) the tree solver below is faster (thread CPU on the bench's
+# 3-branch QPs: DAQP median / p90 1.24 / 2.13 ms, 36+ active-set steps on the hard ones; the
+# tree 0.73 / 0.78), at 2 branches DAQP's median is (0.20 vs 0.52 ms; p90 0.72 vs 0.61)
+DAQP_MAX_BRANCHES = 2
 # the QPs of more branches are solved on their scenario tree by an interior point method
 # (tree_ipm.py: a Riccati recursion per Newton step, linear in L), with OSQP as the fallback
 # whose answer is only accepted if it meets the rows to TREE_PRIMAL_TOL [the row's unit]
@@ -494,7 +496,7 @@ class ContingencyQp:
 
 
 def _tree_layout(qp: ContingencyQp, headway_s: np.ndarray):
-    """tree_ipm.TreeLayout of qp: numba loads at the first 4+-branch QP, not at import."""
+    """tree_ipm.TreeLayout of qp: numba loads at the first 3+-branch QP, not at import."""
     from marl_social.agents.robot.tree_ipm import TreeLayout
 
     return TreeLayout(qp, headway_s)

@@ -56,7 +56,7 @@ N_ROWS = 7  # speed, low, up, jerk, accel, comfort, slack
 _NO_BOUND = 1e19  # qp.py's bounds beyond this are none (its infinity is 1e20)
 _KERNELS_LOADED: list[bool] = []  # [True] once a TreeLayout has called the kernels
 
-if will_compile(Path(__file__).parent, ("tree_ipm",)):  # the first 4+-branch QP compiles them
+if will_compile(Path(__file__).parent, ("tree_ipm",)):  # the first 3+-branch QP compiles them
     logging.getLogger("marl_social").warning(
         "compiling the MPC's tree solver (numba) once (about 10 s; cached in %s for later runs)",
         Path(__file__).with_name("__pycache__"))
@@ -414,7 +414,7 @@ class TreeLayout:
     def _load_kernels(self) -> None:
         """One solve of this tree without rows: numba loads the kernels now, with the layout.
 
-        Loading them from numba's cache takes ~0.1 s; the first 4+-branch layout is built
+        Loading them from numba's cache takes ~0.1 s; the first 3+-branch layout is built
         ahead of the plans (mpc.py, `ContingencyMpc.build_layouts`), so that no plan does.
         """
         n = self.n_nodes

@@ -8,7 +8,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from marl_social.agents.robot.condensed_qp import qp_kernels
+from marl_social.agents.robot.condensed_qp import CondensedLayout, qp_kernels
 from marl_social.agents.robot.qp_kernels import DAQP_INF, NO_BOUND
 from tests.agents.test_condensed_qp import N, _captured, _qp
 
@@ -94,7 +94,9 @@ def test_the_inputs_of_captured_qps_are_numpys(case):
     lower, upper, _ = problem._bounds(args["v0"], args["prev_accel"], args["v_max"], args["s_low"],
                                    args["s_up"], args["accel_min"], args["accel_max"],
                                    args["jerk_max"], args["comfort_decel"])
-    layout = problem._condensed
+    # a 3-branch QP goes to the tree solver (qp.DAQP_MAX_BRANCHES): its condensed layout is
+    # built here, the kernels take any
+    layout = problem._condensed or CondensedLayout(problem)
     rng = np.random.default_rng(case)
     assert _same_bounds(problem, args["v0"], args["prev_accel"], args["v_max"], args["s_low"],
                         args["s_up"], args["accel_min"], args["accel_max"], args["jerk_max"],
@@ -114,7 +116,7 @@ _BOUND = st.one_of(st.floats(-1e21, 1e21), st.sampled_from([np.inf, -np.inf, np.
 def test_any_bounds_give_numpys_bits(n_branches, seed, special, v0):
     """Random bounds with infinities, NaN, signed zeros and values around the cut-offs."""
     problem = _qp(n_branches)
-    layout = problem._condensed
+    layout = problem._condensed or CondensedLayout(problem)  # 3 branches: the tree solver's
     rng = np.random.default_rng(seed)
     m = problem._a_matrix.shape[0]  # the sparse QP's rows
     lower, upper = rng.normal(scale=10.0, size=m), rng.normal(scale=10.0, size=m)
@@ -146,7 +148,7 @@ def test_signed_zero_ties_are_numpys(n_branches):
     """Every bound +0 or -0 at random and v0 = 0: the trunk rows' maxima and minima, the clips
     and the fixed slacks' max(0, lower - a) meet ties of signed zeros; numpy gives the second."""
     problem = _qp(n_branches)
-    layout = problem._condensed
+    layout = problem._condensed or CondensedLayout(problem)  # 3 branches: the tree solver's
     rng = np.random.default_rng(n_branches)
     m = problem._a_matrix.shape[0]
     for _ in range(20):
