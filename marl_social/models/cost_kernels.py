@@ -470,3 +470,31 @@ def plan_totals(motion, v_ref_mps, prev_accel, weights, safety_exp, present, occ
                       occupancy_tanh, scene_tanh, is_pedestrian, zone_sums, scale)
     return rule_abiding_totals(cost, gaps[1], gaps[0], motion[1], s0, half_length_m, stop_s_m,
                                has_stop, curve_excess, has_curve)
+
+
+@numba.njit([(_array(1), _F8)], **_JIT)
+def boltzmann_exponents(q, beta):
+    """-beta (q - min q) of a row of finite Q values (models/boltzmann.boltzmann's exp argument).
+
+    Args:
+        q: (A,) Q values.
+        beta: the rationality, finite.
+
+    Returns:
+        (A,) the exponents, the same values as numpy's (min q is exact; a -0.0 / +0.0 tie can
+        only flip the sign of a zero exponent, and exp(-0.0) == exp(+0.0)); (0,) when a Q or
+        an exponent is not finite (numpy then, with its warnings).
+    """
+    n = len(q)
+    least = np.inf
+    for i in range(n):
+        if not np.isfinite(q[i]):
+            return np.empty(0)
+        if q[i] < least:
+            least = q[i]
+    z = np.empty(n)
+    for i in range(n):
+        z[i] = -beta * (q[i] - least)
+        if not np.isfinite(z[i]):
+            return np.empty(0)
+    return z
