@@ -490,8 +490,7 @@ def boltzmann_exponents(q, beta):
     for i in range(n):
         if not np.isfinite(q[i]):
             return np.empty(0)
-        if q[i] < least:
-            least = q[i]
+        least = min(least, q[i])
     z = np.empty(n)
     for i in range(n):
         z[i] = -beta * (q[i] - least)
