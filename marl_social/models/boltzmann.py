@@ -17,10 +17,25 @@ def boltzmann(q_values: np.ndarray, beta: float) -> np.ndarray:
         best = q == q.min(axis=-1, keepdims=True)
         return best / best.sum(axis=-1, keepdims=True)
     if q.ndim == 1:  # one row (a planner's decision): the same reductions, no kept axis
-        # np.minimum.reduce and np.add.reduce are q.min() and p.sum() of a 1-D array, without
-        # their Python-level wrappers
-        p = np.exp(-beta * (q - np.minimum.reduce(q)))
+        # -beta (q - min q) in one compiled call (cost_kernels.boltzmann_exponents; numpy
+        # for a Q or an exponent that is not finite), np.minimum.reduce and np.add.reduce:
+        # q.min() and p.sum() of a 1-D array, without their Python-level wrappers
+        z = _exponents(q, beta) if q.flags.c_contiguous else _NO_EXPONENTS
+        p = np.exp(z, out=z) if len(z) else np.exp(-beta * (q - np.minimum.reduce(q)))
         return p / np.add.reduce(p)
     z = -beta * (q - q.min(axis=-1, keepdims=True))
     p = np.exp(z)
     return p / p.sum(axis=-1, keepdims=True)
+
+
+def _exponents(q: np.ndarray, beta: float) -> np.ndarray:
+    """cost_kernels.boltzmann_exponents(q, beta) of a 1-D q; (0,): numpy's case (see there)."""
+    if not _KERNEL:
+        from marl_social.models import kernel_loading
+
+        _KERNEL.append(kernel_loading.load()[1].boltzmann_exponents)
+    return _KERNEL[0](q, float(beta))
+
+
+_KERNEL: list = []  # [cost_kernels.boltzmann_exponents] once loaded
+_NO_EXPONENTS = np.zeros(0)

@@ -450,3 +450,50 @@ def rule_abiding_totals(step_cost, vehicle_gap, clearance, travel_m, s0, half_le
                     if not ok[a, c]:
                         totals[h, a, c] = np.inf
     return totals
+
+
+@numba.njit([(_array(4), _F8, _F8, _array(1), _array(4), _array(2, _B1), _array(3), _array(4),
+              _array(2, _B1), _array(3), _F8, _array(4), _F8, _F8, _F8, _B1, _array(2), _B1)],
+            **_JIT)
+def plan_totals(motion, v_ref_mps, prev_accel, weights, safety_exp, present, occupancy_tanh,
+                scene_tanh, is_pedestrian, zone_sums, scale, gaps, s0, half_length_m, stop_s_m,
+                has_stop, curve_excess, has_curve):
+    """`rule_abiding_totals` of `step_costs`, in one call (a human driver's decision).
+
+    motion to scale are step_costs' arguments; gaps (2, L, A, C) the clearance and the vehicle
+    gap of each plan [m] (gap_kernels.plan_evaluation's); s0 to has_curve rule_abiding_totals'
+    arguments after its travel (motion[1], (A, C, T) [m]). Returns the (L, A, C) totals of
+    rule_abiding_totals (inf for the excluded plans): the same bits as the two calls
+    (tests/models/test_rule_totals.py).
+    """
+    cost = step_costs(motion, v_ref_mps, prev_accel, weights, safety_exp, present,
+                      occupancy_tanh, scene_tanh, is_pedestrian, zone_sums, scale)
+    return rule_abiding_totals(cost, gaps[1], gaps[0], motion[1], s0, half_length_m, stop_s_m,
+                               has_stop, curve_excess, has_curve)
+
+
+@numba.njit([(_array(1), _F8)], **_JIT)
+def boltzmann_exponents(q, beta):
+    """-beta (q - min q) of a row of finite Q values (models/boltzmann.boltzmann's exp argument).
+
+    Args:
+        q: (A,) Q values.
+        beta: the rationality, finite.
+
+    Returns:
+        (A,) the exponents, the same values as numpy's (min q is exact; a -0.0 / +0.0 tie can
+        only flip the sign of a zero exponent, and exp(-0.0) == exp(+0.0)); (0,) when a Q or
+        an exponent is not finite (numpy then, with its warnings).
+    """
+    n = len(q)
+    least = np.inf
+    for i in range(n):
+        if not np.isfinite(q[i]):
+            return np.empty(0)
+        least = min(least, q[i])
+    z = np.empty(n)
+    for i in range(n):
+        z[i] = -beta * (q[i] - least)
+        if not np.isfinite(z[i]):
+            return np.empty(0)
+    return z

@@ -28,7 +28,7 @@ from marl_social.models.candidates import (
     collision_free_totals,
     evaluate_candidates,
 )
-from marl_social.models.gap_evaluation import kernel_gap_evaluation, vehicle_gap_evaluation
+from marl_social.models.gap_evaluation import kernel_rule_totals, vehicle_gap_evaluation
 from marl_social.sim.agent_spec import VehicleParams
 from marl_social.sim.costs import CostWeights
 from marl_social.sim.road_map import Crosswalk, Route
@@ -274,14 +274,16 @@ def driver_q_values(model: DriverModel, route: Route, s0: float, v0: float, prev
         (rule_abiding_totals).
     """
     candidates, theta = _model_constants(model)
-    extra = () if rules is None else (rules.yield_zones, model.yield_margin_s,
-                                      rules.curve_speed)
-    ev = kernel_gap_evaluation(candidates, theta, model.v_desired_mps, model.vehicle, route, s0,
-                               v0, prev_accel, scene, crosswalks, *extra)
-    if ev is not None:  # the kernels' evaluation: their totals take its arrays as they are
-        return _kernel_totals(ev.step_cost, ev.min_vehicle_gap_m, ev.vehicle_clearance_m,
-                              ev.travel_m, None if rules is None else ev.curve_excess_mps,
-                              model, s0, rules).min(axis=-1)
+    if rules is None:
+        totals = kernel_rule_totals(candidates, theta, model.v_desired_mps, model.vehicle,
+                                    route, s0, v0, prev_accel, scene, crosswalks)
+    else:
+        totals = kernel_rule_totals(candidates, theta, model.v_desired_mps, model.vehicle,
+                                    route, s0, v0, prev_accel, scene, crosswalks,
+                                    rules.yield_zones, model.yield_margin_s, rules.curve_speed,
+                                    rules.stop_s_m)
+    if totals is not None:  # the kernels' evaluation and totals in one go
+        return np.minimum.reduce(totals, axis=-1)  # totals.min(axis=-1) without its wrapper
     ev = _evaluate(model, route, s0, v0, prev_accel, scene, crosswalks, rules, False)
     return rule_abiding_totals(ev, model, s0, rules).min(axis=-1)
 

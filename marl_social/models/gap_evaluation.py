@@ -90,42 +90,86 @@ def kernel_gap_evaluation(cands: CandidateSet, theta: np.ndarray, v_ref_mps: flo
     evaluate_candidates). The result's arrays are C-contiguous float64, as
     models/driver.py's compiled totals take them without a copy.
     """
+    arrays = _kernel_arrays(cands, theta, vehicle, route, s0, v0, scene, crosswalks,
+                            yield_zones, yield_margin_s, curve_speed)
+    if arrays is None:
+        return None
+    cost_kernels, motion, excess, gaps, cost_arguments = arrays
+    cost = cost_kernels.step_costs(motion, float(v_ref_mps), float(prev_accel), *cost_arguments)
+    v, ds, a_eff = motion  # (A, C, T) each
+    clearance, vehicle_gap = gaps  # (L, A, C) each
+    return CandidateEvaluation(cost, v, a_eff, None, None, None, vehicle_gap, None, ds,
+                               clearance, None if curve_speed is None else excess)
+
+
+def kernel_rule_totals(cands: CandidateSet, theta: np.ndarray, v_ref_mps: float,
+                       vehicle: VehicleParams, route: Route, s0: float, v0: float,
+                       prev_accel: float, scene: ScenePrediction,
+                       crosswalks: tuple[Crosswalk, ...], yield_zones: tuple = (),
+                       yield_margin_s: float = 0.0, curve_speed: CurveSpeed | None = None,
+                       stop_s_m: float | None = None) -> np.ndarray | None:
+    """models/driver.rule_abiding_totals of `kernel_gap_evaluation`'s evaluation, in fewer calls.
+
+    The step costs and the totals in one compiled call (cost_kernels.plan_totals: step_costs,
+    then rule_abiding_totals, the same bits), without the CandidateEvaluation in between.
+    The arguments are kernel_gap_evaluation's and stop_s_m, the stop line's arc length
+    (RoadRules.stop_s_m) [m] (None: no stop line); the curve speed counts as a rule, as
+    driver.rule_abiding_totals counts it with rules. Returns the (L, A, C) totals, inf for
+    the excluded plans; None where kernel_gap_evaluation returns None.
+    """
+    arrays = _kernel_arrays(cands, theta, vehicle, route, s0, v0, scene, crosswalks,
+                            yield_zones, yield_margin_s, curve_speed)
+    if arrays is None:
+        return None
+    cost_kernels, motion, excess, gaps, cost_arguments = arrays
+    return cost_kernels.plan_totals(
+        motion, float(v_ref_mps), float(prev_accel), *cost_arguments, gaps, float(s0),
+        0.5 * vehicle.length_m, 0.0 if stop_s_m is None else float(stop_s_m),
+        stop_s_m is not None, excess, curve_speed is not None)
+
+
+def _kernel_arrays(cands: CandidateSet, theta: np.ndarray, vehicle: VehicleParams,
+                   route: Route, s0: float, v0: float, scene: ScenePrediction,
+                   crosswalks: tuple[Crosswalk, ...], yield_zones: tuple,
+                   yield_margin_s: float, curve_speed: CurveSpeed | None) -> tuple | None:
+    """gap_kernels.plan_evaluation's arrays, np.exp and np.tanh applied; None: not its case.
+
+    Returns:
+        (cost_kernels, motion (3, A, C, T), curve excess (A, C) or (0, C), gaps (2, L, A, C):
+        clearance and vehicle gap [m], and step_costs' arguments after v_ref and prev_accel
+        as a tuple).
+    """
     if not (abs(v0) < _LARGEST_SPEED_MPS and abs(s0) < _LARGEST_ARC_LENGTH_M) or (
             v0 == 0.0 and math.copysign(1.0, v0) < 0.0) or (
             scene.mask.shape[1] >= MAX_KERNEL_OBJECTS) or len(cands.continuations_mps2) == 0:
         return None
     kernels, cost_kernels = _KERNELS or _kernels()
     plan = _prepared_plan(cands, vehicle)
-    n_cont = plan.plan_shape[1]
     scene_xy, cos_heading, sin_heading, scene_along, other_r = scene_circle_inputs(scene)
     weights = _weights(theta)  # speed, accel, jerk, safety, conflict
-    w_safety, w_conflict = weights[3], weights[4]
+    clipped, w_conflict = weights[3] != 0.0, weights[4]
     present = np.ascontiguousarray(scene.mask)
     crosswalk_rows, zone_rows, zone_sizes, zone_sums = _conflict_rows(
         scene, crosswalks if w_conflict != 0.0 else (), yield_zones if w_conflict != 0.0 else (),
         yield_margin_s, plan.dt_s)
     is_pedestrian = np.ascontiguousarray(scene.is_pedestrian)
     motion, excess, exp_arg, occupancy, scene_occupancy, gaps = kernels.plan_evaluation(
-        plan.increments, n_cont, float(v0), float(s0), float(plan.dt_s), plan.continuations,
-        plan.n_first, curve_speed is not None,
+        plan.increments, plan.plan_shape[1], float(v0), float(s0), float(plan.dt_s),
+        plan.continuations, plan.n_first, curve_speed is not None,
         _NO_CURVE if curve_speed is None else curve_speed.v_max_mps, CURVE_PROFILE_STEP_M,
         route.vertex_s_m, route.segment_pose_table, plan.ego_along, plan.ego_circle_r, scene_xy,
         cos_heading, sin_heading, scene_along, other_r,
         np.ascontiguousarray(scene.radius_m, dtype=float), present, is_pedestrian,
-        w_safety != 0.0, plan.ego_radius, crosswalk_rows, zone_rows, zone_sizes,
+        clipped, plan.ego_radius, crosswalk_rows, zone_rows, zone_sizes,
         OCCUPANCY_SOFTNESS_M)
-    if w_safety != 0.0:
+    if clipped:
         np.exp(exp_arg, out=exp_arg)
     if len(occupancy):
         np.tanh(occupancy, out=occupancy)
         np.tanh(scene_occupancy, out=scene_occupancy)
-    cost = cost_kernels.step_costs(motion, float(v_ref_mps), float(prev_accel), weights,
-                                   exp_arg, present, occupancy, scene_occupancy, is_pedestrian,
-                                   zone_sums, plan.cost_scale)
-    v, ds, a_eff = motion  # (A, C, T) each
-    clearance, vehicle_gap = gaps  # (L, A, C) each
-    return CandidateEvaluation(cost, v, a_eff, None, None, None, vehicle_gap, None, ds,
-                               clearance, None if curve_speed is None else excess)
+    return cost_kernels, motion, excess, gaps, (weights, exp_arg, present, occupancy,
+                                                scene_occupancy, is_pedestrian, zone_sums,
+                                                plan.cost_scale)
 
 
 _LARGEST_SPEED_MPS = 1e6  # the kernels' v0 and s0 bounds (the curve-speed grid index of any

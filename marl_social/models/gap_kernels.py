@@ -185,19 +185,25 @@ def plan_poses(increments, n_cont, v0, s0, dt_s, continuations, n_first, has_cur
     xy = np.empty((n_plans, n_t, 2))
     ego_x = np.empty((n_circles, n_plans, n_t))
     ego_y = np.empty((n_circles, n_plans, n_t))
+    segment = np.empty((n_plans, n_t), dtype=np.int64)  # each step's route segment
     k = 0
     for p in range(n_plans):
         for t in range(n_t):
             s = s0 + ds[p, t]
-            k = _segment(s, cum_s, n_seg, k)
+            if n_seg > 1:  # (one segment: 0)
+                k = _segment(s, cum_s, n_seg, k)
             local = s - cum_s[k]
-            x = pose_table[k, 0] + local * pose_table[k, 2]
-            y = pose_table[k, 1] + local * pose_table[k, 3]
-            xy[p, t, 0] = x
-            xy[p, t, 1] = y
-            for c in range(n_circles):
-                ego_x[c, p, t] = x + along[c] * pose_table[k, 4]
-                ego_y[c, p, t] = y + along[c] * pose_table[k, 5]
+            xy[p, t, 0] = pose_table[k, 0] + local * pose_table[k, 2]
+            xy[p, t, 1] = pose_table[k, 1] + local * pose_table[k, 3]
+            segment[p, t] = k
+    # the circles one by one over the contiguous (plan, step) axes: the same values
+    for c in range(n_circles):
+        offset = along[c]
+        for p in range(n_plans):
+            for t in range(n_t):
+                k = segment[p, t]
+                ego_x[c, p, t] = xy[p, t, 0] + offset * pose_table[k, 4]
+                ego_y[c, p, t] = xy[p, t, 1] + offset * pose_table[k, 5]
     return v, ds, a_eff, excess, xy, ego_x, ego_y
 
 

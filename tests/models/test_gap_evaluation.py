@@ -2,7 +2,8 @@
 
 Bit for bit, on random scenes: straight and bent routes, crosswalks with and without
 pedestrians, objects absent in some hypotheses, hypotheses that share their objects, yield
-zones and curve speeds, cost weights with zeros; and Route.pose_at equals point_at with
+zones and curve speeds, cost weights with zeros; kernel_rule_totals equals rule_abiding_totals
+of that evaluation; and Route.pose_at equals point_at with
 np.cos / np.sin of its heading.
 """
 
@@ -11,7 +12,12 @@ from hypothesis import example, given, settings
 from hypothesis import strategies as st
 
 from marl_social.models.candidates import CandidateSet, ScenePrediction, evaluate_candidates
-from marl_social.models.gap_evaluation import vehicle_gap_evaluation
+from marl_social.models.driver import DriverModel, RoadRules, rule_abiding_totals
+from marl_social.models.gap_evaluation import (
+    kernel_gap_evaluation,
+    kernel_rule_totals,
+    vehicle_gap_evaluation,
+)
 from marl_social.sim.agent_spec import VehicleParams
 from marl_social.sim.road_map import Crosswalk, Route
 from marl_social.sim.route_rules import CurveSpeed
@@ -95,3 +101,36 @@ def test_pose_at_equals_point_at_and_its_heading(seed, bent):
     direction = np.broadcast_to(direction, xy.shape)
     assert np.array_equal(direction[..., 0], np.cos(heading))
     assert np.array_equal(direction[..., 1], np.sin(heading))
+
+
+@settings(max_examples=80, deadline=None)
+@given(seed=st.integers(0, 2**32 - 1), n_hyp=st.integers(1, 3), n_obj=st.integers(0, 4),
+       bent=st.booleans(), crosswalk=st.booleans(), zones=st.integers(0, 2),
+       p_ped=st.sampled_from([0.0, 0.5, 1.0]), stop=st.sampled_from([None, 5.0, 30.0, 80.0]),
+       rules=st.booleans())
+def test_kernel_rule_totals_equal_the_evaluations_totals(seed, n_hyp, n_obj, bent, crosswalk,
+                                                         zones, p_ped, stop, rules):
+    """kernel_rule_totals (cost_kernels.plan_totals) is rule_abiding_totals of the evaluation."""
+    rng = np.random.default_rng(seed)
+    route = _route(rng, bent)
+    scene = _scene(rng, n_hyp, n_obj, CANDIDATES.n_steps, p_ped, 0.3)
+    crosswalks = (Crosswalk(center=np.array([20.0, 0.0]), walk_heading_rad=0.5 * np.pi,
+                            length_m=10.0, width_m=4.0),) if crosswalk else ()
+    theta = rng.uniform(0.0, 3.0, 6) * (rng.random(6) < 0.8)
+    polygon = np.array([[10.0, -5.0], [25.0, -5.0], [25.0, 5.0], [10.0, 5.0]])
+    road = None
+    if rules:
+        road = RoadRules(stop, tuple((polygon + 3.0 * k, rng.random((n_hyp, n_obj)) < 0.6)
+                                     for k in range(zones)),
+                         CurveSpeed(route, 2.5, 2.3) if bent else None)
+    model = DriverModel()
+    s0, v0 = rng.uniform(0.0, 40.0), rng.uniform(0.0, 12.0)
+    args = (CANDIDATES, theta, rng.uniform(5.0, 12.0), model.vehicle, route, s0, v0,
+            rng.uniform(-3.0, 2.0), scene, crosswalks)
+    extra = () if road is None else (road.yield_zones, model.yield_margin_s, road.curve_speed)
+    ev = kernel_gap_evaluation(*args, *extra)
+    want = rule_abiding_totals(ev, model, s0, road)
+    got = kernel_rule_totals(*args, *extra, *(() if road is None else (road.stop_s_m,)))
+    assert got.shape == want.shape
+    assert np.array_equal(got, want, equal_nan=True)
+    assert np.array_equal(np.signbit(got), np.signbit(want))
