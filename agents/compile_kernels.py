@@ -1,12 +1,13 @@
 """Every numba kernel of marl-social, loaded (and compiled into numba's cache) ahead of a run.
 
-Four parts are compiled on first use and cached on disk (`cache=True`, in each package's
+Five parts are compiled on first use and cached on disk (`cache=True`, in each package's
 __pycache__): the planners' kernels (models/kernel_loading.py, ~30 s on 2 cores), the
 belief's (perception/belief/compiled.py, ~15 s), the MPC's ("tree": its tree solver, its QP's
 assembly, the corridor test and its bounds: agents/robot/tree_ipm.py, qp_kernels.py,
-corridor_kernels.py, ~15 s; one MPC plan compiles the last) and the route projection and lane
-test (sim/route_kernels.py, ~2-3 s). A process that finds no cache compiles them itself, so on
-a fresh install several processes started at once (a test run on every core, a study's
+corridor_kernels.py, ~15 s; one MPC plan compiles the last), the route projection and lane
+test (sim/route_kernels.py, ~2-3 s) and the field of view's arithmetic around its ray queries
+("fov": perception/fov_kernels.py, ~3 s). A process that finds no cache compiles them itself,
+so on a fresh install several processes started at once (a test run on every core, a study's
 workers, a vector env's) each compile the same kernels. `compile_kernels` compiles them once,
 before such processes start; the parts are independent, so two processes can compile two of
 them side by side (tests/conftest.py does so before the test workers start):
@@ -23,7 +24,7 @@ import numpy as np
 
 from marl_social.sim.kernel_cache import will_compile
 
-PARTS = ("planners", "belief", "tree", "route")
+PARTS = ("planners", "belief", "tree", "route", "fov")
 # each part: the module whose folder holds its kernel files, and those files' names
 _FILES = {
     "planners": ("marl_social.models.kernel_loading",
@@ -31,6 +32,7 @@ _FILES = {
     "belief": ("marl_social.perception.belief.compiled", ("belief_kernels",)),
     "tree": ("marl_social.agents.robot.qp", ("tree_ipm", "qp_kernels", "corridor_kernels")),
     "route": ("marl_social.sim.road_map", ("route_kernels",)),
+    "fov": ("marl_social.perception.fov", ("fov_kernels",)),
 }
 
 
@@ -81,6 +83,10 @@ def compile_kernels(parts: tuple[str, ...] | list[str] = PARTS) -> None:
         lanes = [Lane(np.array(points), 3.5)]
         on_lanes(lanes, np.zeros((1, 2)), np.zeros(1))  # the lane test, headings contiguous
         on_lanes(lanes, np.zeros((2, 2)), np.zeros((2, 3))[:, 2])  # and a column of a table
+    if "fov" in parts:  # compiled at their import (explicit signatures)
+        from marl_social.perception.fov import fov_kernels
+
+        fov_kernels()
 
 
 def _solve_one_tree_qp() -> None:

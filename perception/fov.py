@@ -19,15 +19,24 @@ Rays are answered in two phases, for all observers at once:
 
 from __future__ import annotations
 
+import functools
 from dataclasses import dataclass
-from types import SimpleNamespace
+from types import ModuleType, SimpleNamespace
 
 import numpy as np
 
 from marl_social.sim.footprint import place_local
 from marl_social.sim.geometry import GeometryMirror
+from marl_social.sim.kernel_cache import load_kernels
 
 _INNER_FRACTION = 0.85  # sample points sit this fraction of the way from centre to corner
+
+
+@functools.cache  # once per process: a cached call, not load_kernels' lookup
+def fov_kernels() -> ModuleType:
+    """perception.fov_kernels (the arithmetic around the ray queries), loaded once."""
+    return load_kernels("marl_social.perception", ("fov_kernels",),
+                        "the field of view's numba kernels", 3)[0]
 
 
 @dataclass(frozen=True)
@@ -159,29 +168,23 @@ class FieldOfView:
         """
         n = len(xy)
         self._queries = 0
+        kernels = fov_kernels()
         lay = self._active_layout(active, half_angle_rad, range_m)
         d_obs = lay.d_obs
         # -- target sample points within range and cone: (observer, target, point)
         if self._local is None or len(self._local) != n:
             self._local = sample_point_layout(length, width, is_pedestrian)
-        points = place_local(xy, heading, self._local)  # (n, 5, 2)
-        rel = points[None, :, :, :] - xy[:, None, None, :]  # (n, n, 5, 2)
-        dist2 = rel[..., 0] ** 2 + rel[..., 1] ** 2
-        bearing = np.arctan2(rel[..., 1], rel[..., 0]) - heading[:, None, None]
-        bearing = np.abs((bearing + np.pi) % (2 * np.pi) - np.pi)
-        sensed = (dist2 <= lay.range2[:, None, None]) & (bearing <= lay.half) & lay.pair_ok
-        # -- round 1: centre rays and depth rays. The rays of observers with a static polygon
-        # in range go straight to the narrow phase (where buildings line the road most of
-        # them end on one); the others' through one numpy broad phase.
-        static_near = self._statics_in_range(xy, lay.range2)  # (n,) bool
-        visible = np.zeros((n, n), dtype=bool)
-        o1, t1 = np.nonzero(sensed[:, :, 0])
+        points, rel = kernels.sample_points(xy, np.cos(heading), np.sin(heading), self._local)
         d_dir = heading[d_obs] + lay.d_angle
-        d_end = np.empty((len(d_obs), 2))
-        d_end[:, 0] = np.cos(d_dir)
-        d_end[:, 1] = np.sin(d_dir)
-        d_end *= lay.d_range
-        d_end += xy[d_obs]
+        sensed, centre_pairs, static_near, d_end = kernels.sensed_rays(
+            rel, np.arctan2(rel[..., 1], rel[..., 0]), heading, lay.range2, half_angle_rad,
+            lay.pair_ok, xy, self._box_min, self._box_max, np.cos(d_dir), np.sin(d_dir), d_obs,
+            lay.d_range_flat)
+        # -- round 1: centre rays and depth rays. The rays of observers with a static polygon
+        # in range (static_near) go straight to the narrow phase (where buildings line the
+        # road most of them end on one); the others' through one numpy broad phase.
+        visible = np.zeros((n, n), dtype=bool)
+        o1, t1 = centre_pairs
         if static_near.all():  # every ray goes to the narrow phase: no broad phase to run
             self._query_targets(xy[o1], points[t1, 0], o1, t1, visible)
             alpha = self.mirror.fan_alphas(xy[lay.observers], lay.observers, d_end)
@@ -201,10 +204,9 @@ class FieldOfView:
         depth = np.zeros((n, self.n_rays))
         depth[active] = (alpha * lay.d_range[:, 0]).reshape(-1, self.n_rays)
         # -- round 2: corner rays of targets in view whose centre was hidden
-        sensed[:, :, 1:] &= ~visible[..., None]
-        o2, t2, k2 = np.nonzero(sensed[:, :, 1:])
+        o2, t2, k2 = kernels.hidden_centre_points(sensed, visible)
         if len(o2):
-            start2, end2 = xy[o2], points[t2, k2 + 1]
+            start2, end2 = xy[o2], points[t2, k2]
             if static_near[o2].all():
                 self._query_targets(start2, end2, o2, t2, visible)
             else:
@@ -221,10 +223,9 @@ class FieldOfView:
         Returns:
             a namespace: angles, the ray angles (n, R) [rad]; observers, the A active
             observers (A,) int; d_obs, the observer (A * R,) int, d_angle, the relative angle
-            (A * R,) [rad] and d_range, the length (A * R, 1) [m] of every active observer's
-            depth ray; pair_ok, the (observer, target) pairs that can see each other
-            (n, n, 1) bool; range2, the squared ranges (n,) [m^2]; half, the half-angles
-            (n, 1, 1) [rad].
+            (A * R,) [rad] and d_range, the length (A * R, 1) [m] (d_range_flat: (A * R,)) of
+            every active observer's depth ray; pair_ok, the (observer, target) pairs that can
+            see each other (n, n) bool; range2, the squared ranges (n,) [m^2].
         """
         key = active.tobytes() + half_angle_rad.tobytes() + range_m.tobytes()
         if key != self._layout_key:
@@ -237,22 +238,9 @@ class FieldOfView:
             self._layout = SimpleNamespace(
                 angles=angles, observers=observers, d_obs=d_obs,
                 d_angle=angles[active].ravel(), d_range=range_m[d_obs, None],
-                pair_ok=pair_ok[..., None], range2=range_m ** 2,
-                half=half_angle_rad[:, None, None])
+                d_range_flat=range_m[d_obs],
+                pair_ok=pair_ok, range2=range_m ** 2)
         return self._layout
-
-    def _statics_in_range(self, xy, range2) -> np.ndarray:
-        """(n,) bool: some static polygon's bounding box lies within each observer's range.
-
-        Args:
-            xy: (n, 2) observer positions [m].
-            range2: (n,) squared sensor ranges [m^2].
-        """
-        if not len(self._box_min):
-            return np.zeros(len(xy), dtype=bool)
-        gap = np.maximum(np.maximum(self._box_min[None] - xy[:, None], xy[:, None]
-                                    - self._box_max[None]), 0.0)  # (n, S, 2) [m]
-        return (gap[..., 0] ** 2 + gap[..., 1] ** 2 <= range2[:, None]).any(axis=1)
 
     def _maybe_blocked(self, start, end, ray_obs, tgt, centres, radii, static_near
                        ) -> np.ndarray:

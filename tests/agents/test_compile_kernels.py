@@ -50,3 +50,12 @@ def test_the_route_part_compiles_the_route_projection_kernel(monkeypatch):
     ck.compile_kernels(["route"])
     assert calls == [1]
     assert kernel_cache._LOADED[("marl_social.sim", ("route_kernels",))] == (route_kernels,)
+
+
+def test_the_fov_part_loads_the_field_of_view_kernels():
+    from marl_social.perception import fov_kernels
+    from marl_social.sim import kernel_cache
+
+    ck.compile_kernels(["fov"])
+    assert kernel_cache._LOADED[("marl_social.perception", ("fov_kernels",))] == (fov_kernels,)
+    assert "fov" in ck.PARTS and "fov" not in ck.parts_to_compile()
