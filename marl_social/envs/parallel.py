@@ -26,6 +26,7 @@
 
 from __future__ import annotations
 
+import math
 from typing import ClassVar
 
 import numpy as np
@@ -235,7 +236,8 @@ class SocialDrivingEnv(ParallelEnv, EzPickle):
         if arr.shape != (2,):
             raise ValueError(f"agent {agent!r}: action must have shape (2,), got {arr.shape}")
         arr = arr.astype(np.float64)
-        if not np.isfinite(arr).all():
+        first, second = arr.tolist()
+        if not (math.isfinite(first) and math.isfinite(second)):  # np.isfinite's answer
             raise ValueError(f"agent {agent!r}: action {arr.tolist()} has NaN or inf")
         return arr
 

@@ -16,6 +16,8 @@ import numpy as np
 import pymunk
 from pymunk._chipmunk import ffi, lib
 
+from marl_social.sim.kernel_cache import geometry_kernels
+
 _TALL_M = 100.0  # z-extent of the fcl solids [m]
 
 
@@ -111,8 +113,8 @@ class GeometryMirror:
                            np.asarray(lengths_m, dtype=np.float64).copy(),
                            np.asarray(widths_m, dtype=np.float64).copy(),
                            [p.copy() for p in polys])
-        self._static_min = np.array([p.min(axis=0) for p in polys]).reshape(-1, 2)
-        self._static_max = np.array([p.max(axis=0) for p in polys]).reshape(-1, 2)
+        self._static_min = np.array([p.min(axis=0) for p in polys], np.float64).reshape(-1, 2)
+        self._static_max = np.array([p.max(axis=0) for p in polys], np.float64).reshape(-1, 2)
         # passed by value to chipmunk: a ready struct converts faster than a ShapeFilter tuple
         self._cp_filters = [owner[0] for owner in self._cp_filter_owners]
 
@@ -346,17 +348,12 @@ class GeometryMirror:
             pairs = self._off_diagonal & active[:, None] & active[None, :]
             reach = radius[:, None] + radius
             self._touch_key = key
-            self._touch = (pairs, reach * reach, np.where(active, radius * radius, -1.0)[:, None])
-        pairs, reach2, radius2 = self._touch
-        dx = xy[:, 0:1] - xy[:, 0]
-        dy = xy[:, 1:2] - xy[:, 1]
-        if ((dx * dx + dy * dy <= reach2) & pairs).any():
-            return True
-        if not len(self._static_min):
-            return False
-        gap = np.maximum(np.maximum(self._static_min - xy[:, None], xy[:, None] - self._static_max),
-                         0.0)  # (n, S, 2) from each centre to each static box [m]
-        return bool((gap[..., 0] ** 2 + gap[..., 1] ** 2 <= radius2).any())
+            self._touch = (reach * reach, pairs, np.where(active, radius * radius, -1.0))
+        reach2, pairs, radius2 = self._touch
+        # compiled (sim/geometry_kernels.py): the pairs' squared distances against reach2,
+        # then each centre's gap to each static box against radius2
+        return geometry_kernels().bounds_may_touch(xy, reach2, pairs, self._static_min,
+                                                   self._static_max, radius2)
 
     def distance(self, label_a: int, label_b: int) -> float:
         """Exact fcl distance between two labelled solids [m] (0 when they overlap)."""

@@ -40,16 +40,18 @@ def test_an_unknown_part_is_refused_by_name():
         ck.compile_kernels(["gpu"])
 
 
-def test_the_route_part_compiles_the_route_projection_kernel(monkeypatch):
-    from marl_social.sim import kernel_cache, route_kernels
+def test_the_sim_part_compiles_the_route_projection_and_contact_kernels(monkeypatch):
+    from marl_social.sim import geometry_kernels, kernel_cache, route_kernels
 
     calls = []
     project = route_kernels.project_points
     monkeypatch.setattr(route_kernels, "project_points",
                         lambda *args: calls.append(1) or project(*args))
-    ck.compile_kernels(["route"])
+    ck.compile_kernels(["sim"])
     assert calls == [1]
     assert kernel_cache._LOADED[("marl_social.sim", ("route_kernels",))] == (route_kernels,)
+    assert kernel_cache._LOADED[("marl_social.sim", ("geometry_kernels",))] == (
+        geometry_kernels,)
 
 
 def test_the_fov_part_loads_the_field_of_view_kernels():
