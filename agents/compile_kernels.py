@@ -5,9 +5,10 @@ __pycache__): the planners' kernels (models/kernel_loading.py, ~30 s on 2 cores)
 belief's (perception/belief/compiled.py, ~15 s), the MPC's ("tree": its tree solver, its QP's
 assembly, the corridor test and its bounds: agents/robot/tree_ipm.py, qp_kernels.py,
 corridor_kernels.py, ~15 s; one MPC plan compiles the last), the simulator's ("sim": the
-route projection and lane test, sim/route_kernels.py, and the contact test's broad phase,
-sim/geometry_kernels.py, ~3-4 s) and the field of view's arithmetic around its ray queries
-("fov": perception/fov_kernels.py, ~3 s). A process that finds no cache compiles them itself,
+route projection and lane test, sim/route_kernels.py, the contact test's broad phase,
+sim/geometry_kernels.py, and the observation's encoding, sim/observation_kernels.py, ~5 s)
+and the field of view's arithmetic around its ray queries ("fov": perception/fov_kernels.py,
+~3 s). A process that finds no cache compiles them itself,
 so on a fresh install several processes started at once (a test run on every core, a study's
 workers, a vector env's) each compile the same kernels. `compile_kernels` compiles them once,
 before such processes start; the parts are independent, so two processes can compile two of
@@ -32,7 +33,8 @@ _FILES = {
                  ("gap_kernels", "cost_kernels", "scene_kernels", "zone_kernels")),
     "belief": ("marl_social.perception.belief.compiled", ("belief_kernels",)),
     "tree": ("marl_social.agents.robot.qp", ("tree_ipm", "qp_kernels", "corridor_kernels")),
-    "sim": ("marl_social.sim.road_map", ("route_kernels", "geometry_kernels")),
+    "sim": ("marl_social.sim.road_map",
+            ("route_kernels", "geometry_kernels", "observation_kernels")),
     "fov": ("marl_social.perception.fov", ("fov_kernels",)),
 }
 
@@ -76,11 +78,12 @@ def compile_kernels(parts: tuple[str, ...] | list[str] = PARTS) -> None:
         _solve_one_tree_qp()
         _plan_once()
     if "sim" in parts:  # the contact test; a route of several segments projects through a kernel
-        from marl_social.sim.kernel_cache import geometry_kernels
+        from marl_social.sim.kernel_cache import geometry_kernels, observation_kernels
         from marl_social.sim.road_map import Lane, Route
         from marl_social.sim.route_rules import on_lanes
 
-        geometry_kernels()  # compiled at its import (explicit signature)
+        geometry_kernels()  # these two compile at their import (explicit signatures)
+        observation_kernels()
         points = [[0.0, 0.0], [10.0, 0.0], [20.0, 5.0]]
         Route(points, "compile_kernels").project(np.zeros(2))
         lanes = [Lane(np.array(points), 3.5)]

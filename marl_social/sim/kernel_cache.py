@@ -6,9 +6,10 @@ seconds. `load_kernels` imports a package's kernel files at the first call of a 
 (numba compiles or loads them then, not at the import of marl_social), after one warning
 if `will_compile` says they have no current cache, so that the first run does not look hung:
 the planners' kernels (models/kernel_loading.py), the route projection (`route_kernels`
-here), the contact test's broad phase (`geometry_kernels` here), the field of view's
-(perception/fov.py) and the belief's (perception/belief/compiled.py); the MPC's tree solver
-(agents/robot/tree_ipm.py) asks `will_compile` at its own import.
+here), the contact test's broad phase (`geometry_kernels` here), the observation's encoding
+(`observation_kernels` here), the field of view's (perception/fov.py) and the belief's
+(perception/belief/compiled.py); the MPC's tree solver (agents/robot/tree_ipm.py) asks
+`will_compile` at its own import.
 agents/compile_kernels.py compiles what is missing ahead of a parallel run.
 """
 
@@ -88,3 +89,10 @@ def geometry_kernels() -> ModuleType:
     """sim.geometry_kernels (the contact test's broad phase), loaded once."""
     return load_kernels("marl_social.sim", ("geometry_kernels",),
                         "the contact test's numba kernel", 2)[0]
+
+
+@functools.cache  # asked once per env step: a cached call, not load_kernels' lookup
+def observation_kernels() -> ModuleType:
+    """sim.observation_kernels (the observation's encoding), loaded once."""
+    return load_kernels("marl_social.sim", ("observation_kernels",),
+                        "the observation's numba kernel", 2)[0]

@@ -32,6 +32,8 @@ from dataclasses import dataclass, field
 import numpy as np
 from gymnasium import spaces
 
+from marl_social.sim.kernel_cache import observation_kernels
+
 EGO_FIELDS = ("x", "y", "cos_psi", "sin_psi", "v", "sensor_range", "sensor_half_angle",
               "is_pedestrian")
 SLOT_FIELDS = ("present", "id", "x", "y", "vx", "vy", "cos_psi", "sin_psi", "length", "width",
@@ -246,41 +248,15 @@ class ObservationLayout:
         Returns:
             (n, size) float32.
         """
-        n = len(xy)
-        out = np.zeros((n, self.size), dtype=np.float32)
-        out[:, 0:2] = xy
-        out[:, 2] = np.cos(heading)
-        out[:, 3] = np.sin(heading)
-        out[:, 4] = speed
-        out[:, 5] = sensor_range
-        out[:, 6] = sensor_half_angle
-        out[:, 7] = is_pedestrian
         m = measurements
-        if len(m.observer):
-            first = np.searchsorted(m.observer, m.observer, side="left")
-            rank = np.arange(len(m.observer)) - first
-            keep = rank < self.n_slots
-            if keep.all():  # every measurement has a slot (the usual case): no copies
-                obs_i, tgt, heading_k, m_xy, m_vel = (m.observer, m.target, m.heading, m.xy,
-                                                      m.velocity)
-            else:
-                obs_i, rank, tgt = m.observer[keep], rank[keep], m.target[keep]
-                heading_k, m_xy, m_vel = m.heading[keep], m.xy[keep], m.velocity[keep]
-            slot = np.empty((len(tgt), SLOT_DIM))  # SLOT_FIELDS, in float64 as measured
-            slot[:, 0] = 1.0
-            slot[:, 1] = tgt + 1.0
-            slot[:, 2:4] = m_xy
-            slot[:, 4:6] = m_vel
-            slot[:, 6] = np.cos(heading_k)
-            slot[:, 7] = np.sin(heading_k)
-            slot[:, 8] = length[tgt]
-            slot[:, 9] = width[tgt]
-            slot[:, 10] = is_pedestrian[tgt]
-            slots = out[:, EGO_DIM:EGO_DIM + self.n_slots * SLOT_DIM].reshape(
-                n, self.n_slots, SLOT_DIM
-            )
-            slots[obs_i, rank] = slot
-        out[:, EGO_DIM + self.n_slots * SLOT_DIM:self._rays_end] = depth_m
+        out = np.zeros((len(xy), self.size), dtype=np.float32)
+        # compiled (sim/observation_kernels.py): the ego block, the object slots (measurement
+        # p in slot p - the first row of its observer, while that is < n_slots) and the rays
+        observation_kernels().encode_rows(
+            out, xy, np.cos(heading), np.sin(heading), speed, sensor_range, sensor_half_angle,
+            is_pedestrian, m.observer, m.target, m.xy, m.velocity, np.cos(m.heading),
+            np.sin(m.heading), length, width, self.n_slots, EGO_DIM, SLOT_DIM, depth_m,
+            EGO_DIM + self.n_slots * SLOT_DIM)
         if self.n_signals:
             if signals is None:
                 raise ValueError(f"observation: a layout with {self.n_signals} signal slots "

@@ -40,7 +40,7 @@ def test_an_unknown_part_is_refused_by_name():
         ck.compile_kernels(["gpu"])
 
 
-def test_the_sim_part_compiles_the_route_projection_and_contact_kernels(monkeypatch):
+def test_the_sim_part_compiles_the_simulators_kernels(monkeypatch):
     from marl_social.sim import geometry_kernels, kernel_cache, route_kernels
 
     calls = []
@@ -52,6 +52,7 @@ def test_the_sim_part_compiles_the_route_projection_and_contact_kernels(monkeypa
     assert kernel_cache._LOADED[("marl_social.sim", ("route_kernels",))] == (route_kernels,)
     assert kernel_cache._LOADED[("marl_social.sim", ("geometry_kernels",))] == (
         geometry_kernels,)
+    assert ("marl_social.sim", ("observation_kernels",)) in kernel_cache._LOADED
 
 
 def test_the_fov_part_loads_the_field_of_view_kernels():
