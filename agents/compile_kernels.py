@@ -7,8 +7,8 @@ assembly, the corridor test and its bounds: agents/robot/tree_ipm.py, qp_kernels
 corridor_kernels.py, ~15 s; one MPC plan compiles the last), the simulator's ("sim": the
 route projection and lane test, sim/route_kernels.py, the contact test's broad phase,
 sim/geometry_kernels.py, and the observation's encoding, sim/observation_kernels.py, ~5 s)
-and the field of view's arithmetic around its ray queries ("fov": perception/fov_kernels.py,
-~3 s). A process that finds no cache compiles them itself,
+and the perception's ("perception": the field of view's arithmetic around its ray queries,
+perception/fov_kernels.py, and the measurements', perception/sensor_kernels.py, ~5 s). A process that finds no cache compiles them itself,
 so on a fresh install several processes started at once (a test run on every core, a study's
 workers, a vector env's) each compile the same kernels. `compile_kernels` compiles them once,
 before such processes start; the parts are independent, so two processes can compile two of
@@ -26,7 +26,7 @@ import numpy as np
 
 from marl_social.sim.kernel_cache import will_compile
 
-PARTS = ("planners", "belief", "tree", "sim", "fov")
+PARTS = ("planners", "belief", "tree", "sim", "perception")
 # each part: the module whose folder holds its kernel files, and those files' names
 _FILES = {
     "planners": ("marl_social.models.kernel_loading",
@@ -35,7 +35,7 @@ _FILES = {
     "tree": ("marl_social.agents.robot.qp", ("tree_ipm", "qp_kernels", "corridor_kernels")),
     "sim": ("marl_social.sim.road_map",
             ("route_kernels", "geometry_kernels", "observation_kernels")),
-    "fov": ("marl_social.perception.fov", ("fov_kernels",)),
+    "perception": ("marl_social.perception.fov", ("fov_kernels", "sensor_kernels")),
 }
 
 
@@ -89,10 +89,12 @@ def compile_kernels(parts: tuple[str, ...] | list[str] = PARTS) -> None:
         lanes = [Lane(np.array(points), 3.5)]
         on_lanes(lanes, np.zeros((1, 2)), np.zeros(1))  # the lane test, headings contiguous
         on_lanes(lanes, np.zeros((2, 2)), np.zeros((2, 3))[:, 2])  # and a column of a table
-    if "fov" in parts:  # compiled at their import (explicit signatures)
+    if "perception" in parts:  # compiled at their import (explicit signatures)
         from marl_social.perception.fov import fov_kernels
+        from marl_social.perception.sensors import sensor_kernels
 
         fov_kernels()
+        sensor_kernels()
 
 
 def _solve_one_tree_qp() -> None:

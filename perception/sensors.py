@@ -7,9 +7,20 @@ fixed order (so an episode is reproducible bit for bit).
 
 from __future__ import annotations
 
+import functools
+from types import ModuleType
+
 import numpy as np
 
+from marl_social.sim.kernel_cache import load_kernels
 from marl_social.sim.observation import Measurements
+
+
+@functools.cache  # once per process: a cached call, not load_kernels' lookup
+def sensor_kernels() -> ModuleType:
+    """perception.sensor_kernels (the measurements' arithmetic), loaded once."""
+    return load_kernels("marl_social.perception", ("sensor_kernels",),
+                        "the sensors' numba kernels", 2)[0]
 
 
 def measure(visible, xy, heading, speed, pos_noise_m, vel_noise_mps, heading_noise_rad,
@@ -29,16 +40,12 @@ def measure(visible, xy, heading, speed, pos_noise_m, vel_noise_mps, heading_noi
     Returns:
         Measurements, one row per visible pair, sorted by observer then true distance.
     """
-    obs, tgt = np.nonzero(visible)
-    d = xy[tgt] - xy[obs]
-    dist = np.sqrt(d[:, 0] * d[:, 0] + d[:, 1] * d[:, 1])  # np.linalg.norm, without its wrapper
-    order = np.lexsort((tgt, dist, obs))
-    obs, tgt, dist = obs[order], tgt[order], dist[order]
+    kernels = sensor_kernels()
+    # compiled (perception/sensor_kernels.py): np.nonzero's pairs, their distances and
+    # np.lexsort((target, distance, observer))'s order; then the noise, in the same order
+    obs, tgt, dist = kernels.visible_pairs(visible, xy)
     noise = rng.standard_normal((len(obs), 5))
-    true_vel = np.empty((len(speed), 2))
-    true_vel[:, 0] = speed * np.cos(heading)
-    true_vel[:, 1] = speed * np.sin(heading)
-    m_xy = xy[tgt] + noise[:, 0:2] * pos_noise_m[obs, None]
-    m_vel = true_vel[tgt] + noise[:, 2:4] * vel_noise_mps[obs, None]
-    m_heading = heading[tgt] + noise[:, 4] * heading_noise_rad[obs]
+    m_xy, m_vel, m_heading = kernels.noisy_values(
+        obs, tgt, noise, xy, np.cos(heading), np.sin(heading), speed, heading, pos_noise_m,
+        vel_noise_mps, heading_noise_rad)
     return Measurements(obs, tgt, m_xy, m_vel, m_heading, dist)

@@ -55,10 +55,12 @@ def test_the_sim_part_compiles_the_simulators_kernels(monkeypatch):
     assert ("marl_social.sim", ("observation_kernels",)) in kernel_cache._LOADED
 
 
-def test_the_fov_part_loads_the_field_of_view_kernels():
-    from marl_social.perception import fov_kernels
+def test_the_perception_part_loads_the_field_of_view_and_sensor_kernels():
+    from marl_social.perception import fov_kernels, sensor_kernels
     from marl_social.sim import kernel_cache
 
-    ck.compile_kernels(["fov"])
+    ck.compile_kernels(["perception"])
     assert kernel_cache._LOADED[("marl_social.perception", ("fov_kernels",))] == (fov_kernels,)
-    assert "fov" in ck.PARTS and "fov" not in ck.parts_to_compile()
+    assert kernel_cache._LOADED[("marl_social.perception", ("sensor_kernels",))] == (
+        sensor_kernels,)
+    assert "perception" not in ck.parts_to_compile()
