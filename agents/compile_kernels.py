@@ -79,13 +79,15 @@ def compile_kernels(parts: tuple[str, ...] | list[str] = PARTS) -> None:
         _plan_once()
     if "sim" in parts:  # the contact test; a route of several segments projects through a kernel
         from marl_social.sim.kernel_cache import geometry_kernels, observation_kernels
-        from marl_social.sim.road_map import Lane, Route
+        from marl_social.sim.road_map import Lane, Route, RouteSet
         from marl_social.sim.route_rules import on_lanes
 
         geometry_kernels()  # these two compile at their import (explicit signatures)
         observation_kernels()
         points = [[0.0, 0.0], [10.0, 0.0], [20.0, 5.0]]
         Route(points, "compile_kernels").project(np.zeros(2))
+        routes = RouteSet([Route(points, "compile_kernels")])
+        routes.project(np.zeros((1, 4))[:, :2])  # the world's positions: a column slice
         lanes = [Lane(np.array(points), 3.5)]
         on_lanes(lanes, np.zeros((1, 2)), np.zeros(1))  # the lane test, headings contiguous
         on_lanes(lanes, np.zeros((2, 2)), np.zeros((2, 3))[:, 2])  # and a column of a table

@@ -479,7 +479,6 @@ class RouteSet:
             self.valid[i, :k] = True
         self.length_m = np.array([r.length_m for r in routes])
         self._all_valid = bool(self.valid.all())
-        self._rows = np.arange(n)
 
     def project(self, xy) -> tuple[np.ndarray, np.ndarray]:
         """Arc length and signed lateral offset of each agent's position on its own route.
@@ -490,16 +489,12 @@ class RouteSet:
         Returns:
             Arc length s (n,) [m] and signed lateral offset (n,) [m] (left positive).
         """
-        rel = xy[:, None, :] - self.seg_start  # (n, S, 2)
-        # clip as minimum(maximum()): np.clip's wrapper costs more than the arithmetic
-        t = np.minimum(np.maximum(np.einsum("nsk,nsk->ns", rel, self.seg_dir), 0.0),
-                       self.seg_len)
-        closest = self.seg_start + t[..., None] * self.seg_dir
-        d2 = ((xy[:, None, :] - closest) ** 2).sum(axis=-1)
-        if not self._all_valid:  # padding segments are never the closest
-            d2 = np.where(self.valid, d2, np.inf)
-        k = d2.argmin(axis=1)
-        rows = self._rows if len(xy) == len(self._rows) else np.arange(len(xy))
-        rel_k, dir_k = rel[rows, k], self.seg_dir[rows, k]
-        lateral = dir_k[:, 0] * rel_k[:, 1] - dir_k[:, 1] * rel_k[:, 0]
-        return self.cum_s[rows, k] + t[rows, k], lateral
+        xy = np.asarray(xy, dtype=np.float64)
+        if xy.shape != (len(self.length_m), 2):
+            raise ValueError(f"RouteSet.project: xy must have shape ({len(self.length_m)}, 2), "
+                             f"one position per route; got {xy.shape}")
+        # compiled (sim/route_kernels.py): per agent and segment the clamped foot point, the
+        # first closest segment, its arc length and signed offset, with numpy's bits
+        return route_kernels().project_on_own_routes(xy, self.seg_start, self.seg_dir,
+                                                     self.seg_len, self.cum_s, self.valid,
+                                                     self._all_valid)

@@ -148,3 +148,72 @@ def project_footprints(xy, cos_h, sin_h, length_m, width_m, source, segments, ou
             out[2, p, n] = min(min(min(l0, l1), l2), l3)
             out[3, p, n] = max(max(max(l0, l1), l2), l3)
             out[4, p, n] = abs((((l0 + l1) + l2) + l3) / 4.0)
+
+
+@numba.njit(cache=True)
+def _np_max(a, b):
+    """np.maximum(a, b) of two floats: NaN if either is; b on a tie (-0.0 vs 0.0 gives b)."""
+    if math.isnan(a):
+        return a
+    if math.isnan(b):
+        return b
+    return a if a > b else b  # noqa: FURB136 - the tie rule spelled out, not numba's max
+
+
+@numba.njit(cache=True)
+def _np_min(a, b):
+    """np.minimum(a, b) of two floats: NaN if either is; b on a tie."""
+    if math.isnan(a):
+        return a
+    if math.isnan(b):
+        return b
+    return a if a < b else b  # noqa: FURB136 - the tie rule spelled out
+
+
+@numba.njit(cache=True)
+def project_on_own_routes(xy, seg_start, seg_dir, seg_len, cum_s, valid, all_valid):
+    """RouteSet.project: each agent's arc length and lateral offset on its own route.
+
+    Per agent i and segment j, the numpy formulation's values (tests/sim/test_route_kernels.py):
+    rel = xy_i - start_ij, its dot product with the direction as np.einsum sums it,
+    (0.0 + rel_x dir_x) + rel_y dir_y, t = np.minimum(np.maximum(dot, 0.0), length_ij), the
+    squared distance (x - (start_x + t dir_x))^2 + (y - (start_y + t dir_y))^2 (inf for a
+    padding segment when not all_valid); the first segment k of the smallest (numpy's argmin:
+    the first NaN) gives s = cum_s_ik + t_ik and lateral = dir_x rel_y - dir_y rel_x.
+
+    Args:
+        xy: (n, 2) agent positions [m].
+        seg_start: (n, S, 2) segment starts [m].
+        seg_dir: (n, S, 2) unit directions.
+        seg_len: (n, S) segment lengths [m].
+        cum_s: (n, S) arc length at each segment's start [m].
+        valid: (n, S) bool, real segments (the others pad shorter routes).
+        all_valid: whether every segment is real.
+
+    Returns:
+        s (n,) [m] and lateral (n,) [m].
+    """
+    n, n_seg = seg_len.shape
+    s_out = np.empty(n)
+    lateral = np.empty(n)
+    for i in range(n):
+        x, y = xy[i, 0], xy[i, 1]
+        best, best_d2, best_t, best_rx, best_ry = 0, 0.0, 0.0, 0.0, 0.0
+        for j in range(n_seg):
+            rx = x - seg_start[i, j, 0]
+            ry = y - seg_start[i, j, 1]
+            dx, dy = seg_dir[i, j, 0], seg_dir[i, j, 1]
+            t = _np_min(_np_max((0.0 + rx * dx) + ry * dy, 0.0), seg_len[i, j])
+            ex = x - (seg_start[i, j, 0] + t * dx)
+            ey = y - (seg_start[i, j, 1] + t * dy)
+            d2 = ex * ex + ey * ey
+            if not all_valid and not valid[i, j]:
+                d2 = np.inf
+            nan = math.isnan(d2)
+            if j == 0 or d2 < best_d2 or nan:
+                best, best_d2, best_t, best_rx, best_ry = j, d2, t, rx, ry
+                if nan:  # argmin stops at the first NaN
+                    break
+        s_out[i] = cum_s[i, best] + best_t
+        lateral[i] = seg_dir[i, best, 0] * best_ry - seg_dir[i, best, 1] * best_rx
+    return s_out, lateral

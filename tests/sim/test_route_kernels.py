@@ -8,10 +8,11 @@ here as it stood; random routes of 2-60 segments and points over a wide range of
 from __future__ import annotations
 
 import numpy as np
+import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from marl_social.sim.road_map import Route
+from marl_social.sim.road_map import Route, RouteSet
 
 SEEDS = st.integers(0, 2**32 - 1)
 
@@ -95,6 +96,43 @@ def test_project_xy_and_project_use_the_kernel_on_strided_inputs():
     assert np.isscalar(s1) or np.ndim(s1) == 0
     assert s1 == ref_s[2, 3] and lat1 == ref_lateral[2, 3]
     assert heading1 == route.segment_heading_rad[ref_k[2, 3]]
+
+
+def _reference_route_set_project(routes: RouteSet, xy: np.ndarray):
+    """RouteSet.project as it stood in numpy."""
+    rel = xy[:, None, :] - routes.seg_start  # (n, S, 2)
+    t = np.minimum(np.maximum(np.einsum("nsk,nsk->ns", rel, routes.seg_dir), 0.0),
+                   routes.seg_len)
+    closest = routes.seg_start + t[..., None] * routes.seg_dir
+    d2 = ((xy[:, None, :] - closest) ** 2).sum(axis=-1)
+    if not routes.valid.all():
+        d2 = np.where(routes.valid, d2, np.inf)
+    k = d2.argmin(axis=1)
+    rows = np.arange(len(xy))
+    rel_k, dir_k = rel[rows, k], routes.seg_dir[rows, k]
+    lateral = dir_k[:, 0] * rel_k[:, 1] - dir_k[:, 1] * rel_k[:, 0]
+    return routes.cum_s[rows, k] + t[rows, k], lateral
+
+
+@settings(max_examples=200, deadline=None)
+@given(SEEDS, st.integers(1, 8))
+def test_route_set_projection_matches_numpy_bit_for_bit(seed, n):
+    rng = np.random.default_rng(seed)
+    routes = [_route(rng) if rng.random() < 0.7 else Route([[0.0, 0.0], [30.0, 1.0]])
+              for _ in range(n)]
+    route_set = RouteSet(routes)
+    state = np.zeros((n, 4))  # the world's state table: the positions are a strided view
+    state[:, :2] = [_points(rng, r, ()) for r in routes]
+    with np.errstate(invalid="ignore", over="ignore"):
+        expected = _reference_route_set_project(route_set, state[:, :2])
+        got = route_set.project(state[:, :2])
+    assert all(_same(g, e) for g, e in zip(got, expected))
+
+
+def test_route_set_projection_wants_one_position_per_route():
+    route_set = RouteSet([Route([[0.0, 0.0], [10.0, 0.0]])] * 3)
+    with pytest.raises(ValueError, match=r"RouteSet.project: xy must have shape \(3, 2\)"):
+        route_set.project(np.zeros((2, 2)))
 
 
 def _lane(rng: np.random.Generator):
