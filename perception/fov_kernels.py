@@ -71,7 +71,7 @@ def sample_points(xy, cos_heading, sin_heading, local):
 
 
 @numba.njit([(_array(4), _array(3, layout="A"), _array(1, layout="A"), _array(1),
-              _array(1), _array(2, _B1), _array(2, layout="A"), _array(2), _array(2),
+              _array(1, layout="A"), _array(2, _B1), _array(2, layout="A"), _array(2), _array(2),
               _array(1), _array(1), _array(1, _I8), _array(1))], **_JIT)
 def sensed_rays(rel, arctan, heading, range2, half_angle, pair_ok, xy, box_min, box_max,
                 cos_dir, sin_dir, depth_observer, depth_range):

@@ -64,7 +64,9 @@ def _scene(rng, n, n_boxes, spread_m):
     pair_ok = active[:, None] & active[None, :]
     np.fill_diagonal(pair_ok, False)
     range_m = rng.uniform(5.0, 60.0, n)
-    half_angle = np.where(rng.random(n) < 0.2, np.pi, rng.uniform(0.2, 2.0, n))
+    sensors = np.zeros((n, 2))  # a table of sensor parameters: the half-angles are a column
+    sensors[:, 1] = np.where(rng.random(n) < 0.2, np.pi, rng.uniform(0.2, 2.0, n))
+    half_angle = sensors[:, 1]
     corner = rng.uniform(-spread_m, spread_m, (n_boxes, 2))
     box_min, box_max = corner, corner + rng.uniform(1.0, 20.0, (n_boxes, 2))
     n_rays = 7
