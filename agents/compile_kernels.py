@@ -6,13 +6,15 @@ belief's (perception/belief/compiled.py, ~15 s), the MPC's ("tree": its tree sol
 assembly, the corridor test and its bounds: agents/robot/tree_ipm.py, qp_kernels.py,
 corridor_kernels.py, ~15 s; one MPC plan compiles the last), the simulator's ("sim": the
 route projection and lane test, sim/route_kernels.py, the contact test's broad phase,
-sim/geometry_kernels.py, and the observation's encoding, sim/observation_kernels.py, ~5 s)
-and the perception's ("perception": the field of view's arithmetic around its ray queries,
-perception/fov_kernels.py, and the measurements', perception/sensor_kernels.py, ~5 s). A process that finds no cache compiles them itself,
-so on a fresh install several processes started at once (a test run on every core, a study's
-workers, a vector env's) each compile the same kernels. `compile_kernels` compiles them once,
-before such processes start; the parts are independent, so two processes can compile two of
-them side by side (tests/conftest.py does so before the test workers start):
+sim/geometry_kernels.py, the observation's encoding, sim/observation_kernels.py, and the
+env's pairwise cost features, sim/feature_kernels.py, ~6 s) and the perception's
+("perception": the field of view's arithmetic around its ray queries,
+perception/fov_kernels.py, and the measurements', perception/sensor_kernels.py, ~5 s). A
+process that finds no cache compiles them itself, so on a fresh install several processes
+started at once (a test run on every core, a study's workers, a vector env's) each compile the
+same kernels. `compile_kernels` compiles them once, before such processes start; the parts are
+independent, so two processes can compile two of them side by side (tests/conftest.py does so
+before the test workers start):
 
     python -c "from marl_social.agents.compile_kernels import compile_kernels; compile_kernels()"
 """
@@ -34,7 +36,7 @@ _FILES = {
     "belief": ("marl_social.perception.belief.compiled", ("belief_kernels",)),
     "tree": ("marl_social.agents.robot.qp", ("tree_ipm", "qp_kernels", "corridor_kernels")),
     "sim": ("marl_social.sim.road_map",
-            ("route_kernels", "geometry_kernels", "observation_kernels")),
+            ("route_kernels", "geometry_kernels", "observation_kernels", "feature_kernels")),
     "perception": ("marl_social.perception.fov", ("fov_kernels", "sensor_kernels")),
 }
 
@@ -78,12 +80,16 @@ def compile_kernels(parts: tuple[str, ...] | list[str] = PARTS) -> None:
         _solve_one_tree_qp()
         _plan_once()
     if "sim" in parts:  # the contact test; a route of several segments projects through a kernel
-        from marl_social.sim.kernel_cache import geometry_kernels, observation_kernels
+        from marl_social.sim.kernel_cache import (
+            feature_kernels,
+            geometry_kernels,
+            observation_kernels,
+        )
         from marl_social.sim.road_map import Lane, Route, RouteSet
         from marl_social.sim.route_rules import on_lanes
 
-        geometry_kernels()  # these two compile at their import (explicit signatures)
-        observation_kernels()
+        for kernels in (geometry_kernels, observation_kernels, feature_kernels):
+            kernels()  # compiled at their import (explicit signatures)
         points = [[0.0, 0.0], [10.0, 0.0], [20.0, 5.0]]
         Route(points, "compile_kernels").project(np.zeros(2))
         routes = RouteSet([Route(points, "compile_kernels")])

@@ -26,6 +26,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from marl_social.sim.kernel_cache import feature_kernels
 from marl_social.sim.road_map import Crosswalk
 
 FEATURE_NAMES = ("tracking", "speed", "accel", "jerk", "safety", "crosswalk")
@@ -369,6 +370,34 @@ def pairwise_step_features(*, lateral_m, speed_mps, v_ref_mps, accel_mps2, prev_
     Returns:
         (n, N_FEATURES) in FEATURE_NAMES order.
     """
+    kernels = feature_kernels()
+    if len(xy) > kernels.PAIRWISE_MAX:  # rows numpy sums in more than one pairwise block
+        return _numpy_pairwise_step_features(
+            lateral_m=lateral_m, speed_mps=speed_mps, v_ref_mps=v_ref_mps,
+            accel_mps2=accel_mps2, prev_accel_mps2=prev_accel_mps2, xy=xy, radius=radius,
+            is_ped=is_ped, circles=circles, circle_r=circle_r, other_mask=other_mask,
+            crosswalks=crosswalks, kinds_differ=kinds_differ)
+    # compiled (sim/feature_kernels.py): the circle gaps, the first five features and the
+    # crosswalks' row sums; np.exp and crosswalk_occupancy (np.tanh) stay numpy's
+    gap = kernels.circle_gap_matrix(circles, circle_r[:, 0])
+    out = kernels.feature_rows(lateral_m, speed_mps, np.broadcast_to(v_ref_mps, len(xy)),
+                               accel_mps2, prev_accel_mps2, np.exp(-gap), other_mask)
+    conflict = 0.0
+    if crosswalks:
+        if kinds_differ is None:
+            kinds_differ = is_ped[None, :] != is_ped[:, None]
+        pair_mask = other_mask & kinds_differ
+        for cw in crosswalks:
+            occ = crosswalk_occupancy(xy, radius, cw)  # egos' and others' alike
+            conflict = conflict + occ * kernels.occupancy_sums(occ, pair_mask)
+    out[:, 5] = conflict
+    return out
+
+
+def _numpy_pairwise_step_features(*, lateral_m, speed_mps, v_ref_mps, accel_mps2,
+                                  prev_accel_mps2, xy, radius, is_ped, circles, circle_r,
+                                  other_mask, crosswalks, kinds_differ) -> np.ndarray:
+    """`pairwise_step_features` in numpy: its path for more agents than one pairwise block."""
     d = circles[:, None, :, None, :] - circles[None, :, None, :, :]  # (n, n, C, C, 2)
     dx, dy = d[..., 0], d[..., 1]
     nearest = (dx * dx + dy * dy).min(axis=(2, 3))

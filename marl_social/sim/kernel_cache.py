@@ -7,9 +7,9 @@ seconds. `load_kernels` imports a package's kernel files at the first call of a 
 if `will_compile` says they have no current cache, so that the first run does not look hung:
 the planners' kernels (models/kernel_loading.py), the route projection (`route_kernels`
 here), the contact test's broad phase (`geometry_kernels` here), the observation's encoding
-(`observation_kernels` here), the field of view's (perception/fov.py) and the belief's
-(perception/belief/compiled.py); the MPC's tree solver (agents/robot/tree_ipm.py) asks
-`will_compile` at its own import.
+(`observation_kernels` here), the env's pairwise cost features (`feature_kernels` here), the
+field of view's (perception/fov.py) and the belief's (perception/belief/compiled.py); the MPC's
+tree solver (agents/robot/tree_ipm.py) asks `will_compile` at its own import.
 agents/compile_kernels.py compiles what is missing ahead of a parallel run.
 """
 
@@ -96,3 +96,10 @@ def observation_kernels() -> ModuleType:
     """sim.observation_kernels (the observation's encoding), loaded once."""
     return load_kernels("marl_social.sim", ("observation_kernels",),
                         "the observation's numba kernel", 2)[0]
+
+
+@functools.cache  # asked once per env step: a cached call, not load_kernels' lookup
+def feature_kernels() -> ModuleType:
+    """sim.feature_kernels (the env's pairwise cost features), loaded once."""
+    return load_kernels("marl_social.sim", ("feature_kernels",),
+                        "the cost features' numba kernels", 3)[0]

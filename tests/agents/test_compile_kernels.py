@@ -53,6 +53,7 @@ def test_the_sim_part_compiles_the_simulators_kernels(monkeypatch):
     assert kernel_cache._LOADED[("marl_social.sim", ("geometry_kernels",))] == (
         geometry_kernels,)
     assert ("marl_social.sim", ("observation_kernels",)) in kernel_cache._LOADED
+    assert ("marl_social.sim", ("feature_kernels",)) in kernel_cache._LOADED
 
 
 def test_the_perception_part_loads_the_field_of_view_and_sensor_kernels():
