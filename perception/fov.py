@@ -96,19 +96,6 @@ def target_sample_points(xy, heading, length, width, is_pedestrian) -> np.ndarra
     return place_local(xy, heading, sample_point_layout(length, width, is_pedestrian))
 
 
-def _segments_hit_circles(start, end, centres, radii) -> np.ndarray:
-    """Whether segments (R, 2)->(R, 2) pass within radii (C,) of centres (C, 2): (R, C) bool."""
-    dx, dy = end[:, 0] - start[:, 0], end[:, 1] - start[:, 1]
-    inv_dd = 1.0 / np.maximum(dx * dx + dy * dy, 1e-12)
-    wx = np.subtract.outer(-start[:, 0], -centres[:, 0])  # centre - start, (R, C)
-    wy = np.subtract.outer(-start[:, 1], -centres[:, 1])
-    t = (wx * dx[:, None] + wy * dy[:, None]) * inv_dd[:, None]
-    np.clip(t, 0.0, 1.0, out=t)
-    wx -= t * dx[:, None]
-    wy -= t * dy[:, None]
-    return wx * wx + wy * wy <= radii * radii
-
-
 def _inside_convex(points, polygon) -> np.ndarray:
     """Whether points (n, 2) lie inside a convex polygon (V, 2) given in either orientation."""
     edge = np.roll(polygon, -1, axis=0) - polygon
@@ -250,16 +237,8 @@ class FieldOfView:
         rays of observers with `static_near` are not tested (True); the others' observers have
         no static polygon within their range, so only the agents' bounding circles count.
         """
-        maybe = np.ones(len(ray_obs), dtype=bool)
-        check = np.flatnonzero(~static_near[ray_obs])
-        if len(check):
-            blockers = _segments_hit_circles(start[check], end[check], centres, radii)
-            rows = np.arange(len(check))
-            blockers[rows, ray_obs[check]] = False
-            is_target = check < len(tgt)
-            blockers[rows[is_target], tgt[check[is_target]]] = False
-            maybe[check] = blockers.any(axis=1)
-        return maybe
+        # compiled (perception/fov_kernels.py), the numpy formulation's decisions
+        return fov_kernels().maybe_blocked(start, end, ray_obs, tgt, centres, radii, static_near)
 
     def _resolve_targets(self, start, end, obs, tgt, maybe, visible) -> None:
         """Mark visible[o, t] for target rays that cannot be blocked; ask pymunk for the others.

@@ -115,3 +115,47 @@ def test_second_round_points_are_numpys_nonzero(seed):
     got = fov_kernels().hidden_centre_points(sensed, visible)
     assert got.dtype == np.int64
     assert got.tolist() == [o2.tolist(), t2.tolist(), (k2 + 1).tolist()]
+
+
+def _reference_maybe_blocked(start, end, ray_obs, tgt, centres, radii, static_near):
+    """FieldOfView._maybe_blocked (and _segments_hit_circles) before the kernel."""
+    maybe = np.ones(len(ray_obs), dtype=bool)
+    check = np.flatnonzero(~static_near[ray_obs])
+    if len(check):
+        s, e = start[check], end[check]
+        dx, dy = e[:, 0] - s[:, 0], e[:, 1] - s[:, 1]
+        inv_dd = 1.0 / np.maximum(dx * dx + dy * dy, 1e-12)
+        wx = np.subtract.outer(-s[:, 0], -centres[:, 0])
+        wy = np.subtract.outer(-s[:, 1], -centres[:, 1])
+        t = (wx * dx[:, None] + wy * dy[:, None]) * inv_dd[:, None]
+        np.clip(t, 0.0, 1.0, out=t)
+        wx -= t * dx[:, None]
+        wy -= t * dy[:, None]
+        blockers = wx * wx + wy * wy <= radii * radii
+        rows = np.arange(len(check))
+        blockers[rows, ray_obs[check]] = False
+        is_target = check < len(tgt)
+        blockers[rows[is_target], tgt[check[is_target]]] = False
+        maybe[check] = blockers.any(axis=1)
+    return maybe
+
+
+@pytest.mark.parametrize("seed", range(40))
+def test_the_broad_phase_kernel_decides_as_numpy(seed):
+    rng = np.random.default_rng(300 + seed)
+    n, n_rays = int(rng.integers(1, 40)), int(rng.integers(0, 200))
+    state = np.zeros((n, 4))  # the world's state table: the centres are a column slice
+    state[:, :2] = rng.uniform(-40.0, 40.0, (n, 2))
+    centres = state[:, :2]
+    active = rng.random(n) < 0.8
+    radii = np.where(active, rng.uniform(0.3, 3.0, n), -1.0)
+    ray_obs = rng.integers(0, n, n_rays)
+    n_target = int(rng.integers(0, n_rays + 1))
+    tgt = rng.integers(0, n, n_target)
+    start = centres[ray_obs]
+    end = start + rng.normal(0.0, 20.0, (n_rays, 2))
+    end[: n_rays // 10] = start[: n_rays // 10]  # zero-length rays (the 1e-12 floor)
+    static_near = rng.random(n) < 0.3
+    expected = _reference_maybe_blocked(start, end, ray_obs, tgt, centres, radii, static_near)
+    got = fov_kernels().maybe_blocked(start, end, ray_obs, tgt, centres, radii, static_near)
+    assert got.tolist() == expected.tolist()
