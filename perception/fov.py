@@ -6,15 +6,20 @@ Depth rays at fixed angles across the cone give each observer's visibility polyg
 
 Rays are answered in two phases, for all observers at once:
 
-1. numpy broad phase, for the observers with no static polygon's bounding box within their
-   range: each ray segment against every other agent's bounding circle. A ray that crosses no
-   other agent's circle cannot be occluded (a target ray) or hits nothing (a depth ray): it
-   needs no query. The rays of an observer with a static polygon in range all go to the narrow
-   phase: where buildings line the road most of them end on one, and the test would cost more
-   than the queries it saves.
+1. broad phase (compiled: `fov_kernels.maybe_blocked`), for the observers with no static
+   polygon's bounding box within their range: each ray segment against every other agent's
+   bounding circle. A ray that crosses no other agent's circle cannot be occluded (a target
+   ray) or hits nothing (a depth ray): it needs no query. The rays of an observer with a static
+   polygon in range all go to the narrow phase: where buildings line the road most of them end
+   on one, and the test would cost more than the queries it saves.
 2. chipmunk narrow phase (the pymunk Space, `GeometryMirror.first_hits` / `hits_targets`):
    the exact first hit of every remaining ray, the observer's own shape filtered out by its
    group.
+
+The array arithmetic around the queries (sample points, range and cone, the rays' ends, the
+second round's corner points) runs in numba kernels (perception/fov_kernels.py, loaded at the
+first field of view), each bit for bit the numpy formulation kept in its test; the
+trigonometry stays numpy's.
 """
 
 from __future__ import annotations
