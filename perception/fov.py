@@ -24,24 +24,18 @@ trigonometry stays numpy's.
 
 from __future__ import annotations
 
-import functools
 from dataclasses import dataclass
-from types import ModuleType, SimpleNamespace
+from types import SimpleNamespace
 
 import numpy as np
 
 from marl_social.sim.footprint import place_local
 from marl_social.sim.geometry import GeometryMirror
-from marl_social.sim.kernel_cache import load_kernels
+from marl_social.sim.kernel_cache import cached_kernels
 
 _INNER_FRACTION = 0.85  # sample points sit this fraction of the way from centre to corner
-
-
-@functools.cache  # once per process: a cached call, not load_kernels' lookup
-def fov_kernels() -> ModuleType:
-    """perception.fov_kernels (the arithmetic around the ray queries), loaded once."""
-    return load_kernels("marl_social.perception", ("fov_kernels",),
-                        "the field of view's numba kernels", 3)[0]
+fov_kernels = cached_kernels("marl_social.perception", "fov_kernels",
+                             "the field of view's numba kernels", 3)
 
 
 @dataclass(frozen=True)
@@ -171,7 +165,7 @@ class FieldOfView:
         sensed, centre_pairs, static_near, d_end = kernels.sensed_rays(
             rel, np.arctan2(rel[..., 1], rel[..., 0]), heading, lay.range2, half_angle_rad,
             lay.pair_ok, xy, self._box_min, self._box_max, np.cos(d_dir), np.sin(d_dir), d_obs,
-            lay.d_range_flat)
+            lay.d_range)
         # -- round 1: centre rays and depth rays. The rays of observers with a static polygon
         # in range (static_near) go straight to the narrow phase (where buildings line the
         # road most of them end on one); the others' through one numpy broad phase.
@@ -194,7 +188,7 @@ class FieldOfView:
             alpha[todo] = self.mirror.first_hits(start[n_t + todo], d_end[todo], d_obs[todo])[1]
             self._queries += len(todo)
         depth = np.zeros((n, self.n_rays))
-        depth[active] = (alpha * lay.d_range[:, 0]).reshape(-1, self.n_rays)
+        depth[active] = (alpha * lay.d_range).reshape(-1, self.n_rays)
         # -- round 2: corner rays of targets in view whose centre was hidden
         o2, t2, k2 = kernels.hidden_centre_points(sensed, visible)
         if len(o2):
@@ -215,8 +209,8 @@ class FieldOfView:
         Returns:
             a namespace: angles, the ray angles (n, R) [rad]; observers, the A active
             observers (A,) int; d_obs, the observer (A * R,) int, d_angle, the relative angle
-            (A * R,) [rad] and d_range, the length (A * R, 1) [m] (d_range_flat: (A * R,)) of
-            every active observer's depth ray; pair_ok, the (observer, target) pairs that can
+            (A * R,) [rad] and d_range, the length (A * R,) [m] of every active observer's
+            depth ray; pair_ok, the (observer, target) pairs that can
             see each other (n, n) bool; range2, the squared ranges (n,) [m^2].
         """
         key = active.tobytes() + half_angle_rad.tobytes() + range_m.tobytes()
@@ -229,8 +223,7 @@ class FieldOfView:
             self._layout_key = key
             self._layout = SimpleNamespace(
                 angles=angles, observers=observers, d_obs=d_obs,
-                d_angle=angles[active].ravel(), d_range=range_m[d_obs, None],
-                d_range_flat=range_m[d_obs],
+                d_angle=angles[active].ravel(), d_range=range_m[d_obs],
                 pair_ok=pair_ok, range2=range_m ** 2)
         return self._layout
 

@@ -7,20 +7,13 @@ fixed order (so an episode is reproducible bit for bit).
 
 from __future__ import annotations
 
-import functools
-from types import ModuleType
-
 import numpy as np
 
-from marl_social.sim.kernel_cache import load_kernels
+from marl_social.sim.kernel_cache import cached_kernels
 from marl_social.sim.observation import Measurements
 
-
-@functools.cache  # once per process: a cached call, not load_kernels' lookup
-def sensor_kernels() -> ModuleType:
-    """perception.sensor_kernels (the measurements' arithmetic), loaded once."""
-    return load_kernels("marl_social.perception", ("sensor_kernels",),
-                        "the sensors' numba kernels", 2)[0]
+sensor_kernels = cached_kernels("marl_social.perception", "sensor_kernels",
+                                "the sensors' numba kernels", 2)
 
 
 def measure(visible, xy, heading, speed, pos_noise_m, vel_noise_mps, heading_noise_rad,

@@ -382,15 +382,9 @@ def pairwise_step_features(*, lateral_m, speed_mps, v_ref_mps, accel_mps2, prev_
     gap = kernels.circle_gap_matrix(circles, circle_r[:, 0])
     out = kernels.feature_rows(lateral_m, speed_mps, np.broadcast_to(v_ref_mps, len(xy)),
                                accel_mps2, prev_accel_mps2, np.exp(-gap), other_mask)
-    conflict = 0.0
-    if crosswalks:
-        if kinds_differ is None:
-            kinds_differ = is_ped[None, :] != is_ped[:, None]
-        pair_mask = other_mask & kinds_differ
-        for cw in crosswalks:
-            occ = crosswalk_occupancy(xy, radius, cw)  # egos' and others' alike
-            conflict = conflict + occ * kernels.occupancy_sums(occ, pair_mask)
-    out[:, 5] = conflict
+    out[:, 5] = _pairwise_conflict(
+        xy, radius, is_ped, other_mask, crosswalks, kinds_differ,
+        lambda occ, pair_mask: occ * kernels.occupancy_sums(occ, pair_mask))
     return out
 
 
@@ -409,6 +403,19 @@ def _numpy_pairwise_step_features(*, lateral_m, speed_mps, v_ref_mps, accel_mps2
         ego_circles=None, ego_circle_r=None, other_xy=None, other_radius=None,
         other_is_ped=None, other_circles=None, other_circle_r=None, other_mask=other_mask,
         crosswalks=(), needed=(True,) * 5 + (False,), gap=gap)[:5]), axis=-1)
+    out[:, 5] = _pairwise_conflict(
+        xy, radius, is_ped, other_mask, crosswalks, kinds_differ,
+        lambda occ, pair_mask: _crosswalk_conflict(occ, occ[None, :], pair_mask))
+    return out
+
+
+def _pairwise_conflict(xy, radius, is_ped, other_mask, crosswalks, kinds_differ, term):
+    """(n,) conflict feature of n agents who are each other's others (or 0.0: no crosswalk).
+
+    Per crosswalk `term(occupancy, pair_mask)`: each agent's occupancy times the summed
+    occupancy of its others of the other kind (`_crosswalk_conflict`, or its compiled row
+    sums), added up over the crosswalks from 0.0 as `_feature_terms` adds them.
+    """
     conflict = 0.0
     if crosswalks:
         if kinds_differ is None:
@@ -416,6 +423,5 @@ def _numpy_pairwise_step_features(*, lateral_m, speed_mps, v_ref_mps, accel_mps2
         pair_mask = other_mask & kinds_differ
         for cw in crosswalks:
             occ = crosswalk_occupancy(xy, radius, cw)  # egos' and others' alike
-            conflict = conflict + _crosswalk_conflict(occ, occ[None, :], pair_mask)
-    out[:, 5] = conflict
-    return out
+            conflict = conflict + term(occ, pair_mask)
+    return conflict

@@ -20,6 +20,7 @@ import importlib
 import importlib.util
 import logging
 import os
+from collections.abc import Callable
 from pathlib import Path
 from types import ModuleType
 
@@ -77,29 +78,33 @@ def load_kernels(package: str, names: tuple[str, ...], what: str,
     return _LOADED[key]
 
 
-@functools.cache  # asked for ~10-30 times per env step: a cached call, not load_kernels' lookup
-def route_kernels() -> ModuleType:
-    """sim.route_kernels (the route projection and the lane test), loaded once."""
-    return load_kernels("marl_social.sim", ("route_kernels",),
-                        "the route projection's numba kernel", 3)[0]
+def cached_kernels(package: str, name: str, what: str, about_s: int) -> Callable[[], ModuleType]:
+    """A function that returns package.NAME (`load_kernels`), cached after its first call.
+
+    The simulator and the field of view ask for their kernel modules every step (the route
+    projection ~10-30 times): a cached call is cheaper than load_kernels' lookup.
+
+    Args:
+        package: the dotted package holding the kernel file.
+        name: the kernel module's name, without ".py".
+        what: what compiles, for the warning.
+        about_s: about how long the cold compile takes on a 2-core machine [s].
+    """
+    @functools.cache
+    def kernels() -> ModuleType:
+        return load_kernels(package, (name,), what, about_s)[0]
+
+    kernels.__doc__ = f"{package}.{name} ({what}), loaded once."
+    return kernels
 
 
-@functools.cache  # asked once per env step: a cached call, not load_kernels' lookup
-def geometry_kernels() -> ModuleType:
-    """sim.geometry_kernels (the contact test's broad phase), loaded once."""
-    return load_kernels("marl_social.sim", ("geometry_kernels",),
-                        "the contact test's numba kernel", 2)[0]
-
-
-@functools.cache  # asked once per env step: a cached call, not load_kernels' lookup
-def observation_kernels() -> ModuleType:
-    """sim.observation_kernels (the observation's encoding), loaded once."""
-    return load_kernels("marl_social.sim", ("observation_kernels",),
-                        "the observation's numba kernel", 2)[0]
-
-
-@functools.cache  # asked once per env step: a cached call, not load_kernels' lookup
-def feature_kernels() -> ModuleType:
-    """sim.feature_kernels (the env's pairwise cost features), loaded once."""
-    return load_kernels("marl_social.sim", ("feature_kernels",),
-                        "the cost features' numba kernels", 3)[0]
+# the simulator's kernel modules (the route projection and the lane test, the contact test's
+# broad phase, the observation's encoding, the env's pairwise cost features)
+route_kernels = cached_kernels("marl_social.sim", "route_kernels",
+                               "the route projection's numba kernel", 3)
+geometry_kernels = cached_kernels("marl_social.sim", "geometry_kernels",
+                                  "the contact test's numba kernel", 2)
+observation_kernels = cached_kernels("marl_social.sim", "observation_kernels",
+                                     "the observation's numba kernel", 2)
+feature_kernels = cached_kernels("marl_social.sim", "feature_kernels",
+                                 "the cost features' numba kernels", 3)

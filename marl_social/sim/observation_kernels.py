@@ -36,7 +36,7 @@ def encode_rows(out, xy, cos_heading, sin_heading, speed, sensor_range, half_ang
 
     Ego block: x, y, cos, sin of the heading, speed, sensor range and half-angle, is
     pedestrian. Object slots from column ego_dim: measurement p goes to its observer's slot
-    rank = p - (the first row of its observer: a left binary search in `observer`, sorted),
+    rank = p - (the first row of its observer; `observer` is sorted, as Measurements' rows are),
     if rank < n_slots: present 1, id target + 1, x, y, vx, vy, cos, sin of the measured
     heading, the target's length, width and is_pedestrian. Depth rays from rays_start.
 
@@ -75,17 +75,12 @@ def encode_rows(out, xy, cos_heading, sin_heading, speed, sensor_range, half_ang
         row[7] = 1.0 if is_pedestrian[i] else 0.0
         for r in range(depth_m.shape[1]):
             row[rays_start + r] = depth_m[i, r]
-    n_rows = len(observer)
-    for p in range(n_rows):
+    first = 0  # the first row of the current observer's block (np.searchsorted's, sorted rows)
+    for p in range(len(observer)):
         o = observer[p]
-        lo, hi = 0, n_rows  # np.searchsorted(observer, o, side="left")
-        while lo < hi:
-            mid = (lo + hi) // 2
-            if observer[mid] < o:
-                lo = mid + 1
-            else:
-                hi = mid
-        rank = p - lo
+        if p > 0 and o != observer[p - 1]:
+            first = p
+        rank = p - first
         if rank >= n_slots:
             continue
         t = target[p]

@@ -151,23 +151,18 @@ def project_footprints(xy, cos_h, sin_h, length_m, width_m, source, segments, ou
 
 
 @numba.njit(cache=True)
-def _np_max(a, b):
-    """np.maximum(a, b) of two floats: NaN if either is; b on a tie (-0.0 vs 0.0 gives b)."""
-    if math.isnan(a):
-        return a
-    if math.isnan(b):
-        return b
-    return a if a > b else b  # noqa: FURB136 - the tie rule spelled out, not numba's max
+def _nan_max(a, b):
+    """np.maximum(a, b) of two floats: NaN if either is NaN, b on a tie (-0.0 vs 0.0 gives b).
+
+    Each kernel file keeps its own twin (numba's cache notices edits in a kernel's own file).
+    """
+    return a if (a > b or math.isnan(a)) else b
 
 
 @numba.njit(cache=True)
-def _np_min(a, b):
-    """np.minimum(a, b) of two floats: NaN if either is; b on a tie."""
-    if math.isnan(a):
-        return a
-    if math.isnan(b):
-        return b
-    return a if a < b else b  # noqa: FURB136 - the tie rule spelled out
+def _nan_min(a, b):
+    """np.minimum(a, b) of two floats: NaN if either is NaN, b on a tie."""
+    return a if (a < b or math.isnan(a)) else b
 
 
 @numba.njit(cache=True)
@@ -203,7 +198,7 @@ def project_on_own_routes(xy, seg_start, seg_dir, seg_len, cum_s, valid, all_val
             rx = x - seg_start[i, j, 0]
             ry = y - seg_start[i, j, 1]
             dx, dy = seg_dir[i, j, 0], seg_dir[i, j, 1]
-            t = _np_min(_np_max((0.0 + rx * dx) + ry * dy, 0.0), seg_len[i, j])
+            t = _nan_min(_nan_max((0.0 + rx * dx) + ry * dy, 0.0), seg_len[i, j])
             ex = x - (seg_start[i, j, 0] + t * dx)
             ey = y - (seg_start[i, j, 1] + t * dy)
             d2 = ex * ex + ey * ey
