@@ -161,8 +161,11 @@ class BatchedVectorEnv(VectorEnv):
         """
         if self._local is not None:
             (command, data), messages = messages[0], messages[1:]
-        for pipe, message in zip(self._pipes, messages):
-            pipe.send(message)
+        for w, (pipe, message) in enumerate(zip(self._pipes, messages)):
+            try:
+                pipe.send(message)
+            except OSError:  # BrokenPipeError: the worker has died
+                raise self._died(w) from None
         if self._local is not None:
             try:
                 local = self._local.answer(command, data)
@@ -173,12 +176,35 @@ class BatchedVectorEnv(VectorEnv):
                                    + traceback.format_exc()) from None
             yield local
         for w, pipe in enumerate(self._pipes):
-            ok, payload = pipe.recv()
+            ok, payload = self._receive(w)
             if not ok:
-                for later in self._pipes[w + 1:]:
-                    later.recv()
+                for later in range(w + 1, len(self._pipes)):
+                    self._receive(later)
                 raise RuntimeError(f"batched vector env: a worker failed:\n{payload}")
             yield payload
+
+    def _receive(self, w: int) -> tuple:
+        """The answer (ok, payload) of child process w (`_died` if it has died)."""
+        try:
+            return self._pipes[w].recv()
+        except (EOFError, OSError):
+            raise self._died(w) from None
+
+    def _died(self, w: int) -> RuntimeError:
+        """The error for child process w found dead (its pipe closed).
+
+        A worker killed from outside (the OOM killer, a signal) or one that could not start
+        (e.g. the "spawn" context re-running a script without an ``if __name__ ==
+        "__main__":`` guard) closes its pipe: the error names it and its exit code, rather
+        than a bare EOFError or BrokenPipeError from deep inside multiprocessing.
+        """
+        process = self._processes[w]
+        process.join(timeout=1.0)
+        return RuntimeError(
+            f"batched vector env: worker process {w + 1} of {len(self._pipes)} (pid "
+            f"{process.pid}) died (exit code {process.exitcode}); the vector env cannot go "
+            f"on: close it and build a new one. With the 'spawn' or 'forkserver' context, "
+            f"the script that builds it needs an `if __name__ == \"__main__\":` guard")
 
     def _ask(self, messages) -> list:
         """Send one message to every block; their answers in block order."""

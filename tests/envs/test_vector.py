@@ -2,6 +2,9 @@
 
 from __future__ import annotations
 
+import os
+import signal
+
 import numpy as np
 import pytest
 
@@ -180,3 +183,23 @@ def test_workers_are_checked():
         marl_social.vector_env(2, workers=3, scenario="occluded_crosswalk")
     with pytest.raises(ValueError, match="workers"):
         marl_social.vector_env(2, workers=0, scenario="occluded_crosswalk")
+
+
+def test_a_killed_worker_is_a_clear_error_naming_it_and_close_still_works():
+    """A worker killed from outside (OOM killer, a signal) is named, with its exit code."""
+    venv = marl_social.vector_env(2, workers=2, scenario="occluded_crosswalk",
+                                  max_cycles=MAX_CYCLES)
+    try:
+        venv.reset(seed=0)
+        worker = venv._processes[0]
+        os.kill(worker.pid, signal.SIGKILL)
+        worker.join(timeout=10)
+        with pytest.raises(RuntimeError) as err:
+            venv.step(np.zeros((2, 2)))
+        message = str(err.value)
+        assert f"worker process 1 of 1 (pid {worker.pid}) died" in message
+        assert f"exit code {-signal.SIGKILL}" in message and "build a new one" in message
+        assert "Traceback" not in message
+    finally:
+        venv.close()
+    assert venv.closed
