@@ -39,6 +39,23 @@ _IS_PEDESTRIAN = SLOT_INDEX["is_pedestrian"]
 _SIN_PSI, _COS_PSI = SLOT_INDEX["sin_psi"], SLOT_INDEX["cos_psi"]
 
 
+def white_noise_q(dt_s: float, var: float) -> np.ndarray:
+    """(4, 4) process noise of the constant-velocity model [x, y, vx, vy] (white acceleration).
+
+    `filterpy.common.Q_discrete_white_noise(dim=2, dt=dt_s, var=var, block_size=2,
+    order_by_dim=False)`, the same operations, bit for bit (tests/perception/test_tracking.py):
+    importing filterpy runs its package's __init__, which imports scipy.stats, ~1 s of every
+    process that builds a tracker.
+
+    Args:
+        dt_s: step length [s].
+        var: variance of the white acceleration [m^2/s^4].
+    """
+    per_axis = np.array([[.25 * dt_s ** 4, .5 * dt_s ** 3],
+                         [.5 * dt_s ** 3, dt_s ** 2]])
+    return np.kron(per_axis, np.eye(2)) * var  # filterpy's order_by_derivative, then * var
+
+
 def kf_predict(x: np.ndarray, P: np.ndarray, F: np.ndarray, Q: np.ndarray
                ) -> tuple[np.ndarray, np.ndarray]:
     """`filterpy.kalman.predict(x, P, F, Q)`: the same operations, bit for bit.
@@ -172,15 +189,11 @@ class Tracker:
     def __init__(self, pos_noise_m: float = 0.05, vel_noise_mps: float = 0.1,
                  accel_noise_mps2: float = 2.0, timeout_s: float = 2.0, dt_s: float = DT_S):
         """Build the constant-velocity model matrices and start with no tracks."""
-        # imported here: filterpy.common pulls in scipy.stats (~0.4 s of `import marl_social`)
-        from filterpy.common import Q_discrete_white_noise
-
         self.dt_s = dt_s
         self.timeout_s = timeout_s
         self._R = np.diag([max(pos_noise_m, MIN_NOISE_STD) ** 2] * 2
                           + [max(vel_noise_mps, MIN_NOISE_STD) ** 2] * 2)
-        self._Q = Q_discrete_white_noise(dim=2, dt=dt_s, var=accel_noise_mps2 ** 2, block_size=2,
-                                         order_by_dim=False)
+        self._Q = white_noise_q(dt_s, accel_noise_mps2 ** 2)
         self._F = np.array([[1, 0, dt_s, 0], [0, 1, 0, dt_s], [0, 0, 1, 0], [0, 0, 0, 1.0]])
         model = (self._F.tobytes(), self._Q.tobytes(), self._R.tobytes())
         self._nodes = _COVARIANCE_NODES.setdefault(model, {})

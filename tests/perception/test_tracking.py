@@ -3,11 +3,15 @@
 from __future__ import annotations
 
 import math
+import subprocess
+import sys
 
 import numpy as np
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
-from marl_social.perception.tracking import Tracker
+from marl_social.perception.tracking import Tracker, white_noise_q
 from marl_social.sim.observation import EGO_DIM, SLOT_FIELDS, SLOT_INDEX, ObservationLayout
 
 LAYOUT = ObservationLayout(n_slots=4, n_rays=4)
@@ -257,3 +261,25 @@ def test_copied_and_pickled_trackers_go_on_bit_for_bit():
             got = other.update(decoded)
             for name in want.__dataclass_fields__:
                 assert np.array_equal(getattr(got, name), getattr(want, name)), name
+
+
+@settings(max_examples=300, deadline=None)
+@given(dt_s=st.floats(1e-4, 2.0), var=st.floats(0.0, 1e4))
+def test_white_noise_q_is_filterpys_bit_for_bit(dt_s, var):
+    from filterpy.common import Q_discrete_white_noise
+
+    expected = Q_discrete_white_noise(dim=2, dt=dt_s, var=var, block_size=2,
+                                      order_by_dim=False)
+    got = white_noise_q(dt_s, var)
+    assert got.dtype == expected.dtype and got.tobytes() == expected.tobytes()
+
+
+def test_a_tracker_does_not_import_filterpy_or_scipy_stats():
+    """Building and updating a tracker costs no scipy.stats import (~1 s per process)."""
+    code = ("import sys\n"
+            "from marl_social.perception.tracking import Tracker\n"
+            "Tracker().tracks()\n"
+            "print(sorted(m for m in ('filterpy', 'scipy.stats') if m in sys.modules))\n")
+    done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                          check=True)
+    assert done.stdout.strip() == "[]"
