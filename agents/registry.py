@@ -33,7 +33,7 @@ from marl_social.agents.params import (
     parse_planner_params,
 )
 from marl_social.agents.pedestrian import BoltzmannPedestrian
-from marl_social.agents.robot.planner import ROBOT_VARIANTS, RobotPlanner
+from marl_social.agents.robot.variants import ROBOT_VARIANTS
 from marl_social.sim.agent_spec import AgentSpec
 from marl_social.sim.observation import ObservationLayout
 from marl_social.sim.road_map import RoadMap
@@ -74,6 +74,9 @@ def register_planner(entry: PlannerEntry) -> PlannerEntry:
 
 def _robot_factory(variant_name: str) -> PolicyFactory:
     def build(spec, params, layout, road_map, agent_names):
+        # imported at the first robot planner built: the MPC's QP solvers take ~0.5 s to import
+        from marl_social.agents.robot.planner import RobotPlanner
+
         return RobotPlanner(spec, layout, road_map, list(agent_names), planner=variant_name,
                             params=params)
     return build

@@ -41,9 +41,8 @@ its phase belief, ``oracle`` by the true phase (``observe_truth``'s signal_phase
 
 from __future__ import annotations
 
-import enum
 import math
-from dataclasses import dataclass, replace
+from dataclasses import replace
 
 import numpy as np
 
@@ -55,6 +54,7 @@ from marl_social.agents.robot.phase_branches import PhaseBranches
 from marl_social.agents.robot.right_of_way import RightOfWay, RightOfWayConfig
 from marl_social.agents.robot.signal_stop import SignalStops
 from marl_social.agents.robot.stop import StopSignConfig, StopSigns, pull_up_target
+from marl_social.agents.robot.variants import ROBOT_VARIANTS, HypothesisWeighting, RobotVariant
 from marl_social.models.candidates import ScenePrediction
 from marl_social.models.steering import pure_pursuit
 from marl_social.perception.belief import BeliefConfig, PedestrianBelief
@@ -72,47 +72,6 @@ TRACKED_REACH_M = 3.0  # a pedestrian tracked this close to a crosswalk is its p
 # first plan that meets them (ContingencyMpc.build_layouts; once per process): the three
 # benchmark scenarios' episodes meet at most 9
 PREBUILT_BRANCHES = 10
-
-
-class HypothesisWeighting(enum.Enum):
-    """How the MPC weighs the hidden-pedestrian hypotheses (`RobotPlanner.hypothesis_weights`)."""
-
-    BELIEF = "belief"  # the belief's probabilities
-    PRESENT_LIVE = "present_live"  # every present hypothesis not ruled out, equally
-    NONE_ONLY = "none_only"  # only the "no hidden pedestrian" hypothesis
-
-
-@dataclass(frozen=True)
-class RobotVariant:
-    """What distinguishes one robot planner from another (the MPC is the same).
-
-    Attributes:
-        use_social: the belief also updates from the humans' behaviour (eq. 9-10).
-        use_own_sensors: the belief rules hypotheses out with the robot's own sensors.
-        infer_beta: the belief also infers each human's rationality on BETA_GRID_HAT.
-        weighting: how the MPC weighs the hypotheses.
-        needs_truth: the planner is given the true current state (observe_truth).
-    """
-
-    use_social: bool
-    use_own_sensors: bool
-    weighting: HypothesisWeighting
-    infer_beta: bool = False
-    needs_truth: bool = False
-
-
-ROBOT_VARIANTS: dict[str, RobotVariant] = {
-    "social": RobotVariant(use_social=True, use_own_sensors=True,
-                           weighting=HypothesisWeighting.BELIEF),
-    "social+beta": RobotVariant(use_social=True, use_own_sensors=True,
-                                weighting=HypothesisWeighting.BELIEF, infer_beta=True),
-    "aggressive": RobotVariant(use_social=False, use_own_sensors=False,
-                               weighting=HypothesisWeighting.NONE_ONLY),
-    "conservative": RobotVariant(use_social=False, use_own_sensors=True,
-                                 weighting=HypothesisWeighting.PRESENT_LIVE),
-    "oracle": RobotVariant(use_social=False, use_own_sensors=False,
-                           weighting=HypothesisWeighting.NONE_ONLY, needs_truth=True),
-}
 
 
 def _variant(planner: str | RobotVariant) -> RobotVariant:
