@@ -170,12 +170,12 @@ class BatchedVectorEnv(VectorEnv):
             try:
                 local = self._local.answer(command, data)
             except Exception:  # noqa: BLE001 -- raised below, once the pipes are read
-                for pipe in self._pipes:
-                    pipe.recv()
+                for w in range(len(self._pipes)):
+                    self._receive(w)
                 raise RuntimeError("batched vector env: a copy in this process failed:\n"
                                    + traceback.format_exc()) from None
             yield local
-        for w, pipe in enumerate(self._pipes):
+        for w in range(len(self._pipes)):
             ok, payload = self._receive(w)
             if not ok:
                 for later in range(w + 1, len(self._pipes)):
