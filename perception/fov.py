@@ -168,7 +168,7 @@ class FieldOfView:
             lay.d_range)
         # -- round 1: centre rays and depth rays. The rays of observers with a static polygon
         # in range (static_near) go straight to the narrow phase (where buildings line the
-        # road most of them end on one); the others' through one numpy broad phase.
+        # road most of them end on one); the others' through the compiled broad phase.
         visible = np.zeros((n, n), dtype=bool)
         o1, t1 = centre_pairs
         if static_near.all():  # every ray goes to the narrow phase: no broad phase to run
