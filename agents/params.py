@@ -83,12 +83,16 @@ class RobotModelParams:
         epsilon: tail threshold on beliefs, in [0, 1) (None: BeliefConfig's default).
         human_expects_yield: it assumes the humans expect a car that must give way to stop
             before the zone if it comfortably can (BeliefConfig.human_expects_yield).
+        sight_hold: pulling out of a stop sign, it holds short of a lane it cannot see while
+            a hidden car may come and a human that will tell is still coming
+            (agents/robot/sight_hold.py).
     """
 
     theta_hat: CostWeights | None = None
     beta_hat: float | None = None
     epsilon: float | None = None
     human_expects_yield: bool = False
+    sight_hold: bool = False
 
     CHECKS: ClassVar[tuple] = (
         ("beta_hat", _nonnegative, "must be >= 0"),

@@ -19,7 +19,10 @@ per hypothesis, that hypothesis' hidden agent (a pedestrian, or a car on its lan
 predicted there claims the zone in its branch (agents/robot/right_of_way.py): the robot waits
 or clears the zone well before the car arrives. So the oracle gives way to the hidden car it
 knows of from the start, the conservative planner to every hidden car it cannot rule out, the
-aggressive one only to a car it sees, and the social one to those its belief holds.
+aggressive one only to a car it sees, and the social one to those its belief holds. With the
+planner parameter "sight_hold" (off by default) a belief-based planner pulling out of a stop
+sign also holds short of the lane it cannot see while a human that will tell is still coming
+(agents/robot/sight_hold.py).
 
 All but the oracle act on the robot's own observation and the static map only. Each planner is
 one `RobotVariant` (data, in `ROBOT_VARIANTS`); agents/registry.py registers them by name.
@@ -52,6 +55,7 @@ from marl_social.agents.robot.mpc import ContingencyMpc
 from marl_social.agents.robot.mpc_types import MpcConfig, MpcResult
 from marl_social.agents.robot.phase_branches import PhaseBranches
 from marl_social.agents.robot.right_of_way import RightOfWay, RightOfWayConfig
+from marl_social.agents.robot.sight_hold import SightHold, SightHoldConfig
 from marl_social.agents.robot.signal_stop import SignalStops
 from marl_social.agents.robot.stop import StopSignConfig, StopSigns, pull_up_target
 from marl_social.agents.robot.variants import ROBOT_VARIANTS, HypothesisWeighting, RobotVariant
@@ -141,6 +145,9 @@ class RobotPlanner:
             default StopSignConfig()).
         right_of_way_config: when a car with the right of way claims a conflict zone the
             robot yields at (agents/robot/right_of_way.py; default RightOfWayConfig()).
+        sight_hold_config: where it holds short of a lane it cannot see, while a human that
+            will tell it of a hidden car is still coming (agents/robot/sight_hold.py; default
+            SightHoldConfig() with the MPC's comfort_decel_mps2).
     """
 
     def __init__(self, spec: AgentSpec, layout: ObservationLayout, road_map: RoadMap,
@@ -148,8 +155,10 @@ class RobotPlanner:
                  mpc_config: MpcConfig | None = None, belief_config: BeliefConfig | None = None,
                  params: RobotModelParams | None = None, curb_config: CurbConfig | None = None,
                  stop_config: StopSignConfig | None = None,
-                 right_of_way_config: RightOfWayConfig | None = None):
+                 right_of_way_config: RightOfWayConfig | None = None,
+                 sight_hold_config: SightHoldConfig | None = None):
         self.variant = _variant(planner)
+        params = params or parse_planner_params(RobotModelParams, spec)
         self.needs_truth = self.variant.needs_truth
         self.name = spec.name
         self.spec = spec
@@ -185,6 +194,16 @@ class RobotPlanner:
             0.5 * veh.width_m + self.mpc.pedestrian_clearance_m)
         self.stop_signs = StopSigns(self.route, road_map, veh.length_m, stop_config)
         self.right_of_way = RightOfWay(self.route, road_map, veh.length_m, right_of_way_config)
+        self.sight_hold = SightHold(
+            self.route, road_map, self.right_of_way, self.belief.social.lane_paths,
+            # (with a signal plan the branches are no longer the belief's hypotheses)
+            params.sight_hold and bool(self.stop_signs.lines_m.size)
+            and road_map.signal_plan is None
+            and bool((~self._present).any()), veh.length_m, self.mpc.plan_dt_s,
+            self.mpc.epsilon,
+            sight_hold_config or SightHoldConfig(comfort_decel_mps2=self.mpc.comfort_decel_mps2))
+        self._hidden_vehicle = self._present & self._vehicle
+        self._none_index = int(np.argmin(self._present))  # the "none" hypothesis
         self.signal_stops = SignalStops(self.route, road_map, veh.length_m, stop_config)
         self.phase_belief = None
         if road_map.signal_plan is not None:
@@ -305,10 +324,13 @@ class RobotPlanner:
         self.weights = weights
         stop_at = min(self.stop_signs.update(s0, v, DT_S),
                       self.signal_stops.update(s0, v, DT_S, decoded.signal_states()))
+        claims = self.right_of_way.claims(scene, s0, self._times)
+        # short of a lane it cannot see, it waits for a human that will tell (sight_hold.py)
+        stop_at = min(stop_at, self.sight_hold.stop_at(claims, weights, self._hidden_vehicle,
+                                                       self._none_index, tracks, s0, v))
         result = self.solver.plan(self.route, s0, v, self.prev_accel, self.v_ref(),
                                   self.road_map.speed_limit_mps, scene, weights,
-                                  self._static_boxes, stop_at, contingent,
-                                  self.right_of_way.claims(scene, s0, self._times),
+                                  self._static_boxes, stop_at, contingent, claims,
                                   pull_up_target(stop_at, s0, v, self.stop_signs.config))
         self.last_result = result
         self.prev_accel = result.accel_mps2

@@ -159,15 +159,16 @@ def claim_episode(job: tuple) -> tuple:
     hidden_vehicle_timings (left_turner_held_back pairs it with the same seed without V3).
 
     Args:
-        job: (planner, variant, seed, max_cycles); the episode runs with
-            randomized_overrides(seed).
+        job: (planner, variant, seed, max_cycles) or (..., extra overrides: dict); the
+            episode runs with randomized_overrides(seed), updated by the extra overrides.
     """
     from marl_social.evaluation.run import run_episode
 
-    planner, variant, seed, max_cycles = job
+    planner, variant, seed, max_cycles, *extra = job
     try:
+        overrides = {**randomized_overrides(seed), **(extra[0] if extra else {})}
         res = run_episode(SCENARIO, seed=seed, robot_planner=planner, hidden_vehicle=variant,
-                          max_cycles=max_cycles, **randomized_overrides(seed))
+                          max_cycles=max_cycles, **overrides)
         summary = dict(res.metrics)
         hidden = f"human_{res.trace.roles.count('human') - 1}"  # V3 is the last human
         summary["human_0_waited"] = first_left_turner_waited(res, hidden)

@@ -50,6 +50,10 @@ class IntersectionParams(ScenarioParams):
             (perception/belief/config.ROBOT_THETA_HAT).
         robot_beta_hat, robot_epsilon: its model of the humans' rationality and its tail
             threshold on beliefs.
+        robot_sight_hold: a belief-based robot pulling out of a stop sign holds short of the
+            lane it cannot see while a hidden car may come and a human that will tell is still
+            coming (agents/robot/sight_hold.py). False (the default): it rolls out as its MPC
+            plans.
         speed_limit_mps: legal limit [m/s].
     """
 
@@ -68,6 +72,7 @@ class IntersectionParams(ScenarioParams):
     robot_theta_hat: tuple = ()
     robot_beta_hat: float = 0.3
     robot_epsilon: float = 0.05
+    robot_sight_hold: bool = False
     speed_limit_mps: float = 13.9
 
     def __post_init__(self):
@@ -122,7 +127,7 @@ def robot_spec(params: IntersectionParams, x_m: float, front_y_m: float) -> Agen
     vehicle = VehicleParams()
     y = front_y_m - 0.5 * vehicle.length_m
     planner = {"beta_hat": p.robot_beta_hat, "epsilon": p.robot_epsilon,
-               "human_expects_yield": p.human_expects_yield}
+               "human_expects_yield": p.human_expects_yield, "sight_hold": p.robot_sight_hold}
     if p.robot_theta_hat:
         planner["theta_hat"] = p.robot_theta_hat
     return AgentSpec(
