@@ -15,7 +15,8 @@ from hypothesis import strategies as st
 from marl_social.agents.robot.corridor import PathObject, objects_on_path, occupied_spans
 from marl_social.models.candidates import ScenePrediction
 from marl_social.sim.road_map import Route
-from tests.sim.test_route_kernels import _reference_footprint_extent, _route, _same
+from tests.helpers import same_bits
+from tests.sim.test_route_kernels import _reference_footprint_extent, _route
 
 SEEDS = st.integers(0, 2**32 - 1)
 
@@ -103,8 +104,8 @@ def _same_objects(got: list[list[PathObject]], want: list[list[PathObject]]) -> 
     if len(got) != len(want) or any(len(g) != len(w) for g, w in zip(got, want)):
         return False
     for g, w in zip((o for row in got for o in row), (o for row in want for o in row)):
-        if not (_same(g.occupied, w.occupied) and _same(g.s_rear_m, w.s_rear_m)
-                and _same(g.s_front_m, w.s_front_m)):
+        if not (same_bits(g.occupied, w.occupied) and same_bits(g.s_rear_m, w.s_rear_m)
+                and same_bits(g.s_front_m, w.s_front_m)):
             return False
         fields = (g.k_first, g.k_last, g.is_pedestrian, g.pass_margin)
         if fields != (w.k_first, w.k_last, w.is_pedestrian, w.pass_margin):
@@ -185,7 +186,7 @@ def test_braking_reach_matches_numpy_bit_for_bit(seed, n_steps, special):
         want = _reference_braking_reach(v0, decel, dt, headway, 0.1)
         got = np.empty(n_steps)
         corridor_kernels().braking_reach(v0, decel, dt, headway, 0.1, got)
-    assert _same(got, want)
+    assert same_bits(got, want)
 
 
 @settings(max_examples=300, deadline=None)
@@ -209,7 +210,7 @@ def test_reachable_progress_matches_numpy_bit_for_bit(seed, n_steps, special):
     with np.errstate(invalid="ignore", over="ignore"):
         want = _reference_reachable_progress(v0, prev, a_max, jerk, 0.1, dt, v_max)
         got = reachable_progress(v0, prev, a_max, jerk, 0.1, dt, v_max)
-    assert _same(got, want)
+    assert same_bits(got, want)
 
 
 @settings(max_examples=300, deadline=None)
@@ -268,7 +269,7 @@ def test_curvature_speed_bound_matches_numpy_bit_for_bit(seed, n_vertices, n_ste
         want, want_curved = _reference_curvature_speed_bound(vertex_s, kappa, s_lo, s_hi, 2.5,
                                                              2.0, v_cap)
         got, curved = curvature_speed_bound(vertex_s, kappa, s_lo, s_hi, 2.5, 2.0, v_cap)
-    assert _same(got, want) and curved is want_curved
+    assert same_bits(got, want) and curved is want_curved
 
 
 def _reference_give_way_bound(s_up, wall_m, reach_m, tolerance_m, moving):
@@ -298,4 +299,4 @@ def test_give_way_bound_matches_numpy_bit_for_bit(seed, n_steps, moving, special
         want = _reference_give_way_bound(s_up, wall, reach, 0.05, moving)
         got = s_up.copy()
         corridor_kernels().give_way_bound(got, wall, reach, 0.05, moving, got)
-    assert _same(got, want)
+    assert same_bits(got, want)

@@ -25,15 +25,11 @@ from marl_social.models.gap_evaluation import vehicle_gap_evaluation
 from marl_social.sim.agent_spec import VehicleParams
 from marl_social.sim.road_map import Crosswalk, Route
 from marl_social.sim.route_rules import CURVE_PROFILE_STEP_M, CurveSpeed
+from tests.helpers import same_bits
 from tests.models.test_gap_evaluation import _route
 from tests.models.test_pedestrian_costs import random_scene
 
 CANDIDATES = CandidateSet((-8.0, -4.0, -1.0, 0.0, 1.0, 2.0), (-2.0, 0.0, 1.0), 0.5, 3.0, 0.25)
-
-
-def _same(got, want) -> bool:
-    return got.shape == want.shape and np.array_equal(got, want, equal_nan=True) and (
-        np.array_equal(np.signbit(got), np.signbit(want)))
 
 
 @settings(max_examples=60, deadline=None)
@@ -44,7 +40,7 @@ def test_pairwise_sum_is_np_sum(seed, n, rows):
     values = rng.random((rows, n)) * 10.0 ** rng.integers(-17, 1, (rows, n))
     want = np.sum(values, axis=-1)
     got = np.array([0.0 + cost_kernels._pairwise_sum(row, 0, n) for row in values])
-    assert _same(got, want)
+    assert same_bits(got, want)
 
 
 @settings(max_examples=80, deadline=None)
@@ -68,17 +64,17 @@ def test_plan_poses_is_the_numpy_rollout_and_poses(seed, bent, curve, v0):
         want_v, want_ds, want_a = _governed(want_v, want_ds, v0, plan.continuations,
                                             CANDIDATES.n_first, dt,
                                             float(speed.at(s0 + want_ds).min()))
-        assert _same(excess, (want_v - speed.at(s0 + want_ds)).max(axis=-1).reshape(-1))
+        assert same_bits(excess, (want_v - speed.at(s0 + want_ds)).max(axis=-1).reshape(-1))
     shape = want_v.shape
-    assert _same(v.reshape(shape), want_v)
-    assert _same(ds.reshape(shape), want_ds)
-    assert _same(a_eff.reshape(shape), want_a)
+    assert same_bits(v.reshape(shape), want_v)
+    assert same_bits(ds.reshape(shape), want_ds)
+    assert same_bits(a_eff.reshape(shape), want_a)
     want_xy, heading = route.point_at(s0 + want_ds)
-    assert _same(xy.reshape(want_xy.shape), want_xy)
+    assert same_bits(xy.reshape(want_xy.shape), want_xy)
     want_x = want_xy[..., 0] + along[:, None, None, None] * np.cos(heading)
     want_y = want_xy[..., 1] + along[:, None, None, None] * np.sin(heading)
-    assert _same(ego_x.reshape(want_x.shape), want_x)
-    assert _same(ego_y.reshape(want_y.shape), want_y)
+    assert same_bits(ego_x.reshape(want_x.shape), want_x)
+    assert same_bits(ego_y.reshape(want_y.shape), want_y)
 
 
 @settings(max_examples=80, deadline=None)
@@ -104,22 +100,22 @@ def test_circle_gaps_is_circle_pair_gap(seed, n_hyp, n_obj, p_ped, shared, nan):
     ox, oy, other_r = scene_circles(scene)
     inputs = scene_circle_inputs(scene)
     compiled_x, compiled_y = gap_kernels.scene_circles(*inputs[:4])
-    assert _same(compiled_x, ox) and _same(compiled_y, oy)
-    assert _same(inputs[4], other_r)
+    assert same_bits(compiled_x, ox) and same_bits(compiled_y, oy)
+    assert same_bits(inputs[4], other_r)
     want = circle_pair_gap(ego_x, ego_y, 1.1, ox, oy, other_r)  # (L, P, T, M)
     vehicles = mask & ~is_ped
     gap, clearance, vehicle_gap = gap_kernels.circle_gaps(
         ego_x, ego_y, 1.1, np.ascontiguousarray(ox), np.ascontiguousarray(oy),
         np.ascontiguousarray(other_r), vehicles, False)
-    assert _same(gap, want)
+    assert same_bits(gap, want)
     want_clearance = np.where(vehicles[:, None, None, :], want, np.inf).min(axis=(-1, -2),
                                                                           initial=np.inf)
-    assert _same(clearance, want_clearance)
-    assert _same(vehicle_gap, np.maximum(want_clearance, 0.0))
+    assert same_bits(clearance, want_clearance)
+    assert same_bits(vehicle_gap, np.maximum(want_clearance, 0.0))
     clipped, _, _ = gap_kernels.circle_gaps(
         ego_x, ego_y, 1.1, np.ascontiguousarray(ox), np.ascontiguousarray(oy),
         np.ascontiguousarray(other_r), vehicles, True)
-    assert _same(np.exp(clipped), np.exp(-np.maximum(want, 0.0)))
+    assert same_bits(np.exp(clipped), np.exp(-np.maximum(want, 0.0)))
 
 
 @settings(max_examples=40, deadline=None)
@@ -145,7 +141,7 @@ def test_vehicle_gap_evaluation_with_many_objects(seed, n_hyp, n_obj, crosswalk,
     got = vehicle_gap_evaluation(*args, **extra)
     for name in ("step_cost", "v", "a_eff", "travel_m", "min_vehicle_gap_m",
                  "vehicle_clearance_m") + (("curve_excess_mps",) if bent else ()):
-        assert _same(getattr(got, name), np.asarray(getattr(want, name))), name
+        assert same_bits(getattr(got, name), np.asarray(getattr(want, name))), name
         assert np.array_equal(getattr(got, name).sum(axis=-1),
                               getattr(want, name).sum(axis=-1), equal_nan=True), name
 
@@ -160,7 +156,7 @@ def test_initial_states_the_kernels_do_not_take_are_evaluated_by_the_reference()
         want = evaluate_candidates(*args, geometry=True, vehicle_gaps_only=True)
         got = vehicle_gap_evaluation(*args)
         for name in ("step_cost", "v", "a_eff", "travel_m"):
-            assert _same(np.asarray(getattr(got, name)), np.asarray(getattr(want, name)))
+            assert same_bits(np.asarray(getattr(got, name)), np.asarray(getattr(want, name)))
 
 
 @settings(max_examples=80, deadline=None)
@@ -185,4 +181,4 @@ def test_zone_claims_kernel_is_candidates_zone_claims(seed, n_hyp, n_obj, n_t, p
     priority = rng.random((n_hyp, n_obj)) < 0.7
     want = zone_claims(scene, polygon, priority, margin_s, 0.25)
     got = _zone_claims(scene, np.array(_polygon_edges(polygon)), priority, margin_s, 0.25)
-    assert _same(got, want)
+    assert same_bits(got, want)

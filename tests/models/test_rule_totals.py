@@ -13,12 +13,7 @@ from hypothesis import strategies as st
 from marl_social.models import driver
 from marl_social.models.candidates import CandidateEvaluation
 from marl_social.models.driver import DriverModel, RoadRules
-
-
-def _same(got, want) -> bool:
-    return (got.shape == want.shape and got.dtype == want.dtype
-            and np.array_equal(got, want, equal_nan=True)
-            and np.array_equal(np.signbit(got), np.signbit(want)))
+from tests.helpers import same_bits
 
 
 def _sprinkle(rng, values, p, specials):
@@ -65,7 +60,7 @@ def test_compiled_rule_totals_equal_numpy(seed, n_hyp, n_first, n_cont, n_t, p_s
     with np.errstate(invalid="ignore"):
         want = driver._numpy_rule_abiding_totals(ev, model, s0, rules)
         got = driver.rule_abiding_totals(ev, model, s0, rules)
-    assert _same(got, np.asarray(want, dtype=np.float64))
+    assert same_bits(got, np.asarray(want, dtype=np.float64))
 
 
 def test_a_strided_evaluation_takes_numpy():
@@ -76,4 +71,4 @@ def test_a_strided_evaluation_takes_numpy():
     assert not driver._compiled_evaluation(strided)
     rules = RoadRules(10.0)
     want = driver._numpy_rule_abiding_totals(strided, DriverModel(), 2.0, rules)
-    assert _same(driver.rule_abiding_totals(strided, DriverModel(), 2.0, rules), want)
+    assert same_bits(driver.rule_abiding_totals(strided, DriverModel(), 2.0, rules), want)

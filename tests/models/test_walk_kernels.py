@@ -15,15 +15,11 @@ from marl_social.models.circle_gaps import MAX_KERNEL_OBJECTS
 from marl_social.models.pedestrian import PedestrianModel
 from marl_social.sim.costs import CostWeights
 from marl_social.sim.road_map import Crosswalk, Route
+from tests.helpers import same_bits
 from tests.models.test_pedestrian_costs import random_walk_case
 
 CROSSWALK = Crosswalk(center=np.array([0.0, 0.0]), walk_heading_rad=0.5 * np.pi,
                       length_m=10.0, width_m=4.0)
-
-
-def _same(got, want) -> bool:
-    return got.shape == want.shape and np.array_equal(got, want, equal_nan=True) and (
-        np.array_equal(np.signbit(got), np.signbit(want)))
 
 
 @settings(max_examples=100, deadline=None)
@@ -43,9 +39,9 @@ def test_compiled_q_values_equal_numpy(seed, n_hyp, n_obj, crosswalks, p_ped, p_
     args = (model, route, rng.uniform(-1.0, 12.0), rng.choice([0.0, 1.3]),
             rng.uniform(0.0, 2.0), scene, (CROSSWALK, shifted)[:crosswalks])
     want = pedestrian._numpy_q_values(*args)
-    assert _same(pedestrian.pedestrian_q_values(*args), np.asarray(want))
+    assert same_bits(pedestrian.pedestrian_q_values(*args), np.asarray(want))
     if n_obj < MAX_KERNEL_OBJECTS:  # what the kernels take
-        assert _same(pedestrian._compiled_q_values(*args), np.asarray(want))
+        assert same_bits(pedestrian._compiled_q_values(*args), np.asarray(want))
 
 
 def test_a_non_finite_arc_length_takes_numpy():
@@ -57,4 +53,4 @@ def test_a_non_finite_arc_length_takes_numpy():
     with np.errstate(invalid="ignore"):
         got = pedestrian.pedestrian_q_values(model, route, np.nan, 1.3, 0.0, scene, ())
         want = pedestrian._numpy_q_values(model, route, np.nan, 1.3, 0.0, scene, ())
-    assert _same(got, want)
+    assert same_bits(got, want)

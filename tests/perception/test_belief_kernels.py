@@ -29,15 +29,14 @@ from marl_social.perception.belief.bayes import (
     normalize,
     sanitize_log_likelihood,
 )
+from tests.helpers import same_bits
 
 SEEDS = st.integers(0, 2**32 - 1)
 
 
 def _same(a, b) -> bool:
-    """Equal bit for bit, shape and signed zeros included (NaN equals NaN)."""
-    a, b = np.asarray(a, dtype=np.float64), np.asarray(b, dtype=np.float64)
-    return (a.shape == b.shape and np.array_equal(a, b, equal_nan=True)
-            and np.array_equal(np.signbit(a), np.signbit(b)))
+    """Equal bit for bit as float64 (tests/helpers.same_bits)."""
+    return same_bits(np.asarray(a, dtype=np.float64), np.asarray(b, dtype=np.float64))
 
 
 def _reference_action_log_likelihood(q, beta, a_obs, actions, sigma_mps2, outlier_prob):

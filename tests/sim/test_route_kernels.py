@@ -13,18 +13,9 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from marl_social.sim.road_map import Route, RouteSet
+from tests.helpers import same_bits
 
 SEEDS = st.integers(0, 2**32 - 1)
-
-
-def _same(a, b) -> bool:
-    """Equal bit for bit, shape, dtype and signed zeros included (NaN equals NaN)."""
-    a, b = np.asarray(a), np.asarray(b)
-    if a.shape != b.shape or a.dtype != b.dtype:
-        return False
-    if a.dtype.kind != "f":
-        return np.array_equal(a, b)
-    return np.array_equal(a, b, equal_nan=True) and np.array_equal(np.signbit(a), np.signbit(b))
 
 
 def _reference_project(route: Route, x: np.ndarray, y: np.ndarray):
@@ -80,7 +71,7 @@ def test_projection_on_several_segments_matches_numpy_bit_for_bit(seed, shape):
     with np.errstate(invalid="ignore", over="ignore"):
         expected = _reference_project(route, x, y)
         got = route._project(x, y)
-    assert all(_same(g, e) for g, e in zip(got, expected))
+    assert all(same_bits(g, e) for g, e in zip(got, expected))
 
 
 def test_project_xy_and_project_use_the_kernel_on_strided_inputs():
@@ -91,7 +82,7 @@ def test_project_xy_and_project_use_the_kernel_on_strided_inputs():
     s, lateral = route.project_xy(xy[..., 0], xy[..., 1])  # strided views
     with np.errstate(invalid="ignore", over="ignore"):
         ref_s, ref_lateral, ref_k = _reference_project(route, xy[..., 0], xy[..., 1])
-    assert _same(s, ref_s) and _same(lateral, ref_lateral)
+    assert same_bits(s, ref_s) and same_bits(lateral, ref_lateral)
     s1, lat1, heading1 = route.project(xy[2, 3])
     assert np.isscalar(s1) or np.ndim(s1) == 0
     assert s1 == ref_s[2, 3] and lat1 == ref_lateral[2, 3]
@@ -126,7 +117,7 @@ def test_route_set_projection_matches_numpy_bit_for_bit(seed, n):
     with np.errstate(invalid="ignore", over="ignore"):
         expected = _reference_route_set_project(route_set, state[:, :2])
         got = route_set.project(state[:, :2])
-    assert all(_same(g, e) for g, e in zip(got, expected))
+    assert all(same_bits(g, e) for g, e in zip(got, expected))
 
 
 def test_route_set_projection_wants_one_position_per_route():
@@ -238,4 +229,4 @@ def test_footprint_extents_match_numpy_bit_for_bit(seed, straight, shape):
         route_kernels().project_footprints(scene_xy, np.cos(heading), np.sin(heading),
                                            scene_length, scene_width, source,
                                            route.kernel_segment_table, got)
-    assert _same(got, expected)
+    assert same_bits(got, expected)
