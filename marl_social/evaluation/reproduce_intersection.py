@@ -31,7 +31,9 @@ from marl_social.evaluation.reproduce import (
 )
 
 SCENARIO = "t_intersection"
-PLANNERS = ("social", "aggressive", "conservative", "oracle")
+PLANNERS = ("social", "aggressive", "conservative", "oracle", "social+hold")
+# a table row that is a robot planner with scenario overrides: its name -> (planner, overrides)
+ROW_PLANNERS = {"social+hold": ("social", {"robot_sight_hold": True})}  # agents/robot/sight_hold
 VARIANTS = ("near", "far", "none")
 FIGURES = (
     ("t_social_near", "social", "near"),
@@ -181,9 +183,18 @@ def claim_episode(job: tuple) -> tuple:
 
 def run_table(n_seeds: int, workers: int = 2, planners=PLANNERS, variants=VARIANTS,
               progress: bool = True) -> list[dict]:
-    """One row per (planner, variant): rates and means over n_seeds randomized episodes."""
-    jobs = [(p, v, s, MAX_CYCLES) for p in planners for v in variants for s in range(n_seeds)]
+    """One row per (planner, variant): rates and means over n_seeds randomized episodes.
+
+    A planner may be a robot planner's name or a key of ROW_PLANNERS (a planner with
+    scenario overrides, e.g. "social+hold": the social robot with robot_sight_hold).
+    """
+    rows_of = {p: ROW_PLANNERS.get(p, (p, {})) for p in planners}
+    jobs = [(*rows_of[p][:1], v, s, MAX_CYCLES, rows_of[p][1])
+            for p in planners for v in variants for s in range(n_seeds)]
     results = map_jobs(claim_episode, jobs, workers, progress)
+    # the rows' names again (a ROW_PLANNERS row ran as its robot planner)
+    results = [(p, *result[1:]) for p, result in zip(
+        (p for p in planners for _v in variants for _s in range(n_seeds)), results)]
     add_held_back(results)
 
     def summarize(runs: list[dict]) -> dict:

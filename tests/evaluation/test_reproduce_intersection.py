@@ -34,6 +34,18 @@ def test_table_row_for_a_near_car():
     assert table.splitlines()[2].endswith("| 100% | 100% |")
 
 
+def test_the_sight_hold_row_is_the_social_robot_with_the_knob():
+    """The row "social+hold" (ROW_PLANNERS) runs the social planner with robot_sight_hold."""
+    rows = rep.run_table(1, workers=1, planners=("social+hold",), variants=("near",),
+                         progress=False)
+    _, _, _, want, _ = rep.claim_episode(("social", "near", 0, rep.MAX_CYCLES,
+                                          {"robot_sight_hold": True}))
+    (row,) = rows
+    assert row["planner"] == "social+hold" and row["n"] == 1 and not row["errors"]
+    assert row["time_to_pass_s"] == want["time_to_pass_s"]
+    assert "| social+hold | near | 1 |" in rep.format_table(rows)
+
+
 def _summary(speeds_mps, waited=1.0, v3_left_step=5) -> dict:
     return {"human_0_waited": waited, "human_0_speed_mps": np.asarray(speeds_mps, float),
             "v3_left_crossing_step": v3_left_step}
