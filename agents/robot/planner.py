@@ -194,12 +194,12 @@ class RobotPlanner:
             0.5 * veh.width_m + self.mpc.pedestrian_clearance_m)
         self.stop_signs = StopSigns(self.route, road_map, veh.length_m, stop_config)
         self.right_of_way = RightOfWay(self.route, road_map, veh.length_m, right_of_way_config)
+        # at a stop sign, with the belief's hypotheses (one of them "none") as the MPC's first
+        # branches: not with a signal plan, whose phases multiply the branches
+        hold = (params.sight_hold and bool(self.stop_signs.lines_m.size)
+                and road_map.signal_plan is None and bool((~self._present).any()))
         self.sight_hold = SightHold(
-            self.route, road_map, self.right_of_way, self.belief.social.lane_paths,
-            # (with a signal plan the branches are no longer the belief's hypotheses)
-            params.sight_hold and bool(self.stop_signs.lines_m.size)
-            and road_map.signal_plan is None
-            and bool((~self._present).any()), veh.length_m, self.mpc.plan_dt_s,
+            self.right_of_way, self.belief.social, hold, veh.length_m, self.mpc.plan_dt_s,
             self.mpc.epsilon,
             sight_hold_config or SightHoldConfig(comfort_decel_mps2=self.mpc.comfort_decel_mps2))
         self._hidden_vehicle = self._present & self._vehicle

@@ -53,10 +53,9 @@ import numpy as np
 
 from marl_social.agents.robot.corridor import PathObject
 from marl_social.agents.robot.right_of_way import RightOfWay
-from marl_social.perception.belief.paths import LanePaths, route_heading
+from marl_social.perception.belief.paths import route_heading
+from marl_social.perception.belief.social import SocialLikelihood
 from marl_social.perception.tracking import TrackSet
-from marl_social.sim.road_map import RoadMap, Route
-from marl_social.sim.route_rules import RouteConflict, route_conflicts
 
 
 @dataclass(frozen=True)
@@ -93,10 +92,9 @@ class SightHold:
     """Where the robot holds short of the lanes it yields to (module docstring).
 
     Args:
-        route: the robot's route.
-        road_map: the static map the robot may know.
         right_of_way: the robot's zones and claims (its `conflicts`: the zones it yields at).
-        lane_paths: a tracked car's path from the map's lanes (the belief's).
+        social: the belief's model of the humans (a tracked car's path from the map's lanes,
+            `lane_paths`, and the zones on it where it yields, `yield_conflicts`).
         enabled: the robot holds at all (RobotPlanner: its planner parameter sight_hold is
             set, its route crosses a stop-sign line, and its MPC's first branches are the
             belief's hypotheses, one of them "none"; no signal plan).
@@ -106,12 +104,11 @@ class SightHold:
         config: SightHoldConfig (default SightHoldConfig()).
     """
 
-    def __init__(self, route: Route, road_map: RoadMap, right_of_way: RightOfWay,
-                 lane_paths: LanePaths, enabled: bool, robot_length_m: float,
-                 plan_dt_s: float, epsilon: float, config: SightHoldConfig | None = None):
+    def __init__(self, right_of_way: RightOfWay, social: SocialLikelihood, enabled: bool,
+                 robot_length_m: float, plan_dt_s: float, epsilon: float,
+                 config: SightHoldConfig | None = None):
         self.config = config or SightHoldConfig()
-        self.road_map = road_map
-        self.lane_paths = lane_paths
+        self.social = social
         self.epsilon = float(epsilon)
         self._half = 0.5 * robot_length_m
         self._k_threat = round(self.config.threat_horizon_s / plan_dt_s)
@@ -120,9 +117,6 @@ class SightHold:
         self._lanes = {i for c in right_of_way.conflicts for i in c.zone.priority_lanes}
         self.hold_m = (min(c.s_enter_m for c in right_of_way.conflicts) - self._half
                        - self.config.hold_gap_m) if self.active else np.inf
-        # a tracked car's path -> the zones on it where it gives way to that traffic
-        self._informant_zones: dict[int, tuple[Route, tuple[RouteConflict, ...]]] = {}
-        self.threat = 0.0
 
     def stop_at(self, claims: list[list[PathObject]], weights: np.ndarray,
                 hidden_vehicle: np.ndarray, none_index: int, tracks: TrackSet, s0: float,
@@ -138,14 +132,12 @@ class SightHold:
             s0: the robot's centre's arc length [m].
             v0: its speed [m/s].
         """
-        self.threat = 0.0
         if not self.active:
             return np.inf
-        c = self.config
-        if self.hold_m - s0 < v0 * v0 / (2.0 * c.comfort_decel_mps2):
+        if self.hold_m - s0 < v0 * v0 / (2.0 * self.config.comfort_decel_mps2):
             return np.inf  # past the hold point (or cannot stop comfortably short of it)
-        self.threat = self.threat_mass(claims, weights, hidden_vehicle, none_index)
-        if self.threat < self.epsilon or not self.informant_expected(tracks):
+        if (self.threat_mass(claims, weights, hidden_vehicle, none_index) < self.epsilon
+                or not self.informant_expected(tracks)):
             return np.inf
         return self.hold_m
 
@@ -173,10 +165,13 @@ class SightHold:
         """
         cars = np.flatnonzero(tracks.seen & ~tracks.is_pedestrian)
         for k in cars.tolist():
-            route = self.lane_paths.route_of(tracks.xy[k], float(tracks.heading_rad[k]))
+            route = self.social.lane_paths.route_of(tracks.xy[k],
+                                                    float(tracks.heading_rad[k]))
             if route is None:
                 continue
-            zones = self._zones_on(route)
+            # the zones on its path where it gives way to the traffic the robot yields to
+            zones = [c for c in self.social.yield_conflicts(route)
+                     if self._lanes & set(c.zone.priority_lanes)]
             if not zones:
                 continue
             x, y = (float(a) for a in tracks.xy[k])
@@ -190,13 +185,3 @@ class SightHold:
             if any(front < zone.s_enter_m for zone in zones):
                 return True
         return False
-
-    def _zones_on(self, route: Route) -> tuple[RouteConflict, ...]:
-        """The zones on a car's path where it gives way to the traffic the robot yields to."""
-        known = self._informant_zones.get(id(route))
-        if known is None or known[0] is not route:
-            zones = tuple(c for c in route_conflicts(route, self.road_map)
-                          if c.yields and self._lanes & set(c.zone.priority_lanes))
-            known = (route, zones)  # the route is kept: its id is not reused
-            self._informant_zones[id(route)] = known
-        return known[1]

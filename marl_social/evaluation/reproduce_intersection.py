@@ -188,13 +188,12 @@ def run_table(n_seeds: int, workers: int = 2, planners=PLANNERS, variants=VARIAN
     A planner may be a robot planner's name or a key of ROW_PLANNERS (a planner with
     scenario overrides, e.g. "social+hold": the social robot with robot_sight_hold).
     """
-    rows_of = {p: ROW_PLANNERS.get(p, (p, {})) for p in planners}
-    jobs = [(*rows_of[p][:1], v, s, MAX_CYCLES, rows_of[p][1])
-            for p in planners for v in variants for s in range(n_seeds)]
-    results = map_jobs(claim_episode, jobs, workers, progress)
-    # the rows' names again (a ROW_PLANNERS row ran as its robot planner)
-    results = [(p, *result[1:]) for p, result in zip(
-        (p for p in planners for _v in variants for _s in range(n_seeds)), results)]
+    cells = [(p, v, s) for p in planners for v in variants for s in range(n_seeds)]
+    jobs = [(planner, v, s, MAX_CYCLES, overrides) for p, v, s in cells
+            for planner, overrides in [ROW_PLANNERS.get(p, (p, {}))]]
+    # each result under its row's name (a ROW_PLANNERS row ran as its robot planner)
+    results = [(p, *result[1:]) for (p, _, _), result
+               in zip(cells, map_jobs(claim_episode, jobs, workers, progress))]
     add_held_back(results)
 
     def summarize(runs: list[dict]) -> dict:

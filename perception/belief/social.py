@@ -271,6 +271,17 @@ class SocialLikelihood:
             self._curves[route.name] = None if curve.is_straight else curve
         return self._curves[route.name]
 
+    def yield_conflicts(self, route: Route) -> tuple:
+        """The conflict zones `route` passes where it yields (sim/route_rules.route_conflicts).
+
+        Computed once per route name (a human's path, paths.LanePaths).
+        """
+        conflicts = self._conflicts.get(route.name)
+        if conflicts is None:
+            conflicts = tuple(c for c in route_conflicts(route, self.road_map) if c.yields)
+            self._conflicts[route.name] = conflicts
+        return conflicts
+
     def yield_zones(self, route: Route, s0: float, scene: ScenePrediction) -> tuple:
         """The right of way the robot assumes a human on `route` at s0 [m] keeps (RoadRules).
 
@@ -287,10 +298,7 @@ class SocialLikelihood:
             s0: its arc length along the route [m].
             scene: the L scenes the human is modelled against (`hypothesis_scene`).
         """
-        conflicts = self._conflicts.get(route.name)
-        if conflicts is None:
-            conflicts = tuple(c for c in route_conflicts(route, self.road_map) if c.yields)
-            self._conflicts[route.name] = conflicts
+        conflicts = self.yield_conflicts(route)
         if not conflicts or not scene.mask.any():
             return ()
         half = 0.5 * self.model.vehicle.length_m

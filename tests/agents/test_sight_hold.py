@@ -8,18 +8,19 @@ where its front is hold_gap_m short of the merge zone (the scenario knob robot_s
 
 from __future__ import annotations
 
+from types import SimpleNamespace
+
 import numpy as np
 import pytest
 
+import marl_social
 from marl_social.agents.robot.mpc_types import MpcConfig
 from marl_social.agents.robot.right_of_way import RightOfWay
 from marl_social.agents.robot.sight_hold import SightHold, SightHoldConfig
 from marl_social.evaluation.reproduce_intersection import randomized_overrides
 from marl_social.evaluation.run import run_episode
 from marl_social.models.candidates import ScenePrediction
-from marl_social.perception.belief.paths import LanePaths
 from marl_social.perception.tracking import TrackSet
-from marl_social.scenarios import make_scenario
 from marl_social.sim.agent_spec import VehicleParams
 from marl_social.sim.route_rules import route_conflicts
 
@@ -32,16 +33,19 @@ SPEED_MPS = 11.0
 
 @pytest.fixture(scope="module")
 def layout():
-    return make_scenario("t_intersection", hidden_vehicle="near", n_humans=1).build(
-        np.random.default_rng(0))
+    """The T-intersection with one left-turner: .road_map (the whole map, for the set-up) and
+    .social (the social robot's model of the humans, from its own map)."""
+    env = marl_social.parallel_env(scenario="t_intersection", hidden_vehicle="near", n_humans=1)
+    robot = marl_social.policies(env)["robot_0"]
+    env.close()
+    return SimpleNamespace(road_map=env.road_map, social=robot.belief.social)
 
 
-def _hold(layout, **config) -> SightHold:
+def _hold(layout, enabled: bool = True, **config) -> SightHold:
     road_map = layout.road_map
-    route = road_map.routes["robot_0"]
-    row = RightOfWay(route, road_map, CAR.length_m)
-    return SightHold(route, road_map, row, LanePaths(road_map), True, CAR.length_m,
-                     MPC.plan_dt_s, MPC.epsilon, SightHoldConfig(**config))
+    row = RightOfWay(road_map.routes["robot_0"], road_map, CAR.length_m)
+    return SightHold(row, layout.social, enabled, CAR.length_m, MPC.plan_dt_s, MPC.epsilon,
+                     SightHoldConfig(**config))
 
 
 def _claims(hold: SightHold, layout, x0_m: list[float]):
@@ -117,10 +121,7 @@ def test_the_robot_holds_short_of_the_lane_while_a_left_turner_is_still_to_tell(
     # too fast to stop comfortably short of the hold point: past it
     assert hold.stop_at(claims, weights, hidden, 0, coming, s0, 3.0) == np.inf
     # no stop sign on the route: never
-    road_map = layout.road_map
-    route = road_map.routes["robot_0"]
-    off = SightHold(route, road_map, RightOfWay(route, road_map, CAR.length_m),
-                    LanePaths(road_map), False, CAR.length_m, MPC.plan_dt_s, MPC.epsilon)
+    off = _hold(layout, enabled=False)
     assert off.stop_at(claims, weights, hidden, 0, coming, s0, 0.5) == np.inf
 
 
@@ -168,8 +169,6 @@ def test_the_robot_waits_for_the_left_turner_instead_of_rolling_out_in_front_of_
 
 def test_the_knob_turns_it_on_at_a_stop_sign_only():
     """robot_sight_hold (off by default) reaches the planner; at a signal it never holds."""
-    import marl_social
-
     def active(scenario, **knobs):
         env = marl_social.parallel_env(scenario=scenario, **knobs)
         policy = marl_social.policies(env)["robot_0"]
