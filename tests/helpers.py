@@ -1,9 +1,10 @@
 """Helpers shared by the tests: small hand-made worlds for geometry tests, zero actions, bitwise
-equality of arrays."""
+equality of arrays, the seeds of the many-seed claims."""
 
 from __future__ import annotations
 
 import math
+import os
 
 import numpy as np
 
@@ -56,3 +57,23 @@ def same_bits(a, b) -> bool:
     number = ~np.isnan(a)
     return (np.array_equal(a, b, equal_nan=True)
             and np.array_equal(np.signbit(a[number]), np.signbit(b[number])))
+
+
+def claim_seeds(default_n: int = 50) -> range:
+    """The seeds a many-seed claims test runs on.
+
+    MARL_CLAIM_SEEDS (default `default_n`) seeds from MARL_CLAIM_SEED0 (default 0): the test
+    command runs seeds 0-49; claims are judged on seeds the code was not tuned on, e.g.
+    `MARL_CLAIM_SEED0=400 python -m pytest tests/evaluation/test_robot_claims.py` runs 400-449.
+    """
+    values = {}
+    for name, default in (("MARL_CLAIM_SEEDS", default_n), ("MARL_CLAIM_SEED0", 0)):
+        text = os.environ.get(name, str(default))
+        try:
+            values[name] = int(text)
+        except ValueError:
+            raise ValueError(f"{name}={text!r}: expected an integer") from None
+    if values["MARL_CLAIM_SEEDS"] < 1 or values["MARL_CLAIM_SEED0"] < 0:
+        raise ValueError(f"MARL_CLAIM_SEEDS must be >= 1 and MARL_CLAIM_SEED0 >= 0, got "
+                         f"{values['MARL_CLAIM_SEEDS']} and {values['MARL_CLAIM_SEED0']}")
+    return range(values["MARL_CLAIM_SEED0"], values["MARL_CLAIM_SEED0"] + values["MARL_CLAIM_SEEDS"])

@@ -42,6 +42,12 @@ hidden car the social robot then takes 1.082 / 1.096 / 1.117 times the oracle's 
 the junction on seeds 0-49 / 50-99 / 100-149 (without: 1.045 on 0-49), where the issue asks for
 <= 1.10. It waits at the line for left-turners 6-20 m from their turn, and a left-turner
 slowing for its curve still reads to the belief as one waiting for a car.
+Its margin is thin where it does protect V3: the threat mass sits at its steady prior, about
+0.063, just above epsilon, and the belief's reading of a left-turner that drives on lowers it
+below epsilon although that left-turner reaches its turn after V3 has passed (seed 34: 0.047
+at 1.5 s; 0.063-0.064 throughout with the social evidence switched off). In seeds 34 and 116
+the robot so goes 0.6-0.9 s before it sees V3, still below 1 m/s and short of the hold point,
+and then stops at 6.5-8 m/s^2 itself; V3 does not brake.
 """
 
 from __future__ import annotations

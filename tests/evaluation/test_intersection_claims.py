@@ -27,12 +27,13 @@ import numpy as np
 import pytest
 
 from marl_social.evaluation.reproduce_intersection import add_held_back, claim_episode
+from tests.helpers import claim_seeds
 
 pytestmark = [pytest.mark.slow, pytest.mark.long]  # 300 episodes: ~11 min of CPU (19 min on 2
 # busy cores), outside CI; run with `python -m pytest -m long` (MARL_CLAIM_SEEDS=N: quicker)
 
-N_SEEDS = int(os.environ.get("MARL_CLAIM_SEEDS", "50"))
-SEED0 = int(os.environ.get("MARL_CLAIM_SEED0", "0"))  # the first seed
+SEEDS = claim_seeds()  # MARL_CLAIM_SEEDS, MARL_CLAIM_SEED0 (tests/helpers.claim_seeds)
+N_SEEDS = len(SEEDS)
 EXTRA = ({"robot_sight_hold": True} if os.environ.get("MARL_CLAIM_SIGHT_HOLD", "0") == "1"
          else {})
 CASES = [("social", "none"), ("oracle", "none"), ("conservative", "none"),
@@ -47,7 +48,7 @@ BELIEF_HIGH = 0.9  # the belief in a hidden car counts as high above this
 @pytest.fixture(scope="module")
 def runs() -> dict:
     jobs = [(p, v, s, HORIZON[v], EXTRA) for p, v in CASES
-            for s in range(SEED0, SEED0 + N_SEEDS)]
+            for s in SEEDS]
     with mp.get_context("spawn").Pool(2) as pool:
         results = pool.map(claim_episode, jobs, chunksize=4)
     add_held_back(results)  # pairs each near seed with the same planner and seed without V3

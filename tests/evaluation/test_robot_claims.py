@@ -21,10 +21,12 @@ import numpy as np
 import pytest
 
 from marl_social.evaluation.run import claim_episode
+from tests.helpers import claim_seeds
 
 pytestmark = pytest.mark.slow  # 50-seed claims: minutes; `pytest -m "not slow"` skips them
 
-N_SEEDS = 50
+SEEDS = claim_seeds()  # 0-49; MARL_CLAIM_SEED0=N: seeds N..N+49 (tests/helpers.claim_seeds)
+N_SEEDS = len(SEEDS)
 CASES = [("social", "crossing"), ("aggressive", "crossing"), ("oracle", "crossing"),
          ("social", "none"), ("oracle", "none"), ("conservative", "none"),
          ("social", "waiting"), ("oracle", "waiting")]
@@ -50,8 +52,8 @@ def learned_model(tmp_path_factory):
 @pytest.fixture(scope="module")
 def runs(learned_model) -> dict:
     learned = {"robot_theta_hat": str(learned_model)}
-    jobs = [(p, v, s, HORIZON[v], {}) for p, v in CASES for s in range(N_SEEDS)]
-    jobs += [(p, v, s, HORIZON[v], learned) for p, v in LEARNED_CASES for s in range(N_SEEDS)]
+    jobs = [(p, v, s, HORIZON[v], {}) for p, v in CASES for s in SEEDS]
+    jobs += [(p, v, s, HORIZON[v], learned) for p, v in LEARNED_CASES for s in SEEDS]
     with mp.get_context("spawn").Pool(2) as pool:
         results = pool.map(claim_episode, jobs, chunksize=4)
     out = {case: [] for case in CASES + [c + ("learned",) for c in LEARNED_CASES]}

@@ -17,24 +17,25 @@ favourable phase) collides or forces hard braking in most seeds.
 from __future__ import annotations
 
 import multiprocessing as mp
-import os
 
 import numpy as np
 import pytest
 
 from marl_social.evaluation.reproduce_signal import FORCED_BRAKE_MPS2, MAX_CYCLES, claim_episode
+from tests.helpers import claim_seeds
 
 pytestmark = [pytest.mark.slow, pytest.mark.long]  # 50 seeds x 5 cases: long, outside CI;
 # run with `python -m pytest -m long` (MARL_CLAIM_SEEDS=N for a quicker look)
 
-N_SEEDS = int(os.environ.get("MARL_CLAIM_SEEDS", "50"))
+SEEDS = claim_seeds()  # MARL_CLAIM_SEEDS, MARL_CLAIM_SEED0 (tests/helpers.claim_seeds)
+N_SEEDS = len(SEEDS)
 CASES = [("social", "protected_left"), ("conservative", "protected_left"),
          ("oracle", "protected_left"), ("social", "cross_green"), ("aggressive", "cross_green")]
 
 
 @pytest.fixture(scope="module")
 def runs() -> dict:
-    jobs = [(p, v, s, MAX_CYCLES) for p, v in CASES for s in range(N_SEEDS)]
+    jobs = [(p, v, s, MAX_CYCLES) for p, v in CASES for s in SEEDS]
     with mp.get_context("spawn").Pool(2) as pool:
         results = pool.map(claim_episode, jobs, chunksize=4)
     out = {case: [] for case in CASES}
@@ -81,6 +82,19 @@ def test_social_never_collides(runs):
 
 
 def test_social_never_forces_the_cross_traffic_to_brake_hard(runs):
+    """Holds on seeds 0-49, NOT on seeds the robot was not tuned on.
+
+    Measured 2026-12-03 (MARL_CLAIM_SEED0), social on cross_green, forced > 3 m/s^2: 0 of
+    0-49, 2 of 50-99 (70, 83), 2 of 100-149 (134, 138), 3 of 150-199 (156, 163, 171), 4 of
+    400-449 (413, 421, 428, 441), 2 of 450-499 (473, 494), 1 of 500-549 (535); up to 6 m/s^2,
+    no collision. Not the belief: in those 14 seeds the oracle forces the cross car in 10 and
+    the conservative robot in 12. Seed 163: the robot turns right on red at 0.4 s in front of
+    the only cross car, 54 m away at 11.7 m/s, rounds the corner at <= 3.9 m/s and does not
+    speed up after it; the car, which the robot no longer sees once it has turned, closes in
+    and brakes at 4-6 m/s^2 from 4.4 s. The merge claim (agents/robot/right_of_way.py: the
+    car slows at 2 m/s^2 from 2 s after each plan's start) lets the robot merge, and once its
+    front is in the zone the car behind is claimed no more.
+    """
     worst = max(m["others_max_decel_mps2"] for m in runs[("social", "cross_green")])
     assert worst <= FORCED_BRAKE_MPS2, worst
 

@@ -22,7 +22,9 @@ from concurrent.futures import ProcessPoolExecutor
 import numpy as np
 import pytest
 
-N_SEEDS = 50
+from tests.helpers import claim_seeds
+
+SEEDS = claim_seeds()  # 0-49; MARL_CLAIM_SEED0=N: seeds N..N+49 (tests/helpers.claim_seeds)
 DT_S = 0.1
 LEAD_S = 0.5  # the human brakes at least this long before the robot sees the pedestrian [s]
 SLOWED_MPS = 1.0  # the human has braked for the pedestrian once this much slower [m/s]
@@ -80,8 +82,8 @@ def noise_summary(seed: int) -> dict:
 @pytest.fixture(scope="module")
 def episodes():
     with ProcessPoolExecutor(2) as pool:
-        crossing = list(pool.map(crossing_summary, range(N_SEEDS)))
-        noise = list(pool.map(noise_summary, range(N_SEEDS)))
+        crossing = list(pool.map(crossing_summary, SEEDS))
+        noise = list(pool.map(noise_summary, SEEDS))
     return crossing, noise
 
 
@@ -102,6 +104,23 @@ def holds_once_confident(case: dict) -> bool:
 
 
 def test_the_belief_is_confident_before_the_robot_sees_the_pedestrian(episodes):
+    """Holds on seeds 0-49 (14 of 14), NOT on seeds the belief was not tuned on.
+
+    Measured 2026-12-03 (MARL_CLAIM_SEED0): 11 of 13 on 50-99, 13 of 16 on 100-149, 10 of 11
+    on 400-449, 9 of 10 on 450-499, 11 of 15 on 500-549, 10 of 10 on 550-599, 17 of 20 on
+    600-649: 81 of 95 (85 %) over those seven sets. Four misses (419, 502, 504, 649) are humans
+    that slow by 1 m/s and then pass the crosswalk in front of the pedestrian; in most others
+    the robot's model reads the braking as slow traffic: the human brakes at 6-8 m/s^2, which
+    its model predicts under the traffic speed 0.55 x the limit (the human slowing towards 7.6
+    m/s), with or without a pedestrian, while with the pedestrian at the human's own speed it
+    predicts -2 to -4 m/s^2; the 2.5-nat bound clips both rows at the human's speed alike, so
+    the traffic-speed belief moves, not the pedestrian's (seed 105: b(v = 7.6 m/s) 0.007 ->
+    0.98, p_pedestrian <= 0.11). With the traffic speed known (a one-point grid at the
+    human's desired speed) it is 65 of 68 on 50-149 and 400-549, the misses the three humans
+    that pass in front; social+beta gives 52 of 65 there, beta_hat 1.0 56 of 65, and bounding
+    the ratio within each traffic speed instead of over all rows 55 of 65: at the human's
+    speed the pedestrian rows predict the hard braking hardly better than "none".
+    """
     cases = social_cases(episodes[0])
     assert len(cases) >= 10, len(cases)
     ok = [confident_before_seen(c) for c in cases]
