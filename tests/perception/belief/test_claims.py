@@ -128,6 +128,13 @@ def test_the_belief_is_confident_before_the_robot_sees_the_pedestrian(episodes):
 
 
 def test_the_belief_holds_once_confident(episodes):
+    """Holds on seeds 0-49 (14 of 14), not on every fresh set.
+
+    Measured 2026-12-03 (MARL_CLAIM_SEED0): 11 of 11 on 50-99, 13 of 13 on 100-149, 10 of 10
+    on 400-449, 9 of 9 on 450-499, 10 of 10 on 550-599, but 10 of 11 on 500-549 (seed 524
+    falls to 0.28) and 16 of 17 on 600-649 (seed 626 falls to 0.01): one miss among ten-odd
+    confident seeds is below 95 %.
+    """
     cases = [c for c in social_cases(episodes[0]) if confident_before_seen(c)]
     ok = [holds_once_confident(c) for c in cases]
     assert np.mean(ok) >= 0.95, [c["seed"] for c, good in zip(cases, ok) if not good]
