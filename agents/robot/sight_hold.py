@@ -116,12 +116,11 @@ class SightHold:
         self.config = config or SightHoldConfig()
         self.social = social
         self.epsilon = float(epsilon)
-        self._half = 0.5 * robot_length_m
         self._k_threat = round(self.config.threat_horizon_s / plan_dt_s)
         self.active = bool(enabled and right_of_way.conflicts)
         # the traffic the robot yields to (priority lanes of its zones) and where it would hold
         self._lanes = {i for c in right_of_way.conflicts for i in c.zone.priority_lanes}
-        self.hold_m = (min(c.s_enter_m for c in right_of_way.conflicts) - self._half
+        self.hold_m = (min(c.s_enter_m for c in right_of_way.conflicts) - 0.5 * robot_length_m
                        - self.config.hold_gap_m) if self.active else np.inf
 
     def stop_at(self, claims: list[list[PathObject]], weights: np.ndarray,

@@ -28,7 +28,6 @@ pytestmark = [pytest.mark.slow, pytest.mark.long]  # 50 seeds x 5 cases: long, o
 # run with `python -m pytest -m long` (MARL_CLAIM_SEEDS=N for a quicker look)
 
 SEEDS = claim_seeds()  # MARL_CLAIM_SEEDS, MARL_CLAIM_SEED0 (tests/helpers.claim_seeds)
-N_SEEDS = len(SEEDS)
 CASES = [("social", "protected_left"), ("conservative", "protected_left"),
          ("oracle", "protected_left"), ("social", "cross_green"), ("aggressive", "cross_green")]
 
@@ -58,7 +57,7 @@ def _bad(summary) -> bool:
 
 
 def _turn_s(runs, case) -> np.ndarray:
-    """(N_SEEDS,) when the robot's front passes its line [s]; never: the episode's length."""
+    """(len(SEEDS),) when the robot's front passes its line [s]; never: the episode's length."""
     t = np.array([m["turn_s"] for m in runs[case]], dtype=np.float64)
     return np.where(np.isfinite(t), t, MAX_CYCLES * 0.1)
 
