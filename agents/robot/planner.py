@@ -193,7 +193,8 @@ class RobotPlanner:
             self.mpc.pedestrian_gap_m,
             0.5 * veh.width_m + self.mpc.pedestrian_clearance_m)
         self.stop_signs = StopSigns(self.route, road_map, veh.length_m, stop_config)
-        self.right_of_way = RightOfWay(self.route, road_map, veh.length_m, right_of_way_config)
+        self.right_of_way = RightOfWay(self.route, road_map, veh.length_m, right_of_way_config,
+                                       veh.accel_max_mps2, self.mpc.lat_accel_max_mps2)
         # at a stop sign, with the belief's hypotheses (one of them "none") as the MPC's first
         # branches: not with a signal plan, whose phases multiply the branches
         hold = (params.sight_hold and bool(self.stop_signs.lines_m.size)
@@ -324,7 +325,7 @@ class RobotPlanner:
         self.weights = weights
         stop_at = min(self.stop_signs.update(s0, v, DT_S),
                       self.signal_stops.update(s0, v, DT_S, decoded.signal_states()))
-        claims = self.right_of_way.claims(scene, s0, self._times)
+        claims = self.right_of_way.claims(scene, s0, v, self._times)
         # short of a lane it cannot see, it waits for a human that will tell (sight_hold.py)
         stop_at = min(stop_at, self.sight_hold.stop_at(claims, weights, self._hidden_vehicle,
                                                        self._none_index, tracks, s0, v))

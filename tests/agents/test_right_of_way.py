@@ -5,6 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from marl_social.agents.robot.corridor import route_curvature
 from marl_social.agents.robot.mpc import ContingencyMpc
 from marl_social.agents.robot.mpc_types import MpcConfig
 from marl_social.agents.robot.right_of_way import RightOfWay, RightOfWayConfig
@@ -58,7 +59,7 @@ def test_an_eastbound_car_claims_the_merge_in_its_own_hypothesis_only(layout):
     assert row.merges[0] is not None  # the right turn joins the eastbound lane
     s0 = conflict.s_enter_m - 5.0
     scene = _car_scene([-30.0, -30.0, 30.0], EASTBOUND_Y_M, 11.0, mask=[True, False, True])
-    claims = row.claims(scene, s0, TIMES)
+    claims = row.claims(scene, s0, 0.0, TIMES)
     assert len(claims[0]) == 1 and claims[1] == [] and claims[2] == []
     obj = claims[0][0]
     assert not obj.pass_margin
@@ -68,26 +69,53 @@ def test_an_eastbound_car_claims_the_merge_in_its_own_hypothesis_only(layout):
     front = obj.s_rear_m + CAR.length_m
     assert obj.k_first == np.flatnonzero(front >= conflict.s_enter_m)[0]
     assert obj.k_last == len(TIMES) - 1
-    # the front the robot must stay ahead of: the car keeping its speed for
-    # follower_reaction_s, then slowing at follower_decel_mps2
+    # the front the robot must stay ahead of: the car keeping its speed until the robot's
+    # front can first be in its lane (plus follower_reaction_s), then slowing at
+    # follower_decel_mps2
     config = row.config
-    late = TIMES > config.follower_reaction_s + 1e-9
+    reaction = row.lane_entry_s(conflict, s0, 0.0) + config.follower_reaction_s
+    assert 1.0 < reaction < 6.0  # 5 m short of the zone, from rest, round the corner
+    late = TIMES > reaction + 1e-9
     assert np.allclose(obj.s_front_m[~late], front[~late])
     slowed = np.diff(obj.s_front_m) / dt
     expected = np.maximum(11.0 - config.follower_decel_mps2
-                          * np.maximum(TIMES[1:] - config.follower_reaction_s, 0.0), 0.0)
+                          * np.maximum(TIMES[1:] - reaction, 0.0), 0.0)
     assert np.allclose(slowed, expected, atol=1e-6)
+
+
+def test_a_follower_reacts_when_the_robot_can_first_be_in_its_lane(layout):
+    """lane_entry_s: the earliest time the robot's front reaches the lane it merges into, from
+    its speed at its acceleration limit and the curve speed of the bend; sooner the nearer and
+    the faster the robot, 0 once its front is there."""
+    _, route, row = _robot(layout)
+    conflict = row.conflicts[0]
+    half = 0.5 * CAR.length_m
+    at_line = conflict.s_enter_m - half - 1.5
+    t_rest = row.lane_entry_s(conflict, at_line, 0.0)
+    # from rest its front covers the 1.5 m and the zone (round the bend, at most its curve
+    # speed): no sooner than at the acceleration limit all the way, no later than at the
+    # curve speed after the ramp
+    distance = conflict.s_exit_m - (at_line + half)
+    a = row.accel_max_mps2
+    assert t_rest >= np.sqrt(2.0 * distance / a) - 1e-9
+    vertex_s, kappa = route_curvature(route)
+    bend = (vertex_s >= at_line + half) & (vertex_s <= conflict.s_exit_m)
+    v_curve = np.sqrt(row.lat_accel_max_mps2 / kappa[bend].max())
+    assert t_rest <= v_curve / a + distance / v_curve + 1e-9
+    assert row.lane_entry_s(conflict, at_line, 3.0) < t_rest
+    assert row.lane_entry_s(conflict, at_line + 3.0, 0.0) < t_rest
+    assert row.lane_entry_s(conflict, conflict.s_exit_m - half + 0.1, 2.0) == 0.0
 
 
 def test_a_westbound_car_or_a_pedestrian_does_not_claim_the_zone(layout):
     _, _, row = _robot(layout)
     s0 = row.conflicts[0].s_enter_m - 5.0
     westbound = _car_scene([30.0], 1.75, 11.0, heading_rad=np.pi)
-    assert row.claims(westbound, s0, TIMES) == [[]]
+    assert row.claims(westbound, s0, 0.0, TIMES) == [[]]
     walker = _car_scene([-3.0], EASTBOUND_Y_M, 1.0)
     walker = ScenePrediction(walker.xy, walker.heading, walker.length_m, walker.width_m,
                              walker.radius_m, np.ones((1, 1), bool), walker.mask)
-    assert row.claims(walker, s0, TIMES) == [[]]
+    assert row.claims(walker, s0, 0.0, TIMES) == [[]]
 
 
 def test_a_committed_robot_is_not_held_back(layout):
@@ -96,8 +124,8 @@ def test_a_committed_robot_is_not_held_back(layout):
     row = RightOfWay(route, road_map, CAR.length_m, RightOfWayConfig(committed_m=0.5))
     enter = row.conflicts[0].s_enter_m
     scene = _car_scene([-30.0], EASTBOUND_Y_M, 11.0)
-    assert len(row.claims(scene, enter - 0.5 * CAR.length_m + 0.4, TIMES)[0]) == 1
-    assert row.claims(scene, enter - 0.5 * CAR.length_m + 0.6, TIMES) == [[]]
+    assert len(row.claims(scene, enter - 0.5 * CAR.length_m + 0.4, 0.0, TIMES)[0]) == 1
+    assert row.claims(scene, enter - 0.5 * CAR.length_m + 0.6, 0.0, TIMES) == [[]]
     with pytest.raises(ValueError, match="committed_m"):
         RightOfWayConfig(committed_m=-1.0)
     with pytest.raises(ValueError, match="follower_decel_mps2"):
@@ -118,7 +146,7 @@ def _plan_at_the_line(layout, x0: float, speed_mps: float):
     s0 = conflict.s_enter_m - 0.5 * CAR.length_m - 1.5
     scene = _car_scene([x0], EASTBOUND_Y_M, speed_mps)
     mpc = ContingencyMpc(MpcConfig(), CAR)
-    claims = row.claims(scene, s0, TIMES)
+    claims = row.claims(scene, s0, 0.0, TIMES)
     result = mpc.plan(route, s0, 0.0, 0.0, 11.0, road_map.speed_limit_mps, scene, np.ones(1),
                       None, np.inf, extra_objects=claims)
     assert result.feasible

@@ -63,7 +63,7 @@ def _claims(hold: SightHold, layout, x0_m: list[float]):
     row = RightOfWay(road_map.routes["robot_0"], road_map, CAR.length_m)
     hidden = np.ones(n, bool)
     hidden[0] = False
-    return row.claims(scene, hold.hold_m - 1.0, TIMES), hidden
+    return row.claims(scene, hold.hold_m - 1.0, 0.0, TIMES), hidden
 
 
 def _left_turner(layout, before_turn_m: float | None) -> TrackSet:
