@@ -29,6 +29,11 @@ FORCING_MARGIN_M = 10.0  # ... plus this distance [m]
 IN_PATH_HALF_WIDTH_M = 2.5  # ... and this close to its path (half a lane + half a car) [m]
 IN_LANE_HALF_WIDTH_M = 1.75  # ... or its front this close to the path (inside the lane) [m]
 FORCING_PREDICT_S = 1.0  # ... now or this long later, at its current speed [s]
+# forced braking is reported to this many decimals of a m/s^2: a step's effective acceleration
+# is a speed difference over the step, so a human's -3 m/s^2 action reads 3.000000000000007 or
+# 2.9999999999999982 by rounding error, and a threshold at one of the humans' candidate
+# accelerations (3 m/s^2) would otherwise count that action by chance
+FORCED_DECEL_DECIMALS = 6
 NAN = float("nan")
 
 
@@ -305,6 +310,7 @@ def others_max_decel(trace: Trace, road_map: RoadMap, robot: str) -> float:
     along the route than any other agent's centre there (a car queued behind another brakes
     for that one) and than a signal stop line ahead of the human whose head shows red or
     yellow (a car stopping for its light; `trace.signal_states`). Both must be active.
+    Rounded to FORCED_DECEL_DECIMALS (a -3 m/s^2 action is 3.0, not 3.000000000000007).
     """
     if not len(trace.accel_mps2):
         return 0.0
@@ -329,7 +335,7 @@ def others_max_decel(trace: Trace, road_map: RoadMap, robot: str) -> float:
         braking = -trace.accel_mps2[:, h][forced]
         if len(braking):
             worst = max(worst, float(braking.max()))
-    return worst
+    return round(worst, FORCED_DECEL_DECIMALS) + 0.0  # + 0.0: never -0.0
 
 
 def _signal_line_distance(trace: Trace, road_map: RoadMap, route: Route,

@@ -138,13 +138,14 @@ def test_aggressive_robot_pulls_out_in_front_of_a_near_hidden_car(runs):
 
     It stops at the stop sign, rolls out and sees V3 past the parked cars about a second before
     V3 reaches the junction: V3, seeing it roll towards its lane, brakes hard (measured
-    2026-12-01: 31, 29, 28 and 32 of 50 on seeds 0-49 ... 150-199, up to 8 m/s^2, no collision;
-    but 24 of 50 on seeds 250-299, 24 of 50 on 300-349 and 25 of 50 on 350-399). Which seeds it forces is decided by
-    when it first sees V3: on 150-199 and 250-299 it forced V3 in 52 of the 60 seeds where that
-    was after 2.0 s, and in 4 of the 40 where it saw V3 by 2.0 s, still at its stop, and yielded
-    like any robot. V3 starting 30-45 m west at 9-14 m/s is in view that early in 36-44 % of the
-    near seeds, so "most" holds over all seeds (168 of 300 on 0-349 without 200-249) but not on
-    every 50-seed sample.
+    2026-12-03, forced braking rounded to 1e-6 m/s^2: 30, 29, 27 and 32 of 50 on seeds
+    0-49 ... 150-199, up to 8 m/s^2, no collision; but 19 of 50 on 200-249 and 24 of 50 on
+    each of 250-299, 300-349 and 350-399). Which seeds it forces is decided by when it first
+    sees V3: on 150-199 and 250-299 it forced V3 in 52 of the 60 seeds where that was after
+    2.0 s, and in 4 of the 40 where it saw V3 by 2.0 s, still at its stop, and yielded like any
+    robot (2026-12-01). V3 starting 30-45 m west at 9-14 m/s is in view that early in 36-44 %
+    of the near seeds, so "most" holds over all seeds (209 of 400 on 0-399) but not on every
+    50-seed sample.
     """
     case = ("aggressive", "near")
     bad = (_values(runs, case, "robot_collision").astype(bool)

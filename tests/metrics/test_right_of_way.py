@@ -110,6 +110,18 @@ def test_braking_behind_the_robot_counts_as_forced():
     assert waiting == 0.0
 
 
+def test_a_human_braking_at_its_3_mps2_candidate_is_reported_at_3_mps2():
+    """The effective acceleration is a speed difference over a step: a -3 m/s^2 action reads
+    -3.000000000000007 m/s^2 from 11 m/s. Forced braking is reported rounded (3.0), so a
+    threshold at 3 m/s^2 does not count it by rounding error."""
+    rm = _road_map()
+    trace = _trace(rm, _robot_s(rm, 1.0), _car_s(rm, 3.0))
+    effective = ((11.0 - 3.0 * DT_S) - 11.0) / DT_S  # as envs/world.py records it
+    assert effective != -3.0 and -effective > 3.0
+    trace.accel_mps2[20:25, 1] = effective  # 2.0-2.5 s, the robot in the car's way
+    assert others_max_decel(trace, rm, "robot_0") == 3.0
+
+
 def test_episode_metrics_have_the_new_key_after_time_to_pass():
     rm = _road_map()
     metrics = episode_metrics(_trace(rm, _robot_s(rm, 5.0), _car_s(rm, 2.0)), rm)
