@@ -46,7 +46,12 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from marl_social.agents.robot.corridor import PathObject, occupied_spans, route_curvature
+from marl_social.agents.robot.corridor import (
+    PathObject,
+    curvature_speed_bound,
+    occupied_spans,
+    route_curvature,
+)
 from marl_social.agents.robot.mpc_types import MpcConfig
 from marl_social.models.candidates import ScenePrediction
 from marl_social.sim.agent_spec import VehicleParams
@@ -133,11 +138,11 @@ class RightOfWay:
         distance = conflict.s_exit_m - front
         if distance <= 0.0:
             return 0.0
-        near = (self._vertex_s >= front) & (self._vertex_s <= conflict.s_exit_m)
-        kappa = float(self._vertex_kappa[near].max()) if near.any() else 0.0
-        v_curve = self.road_map.speed_limit_mps
-        if kappa > 0.0:
-            v_curve = min(v_curve, math.sqrt(self.lat_accel_max_mps2 / kappa))
+        # the MPC's curve speed bound over [front, s_exit_m] (no footprint window), capped
+        bound, _ = curvature_speed_bound(self._vertex_s, self._vertex_kappa, np.array([front]),
+                                         np.array([conflict.s_exit_m]), 0.0,
+                                         self.lat_accel_max_mps2, self.road_map.speed_limit_mps)
+        v_curve = float(bound[0])
         v0 = max(float(v0), 0.0)
         if v0 >= v_curve:
             return distance / v_curve

@@ -41,8 +41,8 @@ in 0 of 150 `near` seeds (0-149; without the hold 5: seeds 34, 66, 74, 116, 147)
 hidden car the social robot then takes 1.088 / 1.096 / 1.117 times the oracle's time to clear
 the junction on seeds 0-49 / 50-99 / 100-149 (without: 1.051 on 0-49; 0-49 re-measured
 with right_of_way.py's follower reacting at the robot's lane entry, 50-149 before it), where
-the issue asks for <= 1.10. It waits at the line for left-turners 6-20 m from their turn, and a left-turner
-slowing for its curve still reads to the belief as one waiting for a car.
+the issue asks for <= 1.10. It waits at the line for left-turners 6-20 m from their turn,
+and a left-turner slowing for its curve still reads to the belief as one waiting for a car.
 Its margin is thin where it does protect V3: the threat mass sits at its steady prior, about
 0.063, just above epsilon, and the belief's reading of a left-turner that drives on lowers it
 below epsilon although that left-turner reaches its turn after V3 has passed (seed 34: 0.047

@@ -335,7 +335,7 @@ def others_max_decel(trace: Trace, road_map: RoadMap, robot: str) -> float:
         braking = -trace.accel_mps2[:, h][forced]
         if len(braking):
             worst = max(worst, float(braking.max()))
-    return round(worst, FORCED_DECEL_DECIMALS) + 0.0  # + 0.0: never -0.0
+    return round(worst, FORCED_DECEL_DECIMALS)
 
 
 def _signal_line_distance(trace: Trace, road_map: RoadMap, route: Route,
