@@ -11,9 +11,9 @@ phases.
 `PhaseBranches.expand` turns the robot's L hypotheses into P' x L (P' patterns): in each
 pattern's copy the stopping cars are predicted decelerating uniformly to rest with their front
 at the line (`stopping_prediction`); the others, and every other tracked car in a lane, drive on
-along their lane path at their current speed (`path_prediction`: a left-turner is predicted
-through its turn, not straight across the junction). Branch weights are the products of the pattern and hypothesis weights; the right-of-way
-claims (agents/robot/right_of_way.py) then follow each branch's predictions: a car predicted to
+along their lane path at their current speed, as the planner predicts them
+(track_prediction.py). Branch weights are the products of the pattern and hypothesis weights;
+the right-of-way claims (agents/robot/right_of_way.py) then follow each branch's predictions: a car predicted to
 stop at its line claims no conflict zone beyond it. A pattern other than the most likely one is
 a contingency (the MPC's comfort rule). A hypothesised car within TRACK_MATCH_M of a tracked
 car is the tracked car (the hidden-agent belief holds the bin where it sees one): it is left out.
@@ -66,21 +66,6 @@ def stopping_prediction(car: SignalledCar, times_s: np.ndarray, brake_max_mps2: 
     return xy, np.broadcast_to(heading, (len(t),)).copy()
 
 
-def path_prediction(route, s_m: float, v_mps: float, times_s: np.ndarray
-                    ) -> tuple[np.ndarray, np.ndarray]:
-    """Positions (T, 2) [m] and headings (T,) [rad] at constant speed along a lane path.
-
-    Args:
-        route: the car's lane path.
-        s_m: its arc length along it [m].
-        v_mps: its speed along it [m/s] (negative counts as 0).
-        times_s: (T,) prediction times [s].
-    """
-    s = s_m + max(v_mps, 0.0) * np.asarray(times_s, dtype=np.float64)
-    xy, heading = route.point_at(s)
-    return xy, np.asarray(heading, dtype=np.float64)
-
-
 def unique_rows(rows: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """np.unique(rows, axis=0, return_inverse=True) of a (P, C) bool array, a quarter the time.
 
@@ -130,28 +115,6 @@ class PhaseBranches:
             hit = (route, route_signal_lines(route, self.road_map))
             self._lines[id(route)] = hit
         return hit[1]
-
-    def _along_paths(self, scene: ScenePrediction, tracks: TrackSet, times_s: np.ndarray
-                     ) -> ScenePrediction:
-        """The scene with every tracked car in a lane predicted along its lane path."""
-        xy, heading = np.array(scene.xy), np.array(scene.heading)
-        changed = False
-        for k in range(len(tracks)):
-            if tracks.is_pedestrian[k]:
-                continue
-            route = self.lane_paths.route_of(tracks.xy[k], float(tracks.heading_rad[k]))
-            if route is None:
-                continue
-            s0, _ = route.project_point(float(tracks.xy[k, 0]), float(tracks.xy[k, 1]))
-            _, path_heading = route.point_at(s0)
-            d = np.array([np.cos(float(path_heading)), np.sin(float(path_heading))])
-            xy[:, k], heading[:, k] = path_prediction(route, s0, float(tracks.velocity[k] @ d),
-                                                      times_s)
-            changed = True
-        if not changed:
-            return scene
-        return ScenePrediction(xy, heading, scene.length_m, scene.width_m, scene.radius_m,
-                               scene.is_pedestrian, scene.mask)
 
     @staticmethod
     def _without_tracked_duplicates(scene: ScenePrediction, tracks: TrackSet) -> ScenePrediction:
@@ -224,7 +187,8 @@ class PhaseBranches:
         """The (K * L)-hypothesis scene, weights and contingent flags (module docstring).
 
         Args:
-            scene: L hypotheses; its first len(tracks) objects are the tracks, in order.
+            scene: L hypotheses; its first len(tracks) objects are the tracks, in order (a
+                tracked car in a lane along its lane path, track_prediction.along_lane_paths).
             weights: (L,) the hypotheses' weights.
             contingent: (L,) bool, the contingency branches.
             tracks: the tracks the scene was built from.
@@ -232,8 +196,7 @@ class PhaseBranches:
                 stops.
             times_s: (T,) the scene's prediction times [s].
         """
-        scene = self._without_tracked_duplicates(self._along_paths(scene, tracks, times_s),
-                                                 tracks)
+        scene = self._without_tracked_duplicates(scene, tracks)
         if phase_weights is not None and not np.any(np.asarray(phase_weights) > 0.0):
             return scene, weights, contingent  # no phase in which a car stops
         entries = [(None, c) for c in signalled_cars(self.lane_paths, self.road_map, tracks)]

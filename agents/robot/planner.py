@@ -15,7 +15,8 @@
 
 Every planner's scenes are its tracked objects (the oracle: the truth) in every branch plus,
 per hypothesis, that hypothesis' hidden agent (a pedestrian, or a car on its lane; the belief's
-`hypothesis_objects`). At conflict zones where the robot yields, a car with the right of way
+`hypothesis_objects`). A tracked car in a lane is predicted along its lane path at its speed
+along it, the rest at constant velocity (agents/robot/track_prediction.py). At conflict zones where the robot yields, a car with the right of way
 predicted there claims the zone in its branch (agents/robot/right_of_way.py): the robot waits
 or clears the zone well before the car arrives. So the oracle gives way to the hidden car it
 knows of from the start, the conservative planner to every hidden car it cannot rule out, the
@@ -58,6 +59,7 @@ from marl_social.agents.robot.right_of_way import RightOfWay, RightOfWayConfig
 from marl_social.agents.robot.sight_hold import SightHold, SightHoldConfig
 from marl_social.agents.robot.signal_stop import SignalStops
 from marl_social.agents.robot.stop import StopSignConfig, StopSigns, pull_up_target
+from marl_social.agents.robot.track_prediction import along_lane_paths
 from marl_social.agents.robot.variants import ROBOT_VARIANTS, HypothesisWeighting, RobotVariant
 from marl_social.models.candidates import ScenePrediction
 from marl_social.models.steering import pure_pursuit
@@ -312,7 +314,10 @@ class RobotPlanner:
         # view as it drives past: the tracker keeps it where it was last seen)
         *hidden, present = self._hypothesis_objects
         present = present & ~self._tracked_crosswalks(tracks)
-        scene = ScenePrediction.from_tracks(tracks, self._times).with_extra(*hidden, present)
+        # a tracked car in a lane along its lane path (track_prediction.py)
+        scene = along_lane_paths(ScenePrediction.from_tracks(tracks, self._times), tracks,
+                                 self.belief.social.lane_paths, self._times
+                                 ).with_extra(*hidden, present)
         if self.phase_belief is not None:
             scene, weights, contingent = self._phase_branches(decoded, tracks, scene, weights,
                                                               contingent)
