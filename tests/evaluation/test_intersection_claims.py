@@ -122,7 +122,7 @@ def test_social_is_much_faster_than_the_conservative_robot_without_hidden_car(ru
         "humans' uncertain view of the robot's velocity either (branch falserise, 2026-12-02: "
         "none 1.017 -> 1.022 of the oracle on fresh 300-349). The sight hold (agents/robot/"
         "sight_hold.py, knob robot_sight_hold, MARL_CLAIM_SIGHT_HOLD=1; 2026-12-03): 0 forced "
-        "on 0-149, but without a hidden car 1.088 / 1.096 / 1.117 of the oracle's time on "
+        "on 0-149, but without a hidden car 1.080 / 1.109 / 1.122 of the oracle's time on "
         "0-49 / 50-99 / 100-149, against <= 1.10"))),
     "oracle"])
 def test_robot_gives_way_to_a_near_hidden_car(runs, planner):
