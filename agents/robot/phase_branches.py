@@ -13,10 +13,11 @@ pattern's copy the stopping cars are predicted decelerating uniformly to rest wi
 at the line (`stopping_prediction`); the others, and every other tracked car in a lane, drive on
 along their lane path at their current speed, as the planner predicts them
 (track_prediction.py). Branch weights are the products of the pattern and hypothesis weights;
-the right-of-way claims (agents/robot/right_of_way.py) then follow each branch's predictions: a car predicted to
-stop at its line claims no conflict zone beyond it. A pattern other than the most likely one is
-a contingency (the MPC's comfort rule). A hypothesised car within TRACK_MATCH_M of a tracked
-car is the tracked car (the hidden-agent belief holds the bin where it sees one): it is left out.
+the right-of-way claims (agents/robot/right_of_way.py) then follow each branch's predictions:
+a car predicted to stop at its line claims no conflict zone beyond it. A pattern other than the
+most likely one is a contingency (the MPC's comfort rule). A hypothesised car within
+TRACK_MATCH_M of a tracked car is the tracked car (the hidden-agent belief holds the bin where
+it sees one): it is left out.
 """
 
 from __future__ import annotations

@@ -1,4 +1,4 @@
-"""The robot predicts a tracked car in a lane along its lane path (agents/robot/track_prediction)."""
+"""The robot predicts a tracked car in a lane along its lane path (track_prediction.py)."""
 
 from __future__ import annotations
 
