@@ -19,9 +19,9 @@ per hypothesis, that hypothesis' hidden agent (a pedestrian, or a car on its lan
 along it, the rest at constant velocity (agents/robot/track_prediction.py). At conflict zones
 where the robot yields, a car with the right of way predicted there claims the zone in its
 branch (agents/robot/right_of_way.py): the robot waits or clears the zone well before the car
-arrives. So the oracle gives way to the hidden car it
-knows of from the start, the conservative planner to every hidden car it cannot rule out, the
-aggressive one only to a car it sees, and the social one to those its belief holds. With the
+arrives. So the oracle gives way to the hidden car it knows of from the start, the
+conservative planner to every hidden car it cannot rule out, the aggressive one only to a car
+it sees, and the social one to those its belief holds. With the
 planner parameter "sight_hold" (off by default) a belief-based planner pulling out of a stop
 sign also holds short of the lane it cannot see while a human that will tell is still coming
 (agents/robot/sight_hold.py).

@@ -17,10 +17,12 @@ braked from 3.8 m/s at 7.5 m/s^2 and then waited 1.4 s for it.
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
 from marl_social.models.candidates import ScenePrediction
-from marl_social.perception.belief.paths import LanePaths
+from marl_social.perception.belief.paths import LanePaths, route_heading
 from marl_social.perception.tracking import TrackSet
 
 
@@ -60,10 +62,10 @@ def along_lane_paths(scene: ScenePrediction, tracks: TrackSet, lane_paths: LaneP
         if xy is None:
             xy, heading = np.array(scene.xy), np.array(scene.heading)
         s0, _ = route.project_point(float(tracks.xy[k, 0]), float(tracks.xy[k, 1]))
-        _, path_heading = route.point_at(s0)
-        d = np.array([np.cos(float(path_heading)), np.sin(float(path_heading))])
-        xy[:, k], heading[:, k] = path_prediction(route, s0, float(tracks.velocity[k] @ d),
-                                                  times_s)
+        path_heading = route_heading(route, s0)  # Route.point_at's heading, on floats
+        vx, vy = (float(v) for v in tracks.velocity[k])
+        speed = vx * math.cos(path_heading) + vy * math.sin(path_heading)
+        xy[:, k], heading[:, k] = path_prediction(route, s0, speed, times_s)
     if xy is None:
         return scene
     return ScenePrediction(xy, heading, scene.length_m, scene.width_m, scene.radius_m,
