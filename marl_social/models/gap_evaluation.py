@@ -15,6 +15,9 @@ order. What stays in numpy:
   occupancies (the kernels compute its arguments and finish the occupancies), and the objects'
   claims on the zones (candidates.zone_claims) summed over them (`_conflict_rows`).
 
+`vehicle_gap_evaluations` evaluates the same candidates from several initial speeds with the
+scene's inputs (covering circles, zone claims, crosswalk rows) built once.
+
 Crosswalks without a pair of the ego (a vehicle) and a present pedestrian add +0.0 and are
 left out (every feature is >= +0, and x + 0.0 == x for x >= +0), as is the tracking feature
 of a plan along its route (lateral offset 0).
@@ -94,6 +97,40 @@ def kernel_gap_evaluation(cands: CandidateSet, theta: np.ndarray, v_ref_mps: flo
                             yield_zones, yield_margin_s, curve_speed)
     if arrays is None:
         return None
+    return _evaluation(arrays, v_ref_mps, prev_accel, curve_speed)
+
+
+def vehicle_gap_evaluations(cands: CandidateSet, theta: np.ndarray, v_ref_mps: float,
+                            vehicle: VehicleParams, route: Route, s0: float,
+                            speeds_mps: np.ndarray, prev_accel: float, scene: ScenePrediction,
+                            crosswalks: tuple[Crosswalk, ...], yield_zones: tuple = (),
+                            yield_margin_s: float = 0.0, curve_speed: CurveSpeed | None = None
+                            ) -> list[CandidateEvaluation]:
+    """`vehicle_gap_evaluation` from each of several initial speeds, the scene's work shared.
+
+    speeds_mps: (S,) initial speeds [m/s]; the other arguments are vehicle_gap_evaluation's.
+    Returns the S evaluations, each bit for bit vehicle_gap_evaluation's from its speed: the
+    scene's covering circles, its objects' claims on the zones and the crosswalk rows are
+    computed once, and only the rollouts, the gaps and the step costs once per speed (the
+    perception/belief model of a human averaged over the robot's estimate of its speed).
+    """
+    shared = _kernel_scene(cands, theta, vehicle, route, s0, scene, crosswalks, yield_zones,
+                           yield_margin_s, curve_speed)
+    out = []
+    for v0 in (float(v) for v in speeds_mps):
+        if shared is not None and _kernel_speed(v0):
+            out.append(_evaluation(_kernel_motion(shared, v0), v_ref_mps, prev_accel,
+                                   curve_speed))
+        else:
+            out.append(vehicle_gap_evaluation(cands, theta, v_ref_mps, vehicle, route, s0, v0,
+                                              prev_accel, scene, crosswalks, yield_zones,
+                                              yield_margin_s, curve_speed))
+    return out
+
+
+def _evaluation(arrays: tuple, v_ref_mps: float, prev_accel: float,
+                curve_speed: CurveSpeed | None) -> CandidateEvaluation:
+    """The CandidateEvaluation of `_kernel_arrays`' result (step_costs applied)."""
     cost_kernels, motion, excess, gaps, cost_arguments = arrays
     cost = cost_kernels.step_costs(motion, float(v_ref_mps), float(prev_accel), *cost_arguments)
     v, ds, a_eff = motion  # (A, C, T) each
@@ -139,37 +176,80 @@ def _kernel_arrays(cands: CandidateSet, theta: np.ndarray, vehicle: VehicleParam
         clearance and vehicle gap [m], and step_costs' arguments after v_ref and prev_accel
         as a tuple).
     """
-    if not (abs(v0) < _LARGEST_SPEED_MPS and abs(s0) < _LARGEST_ARC_LENGTH_M) or (
-            v0 == 0.0 and math.copysign(1.0, v0) < 0.0) or (
+    if not _kernel_speed(v0):
+        return None
+    shared = _kernel_scene(cands, theta, vehicle, route, s0, scene, crosswalks, yield_zones,
+                           yield_margin_s, curve_speed)
+    return None if shared is None else _kernel_motion(shared, v0)
+
+
+def _kernel_speed(v0: float) -> bool:
+    """Whether the kernels take this initial speed [m/s] (finite, not huge, not -0.0)."""
+    return abs(v0) < _LARGEST_SPEED_MPS and not (v0 == 0.0 and math.copysign(1.0, v0) < 0.0)
+
+
+@dataclass(frozen=True)
+class _KernelScene:
+    """What `_kernel_motion` takes that does not depend on the initial speed (_kernel_scene)."""
+
+    kernels: object
+    cost_kernels: object
+    plan: "_PreparedPlan"
+    s0: float
+    curve_speed: CurveSpeed | None
+    route: Route
+    scene_inputs: tuple
+    radius_m: np.ndarray
+    present: np.ndarray
+    is_pedestrian: np.ndarray
+    clipped: bool
+    weights: np.ndarray
+    conflict_rows: tuple
+
+
+def _kernel_scene(cands: CandidateSet, theta: np.ndarray, vehicle: VehicleParams,
+                  route: Route, s0: float, scene: ScenePrediction,
+                  crosswalks: tuple[Crosswalk, ...], yield_zones: tuple,
+                  yield_margin_s: float, curve_speed: CurveSpeed | None) -> _KernelScene | None:
+    """The scene's kernel inputs, shared by every initial speed; None: not the kernels' case."""
+    if not abs(s0) < _LARGEST_ARC_LENGTH_M or (
             scene.mask.shape[1] >= MAX_KERNEL_OBJECTS) or len(cands.continuations_mps2) == 0:
         return None
     kernels, cost_kernels = _KERNELS or _kernels()
     plan = _prepared_plan(cands, vehicle)
-    scene_xy, cos_heading, sin_heading, scene_along, other_r = scene_circle_inputs(scene)
     weights = _weights(theta)  # speed, accel, jerk, safety, conflict
-    clipped, w_conflict = weights[3] != 0.0, weights[4]
-    present = np.ascontiguousarray(scene.mask)
-    crosswalk_rows, zone_rows, zone_sizes, zone_sums = _conflict_rows(
+    w_conflict = weights[4]
+    conflict_rows = _conflict_rows(
         scene, crosswalks if w_conflict != 0.0 else (), yield_zones if w_conflict != 0.0 else (),
         yield_margin_s, plan.dt_s)
-    is_pedestrian = np.ascontiguousarray(scene.is_pedestrian)
-    motion, excess, exp_arg, occupancy, scene_occupancy, gaps = kernels.plan_evaluation(
-        plan.increments, plan.plan_shape[1], float(v0), float(s0), float(plan.dt_s),
+    return _KernelScene(kernels, cost_kernels, plan, float(s0), curve_speed, route,
+                        scene_circle_inputs(scene),
+                        np.ascontiguousarray(scene.radius_m, dtype=float),
+                        np.ascontiguousarray(scene.mask), np.ascontiguousarray(scene.is_pedestrian),
+                        bool(weights[3] != 0.0), weights, conflict_rows)
+
+
+def _kernel_motion(shared: _KernelScene, v0: float) -> tuple:
+    """`_kernel_arrays`' result from the shared scene inputs and one initial speed v0 [m/s]."""
+    plan, curve_speed, route = shared.plan, shared.curve_speed, shared.route
+    crosswalk_rows, zone_rows, zone_sizes, zone_sums = shared.conflict_rows
+    scene_xy, cos_heading, sin_heading, scene_along, other_r = shared.scene_inputs
+    motion, excess, exp_arg, occupancy, scene_occupancy, gaps = shared.kernels.plan_evaluation(
+        plan.increments, plan.plan_shape[1], float(v0), shared.s0, float(plan.dt_s),
         plan.continuations, plan.n_first, curve_speed is not None,
         _NO_CURVE if curve_speed is None else curve_speed.v_max_mps, CURVE_PROFILE_STEP_M,
         route.vertex_s_m, route.segment_pose_table, plan.ego_along, plan.ego_circle_r, scene_xy,
-        cos_heading, sin_heading, scene_along, other_r,
-        np.ascontiguousarray(scene.radius_m, dtype=float), present, is_pedestrian,
-        clipped, plan.ego_radius, crosswalk_rows, zone_rows, zone_sizes,
-        OCCUPANCY_SOFTNESS_M)
-    if clipped:
+        cos_heading, sin_heading, scene_along, other_r, shared.radius_m, shared.present,
+        shared.is_pedestrian, shared.clipped, plan.ego_radius, crosswalk_rows, zone_rows,
+        zone_sizes, OCCUPANCY_SOFTNESS_M)
+    if shared.clipped:
         np.exp(exp_arg, out=exp_arg)
     if len(occupancy):
         np.tanh(occupancy, out=occupancy)
         np.tanh(scene_occupancy, out=scene_occupancy)
-    return cost_kernels, motion, excess, gaps, (weights, exp_arg, present, occupancy,
-                                                scene_occupancy, is_pedestrian, zone_sums,
-                                                plan.cost_scale)
+    return shared.cost_kernels, motion, excess, gaps, (
+        shared.weights, exp_arg, shared.present, occupancy, scene_occupancy,
+        shared.is_pedestrian, zone_sums, plan.cost_scale)
 
 
 _LARGEST_SPEED_MPS = 1e6  # the kernels' v0 and s0 bounds (the curve-speed grid index of any

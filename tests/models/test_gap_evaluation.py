@@ -2,12 +2,14 @@
 
 Bit for bit, on random scenes: straight and bent routes, crosswalks with and without
 pedestrians, objects absent in some hypotheses, hypotheses that share their objects, yield
-zones and curve speeds, cost weights with zeros; kernel_rule_totals equals rule_abiding_totals
-of that evaluation; and Route.pose_at equals point_at with
+zones and curve speeds, cost weights with zeros; vehicle_gap_evaluations (several initial speeds,
+the scene's work shared) equals vehicle_gap_evaluation from each speed; kernel_rule_totals equals
+rule_abiding_totals of that evaluation; and Route.pose_at equals point_at with
 np.cos / np.sin of its heading.
 """
 
 import numpy as np
+import pytest
 from hypothesis import example, given, settings
 from hypothesis import strategies as st
 
@@ -17,6 +19,7 @@ from marl_social.models.gap_evaluation import (
     kernel_gap_evaluation,
     kernel_rule_totals,
     vehicle_gap_evaluation,
+    vehicle_gap_evaluations,
 )
 from marl_social.sim.agent_spec import VehicleParams
 from marl_social.sim.road_map import Crosswalk, Route
@@ -134,3 +137,42 @@ def test_kernel_rule_totals_equal_the_evaluations_totals(seed, n_hyp, n_obj, ben
     assert got.shape == want.shape
     assert np.array_equal(got, want, equal_nan=True)
     assert np.array_equal(np.signbit(got), np.signbit(want))
+
+
+@pytest.mark.filterwarnings("ignore:invalid value encountered in cast")  # nan: the reference
+@settings(max_examples=60, deadline=None)
+@given(seed=st.integers(0, 2**32 - 1), n_hyp=st.integers(1, 3), n_obj=st.integers(0, 4),
+       bent=st.booleans(), crosswalk=st.booleans(), zones=st.integers(0, 2),
+       p_ped=st.sampled_from([0.0, 0.5, 1.0]),
+       odd_speed=st.sampled_from([None, 0.0, -0.0, np.nan, 2e6]))
+def test_evaluations_from_several_speeds_equal_one_evaluation_per_speed(
+        seed, n_hyp, n_obj, bent, crosswalk, zones, p_ped, odd_speed):
+    """vehicle_gap_evaluations shares the scene's work: each speed's result is unchanged by it.
+
+    Speeds the kernels do not take (-0.0, nan, huge) among them fall back to evaluate_candidates
+    for that speed alone.
+    """
+    rng = np.random.default_rng(seed)
+    route = _route(rng, bent)
+    scene = _scene(rng, n_hyp, n_obj, CANDIDATES.n_steps, p_ped, 0.3)
+    crosswalks = (Crosswalk(center=np.array([20.0, 0.0]), walk_heading_rad=0.5 * np.pi,
+                            length_m=10.0, width_m=4.0),) if crosswalk else ()
+    theta = rng.uniform(0.0, 3.0, 6)
+    polygon = np.array([[10.0, -5.0], [25.0, -5.0], [25.0, 5.0], [10.0, 5.0]])
+    extra = {"yield_zones": tuple((polygon + 3.0 * k, rng.random((n_hyp, n_obj)) < 0.6)
+                                  for k in range(zones)),
+             "yield_margin_s": 1.5, "curve_speed": CurveSpeed(route, 2.5, 2.3) if bent else None}
+    speeds = list(rng.uniform(0.0, 12.0, 3)) + ([] if odd_speed is None else [odd_speed])
+    head = (CANDIDATES, theta, rng.uniform(5.0, 12.0), VehicleParams(), route,
+            rng.uniform(0.0, 40.0))
+    tail = (rng.uniform(-3.0, 2.0), scene, crosswalks)
+    shared = vehicle_gap_evaluations(*head, np.array(speeds), *tail, **extra)
+    assert len(shared) == len(speeds)
+    for v0, got_ev in zip(speeds, shared):
+        want_ev = vehicle_gap_evaluation(*head, v0, *tail, **extra)
+        for name in FIELDS:
+            want, got = getattr(want_ev, name), getattr(got_ev, name)
+            assert (want is None) == (got is None), name
+            if want is not None:
+                assert np.array_equal(got, want, equal_nan=True), (name, v0)
+                assert np.array_equal(np.signbit(got), np.signbit(want)), (name, v0)
