@@ -112,6 +112,8 @@ class TrackSet:
             filter: P_k + P_{k-1} - C - C^T with C = Cov(e_k, e_{k-1}) = (I - K H) F P_{k-1},
             velocity block); divided by dt^2 it is the variance of an acceleration read off the
             track. None: not known (zero).
+        velocity_cov: (k, 2, 2) covariance of the tracked velocity's error [m^2/s^2] (the
+            filter's velocity block). None: not known.
     """
 
     ids: np.ndarray
@@ -125,6 +127,7 @@ class TrackSet:
     age_unseen_s: np.ndarray
     heading_rad: np.ndarray
     velocity_change_cov: np.ndarray | None = None
+    velocity_cov: np.ndarray | None = None
 
     def __len__(self) -> int:
         """Number of tracks k."""
@@ -373,13 +376,15 @@ class Tracker:
             np.array(ids, dtype=np.int64), table[:, 0:2], velocity, table[:, 4], table[:, 5],
             table[:, 6], flags[0], flags[1], table[:, 7],
             track_heading(velocity, table[:, 8]), np.array([track[2] for track in tracks]),
+            np.array([track[1].p[2:4, 2:4] for track in tracks]),
         )
 
 
 # the TrackSet of no tracks (its arrays hold nothing: sharing it is safe)
 _NO_TRACKS = TrackSet(np.zeros(0, dtype=np.int64), np.zeros((0, 2)), np.zeros((0, 2)),
                       np.zeros(0), np.zeros(0), np.zeros(0), np.zeros(0, bool),
-                      np.zeros(0, bool), np.zeros(0), np.zeros(0), np.zeros((0, 2, 2)))
+                      np.zeros(0, bool), np.zeros(0), np.zeros(0), np.zeros((0, 2, 2)),
+                      np.zeros((0, 2, 2)))
 
 
 def track_heading(velocity_mps: np.ndarray, measured_heading_rad: np.ndarray) -> np.ndarray:

@@ -17,6 +17,13 @@ from marl_social.models.boltzmann import boltzmann
 from marl_social.perception.belief import compiled
 from marl_social.perception.belief.compiled import PAIRWISE_MAX
 
+# the model of a human averaged over the robot's estimate of its speed: three-point Gauss-Hermite
+# nodes at -sqrt 3, 0, +sqrt 3 standard deviations of the estimate, weights 1/6, 2/3, 1/6
+# (`speed_nodes_mps`, `speed_averaged_log_likelihood`)
+SPEED_NODES_SIGMA = np.array([-math.sqrt(3.0), 0.0, math.sqrt(3.0)])
+LOG_SPEED_NODE_WEIGHTS = np.log(np.array([1.0, 4.0, 1.0]) / 6.0)
+for _constant in (SPEED_NODES_SIGMA, LOG_SPEED_NODE_WEIGHTS):
+    _constant.setflags(write=False)
 SIGMA_MIN_MPS2 = 1e-3  # the observation noise on a_obs is at least this [m/s^2]
 OUTLIER_PROB_MAX = 1.0 - 1e-12  # rho stays below 1 (some weight on the model)
 OUTLIER_MARGIN_SIGMAS = 3.0  # the outlier density spans the actions' range +- this many sigma
@@ -61,6 +68,46 @@ def action_log_likelihood(q_values: np.ndarray, beta: float, a_obs: float,
     width = actions.max() - actions.min() + 2.0 * OUTLIER_MARGIN_SIGMAS * sigma
     log_outlier = math.log(rho / width)
     return np.logaddexp(math.log1p(-rho) + log_model, log_outlier)
+
+
+def speed_nodes_mps(v_mps: float, std_mps: float) -> np.ndarray:
+    """(3,) speeds [m/s] at which a human's Q* is evaluated to average over its speed estimate.
+
+    v_mps + SPEED_NODES_SIGMA * std_mps, the estimate and its std [m/s], at least 0 (a car
+    does not reverse).
+    """
+    return np.maximum(float(v_mps) + SPEED_NODES_SIGMA * max(float(std_mps), 0.0), 0.0)
+
+
+def speed_averaged_log_likelihood(q_nodes: np.ndarray, beta: float, a_obs: float,
+                                  actions_mps2: np.ndarray, sigma_mps2: float,
+                                  outlier_prob: float = 0.0) -> np.ndarray:
+    """`action_log_likelihood` averaged over the robot's uncertainty about the human's speed.
+
+        P(a_obs | x) = sum_s w_s P(a_obs | x, v_s)
+
+    over the Gauss-Hermite nodes v_s of `speed_nodes_mps` (weights 1/6, 2/3, 1/6). A human's
+    best action can change across ~0.1 m/s of its speed (whether it can still make its curve
+    speed, or stop before a crosswalk): a model evaluated at the robot's estimate alone is then
+    confidently wrong about a human whose true speed lies on the other side, and the belief
+    reads that human's ordinary braking as evidence of a hidden agent.
+
+    Args:
+        q_nodes: (3, ..., A) Q*_H from each node's speed.
+        beta: rationality of the model (inf = argmin).
+        a_obs: observed acceleration [m/s^2].
+        actions_mps2: (A,) accelerations the candidate actions execute as [m/s^2].
+        sigma_mps2: std of the observation noise on a_obs [m/s^2].
+        outlier_prob: rho in [0, 1) (action_log_likelihood).
+
+    Returns:
+        (...) log-likelihoods; zeros (uninformative) where any is not finite.
+    """
+    ll = action_log_likelihood(q_nodes, beta, a_obs, actions_mps2, sigma_mps2, outlier_prob)
+    if not np.all(np.isfinite(ll)):
+        return np.zeros(ll.shape[1:])
+    weights = LOG_SPEED_NODE_WEIGHTS.reshape((-1,) + (1,) * (ll.ndim - 1))
+    return logsumexp(ll + weights, axis=0)
 
 
 def _log_model(q: np.ndarray, beta: float, a_obs: float, actions: np.ndarray, sigma: float,

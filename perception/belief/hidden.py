@@ -334,7 +334,8 @@ class HiddenAgentBelief:
 
     def human_q_values(self, route: Route, s0: float, v0: float, prev_accel: float,
                        others: ScenePrediction | None = None,
-                       negligible: np.ndarray | None = None) -> np.ndarray:
+                       negligible: np.ndarray | None = None,
+                       speed_std_mps: float | None = None) -> np.ndarray:
         """(L, V, A) Q*_H(x_l, v, u) of a human, one rollout (SocialLikelihood).
 
         Args:
@@ -344,8 +345,11 @@ class HiddenAgentBelief:
             prev_accel: its previous acceleration [m/s^2].
             others: one-hypothesis scene of the other objects the human reacts to.
             negligible: (L,) bool, hypotheses left out of the human's scene (None: none).
+            speed_std_mps: the std of v0 [m/s]: (3, L, V, A) from the speeds about v0 that
+                action_model.speed_averaged_log_likelihood weighs (None: (L, V, A) at v0).
         """
-        return self.social.human_q_values(route, s0, v0, prev_accel, others, negligible)
+        return self.social.human_q_values(route, s0, v0, prev_accel, others, negligible,
+                                          speed_std_mps)
 
     def beta_beliefs(self) -> dict:
         """{human name: (B,) rationality belief} of the humans tracked now (social+beta only)."""

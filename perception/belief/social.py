@@ -33,6 +33,14 @@ Modelling choices of `SocialLikelihood`:
 * a_obs is estimated from the robot's own Kalman track (along-route speed difference over one
   step); candidate accelerations are compared with a_obs after the vehicle's limits (no
   reversing: an action u at speed v executes as max(u, -v/dt)).
+* The robot knows the human's speed only as well as its track does: on a route with a bend the
+  model is averaged over that estimate, Q*_H from three speeds (Gauss-Hermite nodes of the
+  track's velocity std along the route, `speed_std_mps`; BeliefConfig.marginalize_speed) with
+  the scene and its hypotheses built once (models/gap_evaluation.vehicle_gap_evaluations), the
+  action probabilities averaged (action_model.speed_averaged_log_likelihood). A human's best
+  action can change across ~0.1 m/s (whether it can still make its curve speed): evaluated at
+  the estimate alone, a left-turner braking for its curve read one step as the full bound's
+  evidence for a hidden car. On straight routes it did not pay for its cost (`speed_std_mps`).
 * Q*_H is computed once per human and step for all L hypotheses with one batched candidate
   evaluation (`models.candidates.evaluate_candidates`, the function `driver_q_values` wraps)
   without the speed feature; the speed feature theta_speed (v - v_ref)^2 (per planner step, in
@@ -56,15 +64,17 @@ from dataclasses import dataclass, field, replace
 
 import numpy as np
 
-from marl_social.models.candidates import ScenePrediction
+from marl_social.models.candidates import CandidateEvaluation, ScenePrediction
 from marl_social.models.driver import DriverModel, RoadRules, rule_abiding_totals
-from marl_social.models.gap_evaluation import vehicle_gap_evaluation
+from marl_social.models.gap_evaluation import vehicle_gap_evaluations
 from marl_social.models.yield_expectation import YieldExpectation
 from marl_social.perception.belief import compiled
 from marl_social.perception.belief.action_model import (
     action_log_likelihood,
     bounded_log_likelihood,
     logsumexp,
+    speed_averaged_log_likelihood,
+    speed_nodes_mps,
 )
 from marl_social.perception.belief.bayes import bayes_update, normalize
 from marl_social.perception.belief.compiled import PAIRWISE_MAX
@@ -91,7 +101,9 @@ class _HumanState:
 
     Attributes:
         v_mps: its along-route speed [m/s].
-        q_values: (L, V, A) Q*_H of its candidate actions; None while its track is too young
+        q_values: (L, V, A) Q*_H of its candidate actions, or (3, L, V, A) from the speeds
+            about the robot's estimate of its speed (`speed_std_mps`, action_model.
+            speed_nodes_mps); None while its track is too young
             for the next step to score its action (n_seen < BeliefConfig.min_track_steps).
         actions_mps2: (A,) accelerations they execute as [m/s^2].
         n_seen: consecutive steps its track has been measured.
@@ -184,7 +196,8 @@ class SocialLikelihood:
     # -- the human's Q-values and the likelihood of its action ----------------------------------
     def human_q_values(self, route: Route, s0: float, v0: float, prev_accel: float,
                        others: ScenePrediction | None = None,
-                       negligible: np.ndarray | None = None) -> np.ndarray:
+                       negligible: np.ndarray | None = None,
+                       speed_std_mps: float | None = None) -> np.ndarray:
         """Q*_H(x_l, v, u) for every hidden-agent hypothesis l and traffic speed v, one rollout.
 
         Equal to driver_q_values(DriverModel(theta_hat, beta_hat, v_desired_mps=v), route, s0,
@@ -202,22 +215,27 @@ class SocialLikelihood:
                 nothing but the hypothesised agent).
             negligible: (L,) bool, hypotheses whose hidden agent is left out of the human's
                 scene (their belief is negligible: `log_likelihoods`); None: none is.
+            speed_std_mps: the std of the robot's estimate v0 of the human's speed [m/s]: the
+                Q-values from each of action_model.speed_nodes_mps(v0, speed_std_mps), the
+                scene built once (`speed_averaged_log_likelihood` weighs them). None: from v0.
 
         Returns:
-            (L, V, A) optimal cost-to-go of each first action.
+            (L, V, A) optimal cost-to-go of each first action; (3, L, V, A) with speed_std_mps.
         """
         viewer = None
         if self._has_vehicles:
             x, y, heading = route_pose(route, s0)
             viewer = (np.array([x, y]), heading)
-        return self._q_values(route, s0, v0, prev_accel, others, negligible, viewer)
+        return self._q_values(route, s0, v0, prev_accel, others, negligible, viewer,
+                              speed_std_mps)
 
     def _q_values(self, route: Route, s0: float, v0: float, prev_accel: float,
                   others: ScenePrediction | None, negligible: np.ndarray | None,
-                  viewer: tuple | None) -> np.ndarray:
+                  viewer: tuple | None, speed_std_mps: float | None = None) -> np.ndarray:
         """`human_q_values` with the human's view (xy (2,) [m], heading [rad]) already known.
 
         viewer None: every hypothesised agent is in its scene (no vehicle hypotheses).
+        speed_std_mps: as human_q_values (None: (L, V, A) from v0; else (3, L, V, A)).
         """
         objects = self.scenes.objects_in_view(viewer)
         # every hypothesis whose hidden agent is not in the human's scene ("none", a car out of
@@ -229,11 +247,18 @@ class SocialLikelihood:
         scene = self.scenes.kept_scene(others, objects, keep)  # hypothesis_scene(others, viewer)[keep]
         zones = self.yield_zones(route, s0, scene)
         curve = self._curve_speed(route)
-        ev = vehicle_gap_evaluation(self._candidates, self._theta_no_speed, 0.0,
-                                    self.model.vehicle, route, s0, v0, prev_accel, scene,
-                                    self.road_map.crosswalks, yield_zones=zones,
-                                    yield_margin_s=self.model.yield_margin_s,
-                                    curve_speed=curve)
+        speeds = (np.array([v0]) if speed_std_mps is None
+                  else speed_nodes_mps(v0, speed_std_mps))
+        evaluations = vehicle_gap_evaluations(
+            self._candidates, self._theta_no_speed, 0.0, self.model.vehicle, route, s0, speeds,
+            prev_accel, scene, self.road_map.crosswalks, yield_zones=zones,
+            yield_margin_s=self.model.yield_margin_s, curve_speed=curve)
+        q = [self._evaluated(ev, s0, zones, curve, inverse) for ev in evaluations]
+        return q[0] if speed_std_mps is None else np.stack(q)
+
+    def _evaluated(self, ev: CandidateEvaluation, s0: float, zones: tuple,
+                   curve: CurveSpeed | None, inverse: np.ndarray) -> np.ndarray:
+        """(L, V, A) Q*_H of one speed's evaluation of the kept scenes (`_q_values`)."""
         # (L, A, C): predicted collisions and plans too fast for its bends excluded
         base = rule_abiding_totals(ev, self.model, s0, RoadRules(None, zones, curve))
         if ev.v.shape[-1] > PAIRWISE_MAX or not base.shape[-1]:
@@ -336,11 +361,9 @@ class SocialLikelihood:
         """
         cfg = self.config
         if not len(self._beta_grid):
-            ll = action_log_likelihood(prev.q_values, cfg.beta_hat, a_est, prev.actions_mps2,
-                                       sigma_mps2, cfg.outlier_prob)
+            ll = self._action_log_likelihood(prev, cfg.beta_hat, a_est, sigma_mps2)
             return bounded_log_likelihood(ll, cfg.max_log_likelihood_ratio), prev.beta_belief
-        ll = np.stack([action_log_likelihood(prev.q_values, beta, a_est, prev.actions_mps2,
-                                             sigma_mps2, cfg.outlier_prob)
+        ll = np.stack([self._action_log_likelihood(prev, beta, a_est, sigma_mps2)
                        for beta in self._beta_grid])  # (B, L, V)
         if not np.all(np.isfinite(ll)):
             return np.zeros(ll.shape[1:]), prev.beta_belief
@@ -352,6 +375,15 @@ class SocialLikelihood:
         beta_belief = bayes_update(evidence, prev.beta_belief)
         beta_belief = normalize(np.maximum(beta_belief, cfg.floor))
         return marginal, beta_belief
+
+    def _action_log_likelihood(self, prev: _HumanState, beta: float, a_est: float,
+                               sigma_mps2: float) -> np.ndarray:
+        """(L, V) log P(a_est | x_l, v) of prev.q_values: one speed's, or averaged over three."""
+        cfg = self.config
+        score = (action_log_likelihood if prev.q_values.ndim == 3
+                 else speed_averaged_log_likelihood)
+        return score(prev.q_values, beta, a_est, prev.actions_mps2, sigma_mps2,
+                     cfg.outlier_prob)
 
     def observation_sigma_mps2(self, tracks: TrackSet, k: int, heading_rad: float) -> float:
         """Std of a human's acceleration read off the robot's track about its action [m/s^2].
@@ -371,6 +403,27 @@ class SocialLikelihood:
         d = np.array([math.cos(heading_rad), math.sin(heading_rad)])
         var_track = float(d @ tracks.velocity_change_cov[k] @ d) / DT_S ** 2
         return math.sqrt(base * base + max(var_track, 0.0))
+
+    def speed_std_mps(self, tracks: TrackSet, k: int, heading_rad: float,
+                      route: Route) -> float | None:
+        """Std of the robot's estimate of a human's speed along its route [m/s], where it counts.
+
+        From the track's velocity covariance (TrackSet.velocity_cov). None (the model at the
+        estimate alone) without it, with BeliefConfig.marginalize_speed off, or on a route
+        without a bend (no curve speed, `_curve_speed`): there the measured gain did not pay
+        for three evaluations (BeliefConfig.marginalize_speed).
+
+        Args:
+            tracks: the robot's current tracks.
+            k: the human's row in tracks.
+            heading_rad: its route heading [rad].
+            route: its route (paths.LanePaths).
+        """
+        if (not self.config.marginalize_speed or tracks.velocity_cov is None
+                or self._curve_speed(route) is None):
+            return None
+        d = np.array([math.cos(heading_rad), math.sin(heading_rad)])
+        return math.sqrt(max(float(d @ tracks.velocity_cov[k] @ d), 0.0))
 
     def beta_beliefs(self) -> dict:
         """{human name: (B,) belief over its rationality on config.beta_grid_hat}.
@@ -441,7 +494,8 @@ class SocialLikelihood:
                 others = self.scenes.others_scene(np.array([x, y]), heading, oid, decoded,
                                                   tracks)
                 viewer = (np.array([route_x, route_y]), heading) if self._has_vehicles else None
-                q = self._q_values(route, s0, v0, a_est, others, negligible, viewer)
+                q = self._q_values(route, s0, v0, a_est, others, negligible, viewer,
+                                   self.speed_std_mps(tracks, k, heading, route))
             current[oid] = _HumanState(v, q, self._executed(v0), n_seen, beta_belief)
         self._humans = current  # a human not seen this step starts afresh when seen again
         n, n_v = len(self.hypotheses), len(self.traffic_grid_mps)

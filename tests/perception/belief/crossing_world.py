@@ -52,6 +52,21 @@ def crossing_map(zones: bool = True, building: bool = True, routes: dict | None 
                    extent=(-20.0, 150.0, -80.0, 60.0), conflict_zones=(zone,) if zones else ())
 
 
+def turning_map() -> RoadMap:
+    """Lanes 0 (east) and 1 (north) of the crossing, and a human's approach lane (2) coming
+    south at x = 54 that ends in a left turn (lane 3: south -> east, radius 8 m, centre
+    (62, -14)) across the northbound lane; no building. The robot drives along lane 0."""
+    theta = np.linspace(np.pi, 1.5 * np.pi, 24)
+    turn = np.column_stack([62.0 + 8.0 * np.cos(theta), -14.0 + 8.0 * np.sin(theta)])
+    lanes = (Lane(np.array(LANE_POINTS["east"]), LANE_WIDTH_M, "east"),
+             Lane(np.array(LANE_POINTS["north"]), LANE_WIDTH_M, "north"),
+             Lane(np.array([[54.0, -4.0], [54.0, -14.0]]), LANE_WIDTH_M, "approach"),
+             Lane(np.vstack([turn, [[100.0, -22.0]]]), LANE_WIDTH_M, "turn_east"))
+    return RoadMap(lanes=lanes, crosswalks=(), static_polygons=(),
+                   routes={"robot_0": Route(LANE_POINTS["east"], "robot_0")},
+                   speed_limit_mps=SPEED_LIMIT_MPS)
+
+
 def _car(name: str, role: str, x: float, y: float, heading: float, speed: float) -> AgentSpec:
     sensor = SensorParams(50.0, math.radians(70.0), pos_noise_m=0.0, vel_noise_mps=0.0,
                           heading_noise_rad=0.0)

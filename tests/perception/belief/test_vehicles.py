@@ -29,6 +29,7 @@ from tests.perception.belief.crossing_world import (
     SPEED_LIMIT_MPS,
     CrossingWorld,
     crossing_map,
+    turning_map,
 )
 from tests.perception.belief.episodes import paper_env
 
@@ -398,16 +399,8 @@ def test_a_human_is_modelled_along_its_lane_and_the_lane_it_continues_into():
     only its safety margin would. A lane that branches in two ends the path."""
     from marl_social.perception.belief.paths import LanePaths
 
-    theta = np.linspace(np.pi, 1.5 * np.pi, 24)  # south -> east, centre (62, -14), radius 8
-    turn = np.column_stack([62.0 + 8.0 * np.cos(theta), -14.0 + 8.0 * np.sin(theta)])
-    approach = np.array([[54.0, -4.0], [54.0, -14.0]])
-    lanes = (Lane(np.array(LANE_POINTS["east"]), LANE_WIDTH_M, "east"),
-             Lane(np.array(LANE_POINTS["north"]), LANE_WIDTH_M, "north"),
-             Lane(approach, LANE_WIDTH_M, "approach"),
-             Lane(np.vstack([turn, [[100.0, -22.0]]]), LANE_WIDTH_M, "turn_east"))
-    robot = Route(LANE_POINTS["east"], "robot_0")
-    road_map = RoadMap(lanes=lanes, crosswalks=(), static_polygons=(),
-                       routes={"robot_0": robot}, speed_limit_mps=SPEED_LIMIT_MPS)
+    road_map = turning_map()  # south -> east, centre (62, -14), radius 8
+    lanes, approach = road_map.lanes, road_map.lanes[2].centerline
     paths = LanePaths(road_map)
     assert paths.successors[2] == [3]
     route = paths.route_of(np.array([54.0, -12.0]), -0.5 * math.pi)
