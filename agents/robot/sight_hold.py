@@ -36,27 +36,26 @@ cars nothing (aggressive, oracle) never holds.
 
 Why it is off by default: it trades time for politeness. Measured on the T-intersection's
 randomized seeds (2026-12-03; robot_epsilon 0.05, the claims of
-tests/evaluation/test_intersection_claims.py): V3 forced to brake > 3 m/s^2 by the social robot
-in 0 of 150 `near` seeds (0-149; without the hold 5: seeds 34, 66, 74, 116, 147), but with no
-hidden car the social robot then takes 1.080 / 1.109 / 1.122 times the oracle's time to clear
-the junction on seeds 0-49 / 50-99 / 100-149 (without: 1.034 on 0-49; measured with tracked
-cars predicted along their lane paths, agents/robot/track_prediction.py), where the issue
-asks for <= 1.10. It waits at the line for left-turners 6-20 m from their turn,
-and a left-turner slowing for its curve still reads to the belief as one waiting for a car:
-the robot's model of the human predicts its curve braking from the robot's estimate of its
-speed, and ~0.1 m/s of estimation error moves the best action across "can still make the
-curve speed" (a human braking at -4 where the model says -2 gives one sample the bound's 2.5
-nats for a hidden car). Measured on 100-149 (2026-12-03): with the robot's sensor noise 0.001
-m instead of 0.05 m the hold costs 1.089 (social alone 1.017); averaging the model's action
-probabilities over the speed estimate (3-point Gauss-Hermite, sigma 0.09-0.15 m/s) gives
-1.102-1.104 (social alone 1.007-1.016), but three Q* evaluations per human and step made the
-robot's decision 1.6 times slower, so it is not built.
-Its margin is thin where it does protect V3: the threat mass sits at its steady prior, about
-0.063, just above epsilon, and the belief's reading of a left-turner that drives on lowers it
-below epsilon although that left-turner reaches its turn after V3 has passed (seed 34: 0.047
-at 1.5 s; 0.063-0.064 throughout with the social evidence switched off). In seeds 34 and 116
-the robot so goes 0.6-0.9 s before it sees V3, still below 1 m/s and short of the hold point,
-and then stops at 6.5-8 m/s^2 itself; V3 does not brake.
+tests/evaluation/test_intersection_claims.py; the robot's model of the humans averaged over
+its estimate of their speed, perception/belief/action_model.speed_averaged_log_likelihood):
+V3 forced to brake > 3 m/s^2 by the social robot in 0 of 200 `near` seeds (0-199; without the
+hold 8: seeds 34, 66, 74, 116, 147, 151, 170, 178), but with no hidden car the social robot then
+takes 1.060 / 1.073 / 1.106 / 1.088 times the oracle's time to clear the junction on seeds
+0-49 / 50-99 / 100-149 / 150-199 (without: 1.009 / 1.020 / 1.017 / 1.009), where the issue asks
+for <= 1.10. It waits at the line for left-turners 6-20 m from their turn, and released, it
+rolls towards the lane later than without the hold, when a human's noisy braking may still
+raise the belief: seed 141 (+2.0 s) goes at 0.9 s, and at 2.1 s, rolling at 1.5 m/s just
+short of the hold point, a left-turner braking at -2.9 m/s^2 for its curve where the model of
+no hidden car expects -1 (beta 5.5: a human samples its action) moves the belief in a hidden
+car from 0.08 to 0.17, and the robot stops. Before the model of the humans was averaged over
+the speed estimate (a best action can change across ~0.1 m/s of it: whether the human can
+still make its curve speed), the hold cost 1.080 / 1.109 / 1.122 on 0-49 / 50-99 / 100-149.
+Its margin is thin where it does protect V3 (measured before that averaging): the threat mass
+sits at its steady prior, about 0.063, just above epsilon, and the belief's reading of a
+left-turner that drives on lowers it below epsilon although that left-turner reaches its turn
+after V3 has passed (seed 34: 0.047 at 1.5 s; 0.063-0.064 throughout with the social evidence
+switched off). In seeds 34 and 116 the robot so goes 0.6-0.9 s before it sees V3, still below 1
+m/s and short of the hold point, and then stops at 6.5-8 m/s^2 itself; V3 does not brake.
 """
 
 from __future__ import annotations
