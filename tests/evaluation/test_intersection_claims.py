@@ -122,8 +122,9 @@ def test_social_is_much_faster_than_the_conservative_robot_without_hidden_car(ru
         "humans' uncertain view of the robot's velocity either (branch falserise, 2026-12-02: "
         "none 1.017 -> 1.022 of the oracle on fresh 300-349). The sight hold (agents/robot/"
         "sight_hold.py, knob robot_sight_hold, MARL_CLAIM_SIGHT_HOLD=1; 2026-12-03): 0 forced "
-        "on 0-199, but without a hidden car 1.060 / 1.073 / 1.106 / 1.088 of the oracle's time "
-        "on 0-49 / 50-99 / 100-149 / 150-199, against <= 1.10. With the robot's model of the "
+        "on 0-299, but without a hidden car 1.060 / 1.073 / 1.106 / 1.088 / 1.071 / 1.081 of "
+        "the oracle's time on 0-49 / 50-99 / 100-149 / 150-199 / 200-249 / 250-299, against "
+        "<= 1.10. With the robot's model of the "
         "humans averaged over its speed estimate (2026-12-03) the forced seeds on 0-199 are "
         "the same"))),
     "oracle"])
