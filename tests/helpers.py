@@ -1,5 +1,5 @@
 """Helpers shared by the tests: small hand-made worlds for geometry tests, zero actions, bitwise
-equality of arrays, the seeds of the many-seed claims."""
+equality of arrays, the seeds of the many-seed claims, hand-made observations for trackers."""
 
 from __future__ import annotations
 
@@ -11,6 +11,7 @@ import numpy as np
 from marl_social.envs.world import World
 from marl_social.scenarios.base import ScenarioLayout, ScenarioParams
 from marl_social.sim.agent_spec import AgentSpec, SensorParams
+from marl_social.sim.observation import EGO_DIM, SLOT_FIELDS, SLOT_INDEX, ObservationLayout
 from marl_social.sim.road_map import RoadMap, Route
 
 
@@ -77,3 +78,19 @@ def claim_seeds(default_n: int = 50) -> range:
         raise ValueError(f"MARL_CLAIM_SEEDS must be >= 1 and MARL_CLAIM_SEED0 >= 0, got "
                          f"{values['MARL_CLAIM_SEEDS']} and {values['MARL_CLAIM_SEED0']}")
     return range(values["MARL_CLAIM_SEED0"], values["MARL_CLAIM_SEED0"] + values["MARL_CLAIM_SEEDS"])
+
+
+def slot_observation(layout: ObservationLayout, objects):
+    """The decoded observation of `layout` with the given objects in its slots.
+
+    objects: (id, x, y, vx, vy) tuples [m, m/s], each a 4.5 m x 1.8 m car.
+    """
+    vec = np.zeros(layout.size, dtype=np.float32)
+    for k, (oid, x, y, vx, vy) in enumerate(objects):
+        base = EGO_DIM + k * len(SLOT_FIELDS)
+        vec[base + SLOT_INDEX["present"]] = 1.0
+        vec[base + SLOT_INDEX["id"]] = oid
+        vec[base + SLOT_INDEX["x"]], vec[base + SLOT_INDEX["y"]] = x, y
+        vec[base + SLOT_INDEX["vx"]], vec[base + SLOT_INDEX["vy"]] = vx, vy
+        vec[base + SLOT_INDEX["length"]], vec[base + SLOT_INDEX["width"]] = 4.5, 1.8
+    return layout.decode(vec)

@@ -400,8 +400,7 @@ class SocialLikelihood:
         base = self.config.accel_noise_mps2
         if tracks.velocity_change_cov is None:
             return base
-        d = np.array([math.cos(heading_rad), math.sin(heading_rad)])
-        var_track = float(d @ tracks.velocity_change_cov[k] @ d) / DT_S ** 2
+        var_track = _variance_along(tracks.velocity_change_cov[k], heading_rad) / DT_S ** 2
         return math.sqrt(base * base + max(var_track, 0.0))
 
     def speed_std_mps(self, tracks: TrackSet, k: int, heading_rad: float,
@@ -422,8 +421,7 @@ class SocialLikelihood:
         if (not self.config.marginalize_speed or tracks.velocity_cov is None
                 or self._curve_speed(route) is None):
             return None
-        d = np.array([math.cos(heading_rad), math.sin(heading_rad)])
-        return math.sqrt(max(float(d @ tracks.velocity_cov[k] @ d), 0.0))
+        return math.sqrt(max(_variance_along(tracks.velocity_cov[k], heading_rad), 0.0))
 
     def beta_beliefs(self) -> dict:
         """{human name: (B,) belief over its rationality on config.beta_grid_hat}.
@@ -500,3 +498,9 @@ class SocialLikelihood:
         self._humans = current  # a human not seen this step starts afresh when seen again
         n, n_v = len(self.hypotheses), len(self.traffic_grid_mps)
         return np.array(out).reshape(-1, n, n_v), a_obs_all
+
+
+def _variance_along(cov: np.ndarray, heading_rad: float) -> float:
+    """d^T cov d of a (2, 2) covariance along the unit vector d of heading_rad [rad]."""
+    d = np.array([math.cos(heading_rad), math.sin(heading_rad)])
+    return float(d @ cov @ d)

@@ -13,6 +13,7 @@ from hypothesis import strategies as st
 
 from marl_social.perception.tracking import Tracker, white_noise_q
 from marl_social.sim.observation import EGO_DIM, SLOT_FIELDS, SLOT_INDEX, ObservationLayout
+from tests.helpers import slot_observation
 
 LAYOUT = ObservationLayout(n_slots=4, n_rays=4)
 F = SLOT_INDEX
@@ -20,15 +21,7 @@ F = SLOT_INDEX
 
 def _obs(objects):
     """An observation vector with the given objects: (id, x, y, vx, vy) tuples."""
-    vec = np.zeros(LAYOUT.size, dtype=np.float32)
-    for k, (oid, x, y, vx, vy) in enumerate(objects):
-        base = EGO_DIM + k * len(SLOT_FIELDS)
-        vec[base + F["present"]] = 1.0
-        vec[base + F["id"]] = oid
-        vec[base + F["x"]], vec[base + F["y"]] = x, y
-        vec[base + F["vx"]], vec[base + F["vy"]] = vx, vy
-        vec[base + F["length"]], vec[base + F["width"]] = 4.5, 1.8
-    return LAYOUT.decode(vec)
+    return slot_observation(LAYOUT, objects)
 
 
 def test_track_filters_noise_towards_the_true_motion():

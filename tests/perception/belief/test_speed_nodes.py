@@ -13,7 +13,7 @@ import math
 import numpy as np
 import pytest
 
-from marl_social.perception.belief import HiddenAgentBelief
+from marl_social.perception.belief import BeliefConfig, HiddenAgentBelief
 from marl_social.perception.belief.action_model import (
     action_log_likelihood,
     speed_averaged_log_likelihood,
@@ -21,8 +21,10 @@ from marl_social.perception.belief.action_model import (
 )
 from marl_social.perception.belief.paths import LanePaths
 from marl_social.perception.tracking import Tracker
-from marl_social.sim.observation import EGO_DIM, SLOT_FIELDS, SLOT_INDEX, ObservationLayout
-from tests.perception.belief.crossing_world import turning_map
+from marl_social.sim.observation import ObservationLayout
+from marl_social.sim.road_map import Route
+from tests.helpers import slot_observation
+from tests.perception.belief.crossing_world import LANE_POINTS, turning_map
 
 TRACK_SPEED_STD_MPS = 0.09  # the tracker's steady velocity std along a car's path (measured)
 SIGMA_MPS2 = 1.2  # std of an acceleration read off the track (execution and track noise)
@@ -103,7 +105,7 @@ def test_the_tracks_velocity_covariance_matches_its_velocity_error():
     err, std = [], []
     for k in range(100):
         true = start + velocity * 0.1 * k
-        tracks = tracker.update(_obs([
+        tracks = tracker.update(slot_observation(LAYOUT, [
             (i + 1, *(true[i] + rng.normal(0.0, 0.05, 2)),
              *(velocity[i] + rng.normal(0.0, 0.1, 2))) for i in range(n_cars)]))
         cov = tracks.velocity_cov
@@ -118,31 +120,15 @@ def test_the_tracks_velocity_covariance_matches_its_velocity_error():
     assert reported < 0.2 and 0.5 < rms / reported < 2.0, (rms, reported)
 
 
-def _obs(objects):
-    """An observation with the given objects: (id, x, y, vx, vy) tuples."""
-    vec = np.zeros(LAYOUT.size, dtype=np.float32)
-    for k, (oid, x, y, vx, vy) in enumerate(objects):
-        base = EGO_DIM + k * len(SLOT_FIELDS)
-        vec[base + SLOT_INDEX["present"]] = 1.0
-        vec[base + SLOT_INDEX["id"]] = oid
-        vec[base + SLOT_INDEX["x"]], vec[base + SLOT_INDEX["y"]] = x, y
-        vec[base + SLOT_INDEX["vx"]], vec[base + SLOT_INDEX["vy"]] = vx, vy
-        vec[base + SLOT_INDEX["length"]], vec[base + SLOT_INDEX["width"]] = 4.5, 1.8
-    return LAYOUT.decode(vec)
-
 
 def test_the_model_is_averaged_over_the_speed_only_on_a_route_with_a_bend():
     """SocialLikelihood.speed_std_mps: the track's speed std along the route on the
     left-turner's path (a curve speed), None on a straight lane (the model at the estimate)
     and with BeliefConfig.marginalize_speed off."""
-    from marl_social.perception.belief import BeliefConfig
-    from marl_social.sim.road_map import Route
-    from tests.perception.belief.crossing_world import LANE_POINTS
-
     belief, route = _left_turner()
     tracker = Tracker()
     for k in range(10):
-        tracks = tracker.update(_obs([(1, 54.0, -4.0 - 0.6 * k, 0.0, -6.0)]))
+        tracks = tracker.update(slot_observation(LAYOUT, [(1, 54.0, -4.0 - 0.6 * k, 0.0, -6.0)]))
     heading = -0.5 * math.pi
     std = belief.social.speed_std_mps(tracks, 0, heading, route)
     assert std is not None and std == pytest.approx(math.sqrt(tracks.velocity_cov[0, 1, 1]))
