@@ -273,7 +273,8 @@ def curvature_speed_bound(vertex_s, vertex_kappa, s_lo, s_hi, window_m, lat_acce
 
     Per step k: kappa_k = the largest curvature of the vertices within [s_lo_k - window,
     s_hi_k + window] (0 where there is none; np.max: a NaN stays), the bound
-    sqrt(a_lat / kappa_k) (division by zero: inf, numpy's error model), out_k =
+    sqrt(a_lat / (kappa_k + 0.0)) (division by zero: inf, numpy's error model; -0.0 counts as
+    +0.0), out_k =
     np.minimum(bound, v_cap) (_np_minimum).
 
     Args:
@@ -298,7 +299,9 @@ def curvature_speed_bound(vertex_s, vertex_kappa, s_lo, s_hi, window_m, lat_acce
             near = vertex_s[v] >= lo and vertex_s[v] <= hi
             value = vertex_kappa[v] if near else 0.0
             kappa = value if v == 0 else _np_maximum(kappa, value)
-        bound = math.sqrt(lat_accel_max_mps2 / kappa)
+        # + 0.0: a zero curvature of either sign is straight (which of +-0 a max returns
+        # depends on numpy's reduction order; route_curvature's |kappa| is never -0.0)
+        bound = math.sqrt(lat_accel_max_mps2 / (kappa + 0.0))
         curved = curved or math.isfinite(bound)
         out[k] = _np_minimum(bound, v_cap_mps)
     return curved

@@ -9,7 +9,7 @@ objects shared by every hypothesis or not, some with NaN, on a straight or bent 
 from __future__ import annotations
 
 import numpy as np
-from hypothesis import given, settings
+from hypothesis import example, given, settings
 from hypothesis import strategies as st
 
 from marl_social.agents.robot.corridor import PathObject, objects_on_path, occupied_spans
@@ -236,19 +236,21 @@ def test_provably_infeasible_matches_numpy(seed, n_branches, n_steps, special):
 def _reference_curvature_speed_bound(vertex_s, vertex_kappa, s_lo, s_hi, window_m,
                                      lat_accel_max_mps2, v_cap_mps):
     """corridor.curvature_speed_bound's numpy as it stood, and ContingencyMpc._speed_bound's
-    cap and curve test on it."""
+    cap and curve test on it; a zero curvature of either sign counts as +0.0 (straight: which
+    of +-0 np.max returns depends on its reduction order, found by hypothesis with seed 9)."""
     if len(vertex_kappa) == 0:
         bound = np.full(len(s_lo), np.inf)
     else:
         near = ((vertex_s[None] >= s_lo[:, None] - window_m)
                 & (vertex_s[None] <= s_hi[:, None] + window_m))
-        kappa = np.where(near, vertex_kappa[None], 0.0).max(axis=1)
+        kappa = np.where(near, vertex_kappa[None], 0.0).max(axis=1) + 0.0
         with np.errstate(divide="ignore"):
             bound = np.sqrt(lat_accel_max_mps2 / kappa)
     return np.minimum(bound, v_cap_mps), bool(np.isfinite(bound).any())
 
 
 @settings(max_examples=300, deadline=None)
+@example(9, 9, 15, True)  # seed 9: a -0.0 curvature is the largest near a step
 @given(SEEDS, st.integers(0, 20), st.integers(1, 30), st.booleans())
 def test_curvature_speed_bound_matches_numpy_bit_for_bit(seed, n_vertices, n_steps, special):
     from marl_social.agents.robot.corridor import curvature_speed_bound, route_curvature
