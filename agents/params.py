@@ -85,7 +85,8 @@ class RobotModelParams:
             before the zone if it comfortably can (BeliefConfig.human_expects_yield).
         sight_hold: pulling out of a stop sign, it holds short of a lane it cannot see while
             a hidden car may come and a human that will tell is still coming
-            (agents/robot/sight_hold.py).
+            (agents/robot/sight_hold.py; the intersection scenarios' knob robot_sight_hold,
+            on by default there).
     """
 
     theta_hat: CostWeights | None = None

@@ -204,7 +204,7 @@ class RobotPlanner:
                 and road_map.signal_plan is None and bool((~self._present).any()))
         self.sight_hold = SightHold(
             self.right_of_way, self.belief.social, hold, veh.length_m, self.mpc.plan_dt_s,
-            self.mpc.epsilon,
+            self.mpc.epsilon, self.stop_signs.config,
             sight_hold_config or SightHoldConfig(comfort_decel_mps2=self.mpc.comfort_decel_mps2))
         self._hidden_vehicle = self._present & self._vehicle
         self._none_index = int(np.argmin(self._present))  # the "none" hypothesis
@@ -332,13 +332,16 @@ class RobotPlanner:
         stop_at = min(self.stop_signs.update(s0, v, DT_S),
                       self.signal_stops.update(s0, v, DT_S, decoded.signal_states()))
         claims = self.right_of_way.claims(scene, s0, v, self._times)
-        # short of a lane it cannot see, it waits for a human that will tell (sight_hold.py)
-        stop_at = min(stop_at, self.sight_hold.stop_at(claims, weights, self._hidden_vehicle,
-                                                       self._none_index, tracks, s0, v))
+        # short of a lane it cannot see, it waits for a human that will tell, pulled up to
+        # where it holds (sight_hold.py)
+        hold_at = self.sight_hold.stop_at(claims, weights, self._hidden_vehicle,
+                                          self._none_index, tracks, s0, v)
+        pull_up = (self.sight_hold.pull_up_to(hold_at, s0, v) if hold_at < stop_at
+                   else pull_up_target(stop_at, s0, v, self.stop_signs.config))
+        stop_at = min(stop_at, hold_at)
         result = self.solver.plan(self.route, s0, v, self.prev_accel, self.v_ref(),
                                   self.road_map.speed_limit_mps, scene, weights,
-                                  self._static_boxes, stop_at, contingent, claims,
-                                  pull_up_target(stop_at, s0, v, self.stop_signs.config))
+                                  self._static_boxes, stop_at, contingent, claims, pull_up)
         self.last_result = result
         self.prev_accel = result.accel_mps2
         steer = pure_pursuit(self.route, x, y, psi, v, s0, self.spec.vehicle.wheelbase_m)

@@ -31,9 +31,10 @@ from marl_social.evaluation.reproduce import (
 )
 
 SCENARIO = "t_intersection"
-PLANNERS = ("social", "aggressive", "conservative", "oracle", "social+hold")
+PLANNERS = ("social", "aggressive", "conservative", "oracle", "social-no-hold")
 # a table row that is a robot planner with scenario overrides: its name -> (planner, overrides)
-ROW_PLANNERS = {"social+hold": ("social", {"robot_sight_hold": True})}  # agents/robot/sight_hold
+# "social-no-hold": the social robot without the sight hold (agents/robot/sight_hold.py)
+ROW_PLANNERS = {"social-no-hold": ("social", {"robot_sight_hold": False})}
 VARIANTS = ("near", "far", "none")
 FIGURES = (
     ("t_social_near", "social", "near"),
@@ -186,7 +187,7 @@ def run_table(n_seeds: int, workers: int = 2, planners=PLANNERS, variants=VARIAN
     """One row per (planner, variant): rates and means over n_seeds randomized episodes.
 
     A planner may be a robot planner's name or a key of ROW_PLANNERS (a planner with
-    scenario overrides, e.g. "social+hold": the social robot with robot_sight_hold).
+    scenario overrides, e.g. "social-no-hold": the social robot without robot_sight_hold).
     """
     cells = [(p, v, s) for p in planners for v in variants for s in range(n_seeds)]
     jobs = [(planner, v, s, MAX_CYCLES, overrides) for p, v, s in cells

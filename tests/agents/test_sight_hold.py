@@ -3,7 +3,8 @@
 agents/robot/sight_hold.py: while the hidden cars that would claim the merge within 3 s weigh
 >= epsilon together (each progress x speed bin below it) and a tracked car can still stop
 comfortably short of a zone where it gives way to the same traffic, the robot's centre stays
-where its front is hold_gap_m short of the merge zone (the scenario knob robot_sight_hold).
+where its front is hold_gap_m short of the merge zone, pulled up to it (the scenario knob
+robot_sight_hold, on by default).
 """
 
 from __future__ import annotations
@@ -17,6 +18,7 @@ import marl_social
 from marl_social.agents.robot.mpc_types import MpcConfig
 from marl_social.agents.robot.right_of_way import RightOfWay
 from marl_social.agents.robot.sight_hold import SightHold, SightHoldConfig
+from marl_social.agents.robot.stop import StopSignConfig
 from marl_social.evaluation.reproduce_intersection import randomized_overrides
 from marl_social.evaluation.run import run_episode
 from marl_social.models.candidates import ScenePrediction
@@ -45,7 +47,7 @@ def _hold(layout, enabled: bool = True, **config) -> SightHold:
     road_map = layout.road_map
     row = RightOfWay(road_map.routes["robot_0"], road_map, CAR.length_m)
     return SightHold(row, layout.social, enabled, CAR.length_m, MPC.plan_dt_s, MPC.epsilon,
-                     SightHoldConfig(**config))
+                     StopSignConfig(), SightHoldConfig(**config))
 
 
 def _claims(hold: SightHold, layout, x0_m: list[float]):
@@ -145,9 +147,9 @@ def _front_gap(result) -> np.ndarray:
 
 def test_the_robot_waits_for_the_left_turner_instead_of_rolling_out_in_front_of_v3():
     """Seed 34 of the claims: the left-turner 15 m from its turn shows nothing of V3 (V3 passes
-    first). Without the hold (the default) the social robot rolls out on its prior at 2 m/s, V3
-    sees it first and brakes at 6-8 m/s^2; with it, it stands 2.5 m short of the lane until it
-    sees V3."""
+    first). Without the hold (robot_sight_hold=False) the social robot rolls out on its prior
+    at 2 m/s, V3 sees it first and brakes at 6-8 m/s^2; with it, it pulls up to 2.5 m short of
+    the lane and stands there until it sees V3."""
     overrides = {**randomized_overrides(34), "robot_sight_hold": True}
     near = run_episode("t_intersection", seed=34, robot_planner="social", hidden_vehicle="near",
                        max_cycles=60, **overrides)
@@ -157,26 +159,29 @@ def test_the_robot_waits_for_the_left_turner_instead_of_rolling_out_in_front_of_
     seen = np.flatnonzero(trace.visible[:, trace.index("robot_0"), v3])[0]
     gap = _front_gap(near)
     assert np.all(gap[:seen + 1] >= 2.5 - MPC.position_tolerance_m)
+    # stopped at its line 3.45 m short, it pulls up to the hold point (creeping on at < 0.1
+    # m/s it would still stand ~3.4 m short when it sees V3) and waits there
+    assert gap[:seen + 1].min() <= 2.5 + SightHoldConfig().at_point_m
     # it is the left-turner it waits for: with no left-turner it goes on its prior
     alone = run_episode("t_intersection", seed=34, robot_planner="social",
                         hidden_vehicle="none", max_cycles=30, **{**overrides, "n_humans": 0})
     assert _front_gap(alone).min() < 2.0
-    # the default planner does not hold: it rolls out in front of V3
+    # without the hold it rolls out in front of V3
     rolls = run_episode("t_intersection", seed=34, robot_planner="social", hidden_vehicle="near",
-                        max_cycles=30, **randomized_overrides(34))
+                        max_cycles=30, **{**overrides, "robot_sight_hold": False})
     assert rolls.metrics["others_max_decel_mps2"] > 3.0
 
 
 def test_the_knob_turns_it_on_at_a_stop_sign_only():
-    """robot_sight_hold (off by default) reaches the planner; at a signal it never holds."""
+    """robot_sight_hold (on by default) reaches the planner; at a signal it never holds."""
     def active(scenario, **knobs):
         env = marl_social.parallel_env(scenario=scenario, **knobs)
         policy = marl_social.policies(env)["robot_0"]
         env.close()
         return policy.sight_hold.active
 
-    assert active("t_intersection", robot_sight_hold=True)
-    assert not active("t_intersection")
-    assert not active("signalized_intersection", robot_sight_hold=True)
+    assert active("t_intersection")
+    assert not active("t_intersection", robot_sight_hold=False)
+    assert not active("signalized_intersection")
     with pytest.raises(TypeError, match="robot_sight_hold: expected a bool"):
         marl_social.parallel_env(scenario="t_intersection", robot_sight_hold="yes")
