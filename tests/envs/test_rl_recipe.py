@@ -8,14 +8,15 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-pytest.importorskip("stable_baselines3")
-pytest.importorskip("supersuit")
-
 EXAMPLE = Path(__file__).resolve().parents[2] / "examples" / "train_robot_ppo.py"
 
 
 @pytest.fixture(scope="module")
 def recipe():
+    # skipped without the [rl] extra; imported here, not at collection: stable_baselines3
+    # imports torch (~2 s), which every xdist worker would otherwise pay to collect this file
+    pytest.importorskip("stable_baselines3")
+    pytest.importorskip("supersuit")
     spec = importlib.util.spec_from_file_location("train_robot_ppo", EXAMPLE)
     module = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(module)
@@ -36,6 +37,7 @@ def test_seeded_vector_env_repeats_and_seeds_differ(recipe):
     assert not np.array_equal(runs[0], runs[2])
 
 
+@pytest.mark.slow  # ~10 s: 2048 PPO steps through SuperSuit
 def test_a_short_ppo_run_trains_and_evaluates(recipe):
     model, vec = recipe.train(2048, n_envs=2, seed=0, max_cycles=100)
     assert model.num_timesteps >= 2048
