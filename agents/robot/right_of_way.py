@@ -17,22 +17,24 @@ which a car reaching the zone means the robot did not give way, metrics/physical
 So the contingency MPC gives way to every car it believes may come, weighed by its belief, and
 pulls out only where it can clear the zone well before the car arrives.
 
-A *merge* (the robot's route leaves the zone along one of its priority lanes: a right turn
-into the lane of the traffic it yields to) is car following, not a crossing: the car with the
-right of way ends up behind or ahead of the robot in the same lane. Its claim is the car
-itself, its predicted position along the lane mapped onto the robot's route (from the step its
-front reaches the zone on): "behind", the robot follows it (front `min_gap_m` short of its
-rear); "past", the robot's rear stays `min_gap_m` ahead of where the car's front would be if it
-kept its speed until the robot's front can first be in its lane (`RightOfWay.lane_entry_s`:
-from the robot's speed at its acceleration limit, round the bend at its curve speed) plus
-`follower_reaction_s`, and then slowed for the robot at `follower_decel_mps2` (a gap a
-follower keeps by braking at most that hard: once it has slowed to the robot's speed it only
-follows). The robot merges in front of a car only where that car need not brake harder than a
-comfortable follower does. The simulated followers react to the robot as it straightens into
-their lane, not as it pulls out: in the signalized intersection's claims, their braking began
-within 0.4 s of the robot's heading coming within 15 degrees of the lane's, 3.7-6.6 s after it
-pulled out (a follower modelled as braking 2 s after each plan's start let the robot merge
-where the follower then braked at 3-6 m/s^2, in 14 of 300 fresh seeds).
+A *merge* (the robot's route leaves the zone along one of its priority lanes: a right turn into
+the lane of the traffic it yields to) is car following, not a crossing: the car with the right
+of way ends up behind or ahead of the robot in the same lane. Its claim is the car itself, its
+predicted position along the lane mapped onto the robot's route (from the step its front reaches
+the zone on): "behind", the robot follows it (front `min_gap_m` short of its rear, and of the
+zone while its rear is short of the zone: mapped onto the robot's route before the join, the
+rear would lie on the robot's approach, not on the car's lane); "past", the robot's rear stays
+`min_gap_m` ahead of where the car's front would be if it kept its speed until the robot's front
+can first be in its lane (`RightOfWay.lane_entry_s`: from the robot's speed at its acceleration
+limit, round the bend at its curve speed) plus `follower_reaction_s`, and then slowed for the
+robot at `follower_decel_mps2` (a gap a follower keeps by braking at most that hard: once it has
+slowed to the robot's speed it only follows). The robot merges in front of a car only where that
+car need not brake harder than a comfortable follower does. The simulated followers react to the
+robot as it straightens into their lane, not as it pulls out: in the signalized intersection's
+claims, their braking began within 0.4 s of the robot's heading coming within 15 degrees of the
+lane's, 3.7-6.6 s after it pulled out (a follower modelled as braking 2 s after each plan's
+start let the robot merge where the follower then braked at 3-6 m/s^2, in 14 of 300 fresh
+seeds).
 
 A zone the robot's front has entered by more than `committed_m` is not claimed against it any
 more: it is committed and clears the zone (stopping inside would block the car with the right
@@ -166,8 +168,9 @@ class RightOfWay:
         Returns:
             L lists of PathObject (one per claiming car and zone). A crossing: s_rear_m = the
             zone's s_enter_m, s_front_m = its s_exit_m along the robot's route. A merge: the
-            car along the robot's route (s_rear_m its rear, s_front_m where its front is if
-            it slows for the robot; module docstring), pass_margin False.
+            car along the robot's route (s_rear_m its rear, at least the zone's s_enter_m;
+            s_front_m where its front is if it slows for the robot; module docstring),
+            pass_margin False.
         """
         n_hyp, n_obj = scene.mask.shape
         out: list[list[PathObject]] = [[] for _ in range(n_hyp)]
@@ -259,9 +262,15 @@ class RightOfWay:
         yielding_front = front[:, :1] + advance
         # it has reached the zone; a car already past the join is a car ahead (the corridor's)
         claimed = (front >= conflict.s_enter_m) & (rear[:, :1] <= conflict.s_exit_m)  # (W, N)
+        # following it, the robot's front stays short of its rear, and of the zone until its rear
+        # is in there: before the join, the car's rear mapped onto the robot's route lies on
+        # the robot's approach, not on the car's lane (measured: a robot rolling past its sight
+        # hold point, 2.3 m short of the zone, could not stay a car length short of it once a
+        # hidden-car branch became live and braked at 8 m/s^2)
+        follow = np.maximum(rear, conflict.s_enter_m)
         made = [None] * len(claimed)
         for p, first, last in occupied_spans(claimed):
-            made[p] = PathObject(claimed[p], rear[p], yielding_front[p], first, last,
+            made[p] = PathObject(claimed[p], follow[p], yielding_front[p], first, last,
                                  pass_margin=False)
         return made
 

@@ -53,7 +53,7 @@ class IntersectionParams(ScenarioParams):
         robot_sight_hold: a belief-based robot pulling out of a stop sign holds short of the
             lane it cannot see while a hidden car may come and a human that will tell is still
             coming (agents/robot/sight_hold.py; True, the default). False: it rolls out as its
-            MPC plans (and forced V3 to brake hard in 8 of 200 `near` seeds of the
+            MPC plans (and forced V3 to brake hard in 4 of 50 `near` seeds of the
             T-intersection). It never holds at a signal.
         speed_limit_mps: legal limit [m/s].
     """

@@ -63,10 +63,17 @@ def test_an_eastbound_car_claims_the_merge_in_its_own_hypothesis_only(layout):
     assert len(claims[0]) == 1 and claims[1] == [] and claims[2] == []
     obj = claims[0][0]
     assert not obj.pass_margin
-    # its rear along the robot's route advances at its speed; claimed from its front's arrival
+    # its rear along the robot's route advances at its speed; following it, the robot stays
+    # short of the zone until that rear is in there (before the join the rear mapped onto the
+    # robot's route lies on the robot's approach, not on the car's lane); claimed from its
+    # front's arrival
     dt = np.diff(TIMES)
-    assert np.allclose(np.diff(obj.s_rear_m) / dt, 11.0, atol=1e-6)
-    front = obj.s_rear_m + CAR.length_m
+    entered = obj.s_rear_m > conflict.s_enter_m
+    assert entered[-1] and not entered[obj.k_first]
+    k_in = int(np.argmax(entered))
+    rear = obj.s_rear_m[k_in] + 11.0 * (TIMES - TIMES[k_in])  # the car's rear [m]
+    assert np.allclose(obj.s_rear_m, np.maximum(rear, conflict.s_enter_m), atol=1e-6)
+    front = rear + CAR.length_m
     assert obj.k_first == np.flatnonzero(front >= conflict.s_enter_m)[0]
     assert obj.k_last == len(TIMES) - 1
     # the front the robot must stay ahead of: the car keeping its speed until the robot's
@@ -154,7 +161,12 @@ def _plan_at_the_line(layout, x0: float, speed_mps: float):
     front = s0 + result.progress_plan[0] + 0.5 * CAR.length_m
     plain = mpc.plan(route, s0, 0.0, 0.0, 11.0, road_map.speed_limit_mps, scene, np.ones(1))
     plain_front = s0 + plain.progress_plan[0] + 0.5 * CAR.length_m
-    car_front = None if obj is None else obj.s_rear_m + CAR.length_m
+    # the car's front along the robot's route (its lane position mapped past the join; the
+    # claim's s_rear_m is never short of the zone, a robot following it stays out of the zone)
+    lane, s_join = row.merges[0]
+    s_lane, _ = lane.project_xy(scene.xy[0, 0, :, 0], scene.xy[0, 0, :, 1])
+    car_front = (None if obj is None
+                 else conflict.s_exit_m + (s_lane - s_join) + 0.5 * CAR.length_m)
     return front, result.speed_plan[0], car_front, conflict.s_enter_m, obj, plain_front
 
 
@@ -202,3 +214,27 @@ def test_the_mpc_merges_in_front_of_a_car_only_where_it_need_not_brake_hard():
         else:
             waited += 1
     assert merged >= 3 and waited >= 3, (merged, waited)
+
+
+def test_a_robot_rolling_up_to_the_zone_stops_short_of_it_comfortably_for_a_car(layout):
+    """Rolling at 1.6 m/s, its front 2.3 m short of the zone (just past its sight-hold point),
+    a car 35 m west at 12 m/s: the robot can stop short of the zone at under 1 m/s^2, and its
+    plan does, then follows the car. Mapped onto the robot's route before the join, the car's
+    rear lies on the robot's approach: staying a car length short of it was infeasible, and the
+    robot braked at its limit (seed 7 of the T-intersection claims, a hidden-car branch)."""
+    road_map, route, row = _robot(layout)
+    conflict = row.conflicts[0]
+    config = MpcConfig()
+    s0 = conflict.s_enter_m - 0.5 * CAR.length_m - 2.3
+    scene = _car_scene([-35.0], EASTBOUND_Y_M, 12.0)
+    claims = row.claims(scene, s0, 1.6, TIMES)
+    (obj,) = claims[0]
+    result = ContingencyMpc(config, CAR).plan(route, s0, 1.6, 0.0, 11.0,
+                                              road_map.speed_limit_mps, scene, np.ones(1),
+                                              None, np.inf, extra_objects=claims)
+    assert result.feasible and not result.jerk_relaxed
+    assert result.accel_mps2 >= -config.comfort_decel_mps2
+    front = s0 + result.progress_plan[0] + 0.5 * CAR.length_m
+    assert np.all(front[obj.k_first:] <= np.maximum(obj.s_rear_m[obj.k_first:], 0.0)
+                  - config.min_gap_m + config.position_tolerance_m)
+    assert front[obj.k_first] <= conflict.s_enter_m
