@@ -167,7 +167,7 @@ def run_env_benchmark(agent_counts=(3, 10, 30, 100), n_steps: int = 500, peer: b
     if vector:
         from marl_social.bench.vector_bench import bench_vector
 
-        rows.append(bench_vector(n_steps=600, echo=echo))
+        rows.append(bench_vector(echo=echo))
     seconds = import_time_s()
     echo(f"import marl_social: {seconds:.2f} s (fastest of 3 fresh interpreters; goal < 1 s)")
     rows.append({"configuration": "import marl_social", "import_s": seconds})

@@ -1,81 +1,212 @@
-"""Benchmark (never a timed unit test): vector_env throughput vs one autopilot env.
+"""Benchmark (never a timed unit test): vector_env throughput vs the same work in one env.
 
 The single-agent autopilot env (`AutopilotGymEnv`: the robot is the user's, every other agent
-runs its built-in planner) is stepped with seeded random robot actions, first alone in this
-process, then as n copies of a vector_env on 2 processes (this one and a child,
-marl_social/envs/batched.py): 2 copies (one per process) and 16 copies (blocks of 8 per process).
-Every rate counts env steps (one copy advancing one step = one step) per wall-clock second,
-resets included.
+runs its built-in planner) is stepped with seeded random robot actions. Both sides do the same
+work, episode for episode: n copies, copy i seeded with seed + i, each making the same number
+of steps with the same actions (a finished copy resets itself on its next step, as a vector
+env does). The single rate runs the copies one after the other in one env in this process;
+the vector rate runs them as a vector_env on 2 processes (this one and a child,
+marl_social/envs/batched.py): 2 copies (one per process) and 16 copies (blocks of 8 per
+process). Every rate counts env steps (one copy advancing one step = one step) per wall-clock
+second, resets included, after a warm-up that pays each process's first-use costs.
+
+Why the same work: a copy's step costs more early in an episode (more agents alive), so a
+short vector run of many copies against a long single-env run compares different work.
 """
 
 from __future__ import annotations
 
+import multiprocessing
 import time
+
+import numpy as np
 
 from marl_social.envs.vector import AutopilotGymEnv, vector_env
 
+_WARM_UP_SEED = 10**6  # the warm-up episode's seed, apart from the timed ones
 
-def single_env_steps_per_s(n_steps: int, seed: int = 0, **env_kwargs) -> float:
-    """Steps/s of one AutopilotGymEnv in this process, random controlled actions."""
+
+def random_actions(space, n_envs: int, n_steps: int, seed: int) -> np.ndarray:
+    """(n_steps, n_envs, *space.shape) actions drawn uniformly in one copy's Box `space`."""
+    rng = np.random.default_rng(seed)
+    return rng.uniform(space.low, space.high,
+                       (n_steps, n_envs, *space.shape)).astype(space.dtype)
+
+
+def _warmed_env(actions: np.ndarray, **env_kwargs) -> AutopilotGymEnv:
+    """An AutopilotGymEnv that has paid this process's first-use costs (a few steps)."""
     env = AutopilotGymEnv(**env_kwargs)
-    env.action_space.seed(seed)
-    env.reset(seed=seed)
-    for _ in range(5):  # warm-up
-        env.step(env.action_space.sample())
+    env.reset(seed=_WARM_UP_SEED)
+    for k in range(3):
+        env.step(actions[k, 0])
+    return env
+
+
+def _step_copies(env: AutopilotGymEnv, actions: np.ndarray, seed: int,
+                 copies: range) -> np.ndarray:
+    """(len(copies),) reward sums of `copies` run one after the other in `env`.
+
+    Copy i: reset(seed=seed + i), then the steps of `actions[:, i]` (T, 2); a finished episode
+    resets on the next step instead of stepping, as in a vector env.
+    """
+    reward_sums = np.zeros(len(copies))
+    for k, i in enumerate(copies):
+        env.reset(seed=seed + i)
+        done = False
+        for action in actions[:, i]:
+            if done:
+                env.reset()
+                done = False
+                continue
+            _, reward, terminated, truncated, _ = env.step(action)
+            reward_sums[k] += reward
+            done = terminated or truncated
+    return reward_sums
+
+
+def single_env_steps_per_s(n_envs: int, n_steps: int, seed: int = 0,
+                           **env_kwargs) -> tuple[float, np.ndarray]:
+    """(steps/s, (n_envs,) reward sums) of n_envs copies' work, one after the other in one env.
+
+    Copy i: reset(seed=seed + i), then n_steps of `random_actions`' column i.
+    """
+    probe = AutopilotGymEnv(**env_kwargs)
+    actions = random_actions(probe.action_space, n_envs, n_steps, seed)
+    probe.close()
+    env = _warmed_env(actions, **env_kwargs)
     start = time.perf_counter()
-    for _ in range(n_steps):
-        _, _, terminated, truncated, _ = env.step(env.action_space.sample())
-        if terminated or truncated:
-            env.reset()
+    reward_sums = _step_copies(env, actions, seed, range(n_envs))
     seconds = time.perf_counter() - start
     env.close()
-    return n_steps / seconds
+    return n_envs * n_steps / seconds, reward_sums
+
+
+def _independent_block(go, answers, actions, seed, copies, env_kwargs) -> None:
+    """A child of `independent_steps_per_s`: warm up, wait for `go`, step its copies."""
+    env = _warmed_env(actions, **env_kwargs)
+    go.wait()
+    reward_sums = _step_copies(env, actions, seed, copies)
+    answers.put((copies.start, reward_sums, time.perf_counter()))
+    env.close()
+
+
+def independent_steps_per_s(n_envs: int, n_steps: int, seed: int = 0, workers: int = 2,
+                            **env_kwargs) -> tuple[float, np.ndarray]:
+    """(steps/s, (n_envs,) reward sums) of the same work on processes that never wait.
+
+    Each of the `workers` processes runs its block of copies alone, start to end. The most any vector env of `workers` processes could reach on this machine: what is left
+    between it and vector_env is the vector env's own (every vector step waits for the slower
+    block). Wall time runs from the common start until the last process is done.
+    """
+    probe = AutopilotGymEnv(**env_kwargs)
+    actions = random_actions(probe.action_space, n_envs, n_steps, seed)
+    probe.close()
+    context = multiprocessing.get_context("fork")
+    go, answers = context.Event(), context.Queue()
+    bounds = [(w * n_envs) // workers for w in range(workers + 1)]
+    processes = [context.Process(target=_independent_block, daemon=True,
+                                 args=(go, answers, actions, seed,
+                                       range(bounds[w], bounds[w + 1]), env_kwargs))
+                 for w in range(workers)]
+    for process in processes:
+        process.start()
+    time.sleep(2.0)  # the children warm up (a few hundred ms) before the start
+    start = time.perf_counter()
+    go.set()
+    reward_sums, end = np.zeros(n_envs), start
+    for _ in processes:
+        first, sums, finished = answers.get()
+        reward_sums[first:first + len(sums)] = sums
+        end = max(end, finished)
+    for process in processes:
+        process.join()
+    return n_envs * n_steps / (end - start), reward_sums
 
 
 def vector_env_steps_per_s(n_envs: int, n_steps: int, seed: int = 0, workers: int | None = None,
-                           **env_kwargs) -> float:
-    """Steps/s summed over n_envs copies of a vector_env on `workers` processes.
+                           **env_kwargs) -> tuple[float, np.ndarray]:
+    """(steps/s, (n_envs,) reward sums) of the same work as `single_env_steps_per_s`, in a vector_env.
 
-    Every copy makes n_steps steps; workers None: vector_env's default.
+    workers None: vector_env's default.
     """
     venv = vector_env(n_envs, workers=workers, **env_kwargs)
     try:
-        venv.action_space.seed(seed)
-        venv.reset(seed=seed)
-        for _ in range(5):  # warm-up
-            venv.step(venv.action_space.sample())
+        actions = random_actions(venv.single_action_space, n_envs, n_steps, seed)
+        venv.reset(seed=_WARM_UP_SEED)
+        for k in range(3):  # warm-up: every process's first-use costs
+            venv.step(actions[k])
+        reward_sums = np.zeros(n_envs)
         start = time.perf_counter()
-        for _ in range(n_steps):
-            venv.step(venv.action_space.sample())  # finished copies reset themselves
+        venv.reset(seed=seed)
+        for t in range(n_steps):
+            _, rewards, _, _, _ = venv.step(actions[t])  # finished copies reset themselves
+            reward_sums += rewards
         seconds = time.perf_counter() - start
     finally:
         venv.close()
-    return n_envs * n_steps / seconds
+    return n_envs * n_steps / seconds, reward_sums
 
 
-def bench_vector(n_envs: int = 16, workers: int = 2, n_steps: int = 300, echo=print,
-                 **env_kwargs) -> dict:
-    """Single env vs vector_env steps/s on the paper scenario (or env_kwargs).
+def bench_vector(n_envs: int = 16, workers: int = 2, n_steps: int = 150, rounds: int = 3,
+                 echo=print, **env_kwargs) -> dict:
+    """vector_env vs the same work in one env, on the paper scenario (or env_kwargs).
 
     vector_env(workers) (a copy per process) and vector_env(n_envs, workers=workers) (blocks
-    of copies per process), both on `workers` processes.
+    of copies per process), both on `workers` processes, every copy making n_steps steps. The
+    one-env and vector runs alternate for `rounds` rounds and each speed-up is the median of
+    the rounds' ratios: a shared machine's speed drifts by ~10-20 % between runs, and a ratio of
+    two runs made back to back drifts less than either rate.
 
     Returns:
         {"single_steps_per_s", "vector_steps_per_s", "n_envs", "workers", "speedup",
-        "one_per_process_steps_per_s", "one_per_process_speedup"}.
+        "one_per_process_steps_per_s", "one_per_process_speedup", "same_episodes",
+        "speedups", "one_per_process_speedups", "independent_speedup",
+        "independent_speedups"} (rates and speed-ups: medians over the rounds; the lists: every
+        round's ratio; independent: `independent_steps_per_s`, the machine's ceiling).
     """
     env_kwargs.setdefault("scenario", "occluded_crosswalk")
-    single = single_env_steps_per_s(n_steps, **env_kwargs)
-    per_process = vector_env_steps_per_s(workers, n_steps, workers=workers, **env_kwargs)
-    vector = vector_env_steps_per_s(n_envs, max(30, n_steps * workers // n_envs),
-                                    workers=workers, **env_kwargs)
+    runs = {key: [] for key in ("pair_single", "pair_vector", "single", "vector",
+                                "independent")}
+    same = True
+    for _ in range(rounds):
+        pair_single, pair_single_rewards = single_env_steps_per_s(workers, n_steps, **env_kwargs)
+        pair_vector, pair_vector_rewards = vector_env_steps_per_s(workers, n_steps,
+                                                                  workers=workers, **env_kwargs)
+        single, single_rewards = single_env_steps_per_s(n_envs, n_steps, **env_kwargs)
+        vector, vector_rewards = vector_env_steps_per_s(n_envs, n_steps, workers=workers,
+                                                        **env_kwargs)
+        independent, independent_rewards = independent_steps_per_s(n_envs, n_steps,
+                                                                   workers=workers, **env_kwargs)
+        same &= bool(np.array_equal(single_rewards, vector_rewards)
+                     and np.array_equal(single_rewards, independent_rewards)
+                     and np.array_equal(pair_single_rewards, pair_vector_rewards))
+        for key, rate in zip(runs, (pair_single, pair_vector, single, vector, independent)):
+            runs[key].append(rate)
+    rates = {key: np.asarray(values) for key, values in runs.items()}
+    speedups = rates["vector"] / rates["single"]
+    pair_speedups = rates["pair_vector"] / rates["pair_single"]
+    ceilings = rates["independent"] / rates["single"]
     row = {"configuration": f"vector_env({n_envs}, workers={workers}) {env_kwargs['scenario']}",
-           "n_envs": n_envs, "workers": workers, "single_steps_per_s": single,
-           "vector_steps_per_s": vector, "speedup": vector / single,
-           "one_per_process_steps_per_s": per_process,
-           "one_per_process_speedup": per_process / single}
-    echo(f"autopilot env ({env_kwargs['scenario']}, robot random, others on their planners): "
-         f"1 env {single:.1f} steps/s; on {workers} processes: vector_env({workers}) "
-         f"{per_process:.1f} steps/s = {per_process / single:.2f}x, vector_env({n_envs}) "
-         f"{vector:.1f} steps/s = {vector / single:.2f}x")
+           "n_envs": n_envs, "workers": workers,
+           "single_steps_per_s": float(np.median(rates["single"])),
+           "vector_steps_per_s": float(np.median(rates["vector"])),
+           "speedup": float(np.median(speedups)), "speedups": speedups.tolist(),
+           "one_per_process_steps_per_s": float(np.median(rates["pair_vector"])),
+           "one_per_process_speedup": float(np.median(pair_speedups)),
+           "one_per_process_speedups": pair_speedups.tolist(), "same_episodes": same,
+           "independent_speedup": float(np.median(ceilings)),
+           "independent_speedups": ceilings.tolist()}
+    echo(f"autopilot env ({env_kwargs['scenario']}, robot random, others on their planners; "
+         f"{n_steps} steps per copy, the same episodes in one env and on {workers} processes"
+         f"{'' if same else ' -- REWARDS DIFFER'}; median of {rounds} rounds):")
+    echo(f"  vector_env({workers}) {row['one_per_process_steps_per_s']:.1f} steps/s = "
+         f"{row['one_per_process_speedup']:.2f}x one env (rounds "
+         f"{', '.join(f'{r:.2f}' for r in pair_speedups)})")
+    echo(f"  vector_env({n_envs}) {row['vector_steps_per_s']:.1f} steps/s = "
+         f"{row['speedup']:.2f}x one env's {row['single_steps_per_s']:.1f} (rounds "
+         f"{', '.join(f'{r:.2f}' for r in speedups)})")
+    echo(f"  the machine's ceiling, the same {n_envs} copies on {workers} processes that never "
+         f"wait for each other: {row['independent_speedup']:.2f}x (rounds "
+         f"{', '.join(f'{r:.2f}' for r in ceilings)}); vector_env({n_envs}) reaches "
+         f"{100 * np.median(speedups / ceilings):.0f} % of it")
     return row
