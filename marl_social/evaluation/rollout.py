@@ -8,7 +8,7 @@ from marl_social.sim.trace import Trace
 
 
 def record_episode(env, policies: dict, seed: int | None = None, render: bool = False,
-                   render_every: int = 1) -> Trace:
+                   render_every: int = 1, until=None) -> Trace:
     """Roll out policies in a SocialDrivingEnv from reset(seed) until every agent is done.
 
     Each policy sees only its own observation.
@@ -19,6 +19,9 @@ def record_episode(env, policies: dict, seed: int | None = None, render: bool = 
         seed: the reset seed; agent i's policy is reset with seed + i (None: unseeded).
         render: also collect env.render() frames (env must have render_mode="rgb_array").
         render_every: keep one frame every this many steps.
+        until: None, or a condition `until(env) -> bool` checked after every step: the
+            recording ends at the first state where it holds (marl_social/evaluation/
+            stopping.py: an episode cut short once what it measures is known).
     """
     base = getattr(env, "unwrapped", env)
     for name, policy in policies.items():
@@ -54,4 +57,6 @@ def record_episode(env, policies: dict, seed: int | None = None, render: bool = 
         trace.rewards.append(reward_row)
         trace.collided.append(collided_row)
         snapshot()
+        if until is not None and until(env):
+            break
     return trace.finalize()

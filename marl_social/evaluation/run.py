@@ -77,7 +77,7 @@ class _RecordingRobot:
 
 
 def run_episode(scenario: str = "occluded_crosswalk", seed: int = 0, render: bool = False,
-                max_cycles: int = 200, record_human_decisions: bool = False,
+                max_cycles: int = 200, record_human_decisions: bool = False, until=None,
                 **overrides) -> EpisodeResult:
     """Run one episode with `marl_social.policies` and return its metrics and trace.
 
@@ -90,6 +90,9 @@ def run_episode(scenario: str = "occluded_crosswalk", seed: int = 0, render: boo
         max_cycles: the episode's step limit.
         record_human_decisions: also keep every human driver's decisions (what its choice
             depends on, for agents/irl/choice.py; the episode itself is unchanged).
+        until: None, or a condition `until(env) -> bool` that ends the episode at the first
+            state where it holds (marl_social/evaluation/stopping.py); the trace and metrics
+            are then those of the steps so far.
         overrides: scenario parameters (e.g. pedestrian="none", robot_planner="aggressive").
     """
     env = parallel_env(scenario=scenario, max_cycles=max_cycles,
@@ -101,7 +104,7 @@ def run_episode(scenario: str = "occluded_crosswalk", seed: int = 0, render: boo
     extras: dict = {}
     if "robot_0" in pols:
         pols["robot_0"] = _RecordingRobot(env, "robot_0", pols["robot_0"], extras)
-    trace = record_episode(env, pols, seed=seed, render=render)
+    trace = record_episode(env, pols, seed=seed, render=render, until=until)
     # beliefs are recorded once per robot decision; align them with the T+1 states: the first
     # decision's value also stands at reset time, NaN once the robot has left the episode
     n_states = len(trace.times_s)
@@ -290,13 +293,16 @@ def claim_episode(job: tuple) -> tuple:
     """One episode for the claims tests: (planner, variant, seed, metrics + timings, error).
 
     Args:
-        job: (planner, variant, seed, max_cycles, overrides); the overrides go on top of
-            randomized_overrides(seed) (the "wide" preset).
+        job: (planner, variant, seed, max_cycles, overrides[, until]); the overrides go on
+            top of randomized_overrides(seed) (the "wide" preset); until: a class of
+            marl_social/evaluation/stopping.py (or any zero-argument factory of a condition),
+            built afresh for the episode, which ends it once the condition holds.
     """
-    planner, variant, seed, max_cycles, extra = job
+    planner, variant, seed, max_cycles, extra = job[:5]
     try:
+        until = job[5]() if len(job) > 5 and job[5] is not None else None
         res = run_episode("occluded_crosswalk", seed=seed, robot_planner=planner,
-                          pedestrian=variant, max_cycles=max_cycles,
+                          pedestrian=variant, max_cycles=max_cycles, until=until,
                           **{**randomized_overrides(seed, "wide"), **extra})
         summary = {**res.metrics, **interaction_timings(res)}
         infeasible = res.trace.extras.get("mpc_infeasible")

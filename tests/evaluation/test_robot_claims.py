@@ -21,6 +21,7 @@ import numpy as np
 import pytest
 
 from marl_social.evaluation.run import claim_episode
+from marl_social.evaluation.stopping import RobotPassedCrosswalk
 from tests.helpers import claim_seeds
 
 pytestmark = pytest.mark.slow  # 50-seed claims: minutes; `pytest -m "not slow"` skips them
@@ -34,6 +35,11 @@ LEARNED_CASES = [("social", "crossing"), ("social", "none")]
 # the robot passes the crosswalk within 8 s without a pedestrian: 10 s episodes suffice; a slow
 # pedestrian starting late leaves the robot's lane after up to 3 + 7 / 0.5 s
 HORIZON = {"crossing": 200, "none": 100, "waiting": 150}
+# the claims without a crossing pedestrian are about the time to pass and the belief on reaching
+# the crosswalk, both settled once the robot has passed it: those episodes end there
+# (marl_social/evaluation/stopping.py; the numbers are those of the whole episode, ~40 % of the
+# steps fewer)
+UNTIL = {"crossing": None, "none": RobotPassedCrosswalk, "waiting": RobotPassedCrosswalk}
 
 
 @pytest.fixture(scope="module")
@@ -52,8 +58,8 @@ def learned_model(tmp_path_factory):
 @pytest.fixture(scope="module")
 def runs(learned_model) -> dict:
     learned = {"robot_theta_hat": str(learned_model)}
-    jobs = [(p, v, s, HORIZON[v], {}) for p, v in CASES for s in SEEDS]
-    jobs += [(p, v, s, HORIZON[v], learned) for p, v in LEARNED_CASES for s in SEEDS]
+    jobs = [(p, v, s, HORIZON[v], {}, UNTIL[v]) for p, v in CASES for s in SEEDS]
+    jobs += [(p, v, s, HORIZON[v], learned, UNTIL[v]) for p, v in LEARNED_CASES for s in SEEDS]
     with mp.get_context("spawn").Pool(2) as pool:
         results = pool.map(claim_episode, jobs, chunksize=4)
     out = {case: [] for case in CASES + [c + ("learned",) for c in LEARNED_CASES]}

@@ -49,20 +49,30 @@ def widened_overrides(seed: int) -> dict:
 
 def crossing_summary(seed: int) -> dict:
     """One crossing episode: the steps of the human's braking onset and of the robot's first
-    sight of the pedestrian, and the belief before that sight."""
+    sight of the pedestrian, and the belief before that sight.
+
+    The episode ends when the robot first sees the pedestrian (stopping.RobotSees): what the
+    claims read is settled by then. A braking onset later than that sight, or none, counts
+    alike (not a warning), and so does a pedestrian that has not started to walk by then.
+    """
     from marl_social.evaluation.run import run_episode
+    from marl_social.evaluation.stopping import RobotSees
 
     overrides = widened_overrides(seed)
-    result = run_episode(seed=seed, pedestrian="crossing", robot_planner="social", **overrides)
+    result = run_episode(seed=seed, pedestrian="crossing", robot_planner="social",
+                         until=RobotSees("pedestrian_0"), **overrides)
     trace = result.trace
     robot, human, ped = (trace.index(n) for n in ("robot_0", "human_0", "pedestrian_0"))
     visible = np.asarray(trace.visible)[:, robot, ped]
     first_seen = int(np.argmax(visible)) if visible.any() else len(visible)
     speed = np.asarray(trace.states)[:, human, 3]
     times = np.asarray(trace.times_s)
-    start = int(np.argmax(times >= overrides["pedestrian_start_delay_s"]))
-    slowed = (speed < speed[start] - SLOWED_MPS) & (np.arange(len(speed)) >= start)
-    onset = int(np.argmax(slowed)) if slowed.any() else len(visible)  # state index
+    walking = times >= overrides["pedestrian_start_delay_s"]
+    onset = len(visible)  # state index; no braking for a pedestrian that has not started
+    if walking.any():
+        start = int(np.argmax(walking))
+        slowed = (speed < speed[start] - SLOWED_MPS) & (np.arange(len(speed)) >= start)
+        onset = int(np.argmax(slowed)) if slowed.any() else onset
     belief = np.asarray(trace.extras["p_pedestrian"], dtype=np.float64)
     return {"seed": seed, "first_seen": first_seen, "onset": onset, "seen": bool(visible.any()),
             "belief": belief[:first_seen].tolist()}
