@@ -31,7 +31,6 @@ from __future__ import annotations
 import time
 
 import numpy as np
-from scipy.optimize import minimize
 from scipy.special import logsumexp
 
 from marl_social.agents.irl.laplace import FITTABLE, IrlResult
@@ -91,6 +90,8 @@ def fit_choice_theta(decisions: DecisionSet, fitted=FITTABLE, max_iter: int = 10
         theta[idx] = w * unit
         log_p, grad = choice_log_likelihood(theta, decisions)
         return -log_p.sum() / n, -grad[:, idx].sum(axis=0) * unit / n
+
+    from scipy.optimize import minimize  # here: scipy.optimize takes ~0.7 s to import
 
     res = minimize(objective, np.where(identifiable, 1.0, 0.0), jac=True, method="L-BFGS-B",
                    bounds=[(0.0, None) if ok else (0.0, 0.0) for ok in identifiable],

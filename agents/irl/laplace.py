@@ -42,7 +42,6 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
-from scipy.optimize import minimize
 
 from marl_social.agents.irl.fit_file import check_fit, load_fit  # noqa: F401 (load_fit public here)
 from marl_social.agents.irl.jets import Jet
@@ -340,6 +339,8 @@ def fit_theta(demos, fitted=FITTABLE, theta0=None, max_iter: int = 500) -> IrlRe
         theta[idx] = w * unit
         terms = laplace_terms(theta, data)
         return -terms.log_lik.sum(), -terms.grad_theta[:, idx].sum(axis=0) * unit
+
+    from scipy.optimize import minimize  # here: scipy.optimize takes ~0.7 s to import
 
     res = minimize(objective, w0, jac=True, method="L-BFGS-B",
                    bounds=[(0.0, None)] * len(idx), options={"maxiter": max_iter})

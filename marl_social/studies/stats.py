@@ -16,7 +16,6 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 
 import numpy as np
-from scipy import stats
 
 CONFIDENCE = 0.95
 HEATMAP_METRICS = ("robot_collision", "time_to_pass_s")
@@ -35,6 +34,8 @@ def wilson_interval(successes, trials, confidence: float = CONFIDENCE):
     (low, high); nan where n = 0. Equal to
     scipy.stats.binomtest(k, n).proportion_ci(method="wilson").
     """
+    from scipy import stats  # here: scipy.stats takes ~1 s to import
+
     k = np.asarray(successes, dtype=float)
     n = np.asarray(trials, dtype=float)
     z = stats.norm.ppf(0.5 + 0.5 * confidence)
@@ -55,6 +56,8 @@ def t_interval(mean, std, n, confidence: float = CONFIDENCE):
     mean +- t(1/2 + c/2, n - 1) std / sqrt(n) with std the sample standard deviation (ddof 1);
     nan where n < 2.
     """
+    from scipy import stats  # here: scipy.stats takes ~1 s to import
+
     mean, std = np.asarray(mean, dtype=float), np.asarray(std, dtype=float)
     n = np.asarray(n, dtype=float)
     ok = n >= 2

@@ -8,7 +8,6 @@ import types
 
 import numpy as np
 import pytest
-from scipy import stats
 
 import marl_social
 from marl_social.agents.human import BoltzmannDriver
@@ -112,6 +111,7 @@ def test_beta_infinity_is_argmin_every_time(driver_and_obs):
 
 
 def test_beta_zero_is_near_uniform(driver_and_obs):
+    from scipy import stats  # here, not at collection: a slow import
     driver, _ = driver_and_obs
     p = boltzmann(driver.last_q, 1e-9)
     assert np.allclose(p, 1.0 / len(p), atol=1e-6)
@@ -122,6 +122,7 @@ def test_beta_zero_is_near_uniform(driver_and_obs):
 def test_middle_beta_frequencies_match_softmax(driver_and_obs):
     """Chi-square goodness of fit of 20 000 samples against softmax(-beta Q), and the same test
     rejects the frequencies of a different beta (it has power)."""
+    from scipy import stats  # here, not at collection: a slow import
     driver, _ = driver_and_obs
     q = driver.last_q
     beta = 1.0 / np.sort(q - q.min())[2]  # spreads mass over the three best actions

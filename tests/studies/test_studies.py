@@ -14,7 +14,6 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from scipy import stats
 
 import marl_social.evaluation.run
 from marl_social.studies import runner as studies
@@ -303,6 +302,7 @@ def test_unknown_study_name_lists_the_builtins():
 
 
 def test_wilson_interval_matches_scipy():
+    from scipy import stats  # here, not at collection: a slow import
     for n in (1, 7, 20):
         k = np.arange(n + 1)
         low, high = wilson_interval(k, np.full(n + 1, n))
@@ -313,6 +313,7 @@ def test_wilson_interval_matches_scipy():
 
 
 def test_analysis_writes_summary_with_right_intervals_and_plots(tmp_path):
+    from scipy import stats  # here, not at collection: a slow import
     spec = studies.StudySpec(name="synthetic", seeds=(0,), planners=("social", "aggressive"),
                              pedestrians=("crossing",),
                              grid={"human_beta": (1.0, 10.0), "human_speed_mps": (10.0, 12.0)},

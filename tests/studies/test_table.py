@@ -8,8 +8,6 @@ import json
 import math
 
 import numpy as np
-import pandas as pd
-import pyarrow.parquet as pq
 import pytest
 
 import marl_social.studies
@@ -46,6 +44,8 @@ def _write_study(folder, rng) -> list[dict]:
 
 @pytest.mark.parametrize("seed", [0, 1, 2])
 def test_load_gives_typed_columns_with_failed_runs_apart(tmp_path, seed):
+    import pandas as pd  # here, not at collection: a slow import
+    import pyarrow.parquet as pq
     truth = _write_study(tmp_path, np.random.default_rng(seed))
     path = studies.write_parquet(tmp_path)
     assert path == tmp_path / "results.parquet"

@@ -9,7 +9,6 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.interpolate import CubicSpline
 
 from marl_social.data.interaction.smoothing import (
     SPEED_CUTOFF_HZ,
@@ -71,6 +70,8 @@ def fit_reference_path(t_s, xy, cutoff_hz: float = PATH_CUTOFF_HZ,
     t = np.asarray(t_s, dtype=np.float64)
     rel = t - t[0]
     dt = float(rel[-1] / (len(t) - 1))
+    from scipy.interpolate import CubicSpline  # here: it imports scipy.optimize (~0.7 s)
+
     curve = CubicSpline(rel, whittaker_smooth(xy, dt, cutoff_hz), axis=0)
     dense_t = np.linspace(0.0, rel[-1], (len(t) - 1) * _SUBSAMPLES + 1)
     speed = np.linalg.norm(curve(dense_t, 1), axis=1)
