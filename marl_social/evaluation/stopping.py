@@ -20,30 +20,31 @@ def _base(env):
     return getattr(env, "unwrapped", env)
 
 
-class RobotPassedCrosswalk:
-    """True once the robot's bounding circle has touched the first crosswalk and left it.
+class PassedCrosswalk:
+    """True once an agent's bounding circle has touched the first crosswalk and left it.
 
-    The state where it first holds is the one `time_to_pass_s` reports (metrics/physical.py:
-    the first state clear of the crosswalk, occupancy <= PASSED_FRACTION, after one that touched
-    it); `p_pedestrian_at_crosswalk` is settled earlier. Never true on a map without a
-    crosswalk. One instance per episode (it remembers the touch).
+    For the robot, the state where it first holds is the one `time_to_pass_s` reports
+    (metrics/physical.py: the first state clear of the crosswalk, occupancy <=
+    PASSED_FRACTION, after one that touched it); `p_pedestrian_at_crosswalk` is settled
+    earlier. Never true on a map without a crosswalk. One instance per episode (it remembers
+    the touch).
 
     Args:
-        robot: the robot's agent name.
+        agent: the agent's name.
     """
 
-    def __init__(self, robot: str = "robot_0"):
+    def __init__(self, agent: str = "robot_0"):
         """Start an episode untouched."""
-        self.robot = robot
+        self.agent = agent
         self._touched = False
 
     def __call__(self, env) -> bool:
-        """Whether the robot has passed, after the env's latest step."""
+        """Whether the agent has passed, after the env's latest step."""
         base = _base(env)
         crosswalks = base.road_map.crosswalks
         if not crosswalks:
             return False
-        i = base.possible_agents.index(self.robot)
+        i = base.possible_agents.index(self.agent)
         world = base.world
         occupancy = float(crosswalk_occupancy(world.state[i, :2], world.bounding_radius_m[i],
                                               crosswalks[0]))

@@ -21,7 +21,7 @@ import numpy as np
 import pytest
 
 from marl_social.evaluation.run import claim_episode
-from marl_social.evaluation.stopping import RobotPassedCrosswalk
+from marl_social.evaluation.stopping import PassedCrosswalk
 from tests.helpers import claim_seeds
 
 pytestmark = pytest.mark.slow  # 50-seed claims: minutes; `pytest -m "not slow"` skips them
@@ -39,7 +39,7 @@ HORIZON = {"crossing": 200, "none": 100, "waiting": 150}
 # the crosswalk, both settled once the robot has passed it: those episodes end there
 # (marl_social/evaluation/stopping.py; the numbers are those of the whole episode, ~40 % of the
 # steps fewer)
-UNTIL = {"crossing": None, "none": RobotPassedCrosswalk, "waiting": RobotPassedCrosswalk}
+UNTIL = {"crossing": None, "none": PassedCrosswalk, "waiting": PassedCrosswalk}
 
 
 @pytest.fixture(scope="module")

@@ -6,13 +6,13 @@ from __future__ import annotations
 import numpy as np
 
 from marl_social.evaluation.run import run_episode
-from marl_social.evaluation.stopping import RobotPassedCrosswalk, RobotSees
+from marl_social.evaluation.stopping import PassedCrosswalk, RobotSees
 
 
 def test_an_episode_cut_when_the_robot_has_passed_reports_the_same_time_to_pass():
     whole = run_episode(seed=3, pedestrian="none", robot_planner="social", max_cycles=100)
     cut = run_episode(seed=3, pedestrian="none", robot_planner="social", max_cycles=100,
-                      until=RobotPassedCrosswalk())
+                      until=PassedCrosswalk())
     n = len(cut.trace.times_s)
     assert n < len(whole.trace.times_s)
     assert cut.trace.times_s[-1] == whole.metrics["time_to_pass_s"]  # the state it is read at
@@ -36,5 +36,5 @@ def test_an_episode_cut_at_the_robots_first_sight_ends_on_that_state():
 
 def test_without_a_crosswalk_the_pass_condition_never_holds():
     whole = run_episode("t_intersection", seed=0, max_cycles=30)
-    cut = run_episode("t_intersection", seed=0, max_cycles=30, until=RobotPassedCrosswalk())
+    cut = run_episode("t_intersection", seed=0, max_cycles=30, until=PassedCrosswalk())
     assert len(cut.trace.times_s) == len(whole.trace.times_s) == 31
