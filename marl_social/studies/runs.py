@@ -7,6 +7,7 @@ seeds) with their overrides and keys. The spec model itself is in `marl_social/s
 
 from __future__ import annotations
 
+import collections
 import dataclasses
 import itertools
 import math
@@ -184,8 +185,8 @@ def axes(spec: StudySpec) -> list[tuple[str, tuple]]:
         default = fields[name].default if name in fields else None
         out.append((name, _draw(spec, name, default)))
     for name, values in out:
-        texts = [_same_value_key(v) for v in values]
-        duplicates = sorted({t for t in texts if texts.count(t) > 1})
+        counts = collections.Counter(_same_value_key(v) for v in values)
+        duplicates = sorted(t for t, k in counts.items() if k > 1)
         if duplicates:
             raise _spec_error(spec.source, spec.section_of(name),
                               f"duplicate values {duplicates}")
