@@ -17,6 +17,7 @@ short vector run of many copies against a long single-env run compares different
 from __future__ import annotations
 
 import multiprocessing
+import queue
 import time
 
 import numpy as np
@@ -82,21 +83,42 @@ def single_env_steps_per_s(n_envs: int, n_steps: int, seed: int = 0,
 
 
 def _independent_block(go, answers, actions, seed, copies, env_kwargs) -> None:
-    """A child of `independent_steps_per_s`: warm up, wait for `go`, step its copies."""
-    env = _warmed_env(actions, **env_kwargs)
-    go.wait()
-    reward_sums = _step_copies(env, actions, seed, copies)
-    answers.put((copies.start, reward_sums, time.perf_counter()))
-    env.close()
+    """A child of `independent_steps_per_s`: warm up, say so, wait for `go`, step its copies.
+
+    Answers ("ready", None, None), then (first copy, reward sums, end time [s]); on an error
+    ("error", its text, None).
+    """
+    try:
+        env = _warmed_env(actions, **env_kwargs)
+        answers.put(("ready", None, None))
+        go.wait()
+        reward_sums = _step_copies(env, actions, seed, copies)
+        answers.put((copies.start, reward_sums, time.perf_counter()))
+        env.close()
+    except Exception as error:  # noqa: BLE001 -- reported by the parent
+        answers.put(("error", f"{type(error).__name__}: {error}", None))
+
+
+def _answer(answers, timeout_s: float = 600.0) -> tuple:
+    """The next answer of an `_independent_block` child; RuntimeError on its error or silence."""
+    try:
+        answer = answers.get(timeout=timeout_s)
+    except queue.Empty:
+        raise RuntimeError(f"bench vector: a process stepping copies gave no answer in "
+                           f"{timeout_s:.0f} s") from None
+    if answer[0] == "error":
+        raise RuntimeError(f"bench vector: a process stepping copies failed: {answer[1]}")
+    return answer
 
 
 def independent_steps_per_s(n_envs: int, n_steps: int, seed: int = 0, workers: int = 2,
                             **env_kwargs) -> tuple[float, np.ndarray]:
     """(steps/s, (n_envs,) reward sums) of the same work on processes that never wait.
 
-    Each of the `workers` processes runs its block of copies alone, start to end. The most any vector env of `workers` processes could reach on this machine: what is left
-    between it and vector_env is the vector env's own (every vector step waits for the slower
-    block). Wall time runs from the common start until the last process is done.
+    Each of the `workers` processes runs its block of copies alone, start to end: the most any
+    vector env of `workers` processes could reach on this machine; what is left between it and
+    vector_env is the vector env's own (every vector step waits for the slower block). Wall
+    time runs from the common start, once every process has warmed up, until the last is done.
     """
     probe = AutopilotGymEnv(**env_kwargs)
     actions = random_actions(probe.action_space, n_envs, n_steps, seed)
@@ -110,22 +132,27 @@ def independent_steps_per_s(n_envs: int, n_steps: int, seed: int = 0, workers: i
                  for w in range(workers)]
     for process in processes:
         process.start()
-    time.sleep(2.0)  # the children warm up (a few hundred ms) before the start
-    start = time.perf_counter()
-    go.set()
-    reward_sums, end = np.zeros(n_envs), start
-    for _ in processes:
-        first, sums, finished = answers.get()
-        reward_sums[first:first + len(sums)] = sums
-        end = max(end, finished)
-    for process in processes:
-        process.join()
+    try:
+        for _ in processes:
+            _answer(answers)  # "ready": warmed up
+        start = time.perf_counter()
+        go.set()
+        reward_sums, end = np.zeros(n_envs), start
+        for _ in processes:
+            first, sums, finished = _answer(answers)
+            reward_sums[first:first + len(sums)] = sums
+            end = max(end, finished)
+    finally:
+        for process in processes:
+            process.join(timeout=10.0)
+            if process.is_alive():
+                process.terminate()
     return n_envs * n_steps / (end - start), reward_sums
 
 
 def vector_env_steps_per_s(n_envs: int, n_steps: int, seed: int = 0, workers: int | None = None,
                            **env_kwargs) -> tuple[float, np.ndarray]:
-    """(steps/s, (n_envs,) reward sums) of the same work as `single_env_steps_per_s`, in a vector_env.
+    """(steps/s, (n_envs,) reward sums) of `single_env_steps_per_s`' work in a vector_env.
 
     workers None: vector_env's default.
     """

@@ -267,7 +267,8 @@ def test_rational_humans_never_hit_a_crossing_pedestrian_200_seeds():
         yields += braked
     assert hits == []
     # the test has teeth only if pedestrians really cross in front of the humans: in most
-    # episodes the human must brake for one (measured 143 of 200 (2026-12-03); the rest cross behind it)
+    # episodes the human must brake for one (measured 143 of 200, 2026-12-03; the rest cross
+    # behind it)
     assert yields >= 120
 
 
