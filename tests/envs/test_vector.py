@@ -203,3 +203,21 @@ def test_a_killed_worker_is_a_clear_error_naming_it_and_close_still_works():
     finally:
         venv.close()
     assert venv.closed
+
+
+@pytest.mark.slow
+def test_the_vector_bench_sets_the_same_episodes_side_by_side():
+    """`marl-social bench env`'s vector row: one env running the copies one after the other,
+    the vector env and the processes that never wait earn the same rewards, copy by copy."""
+    from marl_social.bench.vector_bench import (
+        independent_steps_per_s,
+        single_env_steps_per_s,
+        vector_env_steps_per_s,
+    )
+
+    kwargs = {"scenario": "occluded_crosswalk", "max_cycles": 12}  # episodes end and reset
+    _, one_env = single_env_steps_per_s(3, 30, seed=5, **kwargs)
+    _, vector = vector_env_steps_per_s(3, 30, seed=5, workers=2, **kwargs)
+    _, apart = independent_steps_per_s(3, 30, seed=5, workers=2, **kwargs)
+    assert np.array_equal(one_env, vector) and np.array_equal(one_env, apart)
+    assert len(set(one_env.tolist())) == 3  # the copies' episodes differ
