@@ -148,14 +148,15 @@ def test_an_irrelevant_feature_gets_a_weight_near_zero():
     assert abs(result.direction[3]) < 0.01
 
 
-def test_fit_rejects_unknown_features_and_mixed_lengths(synthetic):
+def test_fit_rejects_unknown_features_and_mixed_lengths():
+    demos = near_rational_demonstrations(THETA_TRUE, 2, seed=0)  # any will do: no fit runs
     with pytest.raises(ValueError, match="cannot fit"):
-        irl.fit_theta(synthetic[0], fitted=("speed", "tracking"))
-    short = replace(synthetic[0][0], controls_mps2=np.zeros(5), others_xy=np.zeros((0, 5, 2)),
+        irl.fit_theta(demos, fitted=("speed", "tracking"))
+    short = replace(demos[0], controls_mps2=np.zeros(5), others_xy=np.zeros((0, 5, 2)),
                     others_heading=np.zeros((0, 5)), others_length_m=[], others_width_m=[],
                     others_is_pedestrian=[])
     with pytest.raises(ValueError, match="share T"):
-        irl.fit_theta([synthetic[0][0], short])
+        irl.fit_theta([demos[0], short])
 
 
 def test_recorded_human_segments_replay_the_simulator(tmp_path):
@@ -187,11 +188,12 @@ def test_recorded_human_segments_replay_the_simulator(tmp_path):
     assert np.array_equal(back[-1].others_xy, demos[-1].others_xy)
 
 
-def test_cli_fit_writes_theta_json_that_a_scenario_loads(tmp_path, synthetic, capsys):
+def test_cli_fit_writes_theta_json_that_a_scenario_loads(tmp_path, capsys):
     from marl_social.cli import main
     from marl_social.scenarios import make_scenario
 
-    demos_file = save_demonstrations(tmp_path / "demos.npz", synthetic[0][:60])
+    demos = near_rational_demonstrations(THETA_TRUE, 60, seed=0)  # the fixture's first 60
+    demos_file = save_demonstrations(tmp_path / "demos.npz", demos)
     out = tmp_path / "theta.json"
     assert main(["irl", "fit", str(demos_file), "-o", str(out)]) == 0
     fit = json.loads(out.read_text())
