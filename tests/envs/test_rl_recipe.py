@@ -30,6 +30,7 @@ def _rollout(vec, steps=40):
     return np.array(obs)
 
 
+@pytest.mark.slow  # ~4 s, ~3 of them importing torch (the recipe's stable_baselines3)
 def test_seeded_vector_env_repeats_and_seeds_differ(recipe):
     """SuperSuit's ConcatVecEnv has no seed(): the recipe's wrapper seeds its resets."""
     runs = [_rollout(recipe.make_vec_env(2, seed, max_cycles=30)) for seed in (3, 3, 4)]
