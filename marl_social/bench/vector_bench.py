@@ -34,13 +34,11 @@ def random_actions(space, n_envs: int, n_steps: int, seed: int) -> np.ndarray:
                        (n_steps, n_envs, *space.shape)).astype(space.dtype)
 
 
-def _warmed_env(actions: np.ndarray, **env_kwargs) -> AutopilotGymEnv:
-    """An AutopilotGymEnv that has paid this process's first-use costs (a few steps)."""
-    env = AutopilotGymEnv(**env_kwargs)
+def _warm_up(env: AutopilotGymEnv, actions: np.ndarray) -> None:
+    """Pay this process's first-use costs: a few steps of an episode apart from the timed ones."""
     env.reset(seed=_WARM_UP_SEED)
     for k in range(3):
         env.step(actions[k, 0])
-    return env
 
 
 def _step_copies(env: AutopilotGymEnv, actions: np.ndarray, seed: int,
@@ -71,10 +69,9 @@ def single_env_steps_per_s(n_envs: int, n_steps: int, seed: int = 0,
 
     Copy i: reset(seed=seed + i), then n_steps of `random_actions`' column i.
     """
-    probe = AutopilotGymEnv(**env_kwargs)
-    actions = random_actions(probe.action_space, n_envs, n_steps, seed)
-    probe.close()
-    env = _warmed_env(actions, **env_kwargs)
+    env = AutopilotGymEnv(**env_kwargs)
+    actions = random_actions(env.action_space, n_envs, n_steps, seed)
+    _warm_up(env, actions)
     start = time.perf_counter()
     reward_sums = _step_copies(env, actions, seed, range(n_envs))
     seconds = time.perf_counter() - start
@@ -89,7 +86,8 @@ def _independent_block(go, answers, actions, seed, copies, env_kwargs) -> None:
     ("error", its text, None).
     """
     try:
-        env = _warmed_env(actions, **env_kwargs)
+        env = AutopilotGymEnv(**env_kwargs)
+        _warm_up(env, actions)
         answers.put(("ready", None, None))
         go.wait()
         reward_sums = _step_copies(env, actions, seed, copies)
@@ -120,7 +118,7 @@ def independent_steps_per_s(n_envs: int, n_steps: int, seed: int = 0, workers: i
     vector_env is the vector env's own (every vector step waits for the slower block). Wall
     time runs from the common start, once every process has warmed up, until the last is done.
     """
-    probe = AutopilotGymEnv(**env_kwargs)
+    probe = AutopilotGymEnv(**env_kwargs)  # the action space (and bad arguments fail here)
     actions = random_actions(probe.action_space, n_envs, n_steps, seed)
     probe.close()
     context = multiprocessing.get_context("fork")
