@@ -60,6 +60,20 @@ def same_bits(a, b) -> bool:
             and np.array_equal(np.signbit(a[number]), np.signbit(b[number])))
 
 
+def read_only(*arrays: np.ndarray) -> tuple[np.ndarray, ...]:
+    """C-contiguous copies of the arrays that nobody can write to, as the planners hand their
+    tables and frozen scenes to the numba kernels.
+
+    numba compiles a read-only array type apart from a writable one: a test that calls a kernel
+    with the planners' kinds of arrays runs the machine code they run, from the cache that
+    compile_kernels filled (instead of compiling another signature, ~1-2 s each, in CI).
+    """
+    copies = tuple(np.array(a, order="C") for a in arrays)
+    for copy in copies:
+        copy.setflags(write=False)
+    return copies
+
+
 def claim_seeds(default_n: int = 50) -> range:
     """The seeds a many-seed claims test runs on.
 

@@ -489,7 +489,7 @@ class RouteSet:
         Returns:
             Arc length s (n,) [m] and signed lateral offset (n,) [m] (left positive).
         """
-        xy = np.asarray(xy, dtype=np.float64)
+        xy = np.ascontiguousarray(xy, dtype=np.float64)  # a strided view: one kernel signature
         if xy.shape != (len(self.length_m), 2):
             raise ValueError(f"RouteSet.project: xy must have shape ({len(self.length_m)}, 2), "
                              f"one position per route; got {xy.shape}")

@@ -97,7 +97,8 @@ def on_lanes(lanes, xy, heading) -> np.ndarray:
     segments, seg_heading, lane_ends, lane_length, lane_reach = _lane_table(lanes)
     out = np.empty(len(xy), dtype=bool)
     route_kernels().on_lanes(np.ascontiguousarray(xy[:, 0]), np.ascontiguousarray(xy[:, 1]),
-                             heading, segments, seg_heading, lane_ends, lane_length,
+                             np.ascontiguousarray(heading), segments, seg_heading,
+                             lane_ends, lane_length,
                              lane_reach, LANE_HEADING_TOLERANCE_RAD, out)
     return out
 

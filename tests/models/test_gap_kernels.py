@@ -25,7 +25,7 @@ from marl_social.models.gap_evaluation import vehicle_gap_evaluation
 from marl_social.sim.agent_spec import VehicleParams
 from marl_social.sim.road_map import Crosswalk, Route
 from marl_social.sim.route_rules import CURVE_PROFILE_STEP_M, CurveSpeed
-from tests.helpers import same_bits
+from tests.helpers import read_only, same_bits
 from tests.models.test_gap_evaluation import _route
 from tests.models.test_pedestrian_costs import random_scene
 
@@ -54,11 +54,13 @@ def test_plan_poses_is_the_numpy_rollout_and_poses(seed, bent, curve, v0):
     dt = CANDIDATES.plan_dt_s
     along = np.array([-1.5, 0.0, 1.5])
     speed = CurveSpeed(route, 2.5, 2.3) if curve else None
+    v_max, vertex_s, poses, along = read_only(  # the tables as the planners pass them
+        np.zeros(1) if speed is None else speed.v_max_mps, route.vertex_s_m,
+        route.segment_pose_table, along)
     v, ds, a_eff, excess, xy, ego_x, ego_y = gap_kernels.plan_poses(
         plan.increments.reshape(-1, CANDIDATES.n_steps), len(CANDIDATES.continuations_mps2),
-        v0, s0, dt, plan.continuations, CANDIDATES.n_first, speed is not None,
-        np.zeros(1) if speed is None else speed.v_max_mps, CURVE_PROFILE_STEP_M,
-        route.vertex_s_m, route.segment_pose_table, along)
+        v0, s0, dt, plan.continuations, CANDIDATES.n_first, speed is not None, v_max,
+        CURVE_PROFILE_STEP_M, vertex_s, poses, along)
     want_v, want_ds, want_a = _rollout(v0, plan.increments, dt)
     if speed is not None:  # evaluate_candidates' curve speed
         want_v, want_ds, want_a = _governed(want_v, want_ds, v0, plan.continuations,
@@ -91,8 +93,10 @@ def test_circle_gaps_is_circle_pair_gap(seed, n_hyp, n_obj, p_ped, shared, nan):
     heading = rng.uniform(-4.0, 4.0, (rows, n_obj, n_t))
     full = lambda a: np.ascontiguousarray(np.broadcast_to(a, (n_hyp,) + a.shape[1:]))
     mask = rng.random((n_hyp, n_obj)) < 0.7
-    scene = ScenePrediction(full(xy), full(heading), full(length), full(width),
-                            full(0.5 * np.hypot(length, width)), full(is_ped), mask)
+    # a frozen scene, as the planners' (its kernel inputs read-only, the kernels' signature)
+    scene = ScenePrediction(*read_only(full(xy), full(heading), full(length), full(width),
+                                       full(0.5 * np.hypot(length, width)), full(is_ped)),
+                            mask)
     ego_x = rng.uniform(-10.0, 10.0, (3, n_plans, n_t))
     ego_y = rng.uniform(-10.0, 10.0, (3, n_plans, n_t))
     if nan:
@@ -105,16 +109,14 @@ def test_circle_gaps_is_circle_pair_gap(seed, n_hyp, n_obj, p_ped, shared, nan):
     want = circle_pair_gap(ego_x, ego_y, 1.1, ox, oy, other_r)  # (L, P, T, M)
     vehicles = mask & ~is_ped
     gap, clearance, vehicle_gap = gap_kernels.circle_gaps(
-        ego_x, ego_y, 1.1, np.ascontiguousarray(ox), np.ascontiguousarray(oy),
-        np.ascontiguousarray(other_r), vehicles, False)
+        ego_x, ego_y, 1.1, np.array(ox, order="C"), np.array(oy, order="C"), inputs[4], vehicles, False)
     assert same_bits(gap, want)
     want_clearance = np.where(vehicles[:, None, None, :], want, np.inf).min(axis=(-1, -2),
                                                                           initial=np.inf)
     assert same_bits(clearance, want_clearance)
     assert same_bits(vehicle_gap, np.maximum(want_clearance, 0.0))
     clipped, _, _ = gap_kernels.circle_gaps(
-        ego_x, ego_y, 1.1, np.ascontiguousarray(ox), np.ascontiguousarray(oy),
-        np.ascontiguousarray(other_r), vehicles, True)
+        ego_x, ego_y, 1.1, np.array(ox, order="C"), np.array(oy, order="C"), inputs[4], vehicles, True)
     assert same_bits(np.exp(clipped), np.exp(-np.maximum(want, 0.0)))
 
 
