@@ -108,15 +108,16 @@ def test_circle_gaps_is_circle_pair_gap(seed, n_hyp, n_obj, p_ped, shared, nan):
     assert same_bits(inputs[4], other_r)
     want = circle_pair_gap(ego_x, ego_y, 1.1, ox, oy, other_r)  # (L, P, T, M)
     vehicles = mask & ~is_ped
-    gap, clearance, vehicle_gap = gap_kernels.circle_gaps(
-        ego_x, ego_y, 1.1, np.array(ox, order="C"), np.array(oy, order="C"), inputs[4], vehicles, False)
+    # the circle centres writable (the planners' kernels build them), the radii read-only
+    circles = (np.array(ox, order="C"), np.array(oy, order="C"), inputs[4])
+    gap, clearance, vehicle_gap = gap_kernels.circle_gaps(ego_x, ego_y, 1.1, *circles, vehicles,
+                                                          False)
     assert same_bits(gap, want)
     want_clearance = np.where(vehicles[:, None, None, :], want, np.inf).min(axis=(-1, -2),
                                                                           initial=np.inf)
     assert same_bits(clearance, want_clearance)
     assert same_bits(vehicle_gap, np.maximum(want_clearance, 0.0))
-    clipped, _, _ = gap_kernels.circle_gaps(
-        ego_x, ego_y, 1.1, np.array(ox, order="C"), np.array(oy, order="C"), inputs[4], vehicles, True)
+    clipped, _, _ = gap_kernels.circle_gaps(ego_x, ego_y, 1.1, *circles, vehicles, True)
     assert same_bits(np.exp(clipped), np.exp(-np.maximum(want, 0.0)))
 
 
