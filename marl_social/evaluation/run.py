@@ -298,9 +298,9 @@ def claim_episode(job: tuple) -> tuple:
             marl_social/evaluation/stopping.py (or any zero-argument factory of a condition),
             built afresh for the episode, which ends it once the condition holds.
     """
-    planner, variant, seed, max_cycles, extra = job[:5]
+    planner, variant, seed, max_cycles, extra, *until_factory = job
     try:
-        until = job[5]() if len(job) > 5 and job[5] is not None else None
+        until = until_factory[0]() if until_factory and until_factory[0] is not None else None
         res = run_episode("occluded_crosswalk", seed=seed, robot_planner=planner,
                           pedestrian=variant, max_cycles=max_cycles, until=until,
                           **{**randomized_overrides(seed, "wide"), **extra})
