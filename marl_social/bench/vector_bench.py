@@ -10,6 +10,11 @@ marl_social/envs/batched.py): 2 copies (one per process) and 16 copies (blocks o
 process). Every rate counts env steps (one copy advancing one step = one step) per wall-clock
 second, resets included, after a warm-up that pays each process's first-use costs.
 
+Where the vector rate falls short of `workers` times the single one, the CPU the processes used
+says why: time they spent idle, waiting for each other (the vector env's own), or steps that
+take more CPU while two processes run at once than in one process alone (the machine's: shared
+caches, memory bandwidth, or a virtual machine's cores that are threads of one physical core).
+
 Why the same work: a copy's step costs more early in an episode (more agents alive), so a
 short vector run of many copies against a long single-env run compares different work.
 """
@@ -17,8 +22,10 @@ short vector run of many copies against a long single-env run compares different
 from __future__ import annotations
 
 import multiprocessing
+import os
 import queue
 import time
+from pathlib import Path
 
 import numpy as np
 
@@ -63,19 +70,34 @@ def _step_copies(env: AutopilotGymEnv, actions: np.ndarray, seed: int,
     return reward_sums
 
 
-def single_env_steps_per_s(n_envs: int, n_steps: int, seed: int = 0,
+def process_cpu_s(pid: int) -> float | None:
+    """CPU time (user + system) process `pid` has used so far [s]; None where /proc cannot tell.
+
+    Read from /proc/<pid>/stat (Linux), in clock ticks (usually 10 ms).
+    """
+    try:
+        fields = Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()
+        return (int(fields[11]) + int(fields[12])) / os.sysconf("SC_CLK_TCK")
+    except (OSError, ValueError, IndexError, AttributeError):
+        return None
+
+
+def single_env_steps_per_s(n_envs: int, n_steps: int, seed: int = 0, cpu: dict | None = None,
                            **env_kwargs) -> tuple[float, np.ndarray]:
     """(steps/s, (n_envs,) reward sums) of n_envs copies' work, one after the other in one env.
 
-    Copy i: reset(seed=seed + i), then n_steps of `random_actions`' column i.
+    Copy i: reset(seed=seed + i), then n_steps of `random_actions`' column i. A dict `cpu`
+    gets "wall_s" and "cpu_s", the timed part's wall and CPU time [s].
     """
     env = AutopilotGymEnv(**env_kwargs)
     actions = random_actions(env.action_space, n_envs, n_steps, seed)
     _warm_up(env, actions)
-    start = time.perf_counter()
+    start, start_cpu = time.perf_counter(), time.process_time()
     reward_sums = _step_copies(env, actions, seed, range(n_envs))
-    seconds = time.perf_counter() - start
+    seconds, cpu_s = time.perf_counter() - start, time.process_time() - start_cpu
     env.close()
+    if cpu is not None:
+        cpu.update(wall_s=seconds, cpu_s=cpu_s)
     return n_envs * n_steps / seconds, reward_sums
 
 
@@ -149,10 +171,12 @@ def independent_steps_per_s(n_envs: int, n_steps: int, seed: int = 0, workers: i
 
 
 def vector_env_steps_per_s(n_envs: int, n_steps: int, seed: int = 0, workers: int | None = None,
-                           **env_kwargs) -> tuple[float, np.ndarray]:
+                           cpu: dict | None = None, **env_kwargs) -> tuple[float, np.ndarray]:
     """(steps/s, (n_envs,) reward sums) of `single_env_steps_per_s`' work in a vector_env.
 
-    workers None: vector_env's default.
+    workers None: vector_env's default. A dict `cpu` gets "wall_s", the timed part's wall
+    time, and "cpu_s", the CPU time every process of the vector env used in it [s] (this one's
+    and its workers'; None where /proc cannot tell a worker's).
     """
     venv = vector_env(n_envs, workers=workers, **env_kwargs)
     try:
@@ -161,14 +185,20 @@ def vector_env_steps_per_s(n_envs: int, n_steps: int, seed: int = 0, workers: in
         for k in range(3):  # warm-up: every process's first-use costs
             venv.step(actions[k])
         reward_sums = np.zeros(n_envs)
-        start = time.perf_counter()
+        pids = getattr(venv, "worker_pids", ())
+        start, start_cpu = time.perf_counter(), [time.process_time(), *map(process_cpu_s, pids)]
         venv.reset(seed=seed)
         for t in range(n_steps):
             _, rewards, _, _, _ = venv.step(actions[t])  # finished copies reset themselves
             reward_sums += rewards
-        seconds = time.perf_counter() - start
+        seconds, end_cpu = time.perf_counter() - start, [time.process_time(),
+                                                         *map(process_cpu_s, pids)]
     finally:
         venv.close()
+    if cpu is not None:
+        known = None not in start_cpu + end_cpu
+        cpu.update(wall_s=seconds,
+                   cpu_s=sum(end_cpu) - sum(start_cpu) if known else None)
     return n_envs * n_steps / seconds, reward_sums
 
 
@@ -192,14 +222,20 @@ def bench_vector(n_envs: int = 16, workers: int = 2, n_steps: int = 150, rounds:
     env_kwargs.setdefault("scenario", "occluded_crosswalk")
     runs = {key: [] for key in ("pair_single", "pair_vector", "single", "vector",
                                 "independent")}
+    busy, cpu_ratios = [], []  # per round: the vector env's busy share, its CPU per step / one env's
     same = True
     for _ in range(rounds):
         pair_single, pair_single_rewards = single_env_steps_per_s(workers, n_steps, **env_kwargs)
         pair_vector, pair_vector_rewards = vector_env_steps_per_s(workers, n_steps,
                                                                   workers=workers, **env_kwargs)
-        single, single_rewards = single_env_steps_per_s(n_envs, n_steps, **env_kwargs)
-        vector, vector_rewards = vector_env_steps_per_s(n_envs, n_steps, workers=workers,
+        single_cpu, vector_cpu = {}, {}
+        single, single_rewards = single_env_steps_per_s(n_envs, n_steps, cpu=single_cpu,
                                                         **env_kwargs)
+        vector, vector_rewards = vector_env_steps_per_s(n_envs, n_steps, workers=workers,
+                                                        cpu=vector_cpu, **env_kwargs)
+        if vector_cpu["cpu_s"] is not None:
+            busy.append(vector_cpu["cpu_s"] / (workers * vector_cpu["wall_s"]))
+            cpu_ratios.append(vector_cpu["cpu_s"] / single_cpu["cpu_s"])
         independent, independent_rewards = independent_steps_per_s(n_envs, n_steps,
                                                                    workers=workers, **env_kwargs)
         same &= bool(np.array_equal(single_rewards, vector_rewards)
@@ -220,7 +256,8 @@ def bench_vector(n_envs: int = 16, workers: int = 2, n_steps: int = 150, rounds:
            "one_per_process_speedup": float(np.median(pair_speedups)),
            "one_per_process_speedups": pair_speedups.tolist(), "same_episodes": same,
            "independent_speedup": float(np.median(ceilings)),
-           "independent_speedups": ceilings.tolist()}
+           "independent_speedups": ceilings.tolist(),
+           "vector_busy_shares": busy, "vector_cpu_per_step_ratios": cpu_ratios}
     echo(f"autopilot env ({env_kwargs['scenario']}, robot random, others on their planners; "
          f"{n_steps} steps per copy, the same episodes in one env and on {workers} processes"
          f"{'' if same else ' -- REWARDS DIFFER'}; median of {rounds} rounds):")
@@ -234,4 +271,10 @@ def bench_vector(n_envs: int = 16, workers: int = 2, n_steps: int = 150, rounds:
          f"wait for each other: {row['independent_speedup']:.2f}x (rounds "
          f"{', '.join(f'{r:.2f}' for r in ceilings)}); vector_env({n_envs}) reaches "
          f"{100 * np.median(speedups / ceilings):.0f} % of it")
+    if busy:
+        echo(f"  why not {workers}x: vector_env({n_envs})'s {workers} processes were busy "
+             f"{100 * np.median(busy):.0f} % of its wall time (the rest waiting for each other; "
+             f"rounds {', '.join(f'{100 * b:.0f}' for b in busy)} %), and an env step took "
+             f"{np.median(cpu_ratios):.2f}x the CPU it takes one env alone (the machine running "
+             f"{workers} processes at once; rounds {', '.join(f'{r:.2f}' for r in cpu_ratios)})")
     return row

@@ -151,6 +151,11 @@ class BatchedVectorEnv(VectorEnv):
             self._pipes.append(parent)
             self._processes.append(process)
 
+    @property
+    def worker_pids(self) -> tuple[int, ...]:
+        """The pids of the child processes that step the blocks after this process's own."""
+        return tuple(process.pid for process in self._processes)
+
     def _answers(self, messages):
         """Send one message to every block, then yield their answers in block order.
 

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import os
 import signal
+import time
 
 import numpy as np
 import pytest
@@ -156,7 +157,7 @@ def test_every_block_in_a_child_process_gives_the_same_episodes():
     for in_process in (True, False):
         venv = BatchedVectorEnv(3, 2, make, in_process=in_process)
         try:
-            assert len(venv._processes) == (1 if in_process else 2)
+            assert len(venv.worker_pids) == (1 if in_process else 2)
             runs.append(_rollout_with_infos(venv, seed, MAX_CYCLES + 3, 3))
         finally:
             venv.close()
@@ -192,6 +193,7 @@ def test_a_killed_worker_is_a_clear_error_naming_it_and_close_still_works():
     try:
         venv.reset(seed=0)
         worker = venv._processes[0]
+        assert venv.worker_pids == (worker.pid,)
         os.kill(worker.pid, signal.SIGKILL)
         worker.join(timeout=10)
         with pytest.raises(RuntimeError) as err:
@@ -216,8 +218,34 @@ def test_the_vector_bench_sets_the_same_episodes_side_by_side():
     )
 
     kwargs = {"scenario": "occluded_crosswalk", "max_cycles": 12}  # episodes end and reset
-    _, one_env = single_env_steps_per_s(3, 30, seed=5, **kwargs)
-    _, vector = vector_env_steps_per_s(3, 30, seed=5, workers=2, **kwargs)
+    one_cpu, vector_cpu = {}, {}
+    _, one_env = single_env_steps_per_s(3, 30, seed=5, cpu=one_cpu, **kwargs)
+    _, vector = vector_env_steps_per_s(3, 30, seed=5, workers=2, cpu=vector_cpu, **kwargs)
     _, apart = independent_steps_per_s(3, 30, seed=5, workers=2, **kwargs)
     assert np.array_equal(one_env, vector) and np.array_equal(one_env, apart)
     assert len(set(one_env.tolist())) == 3  # the copies' episodes differ
+    # the CPU it reports is both processes': the worker's too (at most 2 cores' worth, give or
+    # take /proc's 10 ms ticks), and the one env's is its own process's
+    assert 0.0 < one_cpu["cpu_s"] <= one_cpu["wall_s"] + 0.02
+    assert 0.0 < vector_cpu["cpu_s"] <= 2 * vector_cpu["wall_s"] + 0.04
+
+
+def test_process_cpu_is_that_of_the_named_process():
+    """The bench's CPU time of another process (/proc) grows with the work it does."""
+    import subprocess
+    import sys
+
+    from marl_social.bench.vector_bench import process_cpu_s
+
+    if process_cpu_s(os.getpid()) is None:
+        pytest.skip("needs Linux /proc")
+    start = time.monotonic()
+    code = "import time\nt = time.process_time()\nwhile time.process_time() - t < 0.3: pass\ninput()"
+    busy = subprocess.Popen([sys.executable, "-c", code], stdin=subprocess.PIPE)
+    try:
+        while (process_cpu_s(busy.pid) or 0.0) < 0.3 and time.monotonic() < start + 30:
+            time.sleep(0.05)
+        assert 0.3 <= process_cpu_s(busy.pid) <= time.monotonic() - start + 0.02
+    finally:
+        busy.communicate(b"\n", timeout=30)
+    assert process_cpu_s(busy.pid) is None  # gone
