@@ -8,8 +8,9 @@ radians counter-clockwise from +x.
 from __future__ import annotations
 
 import bisect
+import copy
 import math
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -371,12 +372,18 @@ def _validate_convex_polygon(poly, name: str) -> np.ndarray:
         raise ValueError(f"{name}: expected a polygon of shape (V>=3, 2), got {arr.shape}")
     if not np.all(np.isfinite(arr)):
         raise ValueError(f"{name}: polygon has non-finite coordinates")
-    edge = np.roll(arr, -1, axis=0) - arr
-    nxt = np.roll(edge, -1, axis=0)
-    cross = edge[:, 0] * nxt[:, 1] - edge[:, 1] * nxt[:, 0]
-    if np.all(cross < 0):
+    # (V, 2) edge k from vertex k to k + 1 (the last back to the first), and (V,) the cross
+    # product of edge k with edge k + 1 (slices rather than np.roll: this runs for every
+    # obstacle of every reset)
+    edge = np.empty_like(arr)
+    np.subtract(arr[1:], arr[:-1], out=edge[:-1])
+    np.subtract(arr[0], arr[-1], out=edge[-1])
+    cross = np.empty(len(arr))
+    np.subtract(edge[:-1, 0] * edge[1:, 1], edge[:-1, 1] * edge[1:, 0], out=cross[:-1])
+    cross[-1] = edge[-1, 0] * edge[0, 1] - edge[-1, 1] * edge[0, 0]
+    if (cross < 0).all():
         arr = arr[::-1].copy()
-    elif not np.all(cross > 0):
+    elif not (cross > 0).all():
         raise ValueError(f"{name}: static polygons must be strictly convex (split concave ones)")
     return arr
 
@@ -452,7 +459,11 @@ class RoadMap:
             name: the agent's name (its route is kept if the map has one).
         """
         own = {name: self.routes[name]} if name in self.routes else {}
-        return replace(self, routes=own)
+        # a shallow copy with only the routes swapped: the rest is this map's, validated once
+        # (dataclasses.replace would validate every obstacle again, for every agent)
+        agent_map = copy.copy(self)
+        object.__setattr__(agent_map, "routes", own)
+        return agent_map
 
 
 class RouteSet:

@@ -82,3 +82,30 @@ def test_hypotheses_progress_along_their_paths():
                                           for i in np.flatnonzero(born[1:]) + 1)
     longrun = stationary_distribution(with_hazard)
     assert 0.0 < longrun[1:].sum() < 0.5
+
+
+
+def _power_iteration(transition: np.ndarray) -> np.ndarray:
+    p = np.full(len(transition), 1.0 / len(transition))
+    power = np.linalg.matrix_power(transition, 2)
+    for _ in range(1000):
+        p = power @ p
+    return p / p.sum()
+
+
+def test_the_kept_long_run_distribution_is_the_power_iteration_and_a_fresh_array():
+    """stationary_distribution keeps its result per transition: a repeated call gives the bits
+    of the power iteration itself, as a new array (the belief's prior changes the one it
+    gets), and another transition gets its own."""
+    env = paper_env()
+    hyps = crosswalk_hypotheses(env.road_map, walk_speeds_mps=1.3, curb_offset_m=1.0,
+                                progress_step_m=0.5)
+    transition = motion_transition(hyps, 0.1, hazard_per_s=0.05)
+    first = stationary_distribution(transition)
+    first[:] = -1.0
+    again = stationary_distribution(transition.copy())
+    np.testing.assert_array_equal(again, _power_iteration(transition))
+    other_transition = motion_transition(hyps, 0.1, hazard_per_s=0.5)
+    other = stationary_distribution(other_transition)
+    np.testing.assert_array_equal(other, _power_iteration(other_transition))
+    assert not np.array_equal(other, again)
