@@ -141,6 +141,18 @@ def _make(controlled, env_kwargs):
     return lambda: AutopilotGymEnv(controlled, **env_kwargs)
 
 
+def usable_cores() -> int:
+    """The CPU cores this process may run on (its affinity mask where the OS has one).
+
+    `os.cpu_count()` counts the machine's cores; in a container or job pinned to fewer (docker
+    --cpuset-cpus, taskset, Slurm) that many lock-step processes would share the few allowed
+    ones, and 4 processes on 2 cores stepped slower than one env (docs/benchmarks.md).
+    """
+    if hasattr(os, "sched_getaffinity"):
+        return max(len(os.sched_getaffinity(0)), 1)
+    return os.cpu_count() or 1
+
+
 def vector_env(n: int, controlled=("robot_0",), asynchronous: bool = True, context=None,
                workers: int | None = None, **env_kwargs) -> gymnasium.vector.VectorEnv:
     """N autopilot envs stepped together (see the module docstring).
@@ -153,7 +165,7 @@ def vector_env(n: int, controlled=("robot_0",), asynchronous: bool = True, conte
         context: multiprocessing start method of the workers ("fork", "spawn",
             "forkserver"); None for the platform default.
         workers: processes that step the copies, this one included (asynchronous only); None
-            for min(n, CPU cores). Each steps a contiguous block of copies: this process the
+            for min(n, usable_cores()). Each steps a contiguous block of copies: this process the
             first while workers - 1 child processes step theirs and answer for their block in
             one message (marl_social/envs/batched.py: less waiting for the slowest copy, one
             round trip per child, no process idling on the others; `marl-social bench env`
@@ -163,7 +175,7 @@ def vector_env(n: int, controlled=("robot_0",), asynchronous: bool = True, conte
     if isinstance(n, bool) or not isinstance(n, (int, np.integer)) or n < 1:
         raise ValueError(f"vector_env: n must be a positive integer, got {n!r}")
     if workers is None:
-        workers = min(int(n), os.cpu_count() or 1)
+        workers = min(int(n), usable_cores())
     if isinstance(workers, bool) or not isinstance(workers, (int, np.integer)) \
             or not 1 <= workers <= n:
         raise ValueError(f"vector_env: workers must be an integer in [1, n={n}], got {workers!r}")

@@ -31,6 +31,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
+from marl_social.envs.vector import usable_cores
 from marl_social.studies.jobs import PARENT_POLL_S, die_with_parent, local_results, run_job
 from marl_social.studies.ray_backend import (
     SIGTERM_EXIT_CODE,
@@ -215,8 +216,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("spec", nargs="?", help="built-in study name (see --list) or a TOML "
                         "spec file")
     parser.add_argument("--out", help="output folder (default marl_social_out/studies/<name>)")
-    parser.add_argument("--workers", type=int, default=os.cpu_count() or 1,
-                        help="parallel episodes (default: the number of CPUs)")
+    parser.add_argument("--workers", type=int, default=usable_cores(),
+                        help="parallel episodes (default: the CPU cores this process may use)")
     parser.add_argument("--backend", choices=BACKENDS, default="local")
     parser.add_argument("--address", help="Ray cluster: HOST:PORT of its head, auto or "
                         "ray://HOST:PORT (default: a private local Ray; docs/ray.md)")

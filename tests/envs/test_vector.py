@@ -186,6 +186,24 @@ def test_workers_are_checked():
         marl_social.vector_env(2, workers=0, scenario="occluded_crosswalk")
 
 
+@pytest.mark.skipif(not hasattr(os, "sched_getaffinity"), reason="needs an affinity mask")
+def test_the_default_workers_are_the_cores_this_process_may_use(monkeypatch):
+    """Pinned to one core of many (a container's cpuset, taskset), a vector env steps its
+    copies in this process alone: lock-step processes sharing a core only wait for each other."""
+    from marl_social.envs.vector import usable_cores
+
+    assert usable_cores() == len(os.sched_getaffinity(0))
+    monkeypatch.setattr(os, "sched_getaffinity", lambda pid: {0})
+    monkeypatch.setattr(os, "cpu_count", lambda: 64)
+    assert usable_cores() == 1
+    venv = marl_social.vector_env(3, max_cycles=5)
+    try:
+        assert venv.worker_pids == ()
+        venv.reset(seed=0)
+    finally:
+        venv.close()
+
+
 def test_a_killed_worker_is_a_clear_error_naming_it_and_close_still_works():
     """A worker killed from outside (OOM killer, a signal) is named, with its exit code."""
     venv = marl_social.vector_env(2, workers=2, scenario="occluded_crosswalk",
