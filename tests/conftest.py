@@ -41,9 +41,10 @@ def pytest_collection_modifyitems(config, items):
 
     With pytest-xdist's `--dist loadfile --no-loadscope-reorder` (pyproject's addopts) a file
     goes to one worker in collection order (without the flag, xdist >= 3.5 sends the files with
-    the most tests first, and the few-test slow files ran last): starting the long files first (files marked slow as a whole, the
-    many-seed claims with their own process pools, then files with some slow tests) keeps one
-    of them from running alone at the end while the other workers idle.
+    the most tests first, and the few-test slow files ran last): starting the long files first
+    (files marked slow as a whole, the many-seed claims with their own process pools, then
+    files with some slow tests) keeps one of them from running alone at the end while the
+    other workers idle.
     """
     slow = {}  # file -> [any test slow, every test slow]
     for item in items:
