@@ -22,7 +22,7 @@ import gymnasium
 import numpy as np
 from gymnasium import spaces
 
-from marl_social.bench.vector_bench import process_cpu_s
+from marl_social.bench.vector_bench import processes_cpu_s
 from marl_social.envs.batched import BatchedVectorEnv
 
 
@@ -67,17 +67,13 @@ def vector_steps_per_s(step_s: float, n_copies: int, n_steps: int) -> tuple[floa
         actions = np.zeros((n_copies, 2), np.float32)
         for _ in range(10):
             venv.step(actions)
-        pids = (None, *venv.worker_pids)  # None: this process
-        cpu0 = [time.process_time() if p is None else process_cpu_s(p) for p in pids]
-        start = time.perf_counter()
+        start, start_cpu = time.perf_counter(), processes_cpu_s(venv.worker_pids)
         for _ in range(n_steps):
             venv.step(actions)
-        wall = time.perf_counter() - start
-        cpu1 = [time.process_time() if p is None else process_cpu_s(p) for p in pids]
+        wall, cpu = time.perf_counter() - start, processes_cpu_s(venv.worker_pids) - start_cpu
     finally:
         venv.close()
-    busy = sum(b - a for a, b in zip(cpu0, cpu1)) / (2 * wall)
-    return n_copies * n_steps / wall, busy
+    return n_copies * n_steps / wall, cpu / (2 * wall)
 
 
 def main() -> None:

@@ -82,7 +82,7 @@ def process_cpu_s(pid: int) -> float | None:
         return None
 
 
-def _cpu_s(pids=()) -> float | None:
+def processes_cpu_s(pids=()) -> float | None:
     """CPU time used so far by this process and the processes `pids` [s]; None: one unknown."""
     others = [process_cpu_s(pid) for pid in pids]
     return None if None in others else time.process_time() + sum(others)
@@ -98,9 +98,9 @@ def single_env_steps_per_s(n_envs: int, n_steps: int, seed: int = 0, cpu: dict |
     env = AutopilotGymEnv(**env_kwargs)
     actions = random_actions(env.action_space, n_envs, n_steps, seed)
     _warm_up(env, actions)
-    start, start_cpu = time.perf_counter(), _cpu_s()
+    start, start_cpu = time.perf_counter(), processes_cpu_s()
     reward_sums = _step_copies(env, actions, seed, range(n_envs))
-    seconds, cpu_s = time.perf_counter() - start, _cpu_s() - start_cpu
+    seconds, cpu_s = time.perf_counter() - start, processes_cpu_s() - start_cpu
     env.close()
     if cpu is not None:
         cpu.update(wall_s=seconds, cpu_s=cpu_s)
@@ -192,12 +192,12 @@ def vector_env_steps_per_s(n_envs: int, n_steps: int, seed: int = 0, workers: in
             venv.step(actions[k])
         reward_sums = np.zeros(n_envs)
         pids = getattr(venv, "worker_pids", ())
-        start, start_cpu = time.perf_counter(), _cpu_s(pids)
+        start, start_cpu = time.perf_counter(), processes_cpu_s(pids)
         venv.reset(seed=seed)
         for t in range(n_steps):
             _, rewards, _, _, _ = venv.step(actions[t])  # finished copies reset themselves
             reward_sums += rewards
-        seconds, end_cpu = time.perf_counter() - start, _cpu_s(pids)
+        seconds, end_cpu = time.perf_counter() - start, processes_cpu_s(pids)
     finally:
         venv.close()
     if cpu is not None:
