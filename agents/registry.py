@@ -76,9 +76,10 @@ def _robot_factory(variant_name: str) -> PolicyFactory:
     def build(spec, params, layout, road_map, agent_names):
         # imported at the first robot planner built: the MPC's QP solvers take ~0.5 s to import
         from marl_social.agents.robot.planner import RobotPlanner
+        from marl_social.agents.robot.settings import RobotSettings
 
-        return RobotPlanner(spec, layout, road_map, list(agent_names), planner=variant_name,
-                            params=params)
+        return RobotPlanner(spec, layout, road_map, list(agent_names),
+                            RobotSettings(planner=variant_name, model=params))
     return build
 
 

@@ -112,6 +112,11 @@ class CurbPedestrians:
         self._corridor_half = corridor_half_m
         self.reset()
 
+    @property
+    def crosses_crosswalk(self) -> bool:
+        """Whether the robot's route passes through a crosswalk (else nothing to do here)."""
+        return bool(self._crossings)
+
     def reset(self) -> None:
         """A new episode: no waiting time, no pedestrian judged to wait for something else."""
         self.wait_s: dict[int, float] = {}  # track id -> time the robot stood in front of it

@@ -30,8 +30,8 @@ limit, round the bend at its curve speed) plus `follower_reaction_s`, and then s
 robot at `follower_decel_mps2` (a gap a follower keeps by braking at most that hard: once it has
 slowed to the robot's speed it only follows). The robot merges in front of a car only where that
 car need not brake harder than a comfortable follower does. The simulated followers react to the
-robot as it straightens into their lane, not as it pulls out: in the signalized intersection's
-claims, their braking began within 0.4 s of the robot's heading coming within 15 degrees of the
+robot as it straightens into their lane, not as it pulls out: at the signalled junction of paper
+Fig. 1 c, their braking began within 0.4 s of the robot's heading coming within 15 degrees of the
 lane's, 3.7-6.6 s after it pulled out (a follower modelled as braking 2 s after each plan's
 start let the robot merge where the follower then braked at 3-6 m/s^2, in 14 of 300 fresh
 seeds).

@@ -31,12 +31,12 @@ decides as before. A robot that can no longer stop comfortably short of the hold
 it and does not brake for it.
 
 Only at a stop sign on the robot's route (the place it pulls out from rest into traffic it
-yields to), and only where the robot's planner parameter `sight_hold` is set (the intersection
-scenarios' knob `robot_sight_hold`, on by default; it never holds at a signal). A planner
+yields to), and only where the robot's planner parameter `sight_hold` is set (a scene's knob
+`robot_sight_hold`; it never holds at a signal). A planner
 whose weights give the hidden cars nothing (aggressive, oracle) never holds.
 
 What it costs: time, for politeness. Measured on the T-intersection's randomized seeds
-(2026-12-03; robot_epsilon 0.05, the claims of tests/evaluation/test_intersection_claims.py; the
+(robot_epsilon 0.05, the claims of tests/evaluation/test_intersection_claims.py; the
 robot's model of the humans averaged over its estimate of their speed,
 perception/belief/action_model.speed_averaged_log_likelihood; a merge claim held short of the
 zone, agents/robot/right_of_way.py): V3 forced to brake > 3 m/s^2 by the social robot in 0 of

@@ -76,7 +76,7 @@ class BeliefConfig:
             (whether it can still make its curve speed) is not predicted with confidence on
             the wrong side of that change. Not on straight routes: on the crosswalk it moved
             the belief's claim from 81 to 82 of 95 fresh seeds and made the robot's decision
-            1.67 times slower (2026-12-03); on the T-intersection the social robot's time
+            1.67 times slower; on the T-intersection the social robot's time
             without a hidden car went from 1.034 to 1.009 of the oracle's.
         min_track_steps: a human's acceleration is used once its track has been measured this
             many consecutive steps (a new Kalman track's velocity is still settling; with 3,

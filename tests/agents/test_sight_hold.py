@@ -18,6 +18,7 @@ import marl_social
 from marl_social.agents.robot.mpc_types import MpcConfig
 from marl_social.agents.robot.right_of_way import RightOfWay
 from marl_social.agents.robot.sight_hold import SightHold, SightHoldConfig
+from marl_social.agents.robot.stages import SightHoldStage
 from marl_social.agents.robot.stop import StopSignConfig
 from marl_social.evaluation.reproduce_intersection import randomized_overrides
 from marl_social.evaluation.run import run_episode
@@ -178,7 +179,7 @@ def test_the_knob_turns_it_on_at_a_stop_sign_only():
         env = marl_social.parallel_env(scenario=scenario, **knobs)
         policy = marl_social.policies(env)["robot_0"]
         env.close()
-        return policy.sight_hold.active
+        return policy.stage(SightHoldStage) is not None
 
     assert active("t_intersection")
     assert not active("t_intersection", robot_sight_hold=False)

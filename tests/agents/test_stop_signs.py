@@ -6,6 +6,8 @@ import numpy as np
 import pytest
 
 from marl_social.agents.robot.planner import RobotPlanner
+from marl_social.agents.robot.settings import RobotSettings
+from marl_social.agents.robot.stages import StopLines
 from marl_social.agents.robot.stop import StopSigns, stop_sign_arc_lengths
 from marl_social.envs.world import World
 from marl_social.scenarios.base import ScenarioLayout, ScenarioParams
@@ -40,7 +42,8 @@ def _drive(road_map: RoadMap, x0: float, v0: float, n_steps: int = 250, planner=
     params = ScenarioParams(n_rays=16)
     world = World(ScenarioLayout(road_map, (spec,), params))
     layout = ObservationLayout(params.n_slots, params.n_rays)
-    planner = planner or RobotPlanner(spec, layout, road_map, ["robot_0"], planner="social")
+    planner = planner or RobotPlanner(spec, layout, road_map, ["robot_0"],
+                                       RobotSettings(planner="social"))
     planner.reset()
     rng = np.random.default_rng(0)
     x, v = [x0], [v0]
@@ -93,7 +96,7 @@ def test_stop_sign_state_resets_with_the_planner():
     """After a drive through the stop sign, the same planner reset drives it identically."""
     road_map = _map([_line()])
     x1, v1, planner = _drive(road_map, LINE_X - 50.0, 10.0, 150)
-    assert planner.stop_signs.next_line == 1  # cleared
+    assert planner.stage(StopLines).stop_signs.next_line == 1  # cleared
     x2, v2, _ = _drive(road_map, LINE_X - 50.0, 10.0, 150, planner=planner)
     np.testing.assert_array_equal(x1, x2)
     np.testing.assert_array_equal(v1, v2)
@@ -120,7 +123,7 @@ def test_a_robot_at_rest_short_of_the_line_completes_its_stop_there_then_goes(sh
     has stopped: it stays where it stands for hold_s, then goes through without a second stop."""
     road_map = _map([_line()])
     x, v, planner = _drive(road_map, LINE_X - HALF_LENGTH - short_m, 0.0, n_steps=60)
-    hold = planner.stop_signs.config.hold_s
+    hold = planner.stage(StopLines).stop_signs.config.hold_s
     moved = np.flatnonzero(v >= 0.1)
     assert len(moved) and moved[0] * DT_S >= hold - 1e-9
     assert np.all(np.abs(x[:moved[0]] - x[0]) < 0.02)  # it stays where it stands

@@ -43,4 +43,4 @@ def test_planners_that_do_not_read_the_humans_track_their_own_speed():
     robot = marl_social.policies(env)["robot_0"]
     robot.reset(0)
     _believe(robot, 0)
-    assert robot.v_ref() == robot.v_desired
+    assert robot.v_ref() == min(robot.spec.v_desired_mps, env.road_map.speed_limit_mps)

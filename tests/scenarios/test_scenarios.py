@@ -93,7 +93,7 @@ def test_n_humans_knob_builds_a_platoon_and_is_validated():
 def test_robot_planner_parameters_are_validated():
     from dataclasses import replace
 
-    from marl_social.agents.robot.planner import robot_configs
+    from marl_social.agents.robot.settings import robot_configs
 
     env = marl_social.parallel_env(scenario="occluded_crosswalk", robot_beta_hat=2.0,
                                    robot_epsilon=0.1, robot_theta_hat={"crosswalk": 500.0})

@@ -66,7 +66,7 @@ def test_belief_never_nan_or_all_zero_with_absurd_inputs():
 def test_the_robot_tracks_with_its_own_sensor_noise():
     """robot_configs hands the robot's sensor noise to its belief's Kalman tracker."""
     import marl_social
-    from marl_social.agents.robot.planner import robot_configs
+    from marl_social.agents.robot.settings import robot_configs
 
     env = paper_env(robot_pos_noise_m=1.0)
     spec = env.agent_specs["robot_0"]

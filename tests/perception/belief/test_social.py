@@ -125,7 +125,7 @@ def test_rationality_belief_separates_an_erratic_human_from_a_rational_one():
     at the grid's low end for a nearly random human (beta 0.003) and well above it for a
     rational one (beta 10), and the erratic human's random braking raises the pedestrian
     belief less on average than under a fixed beta_hat."""
-    from marl_social.agents.robot.planner import BETA_GRID_HAT
+    from marl_social.agents.robot.settings import BETA_GRID_HAT
 
     log_grid = np.log(BETA_GRID_HAT)
     false_alarm = {"fixed": [], "inferred": []}
