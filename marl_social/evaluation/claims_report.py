@@ -1,13 +1,9 @@
-"""The claims page, generated: measure the claims into a results file, render it as Markdown.
+"""docs/claims.md, generated: `measure` the claims into a results file, `render` it as Markdown.
 
-`measure` runs the episodes behind the robot's claims in the three paper scenes (the
-occluded crosswalk, the T-intersection, the signalized intersection) with the reproduce
-machinery (each scene's `claim_episode` and `run_table`) and writes a JSON results file: the
-command, versions, seeds, each scene's table and each claim's numbers. `render` turns that file
-into docs/claims.md; tests/evaluation/test_claims_report.py keeps the page equal to it.
-
-    python -m marl_social.evaluation.claims_report measure --out docs/claims/results.json
-    python -m marl_social.evaluation.claims_report render docs/claims/results.json > docs/claims.md
+`measure` runs each paper scene's claim episodes and planner table through the reproduce
+machinery (`claim_episode`, `run_table`) and writes the command, versions, seeds and numbers
+as JSON; tests/evaluation/test_claims_report.py keeps the page equal to `render` of that file.
+Entry points: the MEASURE and RENDER commands below.
 """
 
 from __future__ import annotations
@@ -213,6 +209,7 @@ CLAIMS = {"occluded_crosswalk": crosswalk_claims, "t_intersection": intersection
 
 
 def _git_commit() -> str:
+    """The measuring code's commit (git describe), "unknown" outside a git checkout."""
     try:
         return subprocess.run(["git", "describe", "--always", "--dirty"], capture_output=True,
                               text=True, check=True, cwd=Path(__file__).parent).stdout.strip()
@@ -260,9 +257,10 @@ def render(results: dict) -> str:
                  f"{results['marl_social']}, {results['git']}, Python {results['python']}, "
                  f"numpy {results['numpy']}; {results['workers']} processes, "
                  f"{results['wall_s'] / 60:.1f} min). Never edit this page by hand: rerun "
-                 "the two commands. The tests (`tests/evaluation/test_*claims.py`) check the "
-                 "same claims on 50 seeds; fewer seeds here keep this measurement under ten "
-                 "minutes on 2 cores."), ""]
+                 "the two commands. Most claims are also tests on 50 seeds "
+                 "(`tests/evaluation/test_*claims.py`, `tests/perception/belief/test_claims.py`"
+                 "); fewer seeds here keep this measurement under ten minutes on 2 cores."),
+                 ""]
         for scene, title in TITLES.items():
             s = results["scenes"][scene]
             lo, hi = s["claim_seeds"]
