@@ -1,4 +1,4 @@
-"""Compiled (numba) step costs of the candidates and of the pedestrian's walks (issue 17).
+"""Compiled (numba) step costs of the candidates and of the pedestrian's walks.
 
 `step_costs` (models/gap_evaluation.vehicle_gap_evaluation), `rule_abiding_totals`
 (models/driver.rule_abiding_totals of its result) and `walk_costs`

@@ -1,4 +1,4 @@
-"""The candidates' costs and vehicle gaps in a few compiled loops (issue 17).
+"""The candidates' costs and vehicle gaps in a few compiled loops.
 
 `vehicle_gap_evaluation` is `candidates.evaluate_candidates(..., geometry=True,
 vehicle_gaps_only=True)` -- what a driver's Q* needs (models/driver.py) and what the robot's

@@ -1,4 +1,4 @@
-"""Compiled (numba) loops for the candidates' rollouts, poses and vehicle gaps (issue 17).
+"""Compiled (numba) loops for the candidates' rollouts, poses and vehicle gaps.
 
 `models/gap_evaluation.vehicle_gap_evaluation` (a driver's Q*, the robot's model of a human)
 and `models/pedestrian.pedestrian_q_values` (their costs: models/cost_kernels.py) evaluate a few hundred plan steps per decision;

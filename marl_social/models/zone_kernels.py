@@ -1,4 +1,4 @@
-"""The conflict-zone claims of predicted objects, compiled by numba (issue 17).
+"""The conflict-zone claims of predicted objects, compiled by numba.
 
 `models/gap_evaluation._zone_claims` (candidates.zone_claims, bit for bit: tests/models/
 test_gap_evaluation.py) asks, per claimant with the right of way, how deep its covering

@@ -209,7 +209,7 @@ class GeometryMirror:
         This is chipmunk's cpSpaceSegmentQueryFirst, the call behind pymunk's
         `Space.segment_query_first`, made directly through pymunk's cffi binding with a reused
         result buffer: the wrapper's per-call allocations cost more than the query itself
-        (7.2 vs 3.1 us per ray, measured). tests/sim/test_geometry.py checks that both agree.
+        (see docs/benchmarks.md). tests/sim/test_geometry.py checks that both agree.
 
         Args:
             start: (x, y) tuple, start of the segment [m].

@@ -22,7 +22,7 @@ def whittaker_smooth(y, step: float, cutoff: float) -> np.ndarray:
     f = argmin sum_k |y_k - f_k|^2 + lam sum_k |f_{k+1} - 2 f_k + f_{k-1}|^2, a banded
     solve, O(n). As a filter its gain is 1 / (1 + lam (2 - 2 cos(w h))^2); lam is chosen for
     gain 1/2 at the cutoff (scipy's make_smoothing_spline is the continuous equivalent, but
-    costs ~30 us per sample and made the whole pipeline 3.4 times slower).
+    costs more per sample and made the whole pipeline several times slower).
 
     Args:
         y: (n, d) samples every `step` (any unit: s or m), n >= 3.
