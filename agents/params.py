@@ -87,6 +87,9 @@ class RobotModelParams:
             a hidden car may come and a human that will tell is still coming
             (agents/robot/sight_hold.py; the intersection scenarios' knob robot_sight_hold,
             on by default there).
+        stage_settings: (part, field, value) triples, the settings tree's robot.<part>.<field>
+            leaves (agents/robot/settings.STAGE_PARTS: mpc, belief, curb, ...), applied over
+            the parts' defaults when the robot is built.
     """
 
     theta_hat: CostWeights | None = None
@@ -94,6 +97,7 @@ class RobotModelParams:
     epsilon: float | None = None
     human_expects_yield: bool = False
     sight_hold: bool = False
+    stage_settings: tuple = ()
 
     CHECKS: ClassVar[tuple] = (
         ("beta_hat", _nonnegative, "must be >= 0"),
@@ -111,6 +115,11 @@ def _coerce(spec: AgentSpec, key: str, value: Any, default: Any) -> Any:
         if not isinstance(value, (bool, np.bool_)):
             raise _fail(spec, key, value, "expected a bool")
         return bool(value)
+    if isinstance(default, tuple):  # stage_settings: (part, field, value) triples
+        if not (isinstance(value, (tuple, list))
+                and all(isinstance(v, (tuple, list)) and len(v) == 3 for v in value)):
+            raise _fail(spec, key, value, "expected (part, field, value) triples")
+        return tuple(tuple(v) for v in value)
     if key == "theta_hat":
         try:
             return CostWeights.from_any(value)

@@ -66,14 +66,18 @@ def test_set_values_are_typed_by_the_scenario_parameters():
 
 
 @pytest.mark.parametrize(("assignment", "message"), [
-    ("human_blind=maybe", "human_blind is a bool"),
-    ("human_beta=-1", "human_beta=-1.0: must be"),
+    ("human.blind=maybe", "human_blind is a bool"),
+    ("human.beta=-1", "human_beta=-1.0: must be"),
     ("n_humans=1.5", "n_humans: expected an integer"),
-    ("human_blnd=true", "did you mean 'human_blind'"),
-    ("robot_planner=socail", "did you mean 'social'"),
+    ("human.blnd=true", "did you mean 'human.blind'"),
+    ("robot.planner=socail", "did you mean 'social'"),
     ("pedestrian=crosing", "did you mean 'crossing'"),
-    ("human_theta=1,x", "list of numbers"),
-    ("human_blind", "expected KEY=VALUE"),
+    ("human.theta=1,x", "list of numbers"),
+    ("human.blind", "expected KEY=VALUE"),
+    ("robot.belief.p_detct=0.9", "did you mean 'robot.belief.p_detect'"),
+    ("robot.mpc.w_speed=fast", "robot.mpc.w_speed=fast: expected a number"),
+    ("robot.mpc.horizon_s=0.1", "MpcConfig: need horizon_s > trunk_s"),
+    ("robot.mcp.w_speed=1", "did you mean 'robot.mpc.w_speed'"),
 ])
 def test_bad_set_is_one_line_naming_the_field(assignment, message, capsys):
     assert main(["demo", "--set", assignment, "--no-animation"]) == 2

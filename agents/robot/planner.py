@@ -49,15 +49,13 @@ its phase belief, ``oracle`` by the true phase (``observe_truth``'s signal_phase
 from __future__ import annotations
 
 import math
-from dataclasses import replace
 
 import numpy as np
 
-from marl_social.agents.params import RobotModelParams, parse_planner_params
 from marl_social.agents.robot.mpc import ContingencyMpc
 from marl_social.agents.robot.mpc_types import MpcResult
 from marl_social.agents.robot.pipeline import PlanningRecord, Stage, Truth
-from marl_social.agents.robot.settings import RobotSettings, robot_configs
+from marl_social.agents.robot.settings import RobotSettings, resolve_settings
 from marl_social.agents.robot.stages import (
     BeliefUpdate,
     RobotContext,
@@ -95,12 +93,8 @@ class RobotPlanner:
 
     def __init__(self, spec: AgentSpec, layout: ObservationLayout, road_map: RoadMap,
                  agent_names: list[str], settings: RobotSettings | None = None):
-        settings = settings or RobotSettings()
-        self.variant = settings.variant
-        model = settings.model or parse_planner_params(RobotModelParams, spec)
-        default_mpc, default_belief = robot_configs(spec, self.variant, model)
-        self.settings = replace(settings, model=model, mpc=settings.mpc or default_mpc,
-                                belief=settings.belief or default_belief)
+        self.settings = resolve_settings(spec, settings or RobotSettings())
+        self.variant = self.settings.variant
         self.needs_truth = self.variant.needs_truth
         self.name, self.spec, self.layout = spec.name, spec, layout
         self.road_map = road_map  # the robot's own view of the map: its route only

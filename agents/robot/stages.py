@@ -27,7 +27,7 @@ from marl_social.agents.robot.phase_branches import PhaseBranches
 from marl_social.agents.robot.pipeline import PlanningRecord, Stage
 from marl_social.agents.robot.right_of_way import RightOfWay
 from marl_social.agents.robot.settings import RobotSettings
-from marl_social.agents.robot.sight_hold import SightHold, SightHoldConfig
+from marl_social.agents.robot.sight_hold import SightHold
 from marl_social.agents.robot.signal_stop import SignalStops
 from marl_social.agents.robot.stop import StopSigns, pull_up_target
 from marl_social.agents.robot.track_prediction import along_lane_paths
@@ -55,7 +55,7 @@ class RobotContext:
         belief: the robot's belief over hidden agents (its tracks, hypotheses, model of the
             humans).
         settings: the robot's settings (variant, model of the humans, stage configurations),
-            its model resolved (not None).
+            every part resolved (settings.resolve_settings).
     """
 
     spec: AgentSpec
@@ -425,8 +425,7 @@ def build_stages(context: RobotContext) -> tuple[Stage, ...]:
             and c.road_map.signal_plan is None and bool((~present).any()))
     sight_hold = SightHold(
         right_of_way, c.belief.social, hold, vehicle.length_m, c.mpc.plan_dt_s,
-        c.mpc.epsilon, c.settings.stop,
-        c.settings.sight_hold or SightHoldConfig(comfort_decel_mps2=c.mpc.comfort_decel_mps2))
+        c.mpc.epsilon, c.settings.stop, c.settings.sight_hold)
     if sight_hold.active:
         stages.append(SightHoldStage(sight_hold, present & belief_update.vehicle,
                                      int(np.argmin(present))))

@@ -184,11 +184,14 @@ def _add_irl(sub) -> None:
 
 def _add_params(sub) -> None:
     params = sub.add_parser("params", formatter_class=FORMATTER,
-                            help="list a scenario's parameters (for --set)",
-                            description="List a scenario's parameters, types and defaults.")
+                            help="list a scenario's settings (for --set)",
+                            description="List a scenario's settings: the dotted names --set takes, "
+                                        "their types, units, defaults and meaning.")
     params.add_argument("scenario", nargs="?", default="occluded_crosswalk",
                         type=choice("scenario", SCENARIOS), help="scenario name")
-    params.set_defaults(func=lambda args: print(describe_params(args.scenario)) or 0)
+    params.add_argument("--json", action="store_true",
+                        help="a JSON object {name: {type, unit, default, doc}} (for tools)")
+    params.set_defaults(func=lambda args: print(describe_params(args.scenario, args.json)) or 0)
 
 
 def _add_study(sub) -> None:

@@ -17,7 +17,7 @@ def demo_overrides(args) -> dict:
     """The demo's scenario overrides: --planner and --pedestrian, then every --set."""
     options = {}
     if args.planner is not None:
-        options["robot_planner"] = args.planner
+        options["robot.planner"] = args.planner
     if args.pedestrian is not None:
         options["pedestrian"] = args.pedestrian
     given = [f"{k}={v}" for k, v in options.items()]
@@ -181,11 +181,11 @@ def record(args) -> int:
 
 def _recording_overrides(args) -> dict:
     """--robot-planner, --pedestrian and --human-beta, then every --set (validated)."""
-    given = [f"robot_planner={args.robot_planner}"]
+    given = [f"robot.planner={args.robot_planner}"]
     if args.pedestrian is not None:
         given.append(f"pedestrian={args.pedestrian}")
     if args.human_beta is not None:
-        given.append(f"human_beta={args.human_beta!r}")
+        given.append(f"human.beta={args.human_beta!r}")
     return parse_overrides(args.scenario, given + list(args.set or ()))
 
 

@@ -10,11 +10,12 @@ value fails with that validation's one-line message.
 
 from __future__ import annotations
 
-import dataclasses
 import difflib
 import json
+import warnings
 
 from marl_social.scenarios import SCENARIOS
+from marl_social.scenarios.settings_tree import Leaf, settings_leaves
 
 TRUE_WORDS = ("true", "yes", "on", "1")
 FALSE_WORDS = ("false", "no", "off", "0")
@@ -110,15 +111,25 @@ def parse_overrides(scenario: str, assignments) -> dict:
     """
     cls = scenario_class(scenario)
     params_cls = cls.params_cls
-    names = [f.name for f in dataclasses.fields(params_cls)]
+    leaves = settings_leaves(params_cls)
+    fields = {leaf.field: leaf.name for leaf in leaves.values() if leaf.field}
     overrides = {}
     for text in assignments or ():
         key, value = split_assignment(text)
-        if key not in names:
-            raise ValueError(f"--set {key}: unknown parameter of scenario {scenario!r}"
-                             f"{did_you_mean(key, names)} (see `marl-social params "
-                             f"{scenario}`)")
-        overrides[key] = _convert(params_cls, key, value)
+        if key in fields and fields[key] != key:
+            warnings.warn(f"--set {key}: the flat name is deprecated and goes in the next "
+                          f"release; use --set {fields[key]}={value}", FutureWarning,
+                          stacklevel=2)
+            key = fields[key]
+        if key not in leaves:
+            raise ValueError(f"--set {key}: unknown setting of scenario {scenario!r}"
+                             f"{did_you_mean(key, list(leaves) + list(fields))} (see "
+                             f"`marl-social params {scenario}`)")
+        leaf = leaves[key]
+        if leaf.field is None:  # a robot part's leaf (robot.mpc.w_speed, ...)
+            overrides[key] = _convert_leaf(leaf, value)
+        else:
+            overrides[leaf.field] = _convert(params_cls, leaf.field, value)
     if "robot_planner" in overrides:
         from marl_social.agents.registry import ROBOT_PLANNERS
 
@@ -132,14 +143,44 @@ def parse_overrides(scenario: str, assignments) -> dict:
         params = cls(**overrides).params  # the scenario's own validation of every value
     except TypeError as err:  # make_params reports a wrong type as TypeError
         raise ValueError(str(err)) from None
-    return {key: getattr(params, key) for key in overrides}
+    return {key: (getattr(params, key) if "." not in key else value)
+            for key, value in overrides.items()}
 
 
-def describe_params(scenario: str) -> str:
-    """Every parameter of `scenario` with its type and default, one a line."""
+def _convert_leaf(leaf: Leaf, text: str):
+    """`text` as a robot part leaf's value (its type's parsing; the robot checks the range)."""
+    where = f"--set {leaf.name}={text}"
+    if leaf.type == "bool":
+        if text.lower() in TRUE_WORDS + FALSE_WORDS:
+            return text.lower() in TRUE_WORDS
+        raise ValueError(f"{where}: a bool; use true or false")
+    if leaf.type == "list":
+        try:
+            values = json.loads(text) if text.startswith("[") else [
+                float(v) for v in text.split(",")]
+        except ValueError:
+            raise ValueError(f"{where}: a list of numbers; give e.g. 0,1,0.1") from None
+        return tuple(values)
+    try:
+        return float(text) if leaf.type == "float" else int(text)
+    except ValueError:
+        raise ValueError(f"{where}: expected {'a number' if leaf.type == 'float' else 'an integer'}"
+                         ) from None
+
+
+def describe_params(scenario: str, as_json: bool = False) -> str:
+    """Every setting of `scenario`: name, type, unit, default and meaning, one a line.
+
+    Args:
+        scenario: a registered scenario.
+        as_json: a JSON object {dotted name: {type, unit, default, doc}} instead (for tools).
+    """
     params_cls = scenario_class(scenario).params_cls
-    lines = [f"scenario {scenario!r} ({params_cls.__name__}); set with --set KEY=VALUE:"]
-    for f in dataclasses.fields(params_cls):
-        default = f.default if f.default is not dataclasses.MISSING else f.default_factory()
-        lines.append(f"  {f.name:<28} {type(default).__name__:<6} default {default!r}")
+    leaves = settings_leaves(params_cls)
+    if as_json:
+        return json.dumps({name: leaf.as_json() for name, leaf in leaves.items()}, indent=1)
+    lines = [f"scenario {scenario!r} ({params_cls.__name__}); set with --set NAME=VALUE:"]
+    for name, leaf in leaves.items():
+        unit = f" [{leaf.unit}]" if leaf.unit and "[" not in leaf.doc else ""
+        lines.append(f"  {name:<40} {leaf.type:<5} {leaf.default!r:<14} {leaf.doc}{unit}")
     return "\n".join(lines)

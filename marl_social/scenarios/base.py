@@ -10,6 +10,7 @@ A new scenario is small: subclass `ScenarioParams` with its own fields and check
 from __future__ import annotations
 
 import dataclasses
+import difflib
 import math
 from abc import ABC, abstractmethod
 from dataclasses import dataclass
@@ -50,6 +51,8 @@ class ScenarioParams:
             `marl_social.agents.registry.ROBOT_PLANNERS`: "social" (the paper), "social+beta"
             (also infers each human's rationality), "aggressive", "conservative", "oracle"
             (agents/robot/planner.py) or "cruise" (the rule-based baseline, agents/cruise.py).
+        robot_stage_settings: the settings tree's robot.<part>.<field> leaves as (part, field,
+            value) triples (agents/robot/settings.STAGE_PARTS), handed to the robot's planner.
     """
 
     n_slots: int = 8
@@ -57,6 +60,7 @@ class ScenarioParams:
     terminate_on_collision: bool = True
     collision_penalty: float = 100.0
     robot_planner: str = "social"
+    robot_stage_settings: tuple = ()
 
     def __post_init__(self):
         self._check_types()
@@ -65,6 +69,11 @@ class ScenarioParams:
         self._check_range("n_slots", 1, MAX_SLOTS)
         self._check_range("n_rays", 1, MAX_RAYS)
         self._check_range("collision_penalty", 0.0, MAX_COLLISION_PENALTY)
+        if self.robot_stage_settings:
+            from marl_social.agents.robot.settings import checked_stage_settings
+
+            object.__setattr__(self, "robot_stage_settings",
+                               checked_stage_settings(self.robot_stage_settings))
 
     def _check(self, ok: bool, field_name: str, message: str) -> None:
         if not ok:
@@ -189,18 +198,73 @@ def as_real(value, name: str) -> float:
     return number
 
 
+# settings-tree prefixes of the parameters every scenario has (the others by their own prefix)
+_BASE_LEAVES = {"n_slots": "env.n_slots", "n_rays": "env.n_rays",
+                "terminate_on_collision": "env.terminate_on_collision",
+                "collision_penalty": "env.collision_penalty", "robot_planner": "robot.planner"}
+_AGENT_PREFIXES = ("human_", "pedestrian_", "robot_")
+
+
+def dotted_name(field_name: str) -> str:
+    """A scenario parameter's name in the settings tree (its layout knobs keep their name).
+
+    env.* for the env's settings, human.* / pedestrian.* / robot.* for each agent kind's
+    (human_beta -> human.beta, robot_epsilon -> robot.epsilon), the rest as it is.
+    """
+    if field_name in _BASE_LEAVES:
+        return _BASE_LEAVES[field_name]
+    for prefix in _AGENT_PREFIXES:
+        if field_name.startswith(prefix):
+            return prefix[:-1] + "." + field_name[len(prefix):]
+    return field_name
+
+
+def flat_overrides(params_cls: type[ScenarioParams], overrides: dict) -> dict:
+    """Overrides keyed by settings-tree names (or the flat field names) as field names.
+
+    A robot.<part>.<field> leaf of the robot's parts (agents/robot/settings.STAGE_PARTS)
+    joins robot_stage_settings.
+
+    Args:
+        params_cls: the scenario's parameter dataclass.
+        overrides: {dotted or flat name: value}.
+
+    Raises:
+        ValueError: a name that is no setting of this scenario, with the closest one.
+    """
+    fields = [f.name for f in dataclasses.fields(params_cls) if f.name != "robot_stage_settings"]
+    by_dotted = {dotted_name(f): f for f in fields}
+    flat: dict = {}
+    stage: list = []
+    for key, value in overrides.items():
+        if key in by_dotted or key == "robot_stage_settings":
+            flat[by_dotted.get(key, key)] = value
+        elif key in fields:
+            flat[key] = value
+        elif isinstance(key, str) and key.startswith("robot.") and key.count(".") == 2:
+            _, part, name = key.split(".")
+            stage.append((part, name, value))
+        else:
+            close = difflib.get_close_matches(str(key), list(by_dotted) + fields, n=1,
+                                              cutoff=0.6)
+            hint = f"; did you mean {close[0]!r}?" if close else ""
+            raise ValueError(f"unknown scenario parameter {short_repr(key)} for {params_cls.__name__}"
+                             f"{hint}; valid: {sorted(by_dotted)} and robot.<part>.<field> "
+                             "(`marl-social params` lists them)")
+    if stage:
+        flat["robot_stage_settings"] = tuple(flat.get("robot_stage_settings", ())) + tuple(stage)
+    return flat
+
+
 def make_params(params_cls: type[ScenarioParams], overrides: dict) -> ScenarioParams:
     """Build params from overrides, rejecting unknown keys and values of the wrong type.
 
     Args:
         params_cls: the scenario's parameter dataclass.
-        overrides: {field name: value}; numbers may be numeric strings ("10", "2.5").
+        overrides: {settings-tree name or field name: value}; numbers may be numeric strings
+            ("10", "2.5").
     """
-    fields = {f.name: f for f in dataclasses.fields(params_cls)}
-    unknown = sorted(set(overrides) - set(fields), key=str)
-    if unknown:
-        raise ValueError(f"unknown scenario parameter(s) {unknown} for {params_cls.__name__}; "
-                         f"valid: {sorted(fields)}")
+    overrides = flat_overrides(params_cls, overrides)
     clean = {}
     for key, value in overrides.items():
         default = getattr(params_cls, key, None)

@@ -128,7 +128,8 @@ def robot_spec(params: IntersectionParams, x_m: float, front_y_m: float) -> Agen
     vehicle = VehicleParams()
     y = front_y_m - 0.5 * vehicle.length_m
     planner = {"beta_hat": p.robot_beta_hat, "epsilon": p.robot_epsilon,
-               "human_expects_yield": p.human_expects_yield, "sight_hold": p.robot_sight_hold}
+               "human_expects_yield": p.human_expects_yield, "sight_hold": p.robot_sight_hold,
+               "stage_settings": p.robot_stage_settings}
     if p.robot_theta_hat:
         planner["theta_hat"] = p.robot_theta_hat
     return AgentSpec(

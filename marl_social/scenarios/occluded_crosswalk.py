@@ -218,7 +218,8 @@ class OccludedCrosswalk(Scenario):
     def _robot(self) -> tuple[AgentSpec, Route]:
         """The robot in the left lane at x = ROBOT_START_X_M, with its model of the humans."""
         p: OccludedCrosswalkParams = self.params
-        robot_model = {"beta_hat": p.robot_beta_hat, "epsilon": p.robot_epsilon}
+        robot_model = {"beta_hat": p.robot_beta_hat, "epsilon": p.robot_epsilon,
+                       "stage_settings": p.robot_stage_settings}
         if p.robot_theta_hat:
             robot_model["theta_hat"] = p.robot_theta_hat
         spec = AgentSpec(

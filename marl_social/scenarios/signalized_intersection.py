@@ -100,12 +100,13 @@ class SignalizedIntersectionParams(IntersectionParams):
         all_red_s: every all-red clearance phase's duration [s].
         n_humans: left-turners (0-3); human_0's front starts human_start_m behind its stop
             line (every stop line lies STOP_SETBACK_M before the junction box), the next ones HUMAN_SPACING_M apart behind it.
-        human_start_m: [m]; human_speed_mps, human_desired_speed_mps: initial and cruise speed
-            of the left-turners [m/s].
+        human_start_m: [m].
+        human_speed_mps, human_desired_speed_mps: initial and cruise speed of the left-turners
+            [m/s].
         n_cross: cross cars (0-2) in the eastbound curb lane; V3's front starts cross_start_m
             before its stop line, V4 cross_gap_m (front to front) behind it.
-        cross_start_m, cross_gap_m: [m]; cross_speed_mps: their initial and desired speed
-            [m/s].
+        cross_start_m, cross_gap_m: [m].
+        cross_speed_mps: the cross cars' initial and desired speed [m/s].
         robot_start_back_m: how far the robot's front starts before its stop line [m].
     """
 
