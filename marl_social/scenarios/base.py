@@ -256,6 +256,24 @@ def flat_overrides(params_cls: type[ScenarioParams], overrides: dict) -> dict:
     return flat
 
 
+def setting_value(params: ScenarioParams, name: str):
+    """The value `params` holds for a setting given by its field or settings-tree name.
+
+    Raises:
+        KeyError: a name that is no setting of these parameters.
+    """
+    if hasattr(params, name):
+        return getattr(params, name)
+    flat = flat_overrides(type(params), {name: None})
+    if "robot_stage_settings" in flat:
+        _, part, field_name = name.split(".")
+        for p, f, value in reversed(params.robot_stage_settings):  # the last one set wins
+            if (p, f) == (part, field_name):
+                return value
+        raise KeyError(name)
+    return getattr(params, next(iter(flat)))
+
+
 def make_params(params_cls: type[ScenarioParams], overrides: dict) -> ScenarioParams:
     """Build params from overrides, rejecting unknown keys and values of the wrong type.
 

@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import collections
 import dataclasses
+import difflib
 import itertools
 import math
 import os
@@ -114,8 +115,19 @@ def _scenario_fields(spec: StudySpec) -> tuple[type, dict]:
     if spec.scenario not in SCENARIOS:
         raise _spec_error(spec.source, "scenario", f"unknown scenario {spec.scenario!r}; "
                           f"available: {sorted(SCENARIOS)}")
+    from marl_social.scenarios.settings_tree import settings_leaves
+
     cls = SCENARIOS[spec.scenario].params_cls
-    return cls, {f.name: f for f in dataclasses.fields(cls)}
+    # every name a spec may use: the settings tree's leaves and the flat field names
+    defaults = {f.name: f.default for f in dataclasses.fields(cls)}
+    defaults.update({name: leaf.default for name, leaf in settings_leaves(cls).items()})
+    return cls, defaults
+
+
+def _closest(name: str, names) -> str:
+    """"; did you mean 'x'?" for the closest of `names` to `name`, else ""."""
+    close = difflib.get_close_matches(name, list(names), n=1, cutoff=0.6)
+    return f"; did you mean {close[0]!r}?" if close else ""
 
 
 def _check_names(spec: StudySpec, params_cls: type, fields: dict) -> None:
@@ -125,7 +137,8 @@ def _check_names(spec: StudySpec, params_cls: type, fields: dict) -> None:
         if name not in fields:
             raise _spec_error(spec.source, spec.section_of(name),
                               f"unknown parameter for scenario {spec.scenario!r} "
-                              f"({params_cls.__name__}); valid: {sorted(fields)}")
+                              f"({params_cls.__name__}){_closest(name, fields)}; "
+                              f"`marl-social params {spec.scenario}` lists them")
     bad = [p for p in spec.planners if p not in ROBOT_PLANNERS]
     if bad:
         raise _spec_error(spec.source, "planners", f"unknown planner(s) {bad}; valid: "
@@ -182,7 +195,7 @@ def axes(spec: StudySpec) -> list[tuple[str, tuple]]:
     _, fields = _scenario_fields(spec)
     out = list(spec.grid.items())
     for name in spec.random:
-        default = fields[name].default if name in fields else None
+        default = fields.get(name)
         out.append((name, _draw(spec, name, default)))
     for name, values in out:
         counts = collections.Counter(_same_value_key(v) for v in values)
@@ -242,7 +255,7 @@ def expand(spec: StudySpec) -> list[Run]:
         ValueError: naming the spec file and the key at fault.
     """
     from marl_social.evaluation.run import scenario_randomized_overrides
-    from marl_social.scenarios.base import make_params
+    from marl_social.scenarios.base import make_params, setting_value
 
     params_cls, fields = _scenario_fields(spec)
     _check_names(spec, params_cls, fields)
@@ -269,7 +282,7 @@ def expand(spec: StudySpec) -> list[Run]:
                     params = make_params(params_cls, overrides)
                 except (TypeError, ValueError) as err:
                     raise _located_error(spec, err, point) from None
-                clean = {k: getattr(params, k) for k in overrides}
+                clean = {k: setting_value(params, k) for k in overrides}
                 key = run_key(spec.scenario, {k: clean[k] for k in point}, seed)
                 if key in seen:  # values the scenario normalizes alike
                     raise ValueError(f"{spec.source}: {_sweep_keys(spec)}: two parameter "

@@ -70,3 +70,21 @@ def test_a_flat_name_on_the_command_line_still_works_with_a_deprecation_warning(
     assert any(issubclass(w.category, FutureWarning) and "use --set robot.epsilon=0.05"
                in str(w.message) for w in caught)
     assert "robot.mpc.w_speed" in capsys.readouterr().out
+
+
+def test_a_study_sweeps_any_leaf(tmp_path):
+    from marl_social.studies.runs import expand, load_spec
+
+    spec_file = tmp_path / "sweep.toml"
+    spec_file.write_text('name = "w"\nscenario = "occluded_crosswalk"\nseeds = 2\n'
+                         'planners = ["social"]\npedestrians = ["crossing"]\n\n'
+                         '[grid]\n"robot.mpc.w_speed" = [0.5, 4.0]\n'
+                         '"robot.curb.p_step_off" = [0.1, 0.3]\n')
+    runs = expand(load_spec(spec_file))
+    assert len(runs) == 8
+    assert {(r.overrides["robot.mpc.w_speed"], r.overrides["robot.curb.p_step_off"])
+            for r in runs} == {
+        (0.5, 0.1), (0.5, 0.3), (4.0, 0.1), (4.0, 0.3)}
+    spec_file.write_text(spec_file.read_text().replace("w_speed", "w_sped"))
+    with pytest.raises(ValueError, match="did you mean 'robot.mpc.w_speed'"):
+        load_spec(spec_file)
