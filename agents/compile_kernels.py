@@ -132,7 +132,7 @@ def _plan_once() -> None:
     decision gives them.
     """
     from marl_social.agents.robot.mpc import plan
-    from marl_social.agents.robot.mpc_types import MpcConfig
+    from marl_social.agents.robot.mpc_types import MpcConfig, PlanRequest
     from marl_social.models.candidates import ScenePrediction
     from marl_social.sim.agent_spec import VehicleParams
     from marl_social.sim.road_map import Route
@@ -149,5 +149,6 @@ def _plan_once() -> None:
             2, 2, -1),
         np.array([[0.6, 4.5]] * 2), np.array([[0.6, 1.8]] * 2), np.array([[0.3, 2.4]] * 2),
         both & [True, False], both & [[True], [False]] | both & [False, True])
-    plan(c, VehicleParams(), route, 10.0, 8.0, 0.0, 10.0, 13.9, scene, np.array([0.3, 0.7]),
-         stop_at_m=50.0)
+    plan(c, VehicleParams(), route, PlanRequest(
+        10.0, 8.0, 0.0, 10.0, 13.9, scene, np.array([0.3, 0.7]),
+         stop_at_m=50.0))

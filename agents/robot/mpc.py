@@ -67,10 +67,9 @@ from marl_social.agents.robot.corridor import (
     reachable_progress,
     route_curvature,
 )
-from marl_social.agents.robot.mpc_types import MpcConfig, MpcResult
+from marl_social.agents.robot.mpc_types import MpcConfig, MpcResult, PlanRequest
 from marl_social.agents.robot.qp import ContingencyQp
 from marl_social.agents.robot.qp_types import QpSolution, QpWeights
-from marl_social.models.candidates import ScenePrediction
 from marl_social.sim.agent_spec import VehicleParams
 from marl_social.sim.dynamics import DT_S
 from marl_social.sim.road_map import Route
@@ -155,39 +154,19 @@ class ContingencyMpc:
         return curvature_speed_bound(vertex_s, kappa, s_lo, s_hi, c.curvature_window_m,
                                      c.lat_accel_max_mps2, v_cap)
 
-    def plan(self, route: Route, s0: float, v0: float, prev_accel: float, v_ref_mps: float,
-             speed_limit_mps: float, scene: ScenePrediction, beliefs: np.ndarray,
-             static_boxes: np.ndarray | None = None, stop_at_m: float = np.inf,
-             contingent: np.ndarray | None = None,
-             extra_objects: list[list[PathObject]] | None = None,
-             pull_up_to_m: float = np.inf) -> MpcResult:
+    def plan(self, route: Route, request: PlanRequest) -> MpcResult:
         """One MPC solve.
 
         Args:
             route: the robot's route.
-            s0: the robot's arc length along its route (footprint centre) [m].
-            v0: its speed [m/s].
-            prev_accel: its previous acceleration command [m/s^2].
-            v_ref_mps: reference speed [m/s].
-            speed_limit_mps: hard speed limit [m/s].
-            scene: L hypotheses of the others at config.plan_times_s.
-            beliefs: (L,) probability of each hypothesis.
-            static_boxes: (S, 4) bounding boxes [xmin, ymin, xmax, ymax] of static polygons [m].
-            stop_at_m: the arc length the robot's centre must stay behind (a stop line not yet
-                stopped at, agents/robot/stop.py; inf: none) [m].
-            contingent: (L,) bool or factor in [0, 1] of the comfort weight: the hypotheses
-                whose branches must brake comfortably (soft bound, config.comfort_decel_mps2):
-                those not seen to be true, a pedestrian that may be hidden or may step off, or
-                one that stepped off as prepared for (curb.py, `prepared_comfort`); None: every
-                one.
-            extra_objects: per hypothesis (L lists), objects on the path besides the scene's,
-                e.g. the zone claims of cars with the right of way (agents/robot/
-                right_of_way.py; None: none).
-            pull_up_to_m: the arc length the robot's centre drives up to, drawn there by the
-                pull-up term w_pull_up (s - line)^2: a robot at rest short of the stop line it
-                must stop at pulls up to it within a couple of seconds instead of creeping (the
-                speed term alone values distance, not arriving sooner; inf: no such term) [m].
+            request: where the robot is, the branches and their weights, the stop targets
+                (mpc_types.PlanRequest).
         """
+        r = request
+        s0, v0, prev_accel, scene = r.s0, r.v0, r.prev_accel, r.scene
+        v_ref_mps, speed_limit_mps, beliefs = r.v_ref_mps, r.speed_limit_mps, r.beliefs
+        static_boxes, stop_at_m, contingent = r.static_boxes, r.stop_at_m, r.contingent
+        extra_objects, pull_up_to_m = r.extra_objects, r.pull_up_to_m
         c, veh = self.config, self.vehicle
         self._goal = ((c.w_pull_up, pull_up_to_m - s0) if np.isfinite(pull_up_to_m)
                       else (0.0, 0.0))
@@ -440,28 +419,14 @@ def distinct_branches(s_low: np.ndarray, s_up: np.ndarray, comfort: np.ndarray
     return np.array(first, dtype=np.intp), inverse
 
 
-def plan(config: MpcConfig, vehicle: VehicleParams, route: Route, s0: float, v0: float,
-         prev_accel: float, v_ref_mps: float, speed_limit_mps: float, scene: ScenePrediction,
-         beliefs: np.ndarray, static_boxes: np.ndarray | None = None,
-         stop_at_m: float = np.inf, contingent: np.ndarray | None = None) -> MpcResult:
-    """One MPC solve with a fresh ContingencyMpc (ContingencyMpc.plan for the arguments).
+def plan(config: MpcConfig, vehicle: VehicleParams, route: Route,
+         request: PlanRequest) -> MpcResult:
+    """One MPC solve with a fresh ContingencyMpc (ContingencyMpc.plan).
 
     Args:
         config: the MPC configuration.
         vehicle: the robot's physical parameters.
         route: the robot's route.
-        s0: the robot's arc length along its route [m].
-        v0: its speed [m/s].
-        prev_accel: its previous acceleration command [m/s^2].
-        v_ref_mps: reference speed [m/s].
-        speed_limit_mps: hard speed limit [m/s].
-        scene: L hypotheses of the others at config.plan_times_s.
-        beliefs: (L,) probability of each hypothesis.
-        static_boxes: (S, 4) bounding boxes of the static polygons [m].
-        stop_at_m: the arc length the robot's centre must stay behind (inf: none) [m].
-        contingent: (L,) bool or comfort factor in [0, 1], the branches that must brake
-            comfortably (None: every one).
+        request: what to plan for (mpc_types.PlanRequest).
     """
-    return ContingencyMpc(config, vehicle).plan(route, s0, v0, prev_accel, v_ref_mps,
-                                                speed_limit_mps, scene, beliefs, static_boxes,
-                                                stop_at_m, contingent)
+    return ContingencyMpc(config, vehicle).plan(route, request)

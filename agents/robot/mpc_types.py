@@ -6,6 +6,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from marl_social.models.candidates import ScenePrediction
+
 
 @dataclass(frozen=True)
 class MpcConfig:
@@ -125,3 +127,46 @@ class MpcResult:
     progress_plan: np.ndarray
     cost: float
     jerk_relaxed: bool = False
+
+
+@dataclass(frozen=True)
+class PlanRequest:
+    """What one MPC solve plans for (ContingencyMpc.plan).
+
+    Attributes:
+        s0: the robot's arc length along its route (footprint centre) [m].
+        v0: its speed [m/s].
+        prev_accel: its previous acceleration command [m/s^2].
+        v_ref_mps: reference speed [m/s].
+        speed_limit_mps: hard speed limit [m/s].
+        scene: L hypotheses of the others at config.plan_times_s.
+        beliefs: (L,) probability of each hypothesis.
+        static_boxes: (S, 4) bounding boxes [xmin, ymin, xmax, ymax] of static polygons [m].
+        stop_at_m: the arc length the robot's centre must stay behind (a stop line not yet
+            stopped at, agents/robot/stop.py; inf: none) [m].
+        contingent: (L,) bool or factor in [0, 1] of the comfort weight: the hypotheses
+            whose branches must brake comfortably (soft bound, config.comfort_decel_mps2):
+            those not seen to be true, a pedestrian that may be hidden or may step off, or
+            one that stepped off as prepared for (curb.py, `prepared_comfort`); None: every
+            one.
+        extra_objects: per hypothesis (L lists), objects on the path besides the scene's,
+            e.g. the zone claims of cars with the right of way (agents/robot/right_of_way.py;
+            None: none).
+        pull_up_to_m: the arc length the robot's centre drives up to, drawn there by the
+            pull-up term w_pull_up (s - line)^2: a robot at rest short of the stop line it
+            must stop at pulls up to it within a couple of seconds instead of creeping (the
+            speed term alone values distance, not arriving sooner; inf: no such term) [m].
+    """
+
+    s0: float
+    v0: float
+    prev_accel: float
+    v_ref_mps: float
+    speed_limit_mps: float
+    scene: ScenePrediction
+    beliefs: np.ndarray
+    static_boxes: np.ndarray | None = None
+    stop_at_m: float = np.inf
+    contingent: np.ndarray | None = None
+    extra_objects: list | None = None
+    pull_up_to_m: float = np.inf

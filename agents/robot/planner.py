@@ -53,7 +53,7 @@ import math
 import numpy as np
 
 from marl_social.agents.robot.mpc import ContingencyMpc
-from marl_social.agents.robot.mpc_types import MpcResult
+from marl_social.agents.robot.mpc_types import MpcResult, PlanRequest
 from marl_social.agents.robot.pipeline import PlanningRecord, Stage, Truth
 from marl_social.agents.robot.settings import RobotSettings, resolve_settings
 from marl_social.agents.robot.stages import (
@@ -164,10 +164,10 @@ class RobotPlanner:
         for stage in self.stages:
             record = stage(record)
         self.last_record = record
-        result = self.solver.plan(self.route, s0, v, self.prev_accel, record.v_ref_mps,
-                                  self.road_map.speed_limit_mps, record.scene, record.weights,
-                                  self._static_boxes, record.stop_at_m, record.contingent,
-                                  record.claims, record.pull_up_to_m)
+        result = self.solver.plan(self.route, PlanRequest(
+            s0, v, self.prev_accel, record.v_ref_mps, self.road_map.speed_limit_mps,
+            record.scene, record.weights, self._static_boxes, record.stop_at_m,
+            record.contingent, record.claims, record.pull_up_to_m))
         self.last_result = result
         self.prev_accel = result.accel_mps2
         steer = pure_pursuit(self.route, x, y, math.atan2(s_, c), v, s0,

@@ -1,4 +1,4 @@
-"""The contingency QP's per-step array work around its solver, as compiled loops (issue 17).
+"""The contingency QP's per-step array work around its solver, as compiled loops.
 
 Each MPC solve fills the sparse QP's row bounds (ContingencyQp._bounds, agents/robot/qp.py),
 turns them into DAQP's inputs and DAQP's answer back into the sparse QP's accelerations and

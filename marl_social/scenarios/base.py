@@ -248,9 +248,9 @@ def flat_overrides(params_cls: type[ScenarioParams], overrides: dict) -> dict:
             close = difflib.get_close_matches(str(key), list(by_dotted) + fields, n=1,
                                               cutoff=0.6)
             hint = f"; did you mean {close[0]!r}?" if close else ""
-            raise ValueError(f"unknown scenario parameter {short_repr(key)} for {params_cls.__name__}"
-                             f"{hint}; valid: {sorted(by_dotted)} and robot.<part>.<field> "
-                             "(`marl-social params` lists them)")
+            raise ValueError(f"unknown scenario parameter {short_repr(key)} for "
+                             f"{params_cls.__name__}{hint}; valid: {sorted(by_dotted)} and "
+                             "robot.<part>.<field> (`marl-social params` lists them)")
     if stage:
         flat["robot_stage_settings"] = tuple(flat.get("robot_stage_settings", ())) + tuple(stage)
     return flat

@@ -7,7 +7,7 @@ import pytest
 
 from marl_social.agents.robot.curb import CurbConfig, CurbPedestrians
 from marl_social.agents.robot.mpc import plan
-from marl_social.agents.robot.mpc_types import MpcConfig
+from marl_social.agents.robot.mpc_types import MpcConfig, PlanRequest
 from marl_social.models.candidates import ScenePrediction
 from marl_social.perception.tracking import TrackSet
 from marl_social.sim.agent_spec import VehicleParams
@@ -86,8 +86,9 @@ def test_the_trunk_slows_early_so_that_the_step_off_branch_brakes_comfortably():
     out = {}
     for w_comfort in (0.0, MpcConfig().w_comfort):
         config = MpcConfig(w_comfort=w_comfort)
-        out[w_comfort] = plan(config, VEHICLE, ROUTE, 75.0, 11.5, 0.0, 11.5, 13.9, scene,
-                              np.array([0.8, 0.2]), contingent=np.array([False, True]))
+        out[w_comfort] = plan(config, VEHICLE, ROUTE, PlanRequest(
+            75.0, 11.5, 0.0, 11.5, 13.9, scene,
+                              np.array([0.8, 0.2]), contingent=np.array([False, True])))
     soft, hard = out[MpcConfig().w_comfort], out[0.0]
     assert soft.feasible and hard.feasible
     assert -soft.accel_plan[1].min() <= 3.0 < -hard.accel_plan[1].min()
@@ -147,8 +148,9 @@ def test_tracking_noise_along_the_road_does_not_make_the_robot_stop_in_an_emerge
     out = {}
     for name, seen in (("tracked", tracks), ("across", _curb().walk_across(tracks))):
         scene = ScenePrediction.from_tracks(seen, TIMES)
-        out[name] = plan(MpcConfig(), VEHICLE, ROUTE, s0, 1.21, -1.88, 11.5, 13.9, scene,
-                         np.ones(1))
+        out[name] = plan(MpcConfig(), VEHICLE, ROUTE, PlanRequest(
+            s0, 1.21, -1.88, 11.5, 13.9, scene,
+                         np.ones(1)))
     assert not out["tracked"].feasible and out["tracked"].accel_mps2 == -VEHICLE.brake_max_mps2
     assert out["across"].feasible and -np.nanmin(out["across"].accel_plan) <= 4.0
 
@@ -180,8 +182,8 @@ def test_the_comfort_bound_on_a_pedestrian_that_stepped_off_caps_the_stop_gently
     scene = ScenePrediction.from_tracks(walking, TIMES)
     peak = {}
     for factor in (0.0, 1.0):
-        result = plan(MpcConfig(), VEHICLE, ROUTE, s0, 10.5, -0.7, 11.5, 13.9, scene,
-                      np.ones(1), contingent=np.array([factor]))
+        result = plan(MpcConfig(), VEHICLE, ROUTE, PlanRequest(s0, 10.5, -0.7, 11.5, 13.9, scene,
+                      np.ones(1), contingent=np.array([factor])))
         assert result.feasible
         peak[factor] = -result.accel_plan.min()
     assert peak[1.0] <= 3.0 < peak[0.0], peak

@@ -8,7 +8,7 @@ import pytest
 from marl_social.agents.robot import mpc as mpc_module
 from marl_social.agents.robot.corridor import mode_bounds, objects_on_path
 from marl_social.agents.robot.mpc import ContingencyMpc, distinct_branches, plan
-from marl_social.agents.robot.mpc_types import MpcConfig
+from marl_social.agents.robot.mpc_types import MpcConfig, PlanRequest
 from marl_social.models.candidates import ScenePrediction
 from marl_social.sim.agent_spec import VehicleParams
 from marl_social.sim.dynamics import DT_S, bicycle_step
@@ -42,8 +42,8 @@ def _empty(n_hyp: int = 1) -> ScenePrediction:
 
 
 def _plan(beliefs, walks, s0=30.0, v0=11.5, **kw):
-    return plan(CONFIG, VEHICLE, ROUTE, s0, v0, 0.0, 11.5, 13.9, _scene(walks, **kw),
-                np.array(beliefs))
+    return plan(CONFIG, VEHICLE, ROUTE, PlanRequest(s0, v0, 0.0, 11.5, 13.9, _scene(walks, **kw),
+                np.array(beliefs)))
 
 
 def _rollout(v0: float, accel: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -71,7 +71,8 @@ def test_solution_meets_every_branch_constraint_through_the_vehicle_model():
     s0, v0 = 60.0, 11.5  # 30 m before the crosswalk
     scene = _scene([False, True, True])
     scene.xy[2] = scene.xy[1] - np.array([0.0, 2.0])  # the third one starts 2 m further out
-    res = plan(CONFIG, VEHICLE, ROUTE, s0, v0, 0.0, 11.5, 13.9, scene, np.array([0.5, 0.3, 0.2]))
+    res = plan(CONFIG, VEHICLE, ROUTE, PlanRequest(
+        s0, v0, 0.0, 11.5, 13.9, scene, np.array([0.5, 0.3, 0.2])))
     assert res.feasible and res.live.all()
     objects = objects_on_path(ROUTE, scene, s0, VEHICLE.length_m, VEHICLE.width_m,
                               CONFIG.lateral_margin_m)
@@ -123,8 +124,9 @@ def test_stop_line_gives_a_gentle_deceleration_close_to_v2_over_2d(v0, distance_
     x_front = s0 - 50.0 + 0.5 * VEHICLE.length_m
     wall_x = x_front + distance_m + CONFIG.min_gap_m
     boxes = np.array([[wall_x, 0.0, wall_x + 2.0, 3.5]])
-    res = plan(CONFIG, VEHICLE, ROUTE, s0, v0, 0.0, 11.5, 13.9, _empty(), np.array([1.0]),
-               boxes)
+    res = plan(CONFIG, VEHICLE, ROUTE, PlanRequest(
+        s0, v0, 0.0, 11.5, 13.9, _empty(), np.array([1.0]),
+               boxes))
     assert res.feasible
     peak = -res.accel_plan.min()
     ideal = v0 ** 2 / (2.0 * distance_m)
@@ -177,10 +179,10 @@ def test_passes_before_a_crossing_car_that_arrives_late():
     """A car crossing the robot's path 5.5 s from now, the robot 2 s from the crossing: it
     passes before the car arrives, with the time margin, instead of stopping; a car arriving
     in 1.5 s makes it stay behind."""
-    late = plan(CONFIG, VEHICLE, ROUTE, 70.0, 11.5, 0.0, 11.5, 13.9, _crossing_car(5.5),
-                np.array([1.0]))
-    soon = plan(CONFIG, VEHICLE, ROUTE, 70.0, 11.5, 0.0, 11.5, 13.9, _crossing_car(1.5),
-                np.array([1.0]))
+    late = plan(CONFIG, VEHICLE, ROUTE, PlanRequest(70.0, 11.5, 0.0, 11.5, 13.9, _crossing_car(5.5),
+                np.array([1.0])))
+    soon = plan(CONFIG, VEHICLE, ROUTE, PlanRequest(70.0, 11.5, 0.0, 11.5, 13.9, _crossing_car(1.5),
+                np.array([1.0])))
     assert late.feasible and late.modes[0] == ("past",)
     assert late.accel_mps2 >= -0.1
     assert soon.feasible and soon.modes[0] == ("behind",) and soon.accel_mps2 < 0.0
@@ -206,11 +208,12 @@ def test_no_feasible_plan_brakes_as_hard_as_possible():
 
 def test_static_polygon_ahead_is_a_constraint():
     boxes = np.array([[110.0, 0.0, 118.0, 3.5]])  # robot at s0 = 130: x = 80
-    free = plan(CONFIG, VEHICLE, ROUTE, 130.0, 11.5, 0.0, 11.5, 13.9, _empty(), np.array([1.0]))
-    blocked = plan(CONFIG, VEHICLE, ROUTE, 130.0, 11.5, 0.0, 11.5, 13.9, _empty(),
-                   np.array([1.0]), boxes)
-    beside = plan(CONFIG, VEHICLE, ROUTE, 130.0, 11.5, 0.0, 11.5, 13.9, _empty(),
-                  np.array([1.0]), np.array([[110.0, 4.5, 118.0, 8.0]]))
+    free = plan(CONFIG, VEHICLE, ROUTE, PlanRequest(
+        130.0, 11.5, 0.0, 11.5, 13.9, _empty(), np.array([1.0])))
+    blocked = plan(CONFIG, VEHICLE, ROUTE, PlanRequest(130.0, 11.5, 0.0, 11.5, 13.9, _empty(),
+                   np.array([1.0]), boxes))
+    beside = plan(CONFIG, VEHICLE, ROUTE, PlanRequest(130.0, 11.5, 0.0, 11.5, 13.9, _empty(),
+                  np.array([1.0]), np.array([[110.0, 4.5, 118.0, 8.0]])))
     assert free.accel_mps2 == pytest.approx(0.0, abs=1e-3)
     assert beside.accel_mps2 == pytest.approx(0.0, abs=1e-3)
     assert blocked.feasible and blocked.accel_mps2 < 0.0
@@ -223,7 +226,8 @@ def test_follows_a_slower_car_ahead_with_a_gap():
     xy = np.stack([100.0 + 8.0 * t, np.full_like(t, 1.75)], axis=-1)[None, None]
     scene = ScenePrediction(xy, np.zeros((1, 1, len(t))), np.array([[4.5]]), np.array([[1.8]]),
                             np.array([[2.4]]), np.array([[False]]), np.array([[True]]))
-    res = plan(CONFIG, VEHICLE, ROUTE, 125.0, 11.5, 0.0, 11.5, 13.9, scene, np.array([1.0]))
+    res = plan(CONFIG, VEHICLE, ROUTE, PlanRequest(
+        125.0, 11.5, 0.0, 11.5, 13.9, scene, np.array([1.0])))
     assert res.feasible and res.accel_mps2 < 0.0
     gap = (150.0 + 8.0 * t - 2.25) - (125.0 + res.progress_plan[0] + 2.25)
     assert np.all(gap >= CONFIG.min_gap_m + CONFIG.headway_s() * res.speed_plan[0] - 1e-3)
@@ -235,7 +239,8 @@ def test_curvature_bounds_the_speed():
     arc = [[60.0 + 10.0 * np.sin(a), 11.75 - 10.0 * np.cos(a)]
            for a in np.linspace(0.0, np.pi / 2, 12)]
     route = Route([[0.0, 1.75], *arc, [70.0, 60.0]])
-    res = plan(CONFIG, VEHICLE, route, 30.0, 11.5, 0.0, 11.5, 13.9, _empty(), np.array([1.0]))
+    res = plan(CONFIG, VEHICLE, route, PlanRequest(
+        30.0, 11.5, 0.0, 11.5, 13.9, _empty(), np.array([1.0])))
     assert res.feasible and res.accel_mps2 < 0.0
     bound = np.sqrt(CONFIG.lat_accel_max_mps2 * 10.0)
     s_bend = 60.0 + 2.0  # the bend starts at s = 60 (x = 60)
@@ -272,12 +277,13 @@ def test_car_stopped_in_the_next_lane_does_not_block_the_robot():
                             full.radius_m, full.is_pedestrian, full.mask)
     still.xy[..., 1] = scene.xy[..., 0:1, 1]  # no lateral drift beyond the first step
     assert np.allclose(still.heading, 0.0)
-    res = plan(CONFIG, VEHICLE, ROUTE, 130.0, 11.5, 0.0, 11.5, 13.9, still, np.array([1.0]))
+    res = plan(CONFIG, VEHICLE, ROUTE, PlanRequest(
+        130.0, 11.5, 0.0, 11.5, 13.9, still, np.array([1.0])))
     assert res.feasible and res.accel_mps2 == pytest.approx(0.0, abs=1e-3)
     across = ScenePrediction(still.xy, np.full_like(still.heading, np.pi / 2), still.length_m,
                              still.width_m, still.radius_m, still.is_pedestrian, still.mask)
-    blocked = plan(CONFIG, VEHICLE, ROUTE, 130.0, 11.5, 0.0, 11.5, 13.9, across,
-                   np.array([1.0]))
+    blocked = plan(CONFIG, VEHICLE, ROUTE, PlanRequest(130.0, 11.5, 0.0, 11.5, 13.9, across,
+                   np.array([1.0])))
     assert blocked.accel_mps2 < 0.0
 
 
@@ -288,13 +294,13 @@ def test_alike_branches_are_planned_as_one_with_the_same_optimum(monkeypatch):
     scene = _scene([False, True, True])
     beliefs = np.array([0.5, 0.3, 0.2])
     merged_mpc = ContingencyMpc(CONFIG, VEHICLE)
-    merged = merged_mpc.plan(ROUTE, 60.0, 11.5, 0.0, 11.5, 13.9, scene, beliefs)
+    merged = merged_mpc.plan(ROUTE, PlanRequest(60.0, 11.5, 0.0, 11.5, 13.9, scene, beliefs))
     assert set(merged_mpc._qps) == {2}
     monkeypatch.setattr(mpc_module, "distinct_branches",
                         lambda s_low, s_up, comfort: (np.arange(len(comfort)),
                                                       np.arange(len(comfort))))
     full_mpc = ContingencyMpc(CONFIG, VEHICLE)
-    full = full_mpc.plan(ROUTE, 60.0, 11.5, 0.0, 11.5, 13.9, scene, beliefs)
+    full = full_mpc.plan(ROUTE, PlanRequest(60.0, 11.5, 0.0, 11.5, 13.9, scene, beliefs))
     assert set(full_mpc._qps) == {3}
     assert merged.feasible and full.feasible
     assert np.array_equal(merged.accel_plan[1], merged.accel_plan[2])
@@ -321,9 +327,11 @@ def test_distinct_branches_groups_equal_rows_only():
 def test_qp_is_built_once_per_number_of_branches_and_reused():
     mpc = ContingencyMpc(CONFIG, VEHICLE)
     for s0 in (30.0, 31.0, 32.0):
-        mpc.plan(ROUTE, s0, 11.5, 0.0, 11.5, 13.9, _scene([False, True]), np.array([0.7, 0.3]))
+        mpc.plan(ROUTE, PlanRequest(
+            s0, 11.5, 0.0, 11.5, 13.9, _scene([False, True]), np.array([0.7, 0.3])))
     first = mpc._qps[2]
-    mpc.plan(ROUTE, 33.0, 11.5, 0.0, 11.5, 13.9, _scene([False, True]), np.array([0.7, 0.3]))
+    mpc.plan(ROUTE, PlanRequest(
+        33.0, 11.5, 0.0, 11.5, 13.9, _scene([False, True]), np.array([0.7, 0.3])))
     assert mpc._qps[2] is first and set(mpc._qps) == {2}
 
 
@@ -331,15 +339,16 @@ def test_a_new_mpc_plans_bit_identically_after_others_of_the_same_layout_have_so
     """QP layouts are shared between MPCs (qp.py): solving one must not change another's."""
 
     def episode(mpc):
-        plans = [mpc.plan(ROUTE, s0, v0, 0.0, 11.5, 13.9, _scene([False, True]),
-                          np.array([b, 1.0 - b])).accel_plan
+        plans = [mpc.plan(ROUTE, PlanRequest(s0, v0, 0.0, 11.5, 13.9, _scene([False, True]),
+                          np.array([b, 1.0 - b]))).accel_plan
                  for s0, v0, b in ((30.0, 11.5, 0.7), (31.1, 11.0, 0.4), (32.1, 10.2, 0.9))]
         return np.stack(plans)
 
     first = episode(ContingencyMpc(CONFIG, VEHICLE))
     # other weights and bounds for the same layout (the P values OSQP is updated with differ)
     other = ContingencyMpc(CONFIG, VEHICLE)
-    other.plan(ROUTE, 20.0, 6.0, -1.0, 11.5, 13.9, _scene([True, True]), np.array([0.05, 0.95]))
+    other.plan(ROUTE, PlanRequest(
+        20.0, 6.0, -1.0, 11.5, 13.9, _scene([True, True]), np.array([0.05, 0.95])))
     again = episode(ContingencyMpc(CONFIG, VEHICLE))
     assert np.array_equal(first, again)
 
@@ -365,7 +374,8 @@ def test_robot_waiting_behind_a_standing_pedestrian_stays_at_rest(seed):
     for _ in range(round(20.0 / DT_S)):
         ped = np.array([ped_x, 1.75 + rng.uniform(-0.5, 0.5)]) + rng.normal(0.0, 0.05, 2)
         s0, v0 = float(state[0, 0]) + 50.0, float(state[0, 3])
-        res = mpc.plan(ROUTE, s0, v0, prev, 11.5, 13.9, _standing(ped), np.array([1.0]))
+        res = mpc.plan(ROUTE, PlanRequest(
+            s0, v0, prev, 11.5, 13.9, _standing(ped), np.array([1.0])))
         assert res.feasible
         prev = res.accel_mps2
         state = bicycle_step(state, np.array([[prev, 0.0]]), np.array([VEHICLE.wheelbase_m]),
@@ -443,8 +453,8 @@ def test_direct_solver_calls_match_osqps_public_api_bit_for_bit():
         for s0, v0, prev, b in ((30.0, 11.5, 0.0, 0.7), (31.1, 11.0, -1.0, 0.4),
                                 (32.1, 10.2, -2.0, 0.9), (33.0, 9.8, -2.5, 0.02),
                                 (40.0, 3.0, -4.0, 0.5), (47.0, 13.0, 0.0, 1.0)):
-            res = mpc.plan(ROUTE, s0, v0, prev, 11.5, 13.9, _scene([False, True]),
-                           np.array([1.0 - b, b]))
+            res = mpc.plan(ROUTE, PlanRequest(s0, v0, prev, 11.5, 13.9, _scene([False, True]),
+                           np.array([1.0 - b, b])))
             out.append((res.feasible, res.accel_mps2, res.accel_plan.tobytes(), res.cost))
         assert set(mpc._qps) <= {1, 2}
         return out

@@ -7,7 +7,7 @@ import pytest
 
 from marl_social.agents.robot.corridor import route_curvature
 from marl_social.agents.robot.mpc import ContingencyMpc
-from marl_social.agents.robot.mpc_types import MpcConfig
+from marl_social.agents.robot.mpc_types import MpcConfig, PlanRequest
 from marl_social.agents.robot.right_of_way import RightOfWay, RightOfWayConfig
 from marl_social.models.candidates import ScenePrediction
 from marl_social.scenarios import make_scenario
@@ -154,12 +154,14 @@ def _plan_at_the_line(layout, x0: float, speed_mps: float):
     scene = _car_scene([x0], EASTBOUND_Y_M, speed_mps)
     mpc = ContingencyMpc(MpcConfig(), CAR)
     claims = row.claims(scene, s0, 0.0, TIMES)
-    result = mpc.plan(route, s0, 0.0, 0.0, 11.0, road_map.speed_limit_mps, scene, np.ones(1),
-                      None, np.inf, extra_objects=claims)
+    result = mpc.plan(route, PlanRequest(
+        s0, 0.0, 0.0, 11.0, road_map.speed_limit_mps, scene, np.ones(1),
+                      None, np.inf, extra_objects=claims))
     assert result.feasible
     obj = claims[0][0] if claims[0] else None
     front = s0 + result.progress_plan[0] + 0.5 * CAR.length_m
-    plain = mpc.plan(route, s0, 0.0, 0.0, 11.0, road_map.speed_limit_mps, scene, np.ones(1))
+    plain = mpc.plan(route, PlanRequest(
+        s0, 0.0, 0.0, 11.0, road_map.speed_limit_mps, scene, np.ones(1)))
     plain_front = s0 + plain.progress_plan[0] + 0.5 * CAR.length_m
     # the car's front along the robot's route (its lane position mapped past the join; the
     # claim's s_rear_m is never short of the zone, a robot following it stays out of the zone)
@@ -229,9 +231,9 @@ def test_a_robot_rolling_up_to_the_zone_stops_short_of_it_comfortably_for_a_car(
     scene = _car_scene([-35.0], EASTBOUND_Y_M, 12.0)
     claims = row.claims(scene, s0, 1.6, TIMES)
     (obj,) = claims[0]
-    result = ContingencyMpc(config, CAR).plan(route, s0, 1.6, 0.0, 11.0,
+    result = ContingencyMpc(config, CAR).plan(route, PlanRequest(s0, 1.6, 0.0, 11.0,
                                               road_map.speed_limit_mps, scene, np.ones(1),
-                                              None, np.inf, extra_objects=claims)
+                                              None, np.inf, extra_objects=claims))
     assert result.feasible and not result.jerk_relaxed
     assert result.accel_mps2 >= -config.comfort_decel_mps2
     front = s0 + result.progress_plan[0] + 0.5 * CAR.length_m

@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from marl_social.agents.robot.mpc import ContingencyMpc
-from marl_social.agents.robot.mpc_types import MpcConfig
+from marl_social.agents.robot.mpc_types import MpcConfig, PlanRequest
 from marl_social.agents.robot.track_prediction import along_lane_paths
 from marl_social.models.candidates import ScenePrediction
 from marl_social.perception.belief.paths import LanePaths
@@ -81,9 +81,9 @@ def test_the_robot_turning_into_its_lane_does_not_brake_for_a_car_read_off_its_l
               "lane path": along_lane_paths(constant, tracks, LanePaths(road_map), TIMES)}
     accel = {}
     for name, scene in scenes.items():
-        result = ContingencyMpc(MpcConfig(), CAR).plan(route, 59.77, 3.81, 0.0, 11.0,
+        result = ContingencyMpc(MpcConfig(), CAR).plan(route, PlanRequest(59.77, 3.81, 0.0, 11.0,
                                                         road_map.speed_limit_mps, scene,
-                                                        np.ones(1))
+                                                        np.ones(1)))
         accel[name] = (result.feasible, result.accel_mps2)
     assert accel["lane path"][0] and accel["lane path"][1] >= 0.0, accel
     # no plan keeps out of its way: braking at the limit
