@@ -212,7 +212,7 @@ class SightHold:
             if route is None:
                 continue
             # the zones on its path where it gives way to the traffic the robot yields to
-            zones = [c for c in self.social.yield_conflicts(route)
+            zones = [c for c in self.social.prediction.yield_conflicts(route)
                      if self._lanes & set(c.zone.priority_lanes)]
             if not zones:
                 continue

@@ -10,7 +10,11 @@
 * own_sensors.py: `OwnSensors` (detections and negative information from depth rays);
 * action_model.py: `action_log_likelihood`, `bounded_log_likelihood` (a human's observed action
   as evidence, eq. 9-10);
-* social.py: `SocialLikelihood` (the robot's model of a human, eq. 9-11);
+* human_prediction.py: `HumanPrediction` (a human's Q-values under every hypothesis and
+  traffic speed, eq. 11);
+* action_scoring.py: `ActionScoring` (the likelihood of its observed action, eq. 9-10);
+* rationality.py: `RationalityBelief` (the belief over its rationality beta);
+* social.py: `SocialLikelihood` (follows each tracked human and puts the three together, eq. 12);
 * human_scene.py: `HumanScenes` (the scenes the robot assumes a human reacts to);
 * config.py: `BeliefConfig`;
 * hidden.py: `HiddenAgentBelief` (alias `PedestrianBelief`), which combines them (the joint
@@ -18,6 +22,7 @@
 """
 
 from marl_social.perception.belief.action_model import action_log_likelihood
+from marl_social.perception.belief.action_scoring import ActionScoring
 from marl_social.perception.belief.bayes import (
     TrafficSpeedBelief,
     bayes_step,
@@ -31,6 +36,7 @@ from marl_social.perception.belief.conflicts import (
     vehicle_hypotheses,
 )
 from marl_social.perception.belief.hidden import HiddenAgentBelief, PedestrianBelief
+from marl_social.perception.belief.human_prediction import HumanPrediction
 from marl_social.perception.belief.hypotheses import (
     PEDESTRIAN_DIAMETER_M,
     Hypothesis,
@@ -40,16 +46,20 @@ from marl_social.perception.belief.hypotheses import (
     stationary_distribution,
 )
 from marl_social.perception.belief.own_sensors import OwnSensors
+from marl_social.perception.belief.rationality import RationalityBelief
 from marl_social.perception.belief.social import SocialLikelihood
 
 __all__ = [
     "PEDESTRIAN_DIAMETER_M",
+    "ActionScoring",
     "BeliefConfig",
     "HiddenAgentBelief",
+    "HumanPrediction",
     "Hypothesis",
     "LaneConflict",
     "OwnSensors",
     "PedestrianBelief",
+    "RationalityBelief",
     "SocialLikelihood",
     "TrafficSpeedBelief",
     "action_log_likelihood",

@@ -330,7 +330,7 @@ class HiddenAgentBelief:
             viewer: (xy (2,) [m], heading [rad]) of the human: hypothesised vehicles outside
                 its assumed view are left out (None: all in).
         """
-        return self.social.hypothesis_scene(others, viewer)
+        return self.social.prediction.scenes.hypothesis_scene(others, viewer)
 
     def human_q_values(self, route: Route, s0: float, v0: float, prev_accel: float,
                        others: ScenePrediction | None = None,
@@ -348,7 +348,7 @@ class HiddenAgentBelief:
             speed_std_mps: the std of v0 [m/s]: (3, L, V, A) from the speeds about v0 that
                 action_model.speed_averaged_log_likelihood weighs (None: (L, V, A) at v0).
         """
-        return self.social.human_q_values(route, s0, v0, prev_accel, others, negligible,
+        return self.social.prediction.human_q_values(route, s0, v0, prev_accel, others, negligible,
                                           speed_std_mps)
 
     def beta_beliefs(self) -> dict:

@@ -291,7 +291,8 @@ class SignalPhaseBelief:
                 a_est, n_seen = (car.v_mps - prev.v_mps) / DT_S, prev.n_seen + 1
                 if n_seen > PHASE_MIN_TRACK_STEPS and prev.sees_head and sees:
                     _, heading = car.route.point_at(car.s_m)
-                    sigma = self.social.observation_sigma_mps2(tracks, car.row, float(heading))
+                    sigma = self.social.scoring.observation_sigma_mps2(tracks, car.row,
+                                                                       float(heading))
                     ll = action_log_likelihood(prev.q_values, cfg.beta_hat, a_est,
                                                prev.actions_mps2, sigma, cfg.outlier_prob)
                     out.append(bounded_log_likelihood(ll, cfg.max_log_likelihood_ratio))
@@ -307,11 +308,11 @@ class SignalPhaseBelief:
                   decoded: DecodedObservation, tracks: TrackSet) -> np.ndarray:
         """(P, A) Q*_H of the car's first actions under each phase: stop at its line or not."""
         xy, heading = car.route.point_at(car.s_m)
-        others = self.social.others_scene(np.asarray(xy), float(heading),
+        others = self.social.prediction.scenes.others_scene(np.asarray(xy), float(heading),
                                           int(tracks.ids[car.row]), decoded, tracks)
         scene = others if others is not None else self._empty_scene()
         v0 = max(car.v_mps, 0.0)
-        curve = self.social._curve_speed(car.route)
+        curve = self.social.prediction.curve_speed(car.route)
         ev = vehicle_gap_evaluation(model.candidates, model.theta.as_array(),
                                     model.v_desired_mps, model.vehicle, car.route, car.s_m, v0,
                                     prev_accel, scene, self.road_map.crosswalks,

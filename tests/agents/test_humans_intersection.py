@@ -248,7 +248,7 @@ def test_the_robots_model_of_a_human_predicts_the_robot_as_the_humans_do(expects
     no_tracks = TrackSet(np.zeros(0, dtype=np.int64), empty_xy, empty_xy, empty, empty, empty,
                          np.zeros(0, dtype=bool), np.zeros(0, dtype=bool), empty, empty)
     # a human in the left-turn lane looking west at the junction
-    scene = social.others_scene(np.array([10.0, 1.75]), np.pi, 2, moved, no_tracks)
+    scene = social.prediction.scenes.others_scene(np.array([10.0, 1.75]), np.pi, 2, moved, no_tracks)
     times = social.model.plan_times_s
     expected = YieldExpectation(env.road_map).predict_xy(
         ego_xy[None], np.array([[0.0, 1.9]]), np.array([0.5 * np.pi]),

@@ -218,7 +218,7 @@ def test_lane_projections_are_project_point(seed, n_lanes):
 @settings(max_examples=200, deadline=None)
 @given(seed=SEEDS, n_kept=st.integers(1, 6), n_t=st.integers(1, 30), n_cont=st.integers(1, 6))
 def test_speed_q_values_are_numpys(seed, n_kept, n_t, n_cont):
-    """SocialLikelihood._q_values' speed feature and minimum, with +inf (excluded plans)."""
+    """HumanPrediction.q_values' speed feature and minimum, with +inf (excluded plans)."""
     rng = np.random.default_rng(seed)
     n_act, n_v, n_hyp = 5, 4, 9
     base = rng.uniform(0, 1e4, (n_kept, n_act, n_cont))
