@@ -265,7 +265,7 @@ class CrosswalkStepOff:
         self.curb, self.times_s = curb, times_s
 
     def reset(self) -> None:
-        pass  # the curb's state is reset by CurbGapAcceptance
+        self.curb.reset()  # shared with CurbGapAcceptance: resetting twice is harmless
 
     def __call__(self, record: PlanningRecord) -> PlanningRecord:
         tracks = record.tracks
