@@ -13,15 +13,24 @@ perception/fov_kernels.py, and the measurements', perception/sensor_kernels.py, 
 process that finds no cache compiles them itself, so on a fresh install several processes
 started at once (a test run on every core, a study's workers, a vector env's) each compile the
 same kernels. `compile_kernels` compiles them once, before such processes start; the parts are
-independent, so two processes can compile two of them side by side (tests/conftest.py does so
-before the test workers start):
+independent, so two processes can compile two of them side by side: `compile_side_by_side`
+splits the parts missing from the cache into groups of about equal compile time
+(`split_parts`), one per usable core, and compiles them at once (the demo does so before it
+builds its env, tests/conftest.py before the test workers start, .ci/run in a step of its own):
 
     python -c "from marl_social.agents.compile_kernels import compile_kernels; compile_kernels()"
+    python -c "from marl_social.agents.compile_kernels import compile_side_by_side; compile_side_by_side()"
+
+Processes compiling different parts write different cache files (numba keeps one index and one
+data file per kernel), so they do not race; no two groups hold the same part.
 """
 
 from __future__ import annotations
 
 import importlib.util
+import os
+import subprocess
+import sys
 from pathlib import Path
 
 import numpy as np
@@ -29,6 +38,9 @@ import numpy as np
 from marl_social.sim.kernel_cache import will_compile
 
 PARTS = ("planners", "belief", "tree", "sim", "perception")
+# about the CPU seconds each part takes to compile alone in a fresh process (the weights of
+# `split_parts`: only their ratios matter)
+PART_SECONDS = {"planners": 23.0, "belief": 9.0, "tree": 10.0, "sim": 4.0, "perception": 3.0}
 # each part: the module whose folder holds its kernel files, and those files' names
 _FILES = {
     "planners": ("marl_social.models.kernel_loading",
@@ -56,15 +68,90 @@ def parts_to_compile() -> list[str]:
     return out
 
 
+def split_parts(parts: tuple[str, ...] | list[str], n_groups: int) -> list[list[str]]:
+    """`parts` in at most `n_groups` groups of about equal compile time (PART_SECONDS).
+
+    Longest part first, each into the group with the least time so far (ties: the first);
+    each group keeps the parts in PARTS' order; empty groups are left out, and the group with
+    the most time comes first.
+
+    Args:
+        parts: parts of PARTS (repeats count once).
+        n_groups: the most groups (processes) wanted, at least 1.
+
+    Raises:
+        ValueError: a part that is not one of PARTS, or n_groups < 1.
+    """
+    _check(parts)
+    if n_groups < 1:
+        raise ValueError(f"split_parts: n_groups must be at least 1, not {n_groups}")
+    groups: list[list[str]] = [[] for _ in range(n_groups)]
+    load = [0.0] * n_groups
+    for part in sorted(set(parts), key=lambda p: (-PART_SECONDS[p], PARTS.index(p))):
+        i = load.index(min(load))
+        groups[i].append(part)
+        load[i] += PART_SECONDS[part]
+    order = sorted((i for i in range(n_groups) if groups[i]), key=lambda i: -load[i])
+    return [sorted(groups[i], key=PARTS.index) for i in order]
+
+
+def usable_cores() -> int:
+    """How many CPUs this process may run on (its affinity where the OS tells it)."""
+    if hasattr(os, "sched_getaffinity"):
+        return max(1, len(os.sched_getaffinity(0)))
+    return max(1, os.cpu_count() or 1)
+
+
+def compile_side_by_side(parts: tuple[str, ...] | list[str] | None = None,
+                         processes: int | None = None) -> list[list[str]]:
+    """Compile `parts` in up to `processes` processes at once, this one among them.
+
+    The parts are split by `split_parts`; every group but the first compiles in a new Python
+    process (the same interpreter and environment), the first (the longest) in this one, which
+    then waits for the others. Afterwards every kernel of `parts` loads from numba's cache.
+
+    Args:
+        parts: the parts to compile (default: `parts_to_compile()`, those with no current
+            cache: nothing happens when the cache is current).
+        processes: the most processes compiling at once (default: `usable_cores()`).
+
+    Returns:
+        The groups, the first the one compiled in this process (empty: nothing to compile).
+
+    Raises:
+        RuntimeError: a compiling process failed (its traceback is on stderr).
+        ValueError: a part that is not one of PARTS.
+    """
+    parts = parts_to_compile() if parts is None else list(parts)
+    if not parts:
+        return []
+    groups = split_parts(parts, processes or usable_cores())
+    code = "from marl_social.agents.compile_kernels import compile_kernels; compile_kernels({})"
+    others = [subprocess.Popen([sys.executable, "-c", code.format(group)])
+              for group in groups[1:]]
+    try:
+        compile_kernels(groups[0])
+    finally:
+        failed = [group for group, proc in zip(groups[1:], others) if proc.wait() != 0]
+    if failed:
+        raise RuntimeError(f"compile_side_by_side: compiling the numba kernels {failed} failed")
+    return groups
+
+
+def _check(parts) -> None:
+    """Raise ValueError naming the parts (of `parts`) that are not in PARTS."""
+    unknown = [p for p in parts if p not in PARTS]
+    if unknown:
+        raise ValueError(f"compile_kernels: unknown part(s) {unknown}; the parts are {PARTS}")
+
+
 def compile_kernels(parts: tuple[str, ...] | list[str] = PARTS) -> None:
     """Load the kernels of `parts` (default: all), compiling and caching those not cached.
 
     Raises:
         ValueError: a part that is not one of PARTS.
     """
-    unknown = [p for p in parts if p not in PARTS]
-    if unknown:
-        raise ValueError(f"compile_kernels: unknown part(s) {unknown}; the parts are {PARTS}")
+    _check(parts)
     if "planners" in parts:
         from marl_social.models import kernel_loading
 

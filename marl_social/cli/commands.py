@@ -25,7 +25,13 @@ def demo_overrides(args) -> dict:
 
 
 def demo(args) -> int:
-    """`marl-social demo`: one episode; a figure, an animation and the metrics."""
+    """`marl-social demo`: one episode; a figure, an animation and the metrics.
+
+    On a fresh install (no numba cache) the kernels compile first, side by side on the usable
+    cores (agents/compile_kernels.compile_side_by_side), not one after the other within the
+    episode's first step.
+    """
+    from marl_social.agents.compile_kernels import compile_side_by_side
     from marl_social.evaluation.run import run_episode
     from marl_social.scenarios import make_scenario
     from marl_social.viz.animation import write_animation
@@ -34,6 +40,7 @@ def demo(args) -> int:
 
     overrides = demo_overrides(args)
     params = make_scenario(args.scenario, **overrides).params
+    compile_side_by_side()
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
     res = run_episode(args.scenario, seed=args.seed, render=not args.no_animation,

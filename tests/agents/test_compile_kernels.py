@@ -65,3 +65,60 @@ def test_the_perception_part_loads_the_field_of_view_and_sensor_kernels():
     assert kernel_cache._LOADED[("marl_social.perception", ("sensor_kernels",))] == (
         sensor_kernels,)
     assert "perception" not in ck.parts_to_compile()
+
+
+def test_the_parts_split_into_groups_of_about_equal_compile_time():
+    groups = ck.split_parts(ck.PARTS, 2)
+    assert sorted(p for g in groups for p in g) == sorted(ck.PARTS)  # each part once
+    times = [sum(ck.PART_SECONDS[p] for p in g) for g in groups]
+    assert times[0] >= times[1]  # the longest group first (the calling process compiles it)
+    assert times[0] - times[1] <= min(ck.PART_SECONDS.values())
+    assert groups[0] == ["planners", "perception"]  # each group in PARTS' order
+
+
+def test_the_split_leaves_out_empty_groups_and_repeats():
+    assert ck.split_parts(["sim", "belief", "sim"], 4) == [["belief"], ["sim"]]
+    assert ck.split_parts(["tree", "sim"], 1) == [["tree", "sim"]]
+    assert ck.split_parts([], 2) == []
+    with pytest.raises(ValueError, match="n_groups"):
+        ck.split_parts(["sim"], 0)
+    with pytest.raises(ValueError, match=r"unknown part\(s\) \['gpu'\]"):
+        ck.split_parts(["gpu"], 2)
+
+
+def test_side_by_side_compiles_nothing_when_the_cache_is_current(monkeypatch):
+    monkeypatch.setattr(ck, "parts_to_compile", list)
+    monkeypatch.setattr(ck, "compile_kernels", lambda parts: pytest.fail("compiled"))
+    assert ck.compile_side_by_side() == []
+
+
+def test_side_by_side_compiles_the_longest_group_here_and_the_others_in_processes(monkeypatch):
+    here, started = [], []
+
+    class Process:
+        def __init__(self, args):
+            started.append(args[-1])
+
+        def wait(self):
+            return 0
+
+    monkeypatch.setattr(ck.subprocess, "Popen", Process)
+    monkeypatch.setattr(ck, "compile_kernels", here.append)
+    groups = ck.compile_side_by_side(["sim", "planners", "belief"], processes=2)
+    assert groups == [["planners"], ["belief", "sim"]]
+    assert here == [["planners"]]
+    assert len(started) == 1 and started[0].endswith("compile_kernels(['belief', 'sim'])")
+
+
+def test_side_by_side_reports_a_failed_process(monkeypatch):
+    class Failing:
+        def __init__(self, args):
+            pass
+
+        def wait(self):
+            return 1
+
+    monkeypatch.setattr(ck.subprocess, "Popen", Failing)
+    monkeypatch.setattr(ck, "compile_kernels", lambda parts: None)
+    with pytest.raises(RuntimeError, match=r"\[\['sim'\]\] failed"):
+        ck.compile_side_by_side(["planners", "sim"], processes=2)
