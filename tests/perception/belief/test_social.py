@@ -202,7 +202,7 @@ def test_the_robot_trusts_a_noisier_track_less():
     sigmas = {}
     for noise in (0.1, 0.5):
         _, _, belief = run_beliefs(episode, config=BeliefConfig(track_vel_noise_mps=noise))
-        sigmas[noise] = belief.social.observation_sigma_mps2(belief.tracker.tracks(), 0, 0.0)
+        sigmas[noise] = belief.social.scoring.observation_sigma_mps2(belief.tracker.tracks(), 0, 0.0)
     assert BeliefConfig().accel_noise_mps2 < sigmas[0.1] < sigmas[0.5]
 
 
