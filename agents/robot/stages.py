@@ -17,7 +17,7 @@ stages from the elements of the map along the robot's route, never from a scene'
 
 from __future__ import annotations
 
-from dataclasses import dataclass, replace
+from dataclasses import dataclass
 
 import numpy as np
 
@@ -134,7 +134,7 @@ class BeliefUpdate:
             tracks = self.belief.tracks
         # contingencies (comfortable braking, a factor of the comfort weight per branch): a
         # hidden agent
-        return replace(record, tracks=tracks, weights=self.weights(), contingent=self.present,
+        return record.refined(tracks=tracks, weights=self.weights(), contingent=self.present,
                        v_ref_mps=self.v_ref())
 
 
@@ -153,7 +153,7 @@ class CurbGapAcceptance:
 
     def __call__(self, record: PlanningRecord) -> PlanningRecord:
         held = self.curb.hold_at_curb(record.tracks, record.s_m, record.v_mps)
-        return replace(record, tracks=self.curb.walk_across(held))
+        return record.refined(tracks=self.curb.walk_across(held))
 
 
 class HypothesisBranches:
@@ -204,7 +204,7 @@ class HypothesisBranches:
         present = present & ~self.tracked_crosswalks(tracks)
         scene = along_lane_paths(ScenePrediction.from_tracks(tracks, self.times_s), tracks,
                                  self.lane_paths, self.times_s).with_extra(*hidden, present)
-        return replace(record, scene=scene)
+        return record.refined(scene=scene)
 
 
 class SignalBranches:
@@ -245,7 +245,7 @@ class SignalBranches:
         scene, weights, contingent = self.branches.expand(
             record.scene, record.weights, record.contingent, record.tracks, phase_weights,
             self.times_s)
-        return replace(record, scene=scene, weights=weights, contingent=contingent)
+        return record.refined(scene=scene, weights=weights, contingent=contingent)
 
 
 class CrosswalkStepOff:
@@ -272,9 +272,9 @@ class CrosswalkStepOff:
         contingent = np.maximum(record.contingent, self.curb.prepared_comfort(tracks))
         xy, heading = self.curb.step_off(tracks, record.s_m, record.v_mps, DT_S, self.times_s)
         if not len(xy):
-            return replace(record, contingent=contingent)
+            return record.refined(contingent=contingent)
         scene, weights = self._with_step_off(record.scene, record.weights, xy, heading)
-        return replace(record, scene=scene, weights=weights,
+        return record.refined(scene=scene, weights=weights,
                        contingent=np.append(contingent, True))
 
     def _with_step_off(self, scene: ScenePrediction, weights: np.ndarray, xy: np.ndarray,
@@ -328,7 +328,7 @@ class StopLines:
         s0, v0 = record.s_m, record.v_mps
         stop_at = min(self.stop_signs.update(s0, v0, DT_S),
                       self.signal_stops.update(s0, v0, DT_S, record.decoded.signal_states()))
-        return replace(record, stop_at_m=min(record.stop_at_m, stop_at),
+        return record.refined(stop_at_m=min(record.stop_at_m, stop_at),
                        pull_up_to_m=pull_up_target(stop_at, s0, v0, self.stop_signs.config))
 
 
@@ -347,7 +347,7 @@ class RightOfWayClaims:
 
     def __call__(self, record: PlanningRecord) -> PlanningRecord:
         claims = self.right_of_way.claims(record.scene, record.s_m, record.v_mps, self.times_s)
-        return replace(record, claims=claims)
+        return record.refined(claims=claims)
 
 
 class SightHoldStage:
@@ -373,7 +373,7 @@ class SightHoldStage:
                                     self.none_index, record.tracks, s0, v0)
         if not hold_at < record.stop_at_m:
             return record
-        return replace(record, stop_at_m=hold_at,
+        return record.refined(stop_at_m=hold_at,
                        pull_up_to_m=self.hold.pull_up_to(hold_at, s0, v0))
 
 

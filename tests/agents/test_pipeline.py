@@ -87,8 +87,8 @@ def test_the_stop_line_stage_alone_stops_the_robot_at_its_line_then_lets_it_go()
     far = stage(_record(robot, "t_intersection", line_m - 30.0, 8.0))
     assert far.stop_at_m == pytest.approx(line_m - half)  # its front stays behind the line
     assert far.pull_up_to_m == np.inf  # it drives, no pull-up
-    at_rest = _record(robot, "t_intersection", line_m - half - 0.5, 0.0)
-    cleared = [stage(at_rest).stop_at_m for _ in range(40)]  # 4 s standing at the line
+    cleared = [stage(_record(robot, "t_intersection", line_m - half - 0.5, 0.0)).stop_at_m
+               for _ in range(40)]  # 4 s standing at the line
     assert cleared[0] < np.inf and cleared[-1] == np.inf  # stopped long enough: it may go
 
 
@@ -110,8 +110,9 @@ def test_the_step_off_branch_weighs_the_configured_probability():
     route, crosswalk = base.road_map.routes["robot_0"], base.road_map.crosswalks[0]
     crosswalk_s = float(route.project(crosswalk.center[None])[0][0])
     record = replace(record, s_m=crosswalk_s - 40.0, v_mps=3.0)
+    n_branches = len(record.weights)
     out = robot.stage(CrosswalkStepOff)(record)
     p = robot.settings.curb.p_step_off
-    assert len(out.weights) == len(record.weights) + 1
+    assert len(out.weights) == n_branches + 1
     assert out.weights[-1] == pytest.approx(p) and out.weights.sum() == pytest.approx(1.0)
     assert out.contingent[-1]
