@@ -27,8 +27,9 @@ from marl_social.cli.overrides import (
 from marl_social.scenarios import SCENARIOS
 
 FORMATTER = argparse.ArgumentDefaultsHelpFormatter
-SET_HELP = ("scenario parameter KEY=VALUE, repeatable, applied last (e.g. --set human_blind=true "
-            "--set robot_theta_hat=theta.json); `marl-social params SCENARIO` lists them")
+SET_HELP = ("a setting NAME=VALUE, repeatable, applied last (e.g. --set human.blind=true "
+            "--set robot.theta_hat=theta.json --set robot.mpc.w_speed=2); `marl-social params "
+            "SCENARIO` lists them")
 EXIT_BAD_INPUT = 2
 EXIT_BROKEN_PIPE = 141  # 128 + SIGPIPE, what a shell reports for a closed pipe
 
@@ -176,7 +177,7 @@ def _add_irl(sub) -> None:
     fit.add_argument("demos", nargs="+", help=".npz from `record` (demonstrations: Laplace fit; "
                      "`record --decisions`: discrete-choice fit), or INTERACTION-format .csv")
     fit.add_argument("-o", "--out", default=f"{commands.DEFAULT_OUT}/theta.json",
-                     help="the fit's JSON file (use it as robot_theta_hat=FILE)")
+                     help="the fit's JSON file (use it as --set robot.theta_hat=FILE)")
     fit.add_argument("--features", nargs="+", default=None,
                      help="features to fit (None: speed accel jerk safety crosswalk)")
     fit.set_defaults(func=commands.irl_fit)
