@@ -20,9 +20,13 @@ from marl_social.models.gap_kernels import _B1, _F8, _I8, _array
 
 # gap_kernels' options, written out: a change of them here must change this file for the cache
 _JIT = {"cache": True, "nogil": True, "error_model": "numpy"}
+# the helpers below take one signature each, read-only arrays: their callers pass writable and
+# read-only arrays, literal and variable starts, and numba would compile each combination anew
+# (a second or so each on a cold cache); a writable array converts to its read-only type
+_SUM = (_array(1), _I8, _I8)
 
 
-@numba.njit(cache=True)
+@numba.njit(_SUM, cache=True)
 def _pairwise_block(values, start, n):
     """The pairwise_sum of numpy of values[start:start + n] for n <= 128 (no further split).
 
@@ -55,7 +59,7 @@ def _pairwise_block(values, start, n):
     return total
 
 
-@numba.njit(cache=True)
+@numba.njit(_SUM, cache=True)
 def _pairwise_sum(values, start, n):
     """The pairwise_sum of numpy of values[start:start + n] (its add reduction's inner loop).
 
@@ -121,7 +125,7 @@ def _present_sum(values, present, n_obj):
     return 0.0 + summed
 
 
-@numba.njit(cache=True)
+@numba.njit((_array(4), _array(2, _B1), _array(3)), cache=True)
 def _scene_sums(scene_tanh, pair, zone_sums):
     """(W + Z, L, T) the objects' summed crosswalk occupancies, then the zones' given sums.
 

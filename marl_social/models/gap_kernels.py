@@ -317,7 +317,9 @@ def circle_gaps(ego_x, ego_y, ego_r, other_x, other_y, other_r, vehicles, clippe
     return gap, clearance, vehicle_gap
 
 
-@numba.njit(**_JIT)
+# one signature, read-only arrays: its two callers pass writable and read-only zone tables
+@numba.njit((_array(3), _array(3), _array(3), _F8, _F8, _array(2), _array(3), _array(1, _I8),
+             _F8), **_JIT)
 def occupancy_arguments(xy, ego_x, ego_y, ego_r, ego_radius, crosswalks, zones, zone_sizes,
                         softness_m):
     """The arguments of np.tanh of the ego's crosswalk and zone occupancies (sim/costs.py).
