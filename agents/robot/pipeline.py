@@ -34,7 +34,7 @@ class Truth:
     signal_phase: int | None = None
 
 
-@dataclass(slots=True)
+@dataclass
 class PlanningRecord:
     """What one robot decision plans with, refined stage by stage (module docstring).
 
