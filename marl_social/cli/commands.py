@@ -171,13 +171,13 @@ def record(args) -> int:
         demos = near_rational_demonstrations(theta, args.segments, seed=args.seed0,
                                              n_steps=args.segment_steps)
     else:
-        from marl_social.evaluation.record import record_demonstrations
+        from marl_social.evaluation.record import Segments, record_demonstrations
 
         demos = record_demonstrations(
             args.scenario, range(args.seed0, args.seed0 + args.episodes),
-            _recording_overrides(args),
-            max_cycles=args.max_cycles, segment_steps=args.segment_steps,
-            stride_steps=args.stride, workers=args.workers, progress=True)
+            _recording_overrides(args), max_cycles=args.max_cycles,
+            segments=Segments(args.segment_steps, args.stride), workers=args.workers,
+            progress=True)
     if not demos:
         print("no demonstration segments recorded (episodes too short?)", file=sys.stderr)
         return 1

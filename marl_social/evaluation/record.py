@@ -16,6 +16,7 @@ model has no v >= 0 limit, and a stopped car's zero acceleration is the limit, n
 from __future__ import annotations
 
 import multiprocessing as mp
+from dataclasses import dataclass
 
 import numpy as np
 
@@ -117,18 +118,26 @@ def _record_one(job):
                                   source=f"{scenario} seed={seed}")
 
 
+@dataclass(frozen=True)
+class Segments:
+    """How a human's drive is cut into demonstrations: `steps` controls each, every `stride`."""
+
+    steps: int = 30
+    stride: int = 10
+
+
 def record_demonstrations(scenario: str = "occluded_crosswalk", seeds=range(20),
                           overrides: dict | None = None, randomize: bool = True,
-                          max_cycles: int = 150, segment_steps: int = 30, stride_steps: int = 10,
+                          max_cycles: int = 150, segments: Segments = Segments(),
                           workers: int = 1, progress: bool = False) -> list[Demonstration]:
-    """Run one episode per seed and cut the humans into demonstrations.
+    """Run one episode per seed and cut the humans into demonstrations (`segments`).
 
     Each episode runs its built-in planners, with `overrides` on top of
     run.scenario_randomized_overrides(seed, scenario) when randomize (the scenario's own
     randomization: the occluded crosswalk's "paper" preset, each intersection's own range).
     """
     overrides = dict(overrides or {})
-    jobs = [(scenario, int(s), max_cycles, overrides, randomize, segment_steps, stride_steps)
+    jobs = [(scenario, int(s), max_cycles, overrides, randomize, segments.steps, segments.stride)
             for s in seeds]
     return [d for chunk in _run_jobs(jobs, workers, progress) for d in chunk]
 

@@ -15,10 +15,10 @@ execute seed-major, so an interrupted study has every cell covered by its first 
 typed columns to `<out>/results.parquet` (`marl_social/studies/table.py`; read it with
 `marl_social.studies.load`).
 
-Resume: with `resume=True` (`--resume`) every finished row is kept and only the missing keys
+Resume: with `existing="resume"` (`--resume`) every finished row is kept and only the missing keys
 run; a truncated last line (the process was killed while writing it) is dropped. A run that
 raised is recorded with its error ("TypeName: message") and counts as finished: resume does not
-retry it unless `retry_failed=True` (`--retry-failed`), which removes its row and runs it again.
+retry it unless `existing="retry_failed"` (`--resume --retry-failed`), which removes its row and runs it again.
 No key is ever written twice, and a lock on the folder (.study.lock) keeps a second process
 from running a study into it at the same time. Without resume an existing results.csv is an
 error (pass --resume or --overwrite); resuming into a folder whose study differs in scenario,
@@ -270,8 +270,7 @@ def _has_rows(table: Path) -> bool:
         return True
 
 
-def _prepare_out(spec: StudySpec, out_dir: Path, resume: bool, overwrite: bool,
-                 retry_failed: bool) -> dict[str, dict]:
+def _prepare_out(spec: StudySpec, out_dir: Path, existing: str) -> dict[str, dict]:
     """Prepare out_dir for a run of the spec; returns the finished rows by key.
 
     Checks out_dir against the spec, clears it (overwrite) or reads its finished rows (resume),
@@ -279,7 +278,8 @@ def _prepare_out(spec: StudySpec, out_dir: Path, resume: bool, overwrite: bool,
     finished, e.g. it could not reach its Ray cluster) is cleared as if overwrite were set.
     """
     table = out_dir / RESULTS_FILE
-    if table.exists() and not (resume or overwrite):
+    overwrite = existing == "overwrite"
+    if table.exists() and existing == "refuse":
         if _has_rows(table):
             raise FileExistsError(f"{table} exists: pass --resume to continue the study or "
                                   "--overwrite to start it again")
@@ -288,7 +288,7 @@ def _prepare_out(spec: StudySpec, out_dir: Path, resume: bool, overwrite: bool,
         _clear_outputs(out_dir)
     meta = study_metadata(spec)
     _check_meta(out_dir, meta)
-    done = _prepare_table(table, meta["columns"], retry_failed)
+    done = _prepare_table(table, meta["columns"], existing == "retry_failed")
     (out_dir / META_FILE).write_text(json.dumps(meta, indent=2, default=str) + "\n")
     return done
 

@@ -29,7 +29,7 @@ import sys
 from collections.abc import Iterator
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
+from typing import Any, NamedTuple
 
 from marl_social.envs.vector import usable_cores
 from marl_social.studies.jobs import PARENT_POLL_S, die_with_parent, local_results, run_job
@@ -84,9 +84,9 @@ from marl_social.studies.table import PARQUET_FILE, load, write_parquet
 # the public names of this module, marl_social.studies.spec, .runs and .results
 __all__ = [
     "BACKENDS", "DEFAULT_MAX_CYCLES", "DEFAULT_METRICS", "DEFAULT_OUT_ROOT",
-    "DEFAULT_PEDESTRIANS", "DEFAULT_PLANNERS", "DEFAULT_SEEDS", "HEAD_COLUMNS", "LOCK_FILE",
-    "META_FILE", "PARENT_POLL_S", "PARQUET_FILE", "RESULTS_FILE", "SPEC_PACKAGE_DIR",
-    "TAIL_COLUMNS", "RayConnectionError", "Run", "StudyOutcome", "StudySpec", "add_arguments",
+    "DEFAULT_PEDESTRIANS", "DEFAULT_PLANNERS", "DEFAULT_SEEDS", "EXISTING", "HEAD_COLUMNS",
+    "LOCK_FILE", "META_FILE", "PARENT_POLL_S", "PARQUET_FILE", "RESULTS_FILE", "SPEC_PACKAGE_DIR",
+    "SUMMARIES", "TAIL_COLUMNS", "RayConnectionError", "Run", "StudyOutcome", "StudySpec", "add_arguments",
     "available_metrics", "axes", "builtin_specs", "cli", "default_out", "die_with_parent",
     "execute", "expand", "format_value", "load", "load_spec", "main", "parse_spec",
     "read_results", "register_cli", "result_columns", "run_job", "run_key", "run_study",
@@ -94,6 +94,16 @@ __all__ = [
 ]
 
 BACKENDS = ("local", "ray")
+EXISTING = ("refuse", "resume", "retry_failed", "overwrite")  # a study already in the folder
+SUMMARIES = ("plots", "tables", "none")  # what a study writes when its runs are done
+
+
+class Execution(NamedTuple):
+    """Where a study's runs execute: `workers` parallel episodes on `backend` (at `address`)."""
+
+    workers: int
+    backend: str
+    address: str | None
 
 
 @dataclass
@@ -128,40 +138,39 @@ def execute(jobs: list[tuple], workers: int = 1, backend: str = "local",
 
 def run_study(spec: StudySpec | str | os.PathLike, out: str | os.PathLike | None = None, *,
               workers: int = 1, backend: str = "local", address: str | None = None,
-              resume: bool = False, retry_failed: bool = False, overwrite: bool = False,
-              seeds: int | None = None, progress: bool = True, analyze: bool = True,
-              plots: bool = True) -> StudyOutcome:
+              existing: str = "refuse", progress: bool = True,
+              summary: str = "plots") -> StudyOutcome:
     """Run a study into `out`, writing results.csv row by row.
 
     Args:
-        spec: a StudySpec, a spec file or a built-in name.
+        spec: a StudySpec, a spec file or a built-in name (`with_seeds(spec, n)` runs it on
+            seeds 0..n-1 instead of its own).
         out: output folder (default marl_social_out/studies/<name>/).
         workers: parallel episodes (local processes, or the CPUs of a new local Ray).
         backend: "local" or "ray" (see the module docstring).
         address: Ray cluster address (backend "ray").
-        resume: keep the finished rows of an existing results.csv, run the rest.
-        retry_failed: with resume, also run again the runs recorded with an error.
-        overwrite: delete an existing study's outputs in `out` first.
-        seeds: use range(seeds) instead of the spec's seeds.
+        existing: what to do with a study already in `out` (one of EXISTING): "refuse" it,
+            "resume" it (keep its finished rows, run the rest), "retry_failed" (resume, and run
+            again the runs recorded with an error) or "overwrite" it (delete its outputs first).
         progress: show a tqdm progress bar with ETA.
-        analyze: write summary.md / summary.csv at the end.
-        plots: with analyze, also write the plots.
+        summary: what to write at the end (one of SUMMARIES): summary.md / summary.csv and the
+            "plots", the summary "tables" only, or "none".
 
     Raises:
         ValueError: invalid spec or arguments, or `out` holds a different study.
-        FileExistsError: results.csv exists and neither resume nor overwrite is set.
+        FileExistsError: results.csv exists and `existing` is "refuse".
         RuntimeError: another process is running a study into `out`.
     """
     if not isinstance(spec, StudySpec):
         spec = load_spec(spec, validate=False)
-    if seeds is not None:
-        spec = with_seeds(spec, seeds)
     if backend not in BACKENDS:
         raise ValueError(f"backend must be one of {BACKENDS}, got {backend!r}")
     if not _is_int(workers) or workers < 1:
         raise ValueError(f"workers must be an integer >= 1, got {workers!r}")
-    if resume and overwrite:
-        raise ValueError("choose one of resume and overwrite")
+    if existing not in EXISTING:
+        raise ValueError(f"existing must be one of {EXISTING}, got {existing!r}")
+    if summary not in SUMMARIES:
+        raise ValueError(f"summary must be one of {SUMMARIES}, got {summary!r}")
     runs = expand(spec)
     if backend == "ray":
         import_ray()
@@ -169,23 +178,22 @@ def run_study(spec: StudySpec | str | os.PathLike, out: str | os.PathLike | None
     table = out_dir / RESULTS_FILE
     out_dir.mkdir(parents=True, exist_ok=True)
     with _exclusive(out_dir):
-        done = _prepare_out(spec, out_dir, resume, overwrite, retry_failed)
-        n_errors = _execute_into(spec, runs, done, table, result_columns(spec), workers,
-                                 backend, address, progress)
+        done = _prepare_out(spec, out_dir, existing)
+        n_errors = _execute_into(spec, runs, done, table,
+                                 Execution(workers, backend, address), progress)
         _finalize(table, result_columns(spec), runs)
         write_parquet(out_dir)
     todo = sum(r.key not in done for r in runs)
     outcome = StudyOutcome(out_dir, table, len(runs), len(runs) - todo, todo, n_errors)
-    if analyze:
+    if summary != "none":
         from marl_social.studies.analysis import analyze as analyze_study
 
-        outcome.analysis = analyze_study(out_dir, plots=plots)
+        outcome.analysis = analyze_study(out_dir, plots=summary == "plots")
     return outcome
 
 
 def _execute_into(spec: StudySpec, runs: list[Run], done: dict, table: Path,
-                  columns: list[str], workers: int, backend: str, address: str | None,
-                  progress: bool) -> int:
+                  execution: Execution, progress: bool) -> int:
     """Run what is not done yet (seed-major order), appending rows; returns the error count."""
     from tqdm import tqdm
 
@@ -195,10 +203,10 @@ def _execute_into(spec: StudySpec, runs: list[Run], done: dict, table: Path,
     jobs = [(r.key, spec.scenario, r.seed, spec.max_cycles, r.overrides, spec.metrics)
             for r in todo]
     n_errors = 0
-    with _appender(table, columns, done) as write, tqdm(
+    with _appender(table, result_columns(spec), done) as write, tqdm(
             total=len(runs), initial=len(runs) - len(todo), desc=f"study {spec.name}",
             unit="run", disable=not progress or not todo, dynamic_ncols=True) as bar, \
-            contextlib.closing(execute(jobs, workers, backend, address)) as results:
+            contextlib.closing(execute(jobs, *execution)) as results:
         for key, values, error, elapsed_s in results:
             write(_row(spec, by_key[key], values, error, elapsed_s))
             n_errors += error is not None
@@ -258,6 +266,19 @@ def _list_builtin() -> int:
     return 0
 
 
+def _existing(args: argparse.Namespace) -> str:
+    """The `existing` mode of run_study from --resume, --retry-failed and --overwrite."""
+    if args.resume and args.overwrite:
+        raise ValueError("choose one of --resume and --overwrite")
+    if args.retry_failed and not args.resume:
+        raise ValueError("--retry-failed goes with --resume")
+    if args.overwrite:
+        return "overwrite"
+    if args.resume:
+        return "retry_failed" if args.retry_failed else "resume"
+    return "refuse"
+
+
 def cli(args: argparse.Namespace) -> int:
     """Entry of `marl-social study`; returns the exit code."""
     if args.list:
@@ -273,11 +294,13 @@ def cli(args: argparse.Namespace) -> int:
             outputs = analyze(out, plots=not args.no_plots)
             write_parquet(out)
         else:
+            spec = load_spec(args.spec, validate=False)
+            if args.seeds is not None:
+                spec = with_seeds(spec, args.seeds)
             outcome = run_study(
-                args.spec, args.out, workers=args.workers, backend=args.backend,
-                address=args.address, resume=args.resume, retry_failed=args.retry_failed,
-                overwrite=args.overwrite, seeds=args.seeds, progress=not args.no_progress,
-                plots=not args.no_plots)
+                spec, args.out, workers=args.workers, backend=args.backend,
+                address=args.address, existing=_existing(args),
+                progress=not args.no_progress, summary="tables" if args.no_plots else "plots")
             print(f"results: {outcome.results_path} ({outcome.n_runs} runs: "
                   f"{outcome.n_executed} run now, {outcome.n_skipped} already done, "
                   f"{outcome.n_errors} errors now)")

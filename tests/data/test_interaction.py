@@ -17,6 +17,7 @@ from marl_social.data.interaction import (
     BASE_COLUMNS,
     CSV_COLUMNS,
     PEDESTRIAN_DIAMETER_M,
+    SegmentCut,
     fit_track,
     interaction_demonstrations,
     load_interaction,
@@ -127,7 +128,8 @@ def test_curved_track_controls_path_and_round_trip(curved):
     assert np.sqrt(np.mean(fit.lateral ** 2)) < 2 * NOISE_M
     assert fit.s_obs[0] > 4.0 and fit.s_obs[-1] < Route(fit.path).length_m - 4.0  # not clamped
 
-    demos = interaction_demonstrations(tracks, segment_steps=30, stride_steps=10, v_ref_mps=10.0)
+    cut = SegmentCut(segment_steps=30, stride_steps=10, v_ref_mps=10.0)
+    demos = interaction_demonstrations(tracks, cut)
     assert len(demos) == 12  # starts 0, 10, ..., 110 of 141 samples; never below 1 m/s
     for j, demo in enumerate(demos):
         i = 10 * j
@@ -210,7 +212,8 @@ def test_others_positions_footprints_and_presence(tmp_path):
     assert sorted(tracks) == ["1", "2", "3", "4", "P1", "P2"]
     assert tracks["P2"].is_pedestrian and not tracks["2"].is_pedestrian
     assert tracks["P1"].source == "pedestrian_tracks_000.csv"
-    demos = interaction_demonstrations(tracks, segment_steps=10, stride_steps=10, v_ref_mps=10.0)
+    cut = SegmentCut(segment_steps=10, stride_steps=10, v_ref_mps=10.0)
+    demos = interaction_demonstrations(tracks, cut)
     ego = [d for d in demos if d.agent == "track 1"]
     assert [d.t0_s for d in ego] == pytest.approx([0.1, 1.1, 2.1, 3.1, 4.1, 5.1])
     expected_heading = {"2": 0.05, "3": 0.0, "P1": 0.5 * math.pi, "P2": math.pi}
@@ -234,8 +237,8 @@ def test_others_positions_footprints_and_presence(tmp_path):
         np.testing.assert_allclose(xy_rep, pos["1"][i:i + 11], atol=0.02)
         np.testing.assert_allclose(v_rep, 10.0, atol=0.02)
     # a smaller radius leaves out what is farther at the segment start
-    near = interaction_demonstrations(tracks, segment_steps=10, stride_steps=10,
-                                      v_ref_mps=10.0, radius_m=8.0)
+    cut = SegmentCut(segment_steps=10, stride_steps=10, v_ref_mps=10.0, radius_m=8.0)
+    near = interaction_demonstrations(tracks, cut)
     first = next(d for d in near if d.agent == "track 1")  # ego at (0, 0): car 2 at (5, 3.5)
     assert len(first.others_length_m) == 1 and first.others_length_m[0] == 4.0
 
@@ -256,7 +259,8 @@ def test_segments_with_a_stop_are_skipped(tmp_path):
     step = np.diff(fit.path, axis=0)
     assert np.max(np.abs(np.arctan2(step[:, 1], step[:, 0]))) < 0.1  # measured 0.02-0.05 rad
     assert np.max(np.abs(fit.path[10:-10, 1])) < 0.1  # without the 5 m extensions
-    demos = interaction_demonstrations(tracks, segment_steps=20, stride_steps=5, v_ref_mps=8.0)
+    cut = SegmentCut(segment_steps=20, stride_steps=5, v_ref_mps=8.0)
+    demos = interaction_demonstrations(tracks, cut)
     starts = np.array([round(d.t0_s / DT) - 1 for d in demos])
     window_min = np.array([v[i:i + 21].min() for i in range(len(v) - 20)])
     assert not np.any(window_min[starts] < 0.5)  # no kept segment comes near the stop
@@ -318,14 +322,15 @@ def test_validation_errors(tmp_path):
     fast = write_csv(tmp_path / "fast.csv", rows)
     with pytest.raises(ValueError, match=r"fast\.csv: samples are 50 ms apart, expected 100 ms"):
         interaction_demonstrations(read_interaction_csv(fast))
-    assert interaction_demonstrations(read_interaction_csv(fast), expected_dt_s=None,
-                                      v_ref_mps=10.0)[0].dt_s == pytest.approx(0.05)
+    cut = SegmentCut(expected_dt_s=None, v_ref_mps=10.0)
+    demos = interaction_demonstrations(read_interaction_csv(fast), cut)
+    assert demos[0].dt_s == pytest.approx(0.05)
 
 
 def test_save_load_round_trip(tmp_path):
     vehicles, peds, _ = scene(tmp_path)
-    demos = interaction_demonstrations(read_interaction_csv([vehicles, peds]), segment_steps=10,
-                                       stride_steps=10, v_ref_mps=10.0)
+    cut = SegmentCut(segment_steps=10, stride_steps=10, v_ref_mps=10.0)
+    demos = interaction_demonstrations(read_interaction_csv([vehicles, peds]), cut)
     assert len({len(d.others_length_m) for d in demos}) > 1  # padding is exercised
     loaded = load_demonstrations(save_demonstrations(tmp_path / "demos.npz", demos))
     assert len(loaded) == len(demos)
@@ -342,7 +347,8 @@ def test_save_load_round_trip(tmp_path):
 def test_load_interaction_groups_recordings(tmp_path):
     scene(tmp_path, "000")
     scene(tmp_path, "001")  # the same track ids: must not be merged with recording 000
-    demos = load_interaction([tmp_path], segment_steps=10, stride_steps=10, v_ref_mps=10.0)
+    cut = SegmentCut(segment_steps=10, stride_steps=10, v_ref_mps=10.0)
+    demos = load_interaction([tmp_path], cut)
     sources = [d.source for d in demos]
     assert set(sources) == {"vehicle_tracks_000.csv", "vehicle_tracks_001.csv"}
     assert sources.count("vehicle_tracks_000.csv") == sources.count("vehicle_tracks_001.csv")
@@ -362,7 +368,8 @@ def test_gaps_split_tracks_and_pedestrian_headings(tmp_path):
                                    write_csv(tmp_path / "peds.csv", peds, BASE_COLUMNS)])
     np.testing.assert_allclose(tracks["P1"].heading_rad(), [0.5 * math.pi] * 9 + [math.pi] * 3)
     assert len(fit_track(tracks["1"], 100)) == 2
-    demos = interaction_demonstrations(tracks, segment_steps=10, stride_steps=5, v_ref_mps=10.0)
+    cut = SegmentCut(segment_steps=10, stride_steps=5, v_ref_mps=10.0)
+    demos = interaction_demonstrations(tracks, cut)
     first_frames = [round(d.t0_s / DT) for d in demos]
     assert first_frames == [1, 6, 11, 16, 21, 26, 51, 56, 61, 66, 71, 76, 81, 86]
     assert [d.prev_accel_mps2 for d in demos][6] == 0.0  # first step of the second run
@@ -386,8 +393,9 @@ def test_tracking_glitch_drops_its_segments(curved, tmp_path):
         rows = list(csv.reader(fh))[1:]
     rows[70][5] = f"{float(rows[70][5]) + 3.0:.3f}"  # sample 70 jumps 3 m sideways
     glitch = write_csv(tmp_path / "glitch.csv", rows)
+    cut = SegmentCut(v_ref_mps=10.0)
     with pytest.warns(UserWarning, match=r"segment\(s\) dropped: replay misses"):
-        demos = interaction_demonstrations(read_interaction_csv(glitch), v_ref_mps=10.0)
+        demos = interaction_demonstrations(read_interaction_csv(glitch), cut)
     starts = [round(d.t0_s / DT) - 1 for d in demos]
     assert not any(i <= 70 <= i + 30 for i in starts)
     assert starts == [0, 10, 20, 30, 80, 90, 100, 110]

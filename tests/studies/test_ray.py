@@ -107,7 +107,7 @@ def test_cluster_gives_the_local_table_and_a_one_line_error_without_the_token(cl
     spec.write_text(TINY)
     # the reference table in this process (test_studies: a pool's table is the same)
     local = studies.run_study(spec, tmp_path / "local", workers=1, progress=False,
-                              analyze=False)
+                              summary="none")
     done = _run([str(spec), "--out", str(tmp_path / "ray"), "--backend", "ray", "--address",
                  address], env)
     assert done.returncode == 0, done.stderr[-2000:]
@@ -216,5 +216,5 @@ def test_no_cluster_at_the_address_is_one_line_with_the_fix(tmp_path, capsys, ad
     assert not (tmp_path / "out" / studies.RESULTS_FILE).exists() or \
         studies.read_results(tmp_path / "out" / studies.RESULTS_FILE)[1] == []
     # nothing ran, so the same folder takes the study without --resume or --overwrite
-    outcome = studies.run_study(spec, tmp_path / "out", progress=False, analyze=False)
+    outcome = studies.run_study(spec, tmp_path / "out", progress=False, summary="none")
     assert (outcome.n_runs, outcome.n_executed, outcome.n_errors) == (4, 4, 0)

@@ -55,7 +55,7 @@ def tiny(tmp_path_factory) -> Path:
 def reference(tiny, tmp_path_factory) -> Path:
     """The tiny study, uninterrupted, in process (1 worker)."""
     out = tmp_path_factory.mktemp("reference")
-    outcome = studies.run_study(tiny, out, workers=1, progress=False, analyze=False)
+    outcome = studies.run_study(tiny, out, workers=1, progress=False, summary="none")
     assert (outcome.n_runs, outcome.n_executed, outcome.n_errors) == (12, 12, 0)
     return outcome.results_path
 
@@ -126,7 +126,7 @@ def test_expand_keys_overrides_and_random_axes(tiny, tmp_path):
 
 @pytest.mark.slow
 def test_two_workers_give_the_same_table(tiny, reference, tmp_path):
-    outcome = studies.run_study(tiny, tmp_path, workers=2, progress=False, analyze=False)
+    outcome = studies.run_study(tiny, tmp_path, workers=2, progress=False, summary="none")
     assert _content(outcome.results_path) == _content(reference)
     # the finished table is in the spec's order (planner, pedestrian, point, seed)
     _, rows = studies.read_results(outcome.results_path)
@@ -143,7 +143,7 @@ def test_ray_gives_the_same_table(tiny, reference, tmp_path):
 
     assert not ray.is_initialized()
     outcome = studies.run_study(tiny, tmp_path, workers=2, backend="ray", progress=False,
-                                analyze=False)  # starts a local ray.init(num_cpus=2)
+                                summary="none")  # starts a local ray.init(num_cpus=2)
     assert not ray.is_initialized()  # and shuts it down
     assert _content(outcome.results_path) == _content(reference)
 
@@ -164,7 +164,7 @@ def test_kill_and_resume(tiny, reference, tmp_path, episode_calls):
         time.sleep(0.02)
     assert proc.poll() is None, f"the study ended before the kill: {proc.stderr.read()}"
     with pytest.raises(RuntimeError, match="another process"):  # one study per folder
-        studies.run_study(tiny, tmp_path, resume=True, progress=False, analyze=False)
+        studies.run_study(tiny, tmp_path, existing="resume", progress=False, summary="none")
     proc.send_signal(signal.SIGKILL)
     proc.wait()
     _, before = studies.read_results(table)
@@ -172,7 +172,7 @@ def test_kill_and_resume(tiny, reference, tmp_path, episode_calls):
     with open(table, "ab") as f:  # as if killed while writing a row
         f.write(b"occluded_crosswalk|human_speed_mps=12.0|pedestrian=crossing|robot_pl")
 
-    outcome = studies.run_study(tiny, tmp_path, resume=True, progress=False, analyze=False)
+    outcome = studies.run_study(tiny, tmp_path, existing="resume", progress=False, summary="none")
     done_before = {r["key"] for r in before}
     ran_now = _keys_of(episode_calls, tiny)
     assert len(ran_now) == len(set(ran_now)) == 12 - len(before)  # nothing ran twice
@@ -184,7 +184,7 @@ def test_kill_and_resume(tiny, reference, tmp_path, episode_calls):
     assert _content(table) == _content(reference)
 
     episode_calls.clear()
-    studies.run_study(tiny, tmp_path, resume=True, progress=False, analyze=False)
+    studies.run_study(tiny, tmp_path, existing="resume", progress=False, summary="none")
     assert episode_calls == []
 
 
@@ -199,7 +199,8 @@ def test_failed_run_is_recorded_and_retried_only_on_request(tiny, reference, tmp
         return counting(scenario, seed=seed, max_cycles=max_cycles, **overrides)
 
     monkeypatch.setattr(marl_social.evaluation.run, "run_episode", flaky)
-    outcome = studies.run_study(tiny, tmp_path, seeds=2, progress=False, plots=False)
+    two_seeds = studies.with_seeds(studies.load_spec(tiny, validate=False), 2)
+    outcome = studies.run_study(two_seeds, tmp_path, progress=False, summary="tables")
     assert (outcome.n_runs, outcome.n_errors) == (8, 2)
     _, rows = studies.read_results(outcome.results_path)
     failed = [r for r in rows if r["error"]]
@@ -214,10 +215,10 @@ def test_failed_run_is_recorded_and_retried_only_on_request(tiny, reference, tmp
 
     monkeypatch.setattr(marl_social.evaluation.run, "run_episode", counting)
     episode_calls.clear()
-    studies.run_study(tiny, tmp_path, seeds=2, resume=True, progress=False, analyze=False)
+    studies.run_study(two_seeds, tmp_path, existing="resume", progress=False, summary="none")
     assert episode_calls == []  # failed runs count as finished
-    studies.run_study(tiny, tmp_path, seeds=2, resume=True, retry_failed=True, progress=False,
-                      analyze=False)
+    studies.run_study(two_seeds, tmp_path, existing="retry_failed", progress=False,
+                      summary="none")
     assert sorted(_keys_of(episode_calls, tiny)) == sorted(r["key"] for r in failed)
     assert _content(outcome.results_path) == _content(reference, seeds={0, 1})
 
@@ -230,14 +231,15 @@ def test_existing_table_needs_resume_or_overwrite(tiny, reference, tmp_path, cap
     other = _write(tmp_path / "other.toml", TINY.replace(f"max_cycles = {MAX_CYCLES}",
                                                          "max_cycles = 30"))
     with pytest.raises(ValueError, match="study.json: .*max_cycles=25.* 30"):
-        studies.run_study(other, reference.parent, resume=True, progress=False)
+        studies.run_study(other, reference.parent, existing="resume", progress=False)
 
     one = _write(tmp_path / "one.toml", TINY.replace("seeds = 3", "seeds = 1").replace(
         '"social", "aggressive"', '"aggressive"').replace("[10.5, 12]", "[12]"))
-    studies.run_study(one, tmp_path / "out", progress=False, plots=False)
+    studies.run_study(one, tmp_path / "out", progress=False, summary="tables")
     with open(tmp_path / "out" / studies.RESULTS_FILE, "a") as f:
         f.write("stale\n")
-    studies.run_study(one, tmp_path / "out", overwrite=True, progress=False, plots=False)
+    studies.run_study(one, tmp_path / "out", existing="overwrite", progress=False,
+                      summary="tables")
     _, rows = studies.read_results(tmp_path / "out" / studies.RESULTS_FILE)
     assert len(rows) == 1 and rows[0]["planner"] == "aggressive"
 

@@ -7,6 +7,7 @@ returns their demonstrations.
 from __future__ import annotations
 
 import warnings
+from dataclasses import dataclass
 
 import numpy as np
 from numpy.lib.stride_tricks import sliding_window_view
@@ -66,58 +67,77 @@ def default_v_ref(fits: list[RunFit], min_speed_mps: float) -> float:
     return float(np.percentile(v, V_REF_PERCENTILE))
 
 
-def interaction_demonstrations(tracks: dict[str, Track], segment_steps: int = 30,
-                               stride_steps: int = 10, v_ref_mps: float | None = None,
-                               min_speed_mps: float = 1.0, radius_m: float = 50.0,
-                               agent_types=("car",), *, expected_dt_s: float | None = 0.1,
-                               path_margin_m: float = PATH_MARGIN_M,
-                               max_roundtrip_error_m: float = MAX_ROUNDTRIP_ERROR_M,
-                               path_cutoff_hz: float = PATH_CUTOFF_HZ,
-                               speed_cutoff_hz: float = SPEED_CUTOFF_HZ,
-                               ) -> list[Demonstration]:
+@dataclass(frozen=True)
+class SegmentCut:
+    """How `interaction_demonstrations` cuts tracks into demonstration segments.
+
+    Attributes:
+        segment_steps: T, the controls per segment [steps].
+        stride_steps: the shift between segment starts [steps].
+        v_ref_mps: reference speed of the speed feature; None: `default_v_ref` of the egos'
+            runs [m/s].
+        min_speed_mps: segments slower than this at any sample are dropped [m/s].
+        radius_m: other agents farther than this from the ego at the segment start are left
+            out [m].
+        agent_types: agent_type values that are egos.
+        expected_dt_s: the recording's step (`recording_step_ms`) must equal this [s]
+            (INTERACTION records at 10 Hz); None accepts any step.
+        path_margin_m: each demonstration keeps its reference path from path_margin_m before
+            to path_margin_m after the segment (alternative control sequences evaluated by the
+            IRL travel further or less far) [m].
+        max_roundtrip_error_m: segments whose replay misses the record by more are dropped [m].
+        path_cutoff_hz: smoothing of the path (`fit_track`) [Hz].
+        speed_cutoff_hz: smoothing of s(t) (`fit_track`) [Hz].
+    """
+
+    segment_steps: int = 30
+    stride_steps: int = 10
+    v_ref_mps: float | None = None
+    min_speed_mps: float = 1.0
+    radius_m: float = 50.0
+    agent_types: tuple[str, ...] = ("car",)
+    expected_dt_s: float | None = 0.1
+    path_margin_m: float = PATH_MARGIN_M
+    max_roundtrip_error_m: float = MAX_ROUNDTRIP_ERROR_M
+    path_cutoff_hz: float = PATH_CUTOFF_HZ
+    speed_cutoff_hz: float = SPEED_CUTOFF_HZ
+
+
+def interaction_demonstrations(tracks: dict[str, Track],
+                               cut: SegmentCut = SegmentCut()) -> list[Demonstration]:
     """Cut the vehicle tracks of one recording into demonstration segments.
 
-    Every track whose agent_type is in agent_types is an ego: each contiguous run is fitted
-    (`fit_track`) and cut into segments of T = segment_steps controls starting every
-    stride_steps samples. A segment is dropped
+    Every track whose agent_type is in cut.agent_types is an ego: each contiguous run is fitted
+    (`fit_track`) and cut into segments of T = cut.segment_steps controls starting every
+    cut.stride_steps samples. A segment is dropped
 
-    * if the fitted speed is below min_speed_mps at any of its T+1 samples: the IRL's model
+    * if the fitted speed is below cut.min_speed_mps at any of its T+1 samples: the IRL's model
       integrates v_{k+1} = v_k + u_k dt without the limit v >= 0, so near a stop its
       alternatives would reverse, and the demonstrator's zero control while standing is the
       active limit, not a trade-off of its cost;
     * if the controls, replayed with the Demonstration's dynamics (`replay`), miss the recorded
-      positions by more than max_roundtrip_error_m at any sample (a tracking glitch the smooth
-      path cannot follow); a warning counts these.
+      positions by more than cut.max_roundtrip_error_m at any sample (a tracking glitch the
+      smooth path cannot follow); a warning counts these.
 
     `others` of a segment = every other agent (vehicles, pedestrians, cyclists) recorded at all
     T+1 samples of the segment (the Demonstration has no per-instant mask, so an agent that
-    enters or leaves within the segment is left out) and within radius_m of the ego's recorded
-    position at the segment start; their recorded positions at the T instants after each step,
-    headings psi_rad (vehicles) or direction of motion (pedestrians, `Track.heading_rad`) and
-    footprints (pedestrians: PEDESTRIAN_DIAMETER_M disc, is_pedestrian True).
+    enters or leaves within the segment is left out) and within cut.radius_m of the ego's
+    recorded position at the segment start; their recorded positions at the T instants after
+    each step, headings psi_rad (vehicles) or direction of motion (pedestrians,
+    `Track.heading_rad`) and footprints (pedestrians: PEDESTRIAN_DIAMETER_M disc,
+    is_pedestrian True).
 
     Args:
         tracks: from read_interaction_csv (one recording).
-        segment_steps: T, the controls per segment [steps].
-        stride_steps: the shift between segment starts [steps].
-        v_ref_mps: reference speed of the speed feature; None: `default_v_ref` of the egos' runs.
-        min_speed_mps: see above [m/s].
-        radius_m: see above [m].
-        agent_types: agent_type values that are egos.
-        expected_dt_s: the recording's step (`recording_step_ms`) must equal this [s] (INTERACTION
-            records at 10 Hz); None accepts any step.
-        path_margin_m: each demonstration keeps its reference path from path_margin_m before to
-            path_margin_m after the segment (alternative control sequences evaluated by the IRL
-            travel further or less far) [m].
-        max_roundtrip_error_m: see above [m].
-        path_cutoff_hz: smoothing of the path (`fit_track`) [Hz].
-        speed_cutoff_hz: smoothing of s(t) (`fit_track`) [Hz].
+        cut: the segment length and stride, v_ref and the filters (`SegmentCut`).
 
     Returns:
         Demonstrations in track order then time order: agent "track <id>", source = the ego's
         file name, t0_s = timestamp of the segment start [s], crosswalks (), theta_true and
         beta_true NaN, prev_accel_mps2 = control of the step before (0 at a run's first step).
     """
+    segment_steps, stride_steps, v_ref_mps = cut.segment_steps, cut.stride_steps, cut.v_ref_mps
+    min_speed_mps, expected_dt_s = cut.min_speed_mps, cut.expected_dt_s
     if segment_steps < 1 or stride_steps < 1:
         raise ValueError(f"segment_steps and stride_steps must be >= 1, got {segment_steps}, "
                          f"{stride_steps}")
@@ -128,9 +148,9 @@ def interaction_demonstrations(tracks: dict[str, Track], segment_steps: int = 30
                          f"{expected_dt_s * 1e3:g} ms (pass expected_dt_s=None to accept)")
     dt_s = dt_ms * 1e-3
     t_steps = segment_steps
-    egos = [t for t in tracks.values() if t.agent_type in agent_types]
+    egos = [t for t in tracks.values() if t.agent_type in cut.agent_types]
     fits = [f for t in egos
-            for f in fit_track(t, dt_ms, t_steps + 1, path_cutoff_hz, speed_cutoff_hz)]
+            for f in fit_track(t, dt_ms, t_steps + 1, cut.path_cutoff_hz, cut.speed_cutoff_hz)]
     if not fits:
         return []
     if v_ref_mps is None:
@@ -161,14 +181,14 @@ def interaction_demonstrations(tracks: dict[str, Track], segment_steps: int = 30
             oxy[c], ohead[c] = other.xy[idx], other.heading_rad()[idx]
         ego_xy = ego.xy[fit.rows]
         whole = sliding_window_view(present, t_steps + 1, axis=1).all(axis=-1)[:, starts]
-        near = np.linalg.norm(oxy[:, starts] - ego_xy[starts], axis=-1) <= radius_m
+        near = np.linalg.norm(oxy[:, starts] - ego_xy[starts], axis=-1) <= cut.radius_m
         chosen = whole & near  # (C, n_segments)
         o_len = np.array([o.length_m for o in cand])
         o_wid = np.array([o.width_m for o in cand])
         o_ped = np.array([o.is_pedestrian for o in cand], dtype=bool)
         for j, i in enumerate(starts.tolist()):  # one Demonstration object per segment
-            path, s_base = _crop_path(fit.path, fit.s[i] - path_margin_m,
-                                      fit.s[i + t_steps] + path_margin_m)
+            path, s_base = _crop_path(fit.path, fit.s[i] - cut.path_margin_m,
+                                      fit.s[i + t_steps] + cut.path_margin_m)
             m = chosen[:, j]
             demo = Demonstration(
                 controls_mps2=fit.u[i:i + t_steps], dt_s=dt_s, s0_m=float(fit.s[i] - s_base),
@@ -181,26 +201,27 @@ def interaction_demonstrations(tracks: dict[str, Track], segment_steps: int = 30
             )
             _, _, xy, _ = replay(demo)
             error = float(np.max(np.linalg.norm(xy - ego_xy[i:i + t_steps + 1], axis=1)))
-            if error > max_roundtrip_error_m:
+            if error > cut.max_roundtrip_error_m:
                 dropped.append(f"track {ego.track_id} t0={demo.t0_s:g}s ({error:.2f} m)")
                 continue
             demos.append(demo)
     if dropped:
         warnings.warn(f"{len(dropped)} segment(s) dropped: replay misses the recorded positions "
-                      f"by > {max_roundtrip_error_m} m: {', '.join(dropped[:10])}", stacklevel=2)
+                      f"by > {cut.max_roundtrip_error_m} m: {', '.join(dropped[:10])}",
+                      stacklevel=2)
     return demos
 
 
 
-def load_interaction(paths, **kwargs) -> list[Demonstration]:
+def load_interaction(paths, cut: SegmentCut = SegmentCut()) -> list[Demonstration]:
     """Demonstrations from INTERACTION track files: the entry point of `marl-social irl`.
 
     Args:
         paths: CSV files and/or directories of them, grouped into recordings by `recordings`
             (each read with read_interaction_csv, so a recording's vehicle and pedestrian files
             are merged and different recordings never mix).
-        **kwargs: passed to interaction_demonstrations (segment_steps, stride_steps, v_ref_mps,
-            min_speed_mps, radius_m, agent_types, ...); a default v_ref is chosen per recording.
+        cut: how interaction_demonstrations cuts the tracks (`SegmentCut`); with its v_ref_mps
+            None a default v_ref is chosen per recording.
 
     Returns:
         All recordings' demonstrations.
@@ -210,5 +231,5 @@ def load_interaction(paths, **kwargs) -> list[Demonstration]:
         raise ValueError(f"load_interaction: no .csv files in {paths}")
     demos = []
     for files in groups:
-        demos.extend(interaction_demonstrations(read_interaction_csv(files), **kwargs))
+        demos.extend(interaction_demonstrations(read_interaction_csv(files), cut))
     return demos
