@@ -29,6 +29,7 @@ from types import SimpleNamespace
 
 import numpy as np
 
+from marl_social.sim.bodies import Bodies
 from marl_social.sim.footprint import place_local
 from marl_social.sim.geometry import GeometryMirror
 from marl_social.sim.kernel_cache import cached_kernels
@@ -137,21 +138,16 @@ class FieldOfView:
             self._angles_key, self._angles = key, depth_ray_angles(half_angle_rad, self.n_rays)
         return self._angles
 
-    def compute(self, xy, heading, length, width, is_pedestrian, bounding_radius, active,
-                range_m, half_angle_rad) -> FovResult:
+    def compute(self, bodies: Bodies) -> FovResult:
         """Fields of view of all active agents.
 
-        Args:
-            xy: (n, 2) positions [m].
-            heading: (n,) headings [rad].
-            length: (n,) lengths [m].
-            width: (n,) widths [m].
-            is_pedestrian: (n,) bool.
-            bounding_radius: (n,) bounding-circle radii [m] (broad phase).
-            active: (n,) bool; inactive agents neither see nor occlude.
-            range_m: (n,) sensor ranges [m].
-            half_angle_rad: (n,) half-angles of the view cones [rad].
+        `bodies` gives their poses, footprints, bounding radii (the broad phase), activity and
+        sensors; inactive agents neither see nor occlude. Speeds are not read.
         """
+        xy, heading, length, width = bodies.xy, bodies.heading, bodies.length_m, bodies.width_m
+        is_pedestrian, bounding_radius, active = (bodies.is_pedestrian, bodies.bounding_radius_m,
+                                                  bodies.active)
+        range_m, half_angle_rad = bodies.sensor_range_m, bodies.sensor_half_angle_rad
         n = len(xy)
         self._queries = 0
         kernels = fov_kernels()
@@ -163,9 +159,9 @@ class FieldOfView:
         points, rel = kernels.sample_points(xy, np.cos(heading), np.sin(heading), self._local)
         d_dir = heading[d_obs] + lay.d_angle
         sensed, centre_pairs, static_near, d_end = kernels.sensed_rays(
-            rel, np.arctan2(rel[..., 1], rel[..., 0]), heading, lay.range2, half_angle_rad,
-            lay.pair_ok, xy, self._box_min, self._box_max, np.cos(d_dir), np.sin(d_dir), d_obs,
-            lay.d_range)
+            rel, np.arctan2(rel[..., 1], rel[..., 0]),
+            (xy, heading, lay.range2, half_angle_rad, lay.pair_ok),
+            (self._box_min, self._box_max), (np.cos(d_dir), np.sin(d_dir), d_obs, lay.d_range))
         # -- round 1: centre rays and depth rays. The rays of observers with a static polygon
         # in range (static_near) go straight to the narrow phase (where buildings line the
         # road most of them end on one); the others' through the compiled broad phase.

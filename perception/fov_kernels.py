@@ -70,27 +70,27 @@ def sample_points(xy, cos_heading, sin_heading, local):
     return points, rel
 
 
-@numba.njit([(_array(4), _array(3, layout="A"), _array(1, layout="A"), _array(1),
-              _array(1, layout="A"), _array(2, _B1), _array(2, layout="A"), _array(2), _array(2),
-              _array(1), _array(1), _array(1, _I8), _array(1))], **_JIT)
-def sensed_rays(rel, arctan, heading, range2, half_angle, pair_ok, xy, box_min, box_max,
-                cos_dir, sin_dir, depth_observer, depth_range):
+_OBSERVERS = types.Tuple((_array(2, layout="A"), _array(1, layout="A"), _array(1),
+                          _array(1, layout="A"), _array(2, _B1)))
+_BOXES = types.UniTuple(_array(2), 2)
+_DEPTH_RAYS = types.Tuple((_array(1), _array(1), _array(1, _I8), _array(1)))
+
+
+@numba.njit([(_array(4), _array(3, layout="A"), _OBSERVERS, _BOXES, _DEPTH_RAYS)], **_JIT)
+def sensed_rays(rel, arctan, observers, boxes, depth_rays):
     """Which sample points each observer could see, its target rays and its depth rays' ends.
 
     Args:
         rel: (n, n, K, 2) `sample_points`' offsets [m].
         arctan: (n, n, K) np.arctan2 of rel's y and x.
-        heading: (n,) headings [rad].
-        range2: (n,) squared sensor ranges [m^2].
-        half_angle: (n,) half-angles of the view cones [rad].
-        pair_ok: (n, n) bool, the (observer, target) pairs that can see each other.
-        xy: (n, 2) positions [m].
-        box_min: (S, 2) the static polygons' bounding boxes' lower corners [m].
-        box_max: (S, 2) their upper corners [m].
-        cos_dir: (D,) np.cos of the depth rays' directions.
-        sin_dir: (D,) np.sin of them.
-        depth_observer: (D,) int, each depth ray's observer.
-        depth_range: (D,) each depth ray's length [m].
+        observers: the n agents' (xy (n, 2) positions [m], heading (n,) [rad], range2 (n,)
+            squared sensor ranges [m^2], half_angle (n,) half-angles of the view cones [rad],
+            pair_ok (n, n) bool, the (observer, target) pairs that can see each other).
+        boxes: the static polygons' bounding boxes (box_min (S, 2) lower corners, box_max
+            (S, 2) upper corners) [m].
+        depth_rays: the D depth rays' (cos_dir (D,) and sin_dir (D,) np.cos and np.sin of
+            their directions, depth_observer (D,) int their observers, depth_range (D,) their
+            lengths [m]).
 
     Returns:
         sensed (n, n, K) bool: within range ((rel_x^2 + rel_y^2) <= range2) and cone
@@ -99,6 +99,9 @@ def sensed_rays(rel, arctan, heading, range2, half_angle, pair_ok, xy, box_min, 
         static_near (n,) bool, some box within range (the gap max(max(min - xy, xy - max), 0)
         squared and summed <= range2); the depth rays' ends (D, 2) [m], (cos x range) + x.
     """
+    xy, heading, range2, half_angle, pair_ok = observers
+    box_min, box_max = boxes
+    cos_dir, sin_dir, depth_observer, depth_range = depth_rays
     n, n_k = rel.shape[0], rel.shape[2]
     sensed = np.empty((n, n, n_k), dtype=np.bool_)
     centre_pairs = np.empty((2, n * n), dtype=np.int64)

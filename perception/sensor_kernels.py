@@ -77,10 +77,12 @@ def visible_pairs(visible, xy):
     return observer, target, distance
 
 
-@numba.njit([(_array(1, _I8), _array(1, _I8), _array(2), _array(2), _array(1), _array(1),
-              _array(1), _array(1), _array(1), _array(1), _array(1))], **_JIT)
-def noisy_values(observer, target, noise, xy, cos_heading, sin_heading, speed, heading,
-                 pos_noise_m, vel_noise_mps, heading_noise_rad):
+_TRUTH = types.Tuple((_array(2), _array(1), _array(1), _array(1), _array(1)))
+_NOISE_STD = types.UniTuple(_array(1), 3)
+
+
+@numba.njit([(_array(1, _I8), _array(1, _I8), _array(2), _TRUTH, _NOISE_STD)], **_JIT)
+def noisy_values(observer, target, noise, truth, noise_std):
     """Each visible pair's measured position, velocity and heading.
 
     x + noise_0 pos_noise[observer], v cos(heading) + noise_2 vel_noise[observer], heading +
@@ -90,18 +92,17 @@ def noisy_values(observer, target, noise, xy, cos_heading, sin_heading, speed, h
         observer: (P,) observing agent of each pair.
         target: (P,) observed agent.
         noise: (P, 5) standard normal draws.
-        xy: (n, 2) true positions [m].
-        cos_heading: (n,) np.cos of the true headings.
-        sin_heading: (n,) np.sin of the true headings.
-        speed: (n,) true speeds [m/s].
-        heading: (n,) true headings [rad].
-        pos_noise_m: (n,) each observer's position noise std [m].
-        vel_noise_mps: (n,) velocity noise std [m/s].
-        heading_noise_rad: (n,) heading noise std [rad].
+        truth: the n agents' (xy (n, 2) true positions [m], cos_heading (n,) and sin_heading
+            (n,) np.cos and np.sin of the true headings, speed (n,) true speeds [m/s],
+            heading (n,) true headings [rad]).
+        noise_std: each observer's (pos_noise_m (n,) position noise std [m], vel_noise_mps
+            (n,) velocity noise std [m/s], heading_noise_rad (n,) heading noise std [rad]).
 
     Returns:
         positions (P, 2) [m], velocities (P, 2) [m/s], headings (P,) [rad].
     """
+    xy, cos_heading, sin_heading, speed, heading = truth
+    pos_noise_m, vel_noise_mps, heading_noise_rad = noise_std
     rows = len(observer)
     m_xy = np.empty((rows, 2))
     m_vel = np.empty((rows, 2))

@@ -39,6 +39,6 @@ def measure(visible, xy, heading, speed, pos_noise_m, vel_noise_mps, heading_noi
     obs, tgt, dist = kernels.visible_pairs(visible, xy)
     noise = rng.standard_normal((len(obs), 5))
     m_xy, m_vel, m_heading = kernels.noisy_values(
-        obs, tgt, noise, xy, np.cos(heading), np.sin(heading), speed, heading, pos_noise_m,
-        vel_noise_mps, heading_noise_rad)
+        obs, tgt, noise, (xy, np.cos(heading), np.sin(heading), speed, heading),
+        (pos_noise_m, vel_noise_mps, heading_noise_rad))
     return Measurements(obs, tgt, m_xy, m_vel, m_heading, dist)

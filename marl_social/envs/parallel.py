@@ -246,9 +246,7 @@ class SocialDrivingEnv(ParallelEnv, EzPickle):
         fov, meas = world.perceive(self._np_random)
         self.last_fov = fov
         obs = self.obs_layout.encode(
-            world.state[:, :2], world.state[:, 2], world.state[:, 3], world.sensor_range_m,
-            world.sensor_half_angle_rad, world.is_pedestrian, world.length_m, world.width_m,
-            meas, fov.depth_m,
+            world.bodies(), meas, fov.depth_m,
             signals=world.perceive_signals() if self.obs_layout.n_signals else None,
         )
         names = self.possible_agents

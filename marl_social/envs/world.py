@@ -16,6 +16,7 @@ from marl_social.perception.fov import FieldOfView, FovResult
 from marl_social.perception.sensors import Measurements, measure
 from marl_social.perception.signal_view import visible_heads
 from marl_social.scenarios.base import ScenarioLayout
+from marl_social.sim.bodies import Bodies
 from marl_social.sim.costs import N_FEATURES, pairwise_step_features
 from marl_social.sim.dynamics import (
     DT_S,
@@ -212,12 +213,19 @@ class World:
             self._progress = self.routes.project(self.state[:, :2])
         return self._progress
 
+    def bodies(self) -> Bodies:
+        """Every agent's body and sensor now.
+
+        The poses and speeds are views of the state table: read them, do not keep them past the
+        next step.
+        """
+        return Bodies(self.state[:, :2], self.state[:, 2], self.state[:, 3], self.length_m,
+                      self.width_m, self.is_pedestrian, self.bounding_radius_m, self.active,
+                      self.sensor_range_m, self.sensor_half_angle_rad)
+
     def perceive(self, rng: np.random.Generator) -> tuple[FovResult, Measurements]:
         """Every agent's field of view and noisy measurements of what it sees."""
-        fov = self.fov.compute(
-            self.state[:, :2], self.state[:, 2], self.length_m, self.width_m, self.is_pedestrian,
-            self.bounding_radius_m, self.active, self.sensor_range_m, self.sensor_half_angle_rad,
-        )
+        fov = self.fov.compute(self.bodies())
         meas = measure(fov.visible, self.state[:, :2], self.state[:, 2], self.state[:, 3],
                        self.pos_noise_m, self.vel_noise_mps, self.heading_noise_rad, rng)
         return fov, meas

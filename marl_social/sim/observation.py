@@ -32,6 +32,7 @@ from dataclasses import dataclass, field
 import numpy as np
 from gymnasium import spaces
 
+from marl_social.sim.bodies import Bodies
 from marl_social.sim.kernel_cache import observation_kernels
 
 EGO_FIELDS = ("x", "y", "cos_psi", "sin_psi", "v", "sensor_range", "sensor_half_angle",
@@ -226,20 +227,13 @@ class ObservationLayout:
         return DecodedObservation(obs[:EGO_DIM], obs[EGO_DIM:k1].reshape(slots_shape),
                                   obs[k1:k2], obs[k2:].reshape(self.n_signals, SIGNAL_DIM))
 
-    def encode(self, xy, heading, speed, sensor_range, sensor_half_angle, is_pedestrian,
-               length, width, measurements: Measurements, depth_m,
+    def encode(self, bodies: Bodies, measurements: Measurements, depth_m,
                signals: tuple | None = None) -> np.ndarray:
         """Observation vectors of all n agents.
 
         Args:
-            xy: (n, 2) true positions [m].
-            heading: (n,) true headings [rad].
-            speed: (n,) true speeds [m/s].
-            sensor_range: (n,) sensor range of each agent [m].
-            sensor_half_angle: (n,) sensor half-angle of each agent [rad].
-            is_pedestrian: (n,) bool.
-            length: (n,) footprint lengths [m].
-            width: (n,) footprint widths [m].
+            bodies: the n agents' true poses, speeds, footprints and sensors (active is not
+                read: an inactive agent's row is encoded too).
             measurements: visible pairs, sorted by observer then distance.
             depth_m: (n, n_rays) depth ray distances [m].
             signals: (visible (n, S) bool, states (S,) int) of the map's S signal heads, for a
@@ -248,15 +242,16 @@ class ObservationLayout:
         Returns:
             (n, size) float32.
         """
-        m = measurements
-        out = np.zeros((len(xy), self.size), dtype=np.float32)
+        b, m = bodies, measurements
+        out = np.zeros((len(b.xy), self.size), dtype=np.float32)
         # compiled (sim/observation_kernels.py): the ego block, the object slots (measurement
         # p in slot p - the first row of its observer, while that is < n_slots) and the rays
         observation_kernels().encode_rows(
-            out, xy, np.cos(heading), np.sin(heading), speed, sensor_range, sensor_half_angle,
-            is_pedestrian, m.observer, m.target, m.xy, m.velocity, np.cos(m.heading),
-            np.sin(m.heading), length, width, self.n_slots, EGO_DIM, SLOT_DIM, depth_m,
-            EGO_DIM + self.n_slots * SLOT_DIM)
+            out,
+            (b.xy, np.cos(b.heading), np.sin(b.heading), b.speed, b.sensor_range_m,
+             b.sensor_half_angle_rad, b.is_pedestrian, b.length_m, b.width_m),
+            (m.observer, m.target, m.xy, m.velocity, np.cos(m.heading), np.sin(m.heading)),
+            depth_m, (self.n_slots, EGO_DIM, SLOT_DIM, EGO_DIM + self.n_slots * SLOT_DIM))
         if self.n_signals:
             if signals is None:
                 raise ValueError(f"observation: a layout with {self.n_signals} signal slots "

@@ -23,15 +23,17 @@ def _array(ndim: int, dtype=_F8, layout: str = "A"):
     return types.Array(dtype, ndim, layout, readonly=True)
 
 
-@numba.njit([types.void(types.Array(types.float32, 2, "C"), _array(2), _array(1), _array(1),
-                        _array(1), _array(1), _array(1), _array(1, _B1), _array(1, _I8),
-                        _array(1, _I8), _array(2), _array(2), _array(1), _array(1), _array(1),
-                        _array(1), _I8, _I8, _I8, _array(2), _I8)],
+_AGENTS = types.Tuple((_array(2), _array(1), _array(1), _array(1), _array(1), _array(1),
+                       _array(1, _B1), _array(1), _array(1)))
+_MEASURED = types.Tuple((_array(1, _I8), _array(1, _I8), _array(2), _array(2), _array(1),
+                         _array(1)))
+_COLUMNS = types.UniTuple(_I8, 4)
+
+
+@numba.njit([types.void(types.Array(types.float32, 2, "C"), _AGENTS, _MEASURED, _array(2),
+                        _COLUMNS)],
             cache=True, nogil=True, error_model="numpy")
-def encode_rows(out, xy, cos_heading, sin_heading, speed, sensor_range, half_angle,
-                is_pedestrian, observer, target, measured_xy, measured_velocity,
-                measured_cos, measured_sin, length, width, n_slots, ego_dim, slot_dim,
-                depth_m, rays_start):
+def encode_rows(out, agents, measured, depth_m, columns):
     """Fill the zeroed observations `out` (n, size) float32 of n agents (no signal slots).
 
     Ego block: x, y, cos, sin of the heading, speed, sensor range and half-angle, is
@@ -42,27 +44,21 @@ def encode_rows(out, xy, cos_heading, sin_heading, speed, sensor_range, half_ang
 
     Args:
         out: (n, size) float32 zeros.
-        xy: (n, 2) true positions [m].
-        cos_heading: (n,) np.cos of the true headings.
-        sin_heading: (n,) np.sin of the true headings.
-        speed: (n,) true speeds [m/s].
-        sensor_range: (n,) sensor ranges [m].
-        half_angle: (n,) sensor half-angles [rad].
-        is_pedestrian: (n,) bool.
-        observer: (P,) observing agent of each measurement, ascending.
-        target: (P,) observed agent.
-        measured_xy: (P, 2) measured positions [m].
-        measured_velocity: (P, 2) measured velocities [m/s].
-        measured_cos: (P,) np.cos of the measured headings.
-        measured_sin: (P,) np.sin of the measured headings.
-        length: (n,) footprint lengths [m].
-        width: (n,) footprint widths [m].
-        n_slots: object slots per observation.
-        ego_dim: the ego block's length.
-        slot_dim: a slot's length.
+        agents: the n agents' (xy (n, 2) true positions [m], cos_heading (n,) and sin_heading
+            (n,) np.cos and np.sin of the true headings, speed (n,) true speeds [m/s],
+            sensor_range (n,) [m], half_angle (n,) sensor half-angles [rad], is_pedestrian (n,)
+            bool, length (n,) and width (n,) footprints [m]).
+        measured: the P measurements' (observer (P,) observing agent, ascending, target (P,)
+            observed agent, measured_xy (P, 2) [m], measured_velocity (P, 2) [m/s],
+            measured_cos (P,) and measured_sin (P,) np.cos and np.sin of the measured headings).
         depth_m: (n, R) depth ray distances [m].
-        rays_start: the column of the first depth ray.
+        columns: (n_slots object slots per observation, ego_dim the ego block's length,
+            slot_dim a slot's length, rays_start the column of the first depth ray).
     """
+    (xy, cos_heading, sin_heading, speed, sensor_range, half_angle, is_pedestrian, length,
+     width) = agents
+    observer, target, measured_xy, measured_velocity, measured_cos, measured_sin = measured
+    n_slots, ego_dim, slot_dim, rays_start = columns
     for i in range(out.shape[0]):
         row = out[i]
         row[0] = xy[i, 0]

@@ -49,9 +49,7 @@ def _drive(road_map: RoadMap, x0: float, v0: float, n_steps: int = 250, planner=
     x, v = [x0], [v0]
     for _ in range(n_steps):
         fov, meas = world.perceive(rng)
-        obs = layout.encode(world.state[:, :2], world.state[:, 2], world.state[:, 3],
-                            world.sensor_range_m, world.sensor_half_angle_rad,
-                            world.is_pedestrian, world.length_m, world.width_m, meas, fov.depth_m)
+        obs = layout.encode(world.bodies(), meas, fov.depth_m)
         world.step(planner(obs[0])[None].astype(np.float64))
         x.append(world.state[0, 0])
         v.append(world.state[0, 3])

@@ -11,9 +11,7 @@ from tests.helpers import box, make_world, pedestrian, vehicle, zero_actions
 
 
 def _fov(world):
-    return world.fov.compute(world.state[:, :2], world.state[:, 2], world.length_m, world.width_m,
-                             world.is_pedestrian, world.bounding_radius_m, world.active,
-                             world.sensor_range_m, world.sensor_half_angle_rad)
+    return world.fov.compute(world.bodies())
 
 
 def test_paper_scene_robot_cannot_see_pedestrian_but_human_can(paper_env):

@@ -46,8 +46,8 @@ def _kernels(xy, heading, local, range_m, half_angle, pair_ok, box_min, box_max,
     points, rel = kernels.sample_points(xy, np.cos(heading), np.sin(heading), local)
     d_dir = heading[d_obs] + d_angle
     sensed, pairs, static_near, d_end = kernels.sensed_rays(
-        rel, np.arctan2(rel[..., 1], rel[..., 0]), heading, range_m ** 2, half_angle, pair_ok,
-        xy, box_min, box_max, np.cos(d_dir), np.sin(d_dir), d_obs, d_range)
+        rel, np.arctan2(rel[..., 1], rel[..., 0]), (xy, heading, range_m ** 2, half_angle, pair_ok),
+        (box_min, box_max), (np.cos(d_dir), np.sin(d_dir), d_obs, d_range))
     return points, rel, sensed, tuple(pairs), static_near, d_end
 
 

@@ -5,6 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from marl_social.sim.bodies import Bodies
 from marl_social.sim.observation import EGO_DIM, SLOT_DIM, Measurements, ObservationLayout
 
 
@@ -64,6 +65,9 @@ def test_the_kernel_writes_numpys_bits(seed):
             rng.uniform(0.1, np.pi, n), is_ped, rng.uniform(0.5, 5.0, n),
             rng.uniform(0.5, 2.0, n), m, rng.uniform(0.0, 80.0, (n, n_rays)))
     expected = _reference(layout, *args)
-    got = layout.encode(*args)
+    xy, heading, speed, sensor_range, half_angle, is_ped, length, width, m, depth = args
+    bodies = Bodies(xy, heading, speed, length, width, is_ped, np.hypot(length, width) / 2,
+                    np.ones(n, bool), sensor_range, half_angle)
+    got = layout.encode(bodies, m, depth)
     assert got.dtype == np.float32 and got.shape == expected.shape
     assert got.tobytes() == expected.tobytes()

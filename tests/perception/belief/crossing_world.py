@@ -106,9 +106,7 @@ class CrossingWorld:
         """The robot's observation vector and the names of the agents it sees."""
         w = self.world
         fov, meas = w.perceive(self._rng)
-        obs = self.layout.encode(w.state[:, :2], w.state[:, 2], w.state[:, 3], w.sensor_range_m,
-                                 w.sensor_half_angle_rad, w.is_pedestrian, w.length_m,
-                                 w.width_m, meas, fov.depth_m)
+        obs = self.layout.encode(w.bodies(), meas, fov.depth_m)
         return obs[0], [self.names[j] for j in np.flatnonzero(fov.visible[0])]
 
     def step(self, accel_mps2: dict | None = None) -> None:
