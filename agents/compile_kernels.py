@@ -196,7 +196,7 @@ def _solve_one_tree_qp() -> None:
     """One small QP through the tree solver (its kernels compile at their first call)."""
     from marl_social.agents.robot.mpc_types import MpcConfig
     from marl_social.agents.robot.qp import DAQP_MAX_BRANCHES, ContingencyQp
-    from marl_social.agents.robot.qp_types import QpWeights
+    from marl_social.agents.robot.qp_types import QpInstance, QpWeights
     from marl_social.sim.dynamics import DT_S
 
     c = MpcConfig()
@@ -204,10 +204,11 @@ def _solve_one_tree_qp() -> None:
     qp = ContingencyQp(n_branches, n, c.n_trunk, c.plan_dt_s, DT_S,
                        QpWeights(c.w_speed, c.w_accel, c.w_jerk, c.w_comfort), c.headway_s())
     stop_m = 20.0 + 5.0 * np.arange(n_branches)  # each branch stops at its own line [m]
-    qp.solve(np.full(n_branches, 1.0 / n_branches), v0=8.0, prev_accel=0.0, v_ref_mps=10.0,
-             v_max=np.full((n_branches, n), 15.0), s_low=np.full((n_branches, n), -np.inf),
-             s_up=np.repeat(stop_m[:, None], n, axis=1), accel_min=-8.0, accel_max=3.0,
-             jerk_max=c.jerk_max_mps3)
+    qp.solve(QpInstance(np.full(n_branches, 1.0 / n_branches), v0=8.0, prev_accel=0.0,
+                        v_ref_mps=10.0, v_max=np.full((n_branches, n), 15.0),
+                        s_low=np.full((n_branches, n), -np.inf),
+                        s_up=np.repeat(stop_m[:, None], n, axis=1), accel_min=-8.0,
+                        accel_max=3.0, jerk_max=c.jerk_max_mps3))
 
 
 def _plan_once() -> None:

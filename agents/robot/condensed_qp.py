@@ -128,6 +128,9 @@ class CondensedLayout:
                                            + [rows["jerk"], rows["comfort"]])
         self._single_pos = np.concatenate([position[:, nt:].ravel(),
                                            np.arange(3 * n_grid, len(general))])
+        # what qp_kernels.daqp_inputs reads of this layout at every solve
+        self._condensed_rows = (self.m_matrix, self.m_v0, self._trunk_rows, self._trunk_pos,
+                                self._single_rows, self._single_pos, self._accel_rows)
 
     def solve(self, weights: np.ndarray, comfort: np.ndarray | None, goal_weight: float,
               q: np.ndarray, lower: np.ndarray, upper: np.ndarray, v0: float
@@ -154,9 +157,7 @@ class CondensedLayout:
         h_full = np.dot(factors[None], self._h_flat).reshape(self.nz, self.nz)
         f_full = v0 * (factors @ self.f_blocks) + self.t_matrix.T @ q
         h, f, m, b_upper, b_lower = qp_kernels().daqp_inputs(
-            h_full, f_full, self.m_matrix, self.m_v0, float(v0), lower, upper,
-            self._trunk_rows, self._trunk_pos, self._single_rows, self._single_pos,
-            self._accel_rows, free)
+            h_full, f_full, float(v0), lower, upper, self._condensed_rows, free)
         z_free, fval, exitflag, _ = daqp.solve(h, f, m, b_upper, b_lower,
                                                np.zeros(len(b_lower), np.int32))
         if exitflag not in _SOLVED or not np.all(np.isfinite(z_free)):

@@ -69,7 +69,7 @@ from marl_social.agents.robot.corridor import (
 )
 from marl_social.agents.robot.mpc_types import MpcConfig, MpcResult, PlanRequest
 from marl_social.agents.robot.qp import ContingencyQp
-from marl_social.agents.robot.qp_types import QpSolution, QpWeights
+from marl_social.agents.robot.qp_types import QpInstance, QpSolution, QpWeights
 from marl_social.sim.agent_spec import VehicleParams
 from marl_social.sim.dynamics import DT_S
 from marl_social.sim.road_map import Route
@@ -320,9 +320,9 @@ class ContingencyMpc:
         if provably_infeasible(s_low, s_up, reachable, INFEASIBLE_MARGIN_M):
             return qp.failed()
         v_max_b = v_max[None].repeat(len(s_low), 0)  # (L, N), a copy: cheaper than a view
-        return qp.solve(weights, v0, prev, v_ref, v_max_b, s_low, s_up,
-                        -veh.brake_max_mps2, veh.accel_max_mps2, jerk_max,
-                        self.config.comfort_decel_mps2, comfort, *self._goal)
+        return qp.solve(QpInstance(weights, v0, prev, v_ref, v_max_b, s_low, s_up,
+                                   -veh.brake_max_mps2, veh.accel_max_mps2, jerk_max,
+                                   self.config.comfort_decel_mps2, comfort, *self._goal))
 
     def _full_progress(self, v0: float, v_cap: float, v_max: np.ndarray) -> np.ndarray:
         """(N,) corridor.full_acceleration_progress of this plan's v0 and v_cap [m].

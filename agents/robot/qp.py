@@ -43,7 +43,7 @@ import scipy.sparse as sp
 
 from marl_social.agents.robot.active_set import ActiveSetSolver
 from marl_social.agents.robot.condensed_qp import CondensedLayout, qp_kernels
-from marl_social.agents.robot.qp_types import QpSolution, QpWeights
+from marl_social.agents.robot.qp_types import QpInstance, QpSolution, QpWeights
 
 _OK = frozenset(int(s) for s in (osqp.SolverStatus.OSQP_SOLVED,
                                   osqp.SolverStatus.OSQP_SOLVED_INACCURATE))
@@ -56,6 +56,7 @@ _STOPPED = frozenset((_MAX_ITER, int(osqp.SolverStatus.OSQP_SOLVED_INACCURATE)))
 ROUND_ITER = 200
 MAX_ITER = 4000
 MAX_ROUNDS = 8  # 18 200 iterations in all; then the QP has failed (unless solved inaccurately)
+OSQP_TOLERANCE = 1e-5  # OSQP's absolute and relative tolerance
 # the QPs of at most this many branches are solved condensed by DAQP (condensed_qp.py), with
 # OSQP as the fallback; DAQP's cost grows with its active set's size times variables^2: from 3
 # branches (114-136 variables) the tree solver below is faster (thread CPU on the bench's
@@ -98,7 +99,6 @@ class ContingencyQp:
         first_dt_s: the time over which the first acceleration may change (a simulator step) [s].
         weights: the cost weights.
         headway_s: (N,) time headway h[k] of the stay-behind rows [s].
-        tolerance: OSQP's absolute and relative tolerance.
         use_daqp: solve condensed by DAQP first when the layout allows it (at most
             DAQP_MAX_BRANCHES branches), on the scenario tree (tree_ipm.py) beyond; False:
             OSQP only.
@@ -106,7 +106,7 @@ class ContingencyQp:
 
     def __init__(self, n_branches: int, n_steps: int, n_trunk: int, dt_s: float,
                  first_dt_s: float, weights: QpWeights, headway_s: np.ndarray,
-                 tolerance: float = 1e-5, use_daqp: bool = True):
+                 use_daqp: bool = True):
         if not (n_branches >= 1 and 1 <= n_trunk < n_steps):
             raise ValueError("ContingencyQp: need L >= 1 and 1 <= n_trunk < n_steps")
         self.n_branches, self.n_steps, self.n_trunk = n_branches, n_steps, n_trunk
@@ -119,12 +119,14 @@ class ContingencyQp:
             structure = {name: getattr(self, name) for name in _STRUCTURE_FIELDS}
             _STRUCTURES[key] = structure
         self.__dict__.update(structure)
+        r = self._rows  # the rows `_bounds` fills, as qp_kernels.sparse_bounds takes them
+        self._bound_rows = (self._lower_template, self._upper_template, *self._first_dyn_rows,
+                            r["speed"], r["low"], r["up"], r["jerk"], r["accel"], r["comfort"])
         if not use_daqp:
             self._condensed = self._tree = None
         # OSQP is the fallback: most QPs never need it, and its setup costs about as much as
         # a solve (1-6 ms by L): set up at its first use (_setup_osqp), from the same data, so
         # that its state then is that of a setup here
-        self._tolerance = tolerance
         self._solver: osqp.OSQP | None = None
         self._ext = None
         # which solver gave each solve's answer: "daqp", "tree" (tree_ipm.py, or the exact
@@ -135,7 +137,7 @@ class ContingencyQp:
 
     def _setup_osqp(self) -> osqp.OSQP:
         """Set OSQP up for this layout (at its first use; `_osqp`) and return it."""
-        tolerance = self._tolerance
+        tolerance = OSQP_TOLERANCE
         self._solver = osqp.OSQP()
         # copies: OSQP keeps the arrays it is set up with and writes P's updates into them
         self._solver.setup(self._p_initial.copy(), np.zeros(self.n_vars), self._a_matrix.copy(),
@@ -306,65 +308,37 @@ class ContingencyQp:
         # the first step's dynamics rows, whose bounds take v0 (contiguous, for the kernel)
         self._first_dyn_rows = (dyn_v[:, 0].copy(), dyn_s[:, 0].copy())
 
-    def _bounds(self, v0: float, prev_accel: float, v_max: np.ndarray, s_low: np.ndarray,
-                s_up: np.ndarray, accel_min: float, accel_max: float, jerk_max: float,
-                comfort_decel: float | None) -> tuple[np.ndarray, np.ndarray, bool]:
+    def _bounds(self, inst: QpInstance) -> tuple[np.ndarray, np.ndarray, bool]:
         """(m,) lower and upper row bounds for this solve; whether a lower exceeds its upper.
 
-        By more than 1e-9 (agents/robot/qp_kernels.sparse_bounds). The arguments are
-        `solve`'s; v_max, s_low and s_up (L, N).
+        By more than 1e-9 (agents/robot/qp_kernels.sparse_bounds).
         """
-        r = self._rows
         return qp_kernels().sparse_bounds(
-            self._lower_template, self._upper_template, self._first_dyn_rows[0],
-            self._first_dyn_rows[1], r["speed"], r["low"], r["up"], r["jerk"], r["accel"],
-            r["comfort"], float(v0), self.dt_s, self.first_dt_s, float(prev_accel), v_max, s_low,
-            s_up, float(accel_min), float(accel_max), float(jerk_max),
-            -_INF if comfort_decel is None else -float(comfort_decel), _INF)
+            self._bound_rows, float(inst.v0), float(inst.prev_accel),
+            (self.dt_s, self.first_dt_s), (inst.v_max, inst.s_low, inst.s_up),
+            (float(inst.accel_min), float(inst.accel_max), float(inst.jerk_max),
+             -_INF if inst.comfort_decel is None else -float(inst.comfort_decel), _INF))
 
     # -- solve --------------------------------------------------------------------------------
 
-    def solve(self, weights: np.ndarray, v0: float, prev_accel: float, v_ref_mps: float,
-              v_max: np.ndarray, s_low: np.ndarray, s_up: np.ndarray, accel_min: float,
-              accel_max: float, jerk_max: float,
-              comfort_decel: float | None = None,
-              comfort: np.ndarray | None = None, goal_weight: float = 0.0,
-              goal_m: float = 0.0) -> QpSolution:
-        """Solve for the current state and bounds.
-
-        Args:
-            weights: (L,) branch probabilities, summing to one.
-            v0: current speed [m/s].
-            prev_accel: the previous acceleration command [m/s^2].
-            v_ref_mps: reference speed [m/s].
-            v_max: (L, N) speed bounds [m/s].
-            s_low: (L, N) lower bounds on progress (-inf: none) [m].
-            s_up: (L, N) upper bounds on progress + headway x speed (inf: none) [m].
-            accel_min: most negative acceleration [m/s^2].
-            accel_max: largest acceleration [m/s^2].
-            jerk_max: largest |jerk| [m/s^3].
-            comfort_decel: the comfortable deceleration (positive) beyond which braking is
-                penalized by the comfort weight (None: not penalized) [m/s^2].
-            comfort: (L,) factor of each branch's comfort weight (None: 1, every branch).
-            goal_weight: w_g of the pull-up term w_g (s - goal_m)^2 [1 / m^2 / s] (0: none).
-            goal_m: the progress the pull-up term draws the plan to [m].
-        """
-        weights = np.asarray(weights, dtype=np.float64)
-        lower, upper, infeasible = self._bounds(v0, prev_accel, v_max, s_low, s_up, accel_min,
-                                                accel_max, jerk_max, comfort_decel)
+    def solve(self, inst: QpInstance) -> QpSolution:
+        """Solve one instance (`QpInstance`: the weights, state and bounds of this step)."""
+        weights = np.asarray(inst.weights, dtype=np.float64)
+        comfort, goal_weight = inst.comfort, inst.goal_weight
+        lower, upper, infeasible = self._bounds(inst)
         if infeasible:
             return self._count(self.failed(), "")
-        self._q_last = self._q_vector(weights, v_ref_mps, prev_accel, goal_weight, goal_m)
+        self._q_last = self._q_vector(weights, inst.v_ref_mps, inst.prev_accel, goal_weight,
+                                      inst.goal_m)
         if self._condensed is not None:
             dense = self._condensed.solve(weights, comfort, goal_weight, self._q_last, lower,
-                                          upper, v0)
+                                          upper, inst.v0)
             if dense is not None:
                 x, cost = dense
                 return self._count(QpSolution(True, cost, x[self._a_idx], x[self._v_idx],
                                               x[self._s_idx]), "daqp")
         if self._tree is not None:
-            tree = self._solve_tree(weights, lower, upper, v0, prev_accel, v_ref_mps, comfort,
-                                    goal_weight, goal_m)
+            tree = self._solve_tree(inst, weights, lower, upper)
             if tree is not None:
                 return self._count(tree, "tree")
         return self._count(self._solve_osqp(weights, lower, upper, comfort, goal_weight),
@@ -377,18 +351,20 @@ class ContingencyQp:
         self.solver_counts[solver] += 1
         return solution
 
-    def _solve_tree(self, weights: np.ndarray, lower: np.ndarray, upper: np.ndarray, v0: float,
-                    prev_accel: float, v_ref_mps: float, comfort: np.ndarray | None,
-                    goal_weight: float, goal_m: float) -> QpSolution | None:
+    def _solve_tree(self, inst: QpInstance, weights: np.ndarray, lower: np.ndarray,
+                    upper: np.ndarray) -> QpSolution | None:
         """The optimum by the tree interior point method (tree_ipm.py), or None (fallback).
 
         Its solution, converged or settled at a degenerate optimum (multipliers drifting, the
         primal iterate feasible and complementarity below TREE_POLISH_MU), is checked against
         this QP's rows (TREE_PRIMAL_TOL); a settled one that fails the check is made exact (and
         verified) by the active-set solve from its rows near a bound (TREE_POLISH_NEAR). With
-        this step's linear cost self._q_last (`solve`).
+        this step's linear cost self._q_last (`solve`); `weights` are inst's as float64 and
+        lower, upper its (m,) row bounds.
         """
         tree = self._tree
+        v0, prev_accel, comfort = inst.v0, inst.prev_accel, inst.comfort
+        goal_weight, goal_m, v_ref_mps = inst.goal_weight, inst.goal_m, inst.v_ref_mps
         lb, ub = tree.bounds(lower, upper, prev_accel)
         alpha, beta = tree.costs(weights, comfort, goal_weight, goal_m, v_ref_mps,
                                  self.weights, self.dt_s, self.first_dt_s)

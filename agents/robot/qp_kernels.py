@@ -32,12 +32,14 @@ _IN_F1, _IN_F2 = (types.Array(types.float64, n, "A", readonly=True) for n in (1,
 _IN_I1, _IN_I2 = (types.Array(types.int64, n, "A", readonly=True) for n in (1, 2))
 _IN_B1 = types.Array(types.boolean, 1, "A", readonly=True)
 _F1, _F2, _F8 = types.float64[::1], types.float64[:, ::1], types.float64
+_BOUND_ROWS = types.Tuple((_IN_F1, _IN_F1, _IN_I1, _IN_I1, _IN_I2, _IN_I2, _IN_I2, _IN_I1,
+                           _IN_I1, _IN_I1))
 _SPARSE_BOUNDS = types.Tuple((_F1, _F1, types.boolean))(
-    _IN_F1, _IN_F1, _IN_I1, _IN_I1, _IN_I2, _IN_I2, _IN_I2, _IN_I1, _IN_I1, _IN_I1, _F8, _F8,
-    _F8, _F8, _IN_F2, _IN_F2, _IN_F2, _F8, _F8, _F8, _F8, _F8)
+    _BOUND_ROWS, _F8, _F8, types.UniTuple(_F8, 2), types.UniTuple(_IN_F2, 3),
+    types.UniTuple(_F8, 5))
+_CONDENSED_ROWS = types.Tuple((_IN_F2, _IN_F1, _IN_I2, _IN_I1, _IN_I1, _IN_I1, _IN_I1))
 _DAQP_INPUTS = types.Tuple((_F2, _F1, _F2, _F1, _F1))(
-    _IN_F2, _IN_F1, _IN_F2, _IN_F1, _F8, _IN_F1, _IN_F1, _IN_I2, _IN_I1, _IN_I1, _IN_I1, _IN_I1,
-    _IN_B1)
+    _IN_F2, _IN_F1, _F8, _IN_F1, _IN_F1, _CONDENSED_ROWS, _IN_B1)
 _FULL_SOLUTION = _F1(_IN_F1, _IN_B1, _IN_F1, _IN_I1)
 
 
@@ -60,10 +62,7 @@ def _np_maximum(a, b):
 
 
 @numba.njit(_SPARSE_BOUNDS, cache=True)
-def sparse_bounds(lower_template, upper_template, first_dyn_v, first_dyn_s, speed_rows, low_rows,
-                  up_rows, jerk_rows, accel_rows, comfort_rows, v0, dt_s, first_dt_s,
-                  prev_accel, v_max, s_low, s_up, accel_min, accel_max, jerk_max,
-                  comfort_lower, infinity):
+def sparse_bounds(bound_rows, v0, prev_accel, steps, plan_bounds, limits):
     """The sparse QP's row bounds for one solve, and whether some lower bound exceeds its upper.
 
     Rows as ContingencyQp._build_constraints numbers them (agents/robot/qp.py): the first
@@ -74,32 +73,30 @@ def sparse_bounds(lower_template, upper_template, first_dyn_v, first_dyn_s, spee
     NaN propagates). Infeasible: some lower > upper + 1e-9.
 
     Args:
-        lower_template: (m,) the lower bounds that do not change between solves.
-        upper_template: (m,) the upper bounds that do not change between solves.
-        first_dyn_v: (L,) the first step's speed dynamics row per branch.
-        first_dyn_s: (L,) the first step's progress dynamics row per branch.
-        speed_rows: (L, N) the speed rows.
-        low_rows: (L, N) the pass-before rows.
-        up_rows: (L, N) the stay-behind rows.
-        jerk_rows: (J,) the jerk rows (the first against the previous command).
-        accel_rows: (n_a,) the acceleration rows, one per acceleration variable.
-        comfort_rows: (n_a,) the comfort rows, one per acceleration variable.
+        bound_rows: the QP layout's rows, fixed between solves: (lower_template (m,) and
+            upper_template (m,) the bounds that do not change, first_dyn_v (L,) and
+            first_dyn_s (L,) the first step's speed and progress dynamics row per branch,
+            speed_rows, low_rows (pass-before) and up_rows (stay-behind), (L, N) each,
+            jerk_rows (J,) (the first against the previous command), accel_rows (n_a,) and
+            comfort_rows (n_a,), one per acceleration variable).
         v0: current speed [m/s].
-        dt_s: the plan step [s].
-        first_dt_s: the time of the first change, from the previous command [s].
         prev_accel: the previous command [m/s^2].
-        v_max: (L, N) speed bounds [m/s].
-        s_low: (L, N) lower progress bounds [m].
-        s_up: (L, N) upper progress bounds (+ headway x speed) [m].
-        accel_min: the most negative acceleration [m/s^2].
-        accel_max: the largest acceleration [m/s^2].
-        jerk_max: the largest |jerk| [m/s^3].
-        comfort_lower: -comfortable deceleration [m/s^2] (-infinity: none).
-        infinity: the QP's infinity (qp.py's _INF).
+        steps: (dt_s the plan step, first_dt_s the time of the first change from the previous
+            command) [s].
+        plan_bounds: (v_max speed bounds [m/s], s_low lower progress bounds [m], s_up upper
+            progress bounds (+ headway x speed) [m]), (L, N) each.
+        limits: (accel_min the most negative acceleration [m/s^2], accel_max the largest
+            [m/s^2], jerk_max the largest |jerk| [m/s^3], comfort_lower -comfortable
+            deceleration [m/s^2] (-infinity: none), infinity the QP's infinity (qp.py's _INF)).
 
     Returns:
         lower (m,), upper (m,), infeasible.
     """
+    (lower_template, upper_template, first_dyn_v, first_dyn_s, speed_rows, low_rows, up_rows,
+     jerk_rows, accel_rows, comfort_rows) = bound_rows
+    dt_s, first_dt_s = steps
+    v_max, s_low, s_up = plan_bounds
+    accel_min, accel_max, jerk_max, comfort_lower, infinity = limits
     lower = lower_template.copy()
     upper = upper_template.copy()
     for l in range(len(first_dyn_v)):
@@ -136,8 +133,7 @@ def sparse_bounds(lower_template, upper_template, first_dyn_v, first_dyn_s, spee
 
 
 @numba.njit(_DAQP_INPUTS, cache=True)
-def daqp_inputs(h_full, f_full, m_matrix, m_v0, v0, lower, upper, trunk_rows, trunk_pos,
-                single_rows, single_pos, accel_rows, free):
+def daqp_inputs(h_full, f_full, v0, lower, upper, condensed_rows, free):
     """DAQP's H, f, A, upper and lower bounds of the free variables and the bounded rows.
 
     The condensed rows' bounds are the sparse QP's (a trunk step's row: the tightest of its
@@ -150,22 +146,21 @@ def daqp_inputs(h_full, f_full, m_matrix, m_v0, v0, lower, upper, trunk_rows, tr
     Args:
         h_full: (nz, nz) the condensed Hessian, nz = 2 n_a (accelerations, slacks).
         f_full: (nz,) its linear cost.
-        m_matrix: (G, nz) the condensed rows.
-        m_v0: (G,) their shift per unit v0.
         v0: the current speed [m/s].
         lower: (m,) the sparse QP's lower bounds.
         upper: (m,) its upper bounds.
-        trunk_rows: (L, K) the sparse rows of the trunk steps' condensed rows, per branch.
-        trunk_pos: (K,) their condensed rows.
-        single_rows: (S,) the sparse rows of the other condensed rows.
-        single_pos: (S,) their condensed rows.
-        accel_rows: (n_a,) the sparse QP's acceleration rows.
+        condensed_rows: the condensed layout's rows, fixed between solves: (m_matrix (G, nz)
+            the condensed rows, m_v0 (G,) their shift per unit v0, trunk_rows (L, K) the sparse
+            rows of the trunk steps' condensed rows per branch, trunk_pos (K,) their condensed
+            rows, single_rows (S,) the sparse rows of the other condensed rows, single_pos (S,)
+            their condensed rows, accel_rows (n_a,) the sparse QP's acceleration rows).
         free: (nz,) bool, the variables DAQP solves for (a slack of weight 0 is fixed at 0).
 
     Returns:
         h (F, F), f (F,), a (R, F), b_upper (F + R,), b_lower (F + R,): F free variables, R
         bounded rows.
     """
+    m_matrix, m_v0, trunk_rows, trunk_pos, single_rows, single_pos, accel_rows = condensed_rows
     nz = len(free)
     n_a = nz // 2
     n_general = len(m_v0)

@@ -11,7 +11,7 @@ import scipy.sparse as sp
 
 from marl_social.agents.robot import qp
 from marl_social.agents.robot.mpc_types import MpcConfig
-from marl_social.agents.robot.qp_types import QpWeights
+from marl_social.agents.robot.qp_types import QpInstance, QpWeights
 from marl_social.sim.dynamics import DT_S
 
 CONFIG = MpcConfig()
@@ -53,9 +53,7 @@ def _tight(p: sp.csc_matrix, q: np.ndarray, a: sp.csc_matrix, lower: np.ndarray,
 
 
 def _reference(problem: qp.ContingencyQp, args: dict) -> tuple[np.ndarray, float]:
-    lower, upper, _ = problem._bounds(args["v0"], args["prev_accel"], args["v_max"], args["s_low"],
-                                   args["s_up"], args["accel_min"], args["accel_max"],
-                                   args["jerk_max"], args["comfort_decel"])
+    lower, upper, _ = problem._bounds(QpInstance(**args))
     p = problem._p_matrix(args["weights"])
     p.data = problem._p_values(args["weights"], args["comfort"], args["goal_weight"])
     q = problem._q_vector(args["weights"], args["v_ref_mps"], args["prev_accel"],
@@ -67,7 +65,7 @@ def _agrees_with_tight_osqp(args: dict):
     """DAQP (beyond DAQP_MAX_BRANCHES branches: the tree solver) answers the QP of `args` with
     OSQP's optimum at 1e-10 (to 1e-6); its cost and whether DAQP answered."""
     problem = _qp(len(args["weights"]))
-    sol = problem.solve(**args)
+    sol = problem.solve(QpInstance(**args))
     by_daqp = len(args["weights"]) <= qp.DAQP_MAX_BRANCHES
     assert sol.solved and problem.last_solver == ("daqp" if by_daqp else "tree")
     x, cost = _reference(problem, args)
@@ -124,13 +122,11 @@ def test_an_infeasible_qp_is_reported_infeasible_by_daqp_and_by_the_fallback():
     args = _captured()[5]  # a two-branch QP
     args = {**args, "v0": 10.0, "s_up": np.full_like(args["s_up"], 0.5)}
     problem = _qp(2)
-    lower, upper, _ = problem._bounds(args["v0"], args["prev_accel"], args["v_max"], args["s_low"],
-                                   args["s_up"], args["accel_min"], args["accel_max"],
-                                   args["jerk_max"], args["comfort_decel"])
+    lower, upper, _ = problem._bounds(QpInstance(**args))
     q = problem._q_vector(args["weights"], args["v_ref_mps"], args["prev_accel"])
     assert problem._condensed.solve(args["weights"], args["comfort"], 0.0, q, lower, upper,
                                     args["v0"]) is None
-    sol = problem.solve(**args)
+    sol = problem.solve(QpInstance(**args))
     assert not sol.solved and problem.last_solver == ""
     assert problem.solver_counts == {"daqp": 0, "tree": 0, "osqp": 0, "": 1}
 
@@ -139,7 +135,7 @@ def test_more_branches_than_daqp_max_go_to_the_tree_solver_and_use_daqp_false_to
     args = _captured()[14]  # three branches
     assert _qp(3, use_daqp=False)._condensed is None
     problem = _qp(3, use_daqp=False)
-    assert problem.solve(**args).solved and problem.last_solver == "osqp"
+    assert problem.solve(QpInstance(**args)).solved and problem.last_solver == "osqp"
     assert _qp(qp.DAQP_MAX_BRANCHES + 1)._condensed is None
     assert _qp(qp.DAQP_MAX_BRANCHES + 1)._tree is not None
     assert _qp(qp.DAQP_MAX_BRANCHES)._condensed is not None

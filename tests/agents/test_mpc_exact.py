@@ -13,7 +13,7 @@ import scipy.sparse.linalg as spla
 from marl_social.agents.robot import active_set, qp
 from marl_social.agents.robot.corridor import provably_infeasible, reachable_progress
 from marl_social.agents.robot.mpc_types import MpcConfig
-from marl_social.agents.robot.qp_types import QpWeights
+from marl_social.agents.robot.qp_types import QpInstance, QpWeights
 from marl_social.sim.agent_spec import VehicleParams
 from marl_social.sim.dynamics import DT_S
 
@@ -45,9 +45,7 @@ def _at_rest_behind_a_close_bound():
 
 def _reference(problem: qp.ContingencyQp, args: dict) -> tuple[np.ndarray, float]:
     """The same QP by OSQP alone at a tight tolerance, with all the iterations it needs."""
-    lower, upper, _ = problem._bounds(args["v0"], args["prev_accel"], args["v_max"], args["s_low"],
-                                   args["s_up"], args["accel_min"], args["accel_max"],
-                                   args["jerk_max"], args["comfort_decel"])
+    lower, upper, _ = problem._bounds(QpInstance(**args))
     p = problem._p_matrix(args["weights"])
     p.data = problem._p_values(args["weights"], args["comfort"])
     q = problem._q_vector(args["weights"], args["v_ref_mps"], args["prev_accel"])
@@ -76,7 +74,7 @@ def _record_success(monkeypatch, method: str) -> list:
 def test_a_degenerate_qp_is_solved_exactly_from_the_iterates_active_set(monkeypatch):
     calls = _record_success(monkeypatch, "solve")
     problem, args = _qp(2), _at_rest_behind_a_close_bound()
-    sol = problem.solve(**args)
+    sol = problem.solve(QpInstance(**args))
     assert sol.solved and calls and calls[-1]  # the exact path gave the answer
     assert problem._ext.info.iter <= qp.ROUND_ITER  # after one round of iterations at most
     accel, cost = _reference(problem, args)

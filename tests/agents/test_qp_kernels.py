@@ -10,6 +10,7 @@ from hypothesis import strategies as st
 
 from marl_social.agents.robot.condensed_qp import CondensedLayout, qp_kernels
 from marl_social.agents.robot.qp_kernels import DAQP_INF, NO_BOUND
+from marl_social.agents.robot.qp_types import QpInstance
 from tests.agents.test_condensed_qp import N, _captured, _qp
 
 
@@ -33,7 +34,11 @@ def _numpy_bounds(problem, v0, prev_accel, v_max, s_low, s_up, accel_min, accel_
 
 
 def _same_bounds(problem, *args) -> bool:
-    got, want = problem._bounds(*args), _numpy_bounds(problem, *args)
+    """`args`: v0, prev_accel, v_max, s_low, s_up, accel_min, accel_max, jerk_max, comfort."""
+    fields = dict(zip(("v0", "prev_accel", "v_max", "s_low", "s_up", "accel_min", "accel_max",
+                       "jerk_max", "comfort_decel"), args, strict=True))
+    got = problem._bounds(QpInstance(np.ones(1), v_ref_mps=10.0, **fields))
+    want = _numpy_bounds(problem, *args)
     return _same_bits(got[0], want[0]) and _same_bits(got[1], want[1]) and got[2] == want[2]
 
 
@@ -76,9 +81,8 @@ def _same_bits(a: np.ndarray, b: np.ndarray) -> bool:
 def _compare(layout, lower, upper, v0, free, rng, zero_solution=False):
     nz = layout.nz
     h_full, f_full = rng.normal(size=(nz, nz)), rng.normal(size=nz)
-    got = qp_kernels().daqp_inputs(
-        h_full, f_full, layout.m_matrix, layout.m_v0, v0, lower, upper, layout._trunk_rows,
-        layout._trunk_pos, layout._single_rows, layout._single_pos, layout._accel_rows, free)
+    got = qp_kernels().daqp_inputs(h_full, f_full, v0, lower, upper, layout._condensed_rows,
+                                   free)
     want = _numpy_inputs(layout, h_full, f_full, lower, upper, v0, free)
     assert all(_same_bits(g, w) for g, w in zip(got, want))
     z_free = (np.where(rng.random(int(free.sum())) < 0.5, 0.0, -0.0) if zero_solution
@@ -91,9 +95,7 @@ def _compare(layout, lower, upper, v0, free, rng, zero_solution=False):
 def test_the_inputs_of_captured_qps_are_numpys(case):
     args = _captured()[case]
     problem = _qp(len(args["weights"]))
-    lower, upper, _ = problem._bounds(args["v0"], args["prev_accel"], args["v_max"], args["s_low"],
-                                   args["s_up"], args["accel_min"], args["accel_max"],
-                                   args["jerk_max"], args["comfort_decel"])
+    lower, upper, _ = problem._bounds(QpInstance(**args))
     # a 3-branch QP goes to the tree solver (qp.DAQP_MAX_BRANCHES): its condensed layout is
     # built here, the kernels take any
     layout = problem._condensed or CondensedLayout(problem)

@@ -13,7 +13,7 @@ import pytest
 from marl_social.agents.robot import qp
 from marl_social.agents.robot.mpc import ContingencyMpc
 from marl_social.agents.robot.mpc_types import MpcConfig
-from marl_social.agents.robot.qp_types import QpSolution
+from marl_social.agents.robot.qp_types import QpInstance, QpSolution
 from marl_social.sim.agent_spec import VehicleParams
 from tests.agents.test_condensed_qp import _captured, _qp
 
@@ -36,12 +36,12 @@ def test_osqp_set_up_at_its_first_fallback_gives_the_bits_of_one_set_up_at_const
     answers = {id(lazy): [], id(eager): []}
     for problem in (lazy, eager):
         for args in cases:
-            answers[id(problem)].append(_bits(problem.solve(**args)))
+            answers[id(problem)].append(_bits(problem.solve(QpInstance(**args))))
         assert problem.solver_counts["osqp"] == 0
         monkeypatch.setattr(problem, "_condensed", None)
         monkeypatch.setattr(problem, "_tree", None)
         for args in cases:
-            answers[id(problem)].append(_bits(problem.solve(**args)))
+            answers[id(problem)].append(_bits(problem.solve(QpInstance(**args))))
         monkeypatch.undo()
         assert problem.solver_counts["osqp"] > 0
     assert answers[id(lazy)] == answers[id(eager)]
@@ -51,7 +51,7 @@ def test_a_qp_that_never_falls_back_sets_up_no_osqp():
     problem = _qp(2)
     for args in _captured():
         if args["weights"].shape == (2,):
-            problem.solve(**args)
+            problem.solve(QpInstance(**args))
     assert problem.solver_counts["osqp"] == 0 and problem._solver is None
 
 

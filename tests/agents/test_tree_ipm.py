@@ -6,6 +6,7 @@ import numpy as np
 import pytest
 
 from marl_social.agents.robot import qp, tree_ipm
+from marl_social.agents.robot.qp_types import QpInstance
 from tests.agents.test_condensed_qp import CONFIG, WEIGHTS, _qp, _reference
 from tests.agents.test_condensed_qp import _captured as captured  # by file name
 
@@ -21,9 +22,7 @@ def _captured() -> list[dict]:
 
 
 def _tree_status(problem: qp.ContingencyQp, args: dict) -> int:
-    lower, upper, _ = problem._bounds(args["v0"], args["prev_accel"], args["v_max"], args["s_low"],
-                                   args["s_up"], args["accel_min"], args["accel_max"],
-                                   args["jerk_max"], args["comfort_decel"])
+    lower, upper, _ = problem._bounds(QpInstance(**args))
     tree = problem._tree
     lb, ub = tree.bounds(lower, upper, args["prev_accel"])
     alpha, beta = tree.costs(args["weights"], args["comfort"], args["goal_weight"],
@@ -35,7 +34,7 @@ def _tree_status(problem: qp.ContingencyQp, args: dict) -> int:
 
 def _agrees_with_tight_osqp(args: dict) -> None:
     problem = _qp(len(args["weights"]))
-    sol = problem.solve(**args)
+    sol = problem.solve(QpInstance(**args))
     assert sol.solved and problem.last_solver == "tree"
     x, cost = _reference(problem, args)
     assert np.allclose(sol.accel_mps2, x[problem._a_idx], atol=1e-6)
@@ -65,7 +64,7 @@ def test_a_settled_iterate_meeting_the_rows_is_taken_without_the_active_set_poli
 
     problem = _qp(len(_captured()[case]["weights"]))
     monkeypatch.setattr(problem._active_set, "solve_near", no_polish)
-    sol = problem.solve(**_captured()[case])
+    sol = problem.solve(QpInstance(**_captured()[case]))
     x, cost = _reference(problem, _captured()[case])
     assert sol.solved and problem.last_solver == "tree"
     assert np.allclose(sol.accel_mps2, x[problem._a_idx], atol=1e-6)
@@ -92,7 +91,7 @@ def test_a_settled_iterate_off_the_rows_is_polished_by_the_active_set(monkeypatc
 
     monkeypatch.setattr(problem._tree, "solve", off_rows)
     monkeypatch.setattr(problem._active_set, "solve_near", counted)
-    sol = problem.solve(**args)
+    sol = problem.solve(QpInstance(**args))
     x, cost = _reference(problem, args)
     assert polished and sol.solved and problem.last_solver == "tree"
     assert np.allclose(sol.accel_mps2, x[problem._a_idx], atol=1e-6)
@@ -101,7 +100,7 @@ def test_a_settled_iterate_off_the_rows_is_polished_by_the_active_set(monkeypatc
 
 def test_the_tree_solver_is_deterministic():
     args = _captured()[8]
-    first, second = _qp(7).solve(**args), _qp(7).solve(**args)
+    first, second = _qp(7).solve(QpInstance(**args)), _qp(7).solve(QpInstance(**args))
     for name in ("accel_mps2", "speed_mps", "progress_m"):
         assert np.array_equal(getattr(first, name), getattr(second, name))
     assert first.cost == second.cost
@@ -115,7 +114,7 @@ def test_an_infeasible_qp_is_not_solved_by_the_tree_and_reported_infeasible_by_t
     args = {**args, "v0": 10.0, "s_up": np.full_like(args["s_up"], 0.5)}
     problem = _qp(4)
     assert _tree_status(problem, args) != 0
-    sol = problem.solve(**args)
+    sol = problem.solve(QpInstance(**args))
     assert not sol.solved and problem.last_solver == ""
     assert problem.solver_counts == {"daqp": 0, "tree": 0, "osqp": 0, "": 1}
 
@@ -126,7 +125,7 @@ def test_a_tree_failure_falls_back_to_osqp(monkeypatch):
     args = _captured()[2]
     monkeypatch.setattr(tree_ipm, "MAX_ITER", 0)
     problem = _qp(4)
-    assert problem.solve(**args).solved and problem.last_solver == "osqp"
+    assert problem.solve(QpInstance(**args)).solved and problem.last_solver == "osqp"
     assert problem.solver_counts == {"daqp": 0, "tree": 0, "osqp": 1, "": 0}
 
 
@@ -138,4 +137,4 @@ def test_solver_selection_by_the_number_of_branches():
     assert _qp(qp.DAQP_MAX_BRANCHES)._tree is None
     args = _captured()[4]
     problem = _qp(5, use_daqp=False)
-    assert problem.solve(**args).solved and problem.last_solver == "osqp"
+    assert problem.solve(QpInstance(**args)).solved and problem.last_solver == "osqp"
