@@ -25,6 +25,8 @@ iterating.
 
 from __future__ import annotations
 
+from typing import NamedTuple
+
 import numpy as np
 import scipy.sparse as sp
 import scipy.sparse.linalg as spla
@@ -82,6 +84,28 @@ def _lu_factor(values: np.ndarray, indices: np.ndarray, indptr: np.ndarray, size
     return _superlu.gstrf(size, len(values), values, indices.astype(np.intc),
                           indptr.astype(np.intc), csc_construct_func=sp.csc_array, ilu=False,
                           options=_SPLU_OPTIONS)
+
+
+class _Prepared(NamedTuple):
+    """One QP as `_corrected` reads it (`_prepare`).
+
+    Attributes:
+        p_full: (n, n) P, both triangles.
+        kkt_values: the KKT template's values (_build_kkt_template), regularized.
+        q: (n,) the linear cost.
+        lower: (m,) lower bounds.
+        upper: (m,) upper bounds.
+        equality: (m,) bool, the rows with lower == upper.
+        tol: the dual tolerance (DUAL_TOL relative to |q|).
+    """
+
+    p_full: sp.csr_matrix
+    kkt_values: np.ndarray
+    q: np.ndarray
+    lower: np.ndarray
+    upper: np.ndarray
+    equality: np.ndarray
+    tol: float
 
 
 class ActiveSetSolver:
@@ -160,13 +184,13 @@ class ActiveSetSolver:
             x_guess: (n,) the iterate's primal variables.
             y_guess: (m,) its multipliers (> 0 pushing against an upper bound).
         """
-        p_full, kkt_values, equality, tol = self._prepare(p_values, q, lower, upper)
+        qp = self._prepare(p_values, q, lower, upper)
+        equality = qp.equality
         z = _matvec(self._a, x_guess)
         # OSQP's polishing rule: a row is active at the bound its multiplier pushes against
         at_lower = equality | (z - lower < -y_guess)
         at_upper = ~at_lower & (upper - z < y_guess)
-        exact = self._corrected(p_full, kkt_values, q, lower, upper, equality, tol, at_lower,
-                                at_upper)
+        exact = self._corrected(qp, at_lower, at_upper)
         if exact is not None:
             return exact
         # the second guess: every row within NEAR_BOUND of a bound, whatever its multiplier (a
@@ -175,8 +199,7 @@ class ActiveSetSolver:
         near_upper = ~near_lower & (upper - z < NEAR_BOUND)
         if np.array_equal(near_lower, at_lower) and np.array_equal(near_upper, at_upper):
             return None
-        return self._corrected(p_full, kkt_values, q, lower, upper, equality, tol, near_lower,
-                               near_upper)
+        return self._corrected(qp, near_lower, near_upper)
 
     def solve_near(self, p_values: np.ndarray, q: np.ndarray, lower: np.ndarray,
                    upper: np.ndarray, x_guess: np.ndarray, near: float
@@ -187,15 +210,15 @@ class ActiveSetSolver:
         not to be trusted (agents/robot/tree_ipm.py at a degenerate optimum); corrected as
         `solve`'s guesses. Arguments as `solve`; near in the rows' units.
         """
-        p_full, kkt_values, equality, tol = self._prepare(p_values, q, lower, upper)
+        qp = self._prepare(p_values, q, lower, upper)
+        equality = qp.equality
         z = _matvec(self._a, x_guess)
         near_lower = equality | (z - lower < near)
         near_upper = ~near_lower & (upper - z < near)
-        return self._corrected(p_full, kkt_values, q, lower, upper, equality, tol, near_lower,
-                               near_upper)
+        return self._corrected(qp, near_lower, near_upper)
 
     def _prepare(self, p_values: np.ndarray, q: np.ndarray, lower: np.ndarray,
-                 upper: np.ndarray) -> tuple[sp.csr_matrix, np.ndarray, np.ndarray, float]:
+                 upper: np.ndarray) -> _Prepared:
         """P (both triangles), the regularized KKT values, the equality rows, the dual tolerance.
 
         For p_values (as `solve`); the tolerance is DUAL_TOL relative to |q|.
@@ -206,27 +229,16 @@ class ActiveSetSolver:
         kkt_values[self._t_p_pos] = p_values[self._p_take]
         kkt_values[self._t_x_diagonal] += REGULARIZATION
         tol = DUAL_TOL * max(1.0, float(np.max(np.abs(q))))
-        return p_full, kkt_values, lower == upper, tol
+        return _Prepared(p_full, kkt_values, q, lower, upper, lower == upper, tol)
 
-    def _corrected(self, p_full: sp.csr_matrix, kkt_values: np.ndarray, q: np.ndarray,
-                   lower: np.ndarray, upper: np.ndarray, equality: np.ndarray, tol: float,
-                   at_lower: np.ndarray, at_upper: np.ndarray
+    def _corrected(self, qp: _Prepared, at_lower: np.ndarray, at_upper: np.ndarray
                    ) -> tuple[np.ndarray, np.ndarray, float] | None:
         """The verified optimum from one guess, corrected up to CORRECTIONS times; or None.
 
-        The guess: the rows at their lower bound and those at their upper bound.
-
-        Args:
-            p_full: (n, n) P, both triangles.
-            kkt_values: the KKT template's values (_build_kkt_template), regularized.
-            q: (n,) the linear cost.
-            lower: (m,) lower bounds.
-            upper: (m,) upper bounds.
-            equality: (m,) bool, the rows with lower == upper.
-            tol: the dual tolerance (DUAL_TOL relative to |q|).
-            at_lower: (m,) bool, the rows guessed at their lower bound.
-            at_upper: (m,) bool, those at their upper bound (none of at_lower).
+        The guess: the rows at their lower bound (at_lower, (m,) bool) and those at their
+        upper bound (at_upper, (m,) bool, none of at_lower), of the QP `_prepare` gave.
         """
+        p_full, kkt_values, q, lower, upper, equality, tol = qp
         for _ in range(CORRECTIONS + 1):
             active = at_lower | at_upper
             bound = np.where(at_lower, lower, upper)

@@ -15,6 +15,7 @@ from __future__ import annotations
 
 import functools
 from dataclasses import dataclass
+from typing import NamedTuple
 
 import numpy as np
 
@@ -79,10 +80,23 @@ def occupied_spans(occupied: np.ndarray, rows: np.ndarray | None = None
     return list(zip(index.tolist(), first.tolist(), last.tolist()))
 
 
+class Clearances(NamedTuple):
+    """The lateral clearances of the robot's corridor, added to each side of its width [m].
+
+    Attributes:
+        lateral_m: to anything.
+        pedestrian_closing_m: a pedestrian heading for the corridor (its distance to the route
+            shrinking) is in the way already within this clearance (None: lateral_m).
+        pedestrian_m: the clearance to any pedestrian, also one walking away (None: lateral_m).
+    """
+
+    lateral_m: float
+    pedestrian_closing_m: float | None = None
+    pedestrian_m: float | None = None
+
+
 def objects_on_path(route: Route, scene: ScenePrediction, s0: float, robot_length_m: float,
-                    robot_width_m: float, lateral_margin_m: float,
-                    pedestrian_margin_m: float | None = None,
-                    pedestrian_clearance_m: float | None = None,
+                    robot_width_m: float, clearances: Clearances,
                     mask: np.ndarray | None = None) -> list[list[PathObject]]:
     """Per hypothesis, the predicted objects that occupy the robot's corridor.
 
@@ -92,17 +106,14 @@ def objects_on_path(route: Route, scene: ScenePrediction, s0: float, robot_lengt
         s0: the robot's arc length (its footprint centre) [m].
         robot_length_m: the robot's length [m].
         robot_width_m: the robot's width [m].
-        lateral_margin_m: clearance added to each side of the robot's width [m].
-        pedestrian_margin_m: a pedestrian heading for the corridor (its distance to the route
-            shrinking) is in the way already within this clearance (None: lateral_margin_m) [m].
-        pedestrian_clearance_m: the clearance to any pedestrian, also one walking away
-            (None: lateral_margin_m) [m].
+        clearances: the corridor's clearances beside the robot's width.
         mask: (L, M) bool, the objects of each hypothesis to look at, in place of scene.mask
             (None: scene.mask).
 
     Returns:
         L lists of PathObject.
     """
+    lateral_margin_m, pedestrian_margin_m, pedestrian_clearance_m = clearances
     mask = scene.mask if mask is None else mask
     n_hyp, n_obj = mask.shape
     if n_obj == 0 or not mask.any():
@@ -115,9 +126,9 @@ def objects_on_path(route: Route, scene: ScenePrediction, s0: float, robot_lengt
     shared = np.empty(n_obj, dtype=bool)
     pair = np.empty((n_hyp, n_obj), dtype=np.int64)  # (L, M) the pair standing for each
     source = np.empty((2, n_hyp * n_obj), dtype=np.int64)
-    n_pair = kernels.distinct_predictions(scene.xy, scene.heading, scene.length_m,
-                                          scene.width_m, scene.is_pedestrian, mask, shared,
-                                          pair, source)
+    n_pair = kernels.distinct_predictions(
+        (scene.xy, scene.heading, scene.length_m, scene.width_m, scene.is_pedestrian), mask,
+        (shared, pair, source))
     # the footprints' corners projected on the route, their extents: one compiled pass
     # (sim/route_kernels.project_footprints; its numpy reference: tests/sim/test_route_kernels.py)
     heading = scene.heading[source[0, :n_pair], source[1, :n_pair]]  # (P, N)
@@ -140,9 +151,10 @@ def objects_on_path(route: Route, scene: ScenePrediction, s0: float, robot_lengt
     n_listed = np.empty(n_hyp, dtype=np.int64)  # (L,) how many
     half = 0.5 * robot_width_m
     n_relevant = kernels.corridor_occupancy(
-        extent, scene.is_pedestrian, source, half + clearance, half + lateral_margin_m, widen,
-        half + pedestrian_margin_m if widen else 0.0, route.length_m, s0 + 0.5 * robot_length_m,
-        mask, pair, occupied, span, listed, n_listed)
+        extent, scene.is_pedestrian, source,
+        (half + clearance, half + lateral_margin_m, widen,
+         half + pedestrian_margin_m if widen else 0.0, route.length_m, s0 + 0.5 * robot_length_m),
+        mask, pair, (occupied, span, listed, n_listed))
     if not n_relevant:
         return [[] for _ in range(n_hyp)]
     s_rear, s_front = extent[0], extent[1]  # (P, N) each
@@ -323,8 +335,7 @@ def full_acceleration_progress(v0: float, v_cap_mps: float, accel_max_mps2: floa
 
 
 def past_reachable(obj: PathObject, v0: float, v_cap_mps: float, accel_max_mps2: float,
-                   dt_s: float, s0: float, robot_length_m: float, gap_m: float,
-                   pass_margin_steps: int, v_max_mps: np.ndarray | None = None,
+                   dt_s: float, ahead_m: float, pass_margin_steps: int,
                    full_progress_m: np.ndarray | None = None) -> bool:
     """Whether full acceleration (capped at v_cap) gets the robot past `obj` in time.
 
@@ -334,14 +345,12 @@ def past_reachable(obj: PathObject, v0: float, v_cap_mps: float, accel_max_mps2:
         v_cap_mps: its speed cap [m/s].
         accel_max_mps2: its largest acceleration [m/s^2].
         dt_s: plan step [s].
-        s0: its arc length [m].
-        robot_length_m: its length [m].
-        gap_m: the longitudinal gap kept [m].
+        ahead_m: how far the robot's progress must be beyond the object's front: the
+            longitudinal gap kept + half the robot's length - its arc length now [m].
         pass_margin_steps: as in mode_bounds.
-        v_max_mps: (N,) the speed bound of each plan step (e.g. its curves) [m/s]; used for
-            an object without a pass margin (None: v_cap only).
-        full_progress_m: (N,) full_acceleration_progress of these arguments, if known (None:
-            computed here when needed) [m].
+        full_progress_m: (N,) full_acceleration_progress of v0, v_cap, accel_max, dt_s and
+            the plan steps' speed bounds (e.g. its curves) [m]; needed for an object without
+            a pass margin (None: the speed bounds are v_cap alone).
     """
     t_cap = max(0.0, (v_cap_mps - v0) / accel_max_mps2)
 
@@ -350,12 +359,12 @@ def past_reachable(obj: PathObject, v0: float, v_cap_mps: float, accel_max_mps2:
             return v0 * t + 0.5 * accel_max_mps2 * t * t
         return v0 * t_cap + 0.5 * accel_max_mps2 * t_cap ** 2 + max(v0, v_cap_mps) * (t - t_cap)
 
-    ahead = gap_m + 0.5 * robot_length_m - s0
+    ahead = ahead_m
     if not obj.pass_margin:
         # past it at every step it is on the path (its front there may keep moving ahead),
         # accelerating fully under the steps' speed bounds: v_k = min(v_k-1 + a dt, v_max_k)
         s = (full_acceleration_progress(v0, v_cap_mps, accel_max_mps2, dt_s,
-                                        len(obj.s_front_m), v_max_mps)
+                                        len(obj.s_front_m), None)
              if full_progress_m is None else full_progress_m)
         k = slice(obj.k_first, obj.k_last + 1)
         return bool(np.all(s[k] >= obj.s_front_m[k] + ahead))

@@ -21,8 +21,7 @@ import numba
 
 
 @numba.njit(cache=True)
-def distinct_predictions(xy, heading, length_m, width_m, is_pedestrian, mask, shared, pair,
-                         source):
+def distinct_predictions(predictions, mask, out):
     """Which (hypothesis, object) predictions agents/robot/corridor.py projects, in one pass.
 
     Object m is shared when some object is present in more than one hypothesis and m is
@@ -32,21 +31,20 @@ def distinct_predictions(xy, heading, length_m, width_m, is_pedestrian, mask, sh
     numbered in row-major (hypothesis, object) order, np.nonzero's.
 
     Args:
-        xy: (L, M, N, 2) predicted positions [m].
-        heading: (L, M, N) predicted headings [rad].
-        length_m: (L, M) lengths [m].
-        width_m: (L, M) widths [m].
-        is_pedestrian: (L, M) bool.
+        predictions: (xy (L, M, N, 2) predicted positions [m], heading (L, M, N) predicted
+            headings [rad], length_m (L, M) and width_m (L, M) [m], is_pedestrian (L, M) bool).
         mask: (L, M) bool, present in that hypothesis.
-        shared: (M,) bool, out: predicted alike in every hypothesis (all False when no object
-            is present in more than one).
-        pair: (L, M) int64, out: the number of the projected pair that stands for object m
-            of hypothesis l where present (a shared object: its l = 0 pair), else -1.
-        source: (2, L M) int64, out: the hypothesis and the object of pair p in column p.
+        out: the arrays written: (shared (M,) bool, predicted alike in every hypothesis (all
+            False when no object is present in more than one); pair (L, M) int64, the number
+            of the projected pair that stands for object m of hypothesis l where present (a
+            shared object: its l = 0 pair), else -1; source (2, L M) int64, the hypothesis and
+            the object of pair p in column p).
 
     Returns:
         P, the number of projected pairs.
     """
+    xy, heading, length_m, width_m, is_pedestrian = predictions
+    shared, pair, source = out
     n_hyp, n_obj = mask.shape
     several = False
     if n_hyp > 1:
@@ -91,9 +89,7 @@ def distinct_predictions(xy, heading, length_m, width_m, is_pedestrian, mask, sh
 
 
 @numba.njit(cache=True)
-def corridor_occupancy(extent, is_pedestrian, source, half_pedestrian_m, half_other_m, widen,
-                       closing_half_m, route_length_m, rear_from_m, mask, pair, occupied, span,
-                       listed, n_listed):
+def corridor_occupancy(extent, is_pedestrian, source, corridor, mask, pair, out):
     """When each projected footprint occupies the robot's corridor (agents/robot/corridor.py).
 
     Footprint p is in the corridor at step n when its lateral extent overlaps
@@ -109,24 +105,24 @@ def corridor_occupancy(extent, is_pedestrian, source, half_pedestrian_m, half_ot
         extent: (5, P, N) project_footprints' out [m].
         is_pedestrian: (L, M) bool.
         source: (2, >= P) int64, the hypothesis and the object of each projected pair.
-        half_pedestrian_m: half the corridor's width for a pedestrian [m].
-        half_other_m: for anything else [m].
-        widen: whether a pedestrian closing in is in it within closing_half_m.
-        closing_half_m: half the corridor's width for a pedestrian closing in [m].
-        route_length_m: the route's length [m].
-        rear_from_m: the smallest rear arc length at the first step of a relevant one [m].
+        corridor: (half_pedestrian_m half the corridor's width for a pedestrian [m],
+            half_other_m for anything else [m], widen whether a pedestrian closing in is in it
+            within closing_half_m, closing_half_m half the corridor's width for a pedestrian
+            closing in [m], route_length_m the route's length [m], rear_from_m the smallest
+            rear arc length at the first step of a relevant one [m]).
         mask: (L, M) bool, object m present in hypothesis l.
         pair: (L, M) distinct_predictions' pair numbers.
-        occupied: (P, N) bool, out: in the corridor at step n.
-        span: (P, 3) int64, out: first and last occupied step of a relevant footprint (else
-            -1, -1) and whether it is a pedestrian's (1, else 0).
-        listed: (L, M) int64, out: per hypothesis, the pair numbers of its relevant objects in
-            object order, then -1.
-        n_listed: (L,) int64, out: how many each hypothesis has.
+        out: the arrays written: (occupied (P, N) bool, in the corridor at step n; span (P, 3)
+            int64, first and last occupied step of a relevant footprint (else -1, -1) and
+            whether it is a pedestrian's (1, else 0); listed (L, M) int64, per hypothesis, the
+            pair numbers of its relevant objects in object order, then -1; n_listed (L,)
+            int64, how many each hypothesis has).
 
     Returns:
         the number of relevant footprints.
     """
+    half_pedestrian_m, half_other_m, widen, closing_half_m, route_length_m, rear_from_m = corridor
+    occupied, span, listed, n_listed = out
     n_pair, n_step = occupied.shape
     n_relevant = 0
     for p in range(n_pair):

@@ -55,6 +55,7 @@ import numpy as np
 from marl_social.agents.robot.corridor import (
     BEHIND,
     PAST,
+    Clearances,
     PathObject,
     StaticBoxes,
     corridor_kernels,
@@ -192,8 +193,9 @@ class ContingencyMpc:
         wall = min(wall, stop_at_m - s0)
         # only the live branches' objects are planned for: the others are not projected
         per_hyp = objects_on_path(route, scene, s0, veh.length_m, veh.width_m,
-                                  c.lateral_margin_m, c.pedestrian_margin_m,
-                                  c.pedestrian_clearance_m, scene.mask & live[:, None])
+                                  Clearances(c.lateral_margin_m, c.pedestrian_margin_m,
+                                             c.pedestrian_clearance_m),
+                                  scene.mask & live[:, None])
         if extra_objects is not None:
             per_hyp = [objs + list(more) for objs, more in zip(per_hyp, extra_objects)]
         live_idx = np.flatnonzero(live)
@@ -348,8 +350,8 @@ class ContingencyMpc:
         for obj in objects:
             two = (len([o for o in options if len(o) == 2]) < MAX_MODE_OBJECTS
                    and (pass_pedestrians or not obj.is_pedestrian)
-                   and past_reachable(obj, v0, v_cap, veh.accel_max_mps2, c.plan_dt_s, s0,
-                                      veh.length_m, c.min_gap_m, margin, v_max,
+                   and past_reachable(obj, v0, v_cap, veh.accel_max_mps2, c.plan_dt_s,
+                                      c.min_gap_m + 0.5 * veh.length_m - s0, margin,
                                       None if obj.pass_margin
                                       else self._full_progress(v0, v_cap, v_max)))
             options.append((BEHIND, PAST) if two else (BEHIND,))

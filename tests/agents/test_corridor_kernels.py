@@ -12,7 +12,12 @@ import numpy as np
 from hypothesis import example, given, settings
 from hypothesis import strategies as st
 
-from marl_social.agents.robot.corridor import PathObject, objects_on_path, occupied_spans
+from marl_social.agents.robot.corridor import (
+    Clearances,
+    PathObject,
+    objects_on_path,
+    occupied_spans,
+)
 from marl_social.models.candidates import ScenePrediction
 from marl_social.sim.road_map import Route
 from tests.helpers import same_bits
@@ -128,7 +133,7 @@ def test_objects_on_path_match_numpy_bit_for_bit(seed, straight, margins):
     args = (route, scene, s0, 4.5, 1.8, float(rng.choice([0.3, 0.5])), *margins)
     with np.errstate(invalid="ignore", over="ignore"):
         want = _reference_objects_on_path(*args)
-        got = objects_on_path(*args)
+        got = objects_on_path(*args[:5], Clearances(*args[5:]))
     assert _same_objects(got, want)
 
 

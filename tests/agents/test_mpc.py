@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from marl_social.agents.robot import mpc as mpc_module
-from marl_social.agents.robot.corridor import mode_bounds, objects_on_path
+from marl_social.agents.robot.corridor import Clearances, mode_bounds, objects_on_path
 from marl_social.agents.robot.mpc import ContingencyMpc, distinct_branches, plan
 from marl_social.agents.robot.mpc_types import MpcConfig, PlanRequest
 from marl_social.models.candidates import ScenePrediction
@@ -75,7 +75,7 @@ def test_solution_meets_every_branch_constraint_through_the_vehicle_model():
         s0, v0, 0.0, 11.5, 13.9, scene, np.array([0.5, 0.3, 0.2])))
     assert res.feasible and res.live.all()
     objects = objects_on_path(ROUTE, scene, s0, VEHICLE.length_m, VEHICLE.width_m,
-                              CONFIG.lateral_margin_m)
+                              Clearances(CONFIG.lateral_margin_m))
     h = CONFIG.headway_s()
     tol = 1e-3
     for b in range(3):
