@@ -25,6 +25,7 @@ from marl_social.cli.overrides import (
     variant_names,
 )
 from marl_social.scenarios import SCENARIOS
+from marl_social.sim.seeds import seed_argument
 
 FORMATTER = argparse.ArgumentDefaultsHelpFormatter
 SET_HELP = ("a setting NAME=VALUE, repeatable, applied last (e.g. --set human.blind=true "
@@ -92,7 +93,7 @@ def _add_demo(sub) -> None:
     demo.add_argument("--planner", default=None, type=choice("planner", ROBOT_PLANNERS),
                       metavar="NAME", help=_planner_help("the robot's planner (None: the "
                                                          "scenario's default)"))
-    demo.add_argument("--seed", type=int, default=0, help="episode seed")
+    demo.add_argument("--seed", type=seed_argument, default=0, help="episode seed")
     demo.add_argument("--max-cycles", type=int, default=200, help="step limit")
     demo.add_argument("--no-animation", action="store_true", help="figure only (faster)")
     demo.set_defaults(func=commands.demo)
@@ -142,7 +143,7 @@ def _add_record(sub) -> None:
                      help="output file")
     _add_scenario_options(rec)
     rec.add_argument("--episodes", type=int, default=20, help="episodes to record")
-    rec.add_argument("--seed0", type=int, default=0, help="first seed")
+    rec.add_argument("--seed0", type=seed_argument, default=0, help="first seed")
     _pedestrian_option(rec, None)
     rec.add_argument("--robot-planner", default="cruise", type=choice("planner", ROBOT_PLANNERS),
                      metavar="NAME", help=_planner_help("the robot's planner"))

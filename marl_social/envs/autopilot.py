@@ -11,6 +11,7 @@ import numpy as np
 from pettingzoo import ParallelEnv
 
 from marl_social.envs.policies import policies, truth_signal_phase, truth_tracks
+from marl_social.sim.seeds import checked_seed
 
 
 class AutopilotEnv(ParallelEnv):
@@ -59,6 +60,7 @@ class AutopilotEnv(ParallelEnv):
         one draws their seeds from a stream seeded by the last seed (entropy if never seeded),
         so a seeded run of many episodes is reproducible.
         """
+        seed = checked_seed(seed)
         obs, infos = self.env.reset(seed=seed, options=options)
         if seed is not None:
             self._seed_stream = np.random.default_rng(seed)

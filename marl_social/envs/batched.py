@@ -29,6 +29,8 @@ import numpy as np
 from gymnasium.vector import VectorEnv
 from gymnasium.vector.utils import batch_space, concatenate, create_empty_array, iterate
 
+from marl_social.sim.seeds import checked_seed
+
 
 class _Block:
     """A block of env copies and what a command does to them (in a worker or this process)."""
@@ -220,7 +222,10 @@ class BatchedVectorEnv(VectorEnv):
         if seed is None:
             seed = [None] * self.num_envs
         elif isinstance(seed, (int, np.integer)):
-            seed = [int(seed) + i for i in range(self.num_envs)]
+            first = checked_seed(seed)
+            seed = [checked_seed(first + i, "seed + copy index") for i in range(self.num_envs)]
+        else:
+            seed = [checked_seed(s, "seed of a copy") for s in seed]
         if len(seed) != self.num_envs:
             raise ValueError(f"batched vector env: {len(seed)} seeds for {self.num_envs} copies")
         answers = self._ask([("reset", ([seed[i] for i in block], options))

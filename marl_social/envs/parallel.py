@@ -42,6 +42,7 @@ from marl_social.envs.world import World
 from marl_social.scenarios import make_scenario
 from marl_social.scenarios.base import as_integer
 from marl_social.sim.observation import ObservationLayout
+from marl_social.sim.seeds import checked_seed
 from marl_social.viz.style import RenderConfig
 
 RENDER_MODES = ["human", "rgb_array"]
@@ -128,6 +129,7 @@ class SocialDrivingEnv(ParallelEnv, EzPickle):
             seed: seeds the env's generator (layout and sensor noise); None keeps the stream.
             options: unused (PettingZoo signature).
         """
+        seed = checked_seed(seed)
         if seed is not None or self._np_random is None:
             self._np_random, self._np_random_seed = seeding.np_random(seed)
         layout = self.scenario.build(self._np_random)

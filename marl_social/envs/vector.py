@@ -29,6 +29,7 @@ from gymnasium import spaces
 from marl_social.envs.autopilot import autopilot
 from marl_social.envs.batched import BatchedVectorEnv
 from marl_social.envs.parallel import SocialDrivingEnv
+from marl_social.sim.seeds import checked_seed
 
 _SEED_BOUND = 2**31 - 1  # episode seeds drawn from a copy's stream lie in [0, _SEED_BOUND)
 
@@ -77,6 +78,7 @@ class AutopilotGymEnv(gymnasium.Env):
                 next seed of that stream (a fresh stream if never seeded).
             options: unused.
         """
+        seed = checked_seed(seed)
         super().reset(seed=seed)
         if seed is not None or self._episode_seeds is None:
             self._episode_seeds = np.random.default_rng(seed)

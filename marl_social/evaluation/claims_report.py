@@ -21,6 +21,7 @@ import numpy as np
 from marl_social.evaluation import reproduce, reproduce_intersection, reproduce_signal
 from marl_social.evaluation.run import claim_episode
 from marl_social.evaluation.stopping import PassedCrosswalk
+from marl_social.sim.seeds import seed_argument
 
 MEASURE = "python -m marl_social.evaluation.claims_report measure --out docs/claims/results.json"
 RENDER = ("python -m marl_social.evaluation.claims_report render docs/claims/results.json"
@@ -284,7 +285,7 @@ def main(argv: list[str] | None = None) -> None:
     m = sub.add_parser("measure", help="run the claims' episodes into a results file")
     m.add_argument("--out", type=Path, default=Path("docs/claims/results.json"))
     m.add_argument("--workers", type=int, default=2)
-    m.add_argument("--seed0", type=int, default=0)
+    m.add_argument("--seed0", type=seed_argument, default=0)
     r = sub.add_parser("render", help="print docs/claims.md from a results file")
     r.add_argument("results", type=Path)
     args = parser.parse_args(argv)

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from marl_social.sim.seeds import checked_seed
 from marl_social.sim.trace import Trace
 
 
@@ -23,6 +24,7 @@ def record_episode(env, policies: dict, seed: int | None = None, render: bool = 
             recording ends at the first state where it holds (marl_social/evaluation/
             stopping.py: an episode cut short once what it measures is known).
     """
+    seed = checked_seed(seed)
     base = getattr(env, "unwrapped", env)
     for name, policy in policies.items():
         policy.reset(None if seed is None else seed + base.possible_agents.index(name))

@@ -26,6 +26,7 @@ from marl_social.studies.spec import (
     DEFAULT_PEDESTRIANS,
     MAX_INT_RANGE,
     MAX_RUNS,
+    MAX_SEEDS,
     SPEC_PACKAGE_DIR,
     Run,
     StudySpec,
@@ -86,8 +87,8 @@ def load_spec(name_or_path: str | os.PathLike, validate: bool = True) -> StudySp
 
 def with_seeds(spec: StudySpec, n_seeds: int) -> StudySpec:
     """The spec with seeds range(n_seeds) (the CLI's --seeds, for quick runs)."""
-    if not _is_int(n_seeds) or n_seeds < 1:
-        raise ValueError(f"--seeds: expected an integer >= 1, got {n_seeds!r}")
+    if not _is_int(n_seeds) or not 1 <= n_seeds <= MAX_SEEDS:
+        raise ValueError(f"--seeds: expected an integer in [1, {MAX_SEEDS}], got {n_seeds!r}")
     return dataclasses.replace(spec, seeds=tuple(range(n_seeds)))
 
 

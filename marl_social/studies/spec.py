@@ -41,6 +41,8 @@ import re
 from dataclasses import dataclass, field
 from typing import NamedTuple
 
+from marl_social.sim.seeds import MAX_SEED
+
 DEFAULT_PLANNERS = ("social", "aggressive", "conservative", "oracle")
 DEFAULT_PEDESTRIANS = ("crossing", "waiting", "none")
 DEFAULT_METRICS = (
@@ -54,7 +56,6 @@ DEFAULT_MAX_CYCLES = 150
 DEFAULT_SEEDS = 10
 SPEC_PACKAGE_DIR = "specs"  # inside marl_social.studies
 MAX_SEEDS = 100_000  # most seeds in a study
-MAX_SEED = 2**63 - 1  # largest seed value
 MAX_AXIS_VALUES = 10_000  # most values a [random] parameter draws (its n)
 MAX_INT_RANGE = 2**62  # widest [low, high] range of an integer [random] parameter
 MAX_RUNS = 1_000_000  # most runs (episodes) in a study
