@@ -27,6 +27,7 @@
 from __future__ import annotations
 
 import math
+import numbers
 from typing import ClassVar
 
 import numpy as np
@@ -40,7 +41,7 @@ from marl_social.envs.rewards import step_rewards
 from marl_social.envs.spaces import encode_state, env_limits, state_space
 from marl_social.envs.world import World
 from marl_social.scenarios import make_scenario
-from marl_social.scenarios.base import as_integer
+from marl_social.scenarios.base import as_integer, short_repr
 from marl_social.sim.observation import ObservationLayout
 from marl_social.sim.seeds import checked_seed
 from marl_social.viz.style import RenderConfig
@@ -89,6 +90,8 @@ class SocialDrivingEnv(ParallelEnv, EzPickle):
         self.scenario_name = scenario
         self.scenario = make_scenario(scenario, **overrides)
         self.render_mode = render_mode
+        if not isinstance(render_fov, (bool, np.bool_)):
+            raise TypeError(f"render_fov must be a bool, got {short_repr(render_fov)}")
         self.render_fov = bool(render_fov)
         self.render_config = render_config if render_config is not None else RenderConfig()
         self.max_cycles = int(max_cycles)
@@ -229,12 +232,17 @@ class SocialDrivingEnv(ParallelEnv, EzPickle):
             arr = np.asarray(action)
         except (TypeError, ValueError, OverflowError):
             raise ValueError(f"agent {agent!r}: action {_short(action)} is not numeric") from None
+        if (isinstance(action, (list, tuple)) and arr.dtype == object
+                and all(isinstance(v, numbers.Real) for v in arr.ravel())):
+            # a list holding Python ints beyond int64 (e.g. 2**64): real numbers, as floats if
+            # they fit (an array the caller made of dtype object is not numeric)
+            if any(abs(v) > FLOAT_MAX for v in arr.ravel()):
+                raise ValueError(f"agent {agent!r}: action {_short(action)} holds an integer "
+                                 "beyond float range")
+            arr = arr.astype(np.float64)
         if arr.dtype.kind not in "iuf":
-            too_big = arr.dtype == object and any(
-                isinstance(v, int) and abs(v) > FLOAT_MAX for v in arr.ravel())
-            reason = ("holds an integer beyond float range" if too_big
-                      else f"is not numeric (dtype {arr.dtype}, not a real integer or float)")
-            raise ValueError(f"agent {agent!r}: action {_short(action)} {reason}")
+            raise ValueError(f"agent {agent!r}: action {_short(action)} is not numeric (dtype "
+                             f"{arr.dtype}, not a real integer or float)")
         if arr.shape != (2,):
             raise ValueError(f"agent {agent!r}: action must have shape (2,), got {arr.shape}")
         arr = arr.astype(np.float64)

@@ -18,7 +18,7 @@ SCENARIOS: dict[str, type[Scenario]] = {
 
 def make_scenario(name: str, **overrides) -> Scenario:
     """Instantiate a registered scenario with validated overrides."""
-    if name not in SCENARIOS:
+    if not isinstance(name, str) or name not in SCENARIOS:
         raise ValueError(f"unknown scenario {name!r}; available: {sorted(SCENARIOS)}")
     return SCENARIOS[name](**overrides)
 

@@ -13,6 +13,7 @@ import dataclasses
 import difflib
 import math
 from abc import ABC, abstractmethod
+from collections.abc import Mapping
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -26,6 +27,7 @@ from marl_social.sim.signals import SignalController
 
 MAX_SLOTS = 64  # largest observation slot count K
 MAX_RAYS = 1024  # largest depth ray count per observation
+MAX_COST_WEIGHT = 1e6  # largest |cost weight| of a human or of the robot's model of one
 MAX_COLLISION_PENALTY = 1e9  # largest collision penalty (finite: inf * False is NaN)
 FLOAT_MAX = float(np.finfo(np.float64).max)
 # physical limits of the scenarios' parameters
@@ -114,13 +116,18 @@ class ScenarioParams:
                 except (OSError, ValueError) as err:
                     raise ValueError(f"{where}: {err}") from None
                 value = tuple(model.as_array().tolist())
-        if value in ((), None):
-            object.__setattr__(self, field_name, ())
-            return
+        if not isinstance(value, (Mapping, CostWeights)):
+            value = as_vector(value, where)
+            if not value:
+                object.__setattr__(self, field_name, ())
+                return
         try:
             theta = CostWeights.from_any(value).as_array()
         except (TypeError, ValueError) as err:
             raise ValueError(f"{where}: {err}") from None
+        if not np.all(np.isfinite(theta)) or np.max(np.abs(theta)) > MAX_COST_WEIGHT:
+            raise ValueError(f"{where}: cost weights must be finite and within "
+                             f"+-{MAX_COST_WEIGHT:g}, got {short_repr(theta.tolist())}")
         object.__setattr__(self, field_name, tuple(theta.tolist()))
 
     def _check_types(self) -> None:
@@ -176,6 +183,34 @@ def as_integer(value, name: str) -> int:
     if not number.is_integer():
         raise ValueError(f"{name}: expected an integer, got {short_repr(value)}")
     return int(number)
+
+
+def as_vector(value, name: str) -> tuple[float, ...]:
+    """A vector-valued setting as a tuple of floats, else a one-line ValueError naming it.
+
+    The one rule for such settings: a list, tuple or 1-d numpy array of real numbers (None:
+    empty).
+
+    Args:
+        value: the value to convert.
+        name: the field's name for the message.
+    """
+    if value is None:
+        return ()
+    if not isinstance(value, (list, tuple, np.ndarray)):  # one error type for a bad setting
+        raise ValueError(  # noqa: TRY004
+            f"{name}: expected a list or array of numbers, got {short_repr(value)} "
+            f"({type(value).__name__})")
+    items = np.asarray(value, dtype=object).ravel()
+    if any(isinstance(v, (bool, np.bool_, str, bytes)) for v in items):
+        raise ValueError(f"{name}: expected numbers, got {short_repr(value)}")
+    try:
+        array = np.asarray(value, dtype=np.float64)
+    except (TypeError, ValueError, OverflowError):
+        raise ValueError(f"{name}: expected real numbers, got {short_repr(value)}") from None
+    if array.ndim != 1:
+        raise ValueError(f"{name}: expected a flat list of numbers, got shape {array.shape}")
+    return tuple(array.tolist())
 
 
 def as_real(value, name: str) -> float:
