@@ -90,8 +90,18 @@ class HomogeneousSpacesEnv(BaseParallelWrapper):
         """Step with normalized actions; finished agents' actions are ignored.
 
         Args:
-            actions: {agent: (2,) normalized action} for every agent in `agents`.
+            actions: {agent: (2,) normalized action} for every agent in `agents`; a key that
+                names no agent of the env is a ValueError.
         """
+        if self.env.unwrapped.world is None:
+            raise RuntimeError("step() called before reset()")
+        if not isinstance(actions, dict):
+            raise TypeError(f"actions must be a dict {{agent: action}}, got "
+                            f"{type(actions).__name__}")
+        unknown = [a for a in actions if a not in self.possible_agents]
+        if unknown:
+            raise ValueError(f"actions for unknown agent(s) {unknown}; agents: "
+                             f"{self.possible_agents}")
         if not self.agents:  # finished episode: nothing left to step (PettingZoo convention)
             return {}, {}, {}, {}, {}
         live = self.env.agents

@@ -368,6 +368,10 @@ def _short(value, limit: int = 80) -> str:
     return text if len(text) <= limit else text[:limit] + "..."
 
 
+_EPISODE_ATTRIBUTES = frozenset(("agents", "agent_selection", "rewards", "terminations",
+                                 "truncations", "infos", "_cumulative_rewards"))
+
+
 class CheckedAECWrapper(parallel_to_aec_wrapper):
     """PettingZoo's parallel-to-AEC conversion that checks each action when it is given.
 
@@ -380,8 +384,43 @@ class CheckedAECWrapper(parallel_to_aec_wrapper):
         parallel_env: a SocialDrivingEnv (or its HomogeneousSpacesEnv).
     """
 
+    def __getattr__(self, name):
+        """The episode's bookkeeping before reset(): an AttributeError saying to reset."""
+        if name in _EPISODE_ATTRIBUTES:
+            raise AttributeError(f"{name} cannot be accessed before reset(): call reset() first")
+        raise AttributeError(f"{type(self).__name__!r} object has no attribute {name!r}")
+
+    def last(self, observe: bool = True):
+        """The selected agent's (observation, reward, termination, truncation, info).
+
+        A RuntimeError after the episode's end (no agent is selected then) and before reset().
+        """
+        if hasattr(self, "agents") and not self.agents:
+            raise RuntimeError("last() called after the episode ended: call reset() first")
+        return super().last(observe)
+
+    def observe(self, agent):
+        """An agent's latest observation (what last() returns).
+
+        A RuntimeError before reset() and in a copy taken mid-episode (see `step`).
+        """
+        if self.env.unwrapped.world is None:
+            raise RuntimeError("observe()/last() called before reset() (or on a copy of an env "
+                               "taken mid-episode, which starts unreset): call reset() first")
+        return super().observe(agent)
+
     def step(self, action):
-        """Store (after checking) the selected agent's action; the cycle's last one steps."""
+        """Store (after checking) the selected agent's action; the cycle's last one steps.
+
+        Before reset(), after the episode's end and in a copy taken mid-episode (pickle or
+        deepcopy rebuild the env from its arguments, not its state) a RuntimeError says to call
+        reset().
+        """
+        if not hasattr(self, "agent_selection") or self.env.unwrapped.world is None:
+            raise RuntimeError("step() called before reset() (or on a copy of an env taken "
+                               "mid-episode, which starts unreset): call reset() first")
+        if not self.agents:
+            raise RuntimeError("step() called after the episode ended: call reset() first")
         agent = self.agent_selection
         if self.terminations[agent] or self.truncations[agent]:
             if action is not None:
@@ -410,4 +449,21 @@ def env(**kwargs):
     Args:
         **kwargs: the arguments of parallel_env.
     """
-    return wrappers.OrderEnforcingWrapper(raw_env(**kwargs))
+    return _OrderEnforcing(raw_env(**kwargs))
+
+
+class _OrderEnforcing(wrappers.OrderEnforcingWrapper):
+    """PettingZoo's order enforcing, where a step after the episode's end is an error.
+
+    The stock wrapper only warns and drops the action.
+    """
+
+    def last(self, observe: bool = True):
+        if self._has_reset and not self.env.agents:
+            raise RuntimeError("last() called after the episode ended: call reset() first")
+        return super().last(observe)
+
+    def step(self, action):
+        if self._has_reset and not self.env.agents:
+            raise RuntimeError("step() called after the episode ended: call reset() first")
+        super().step(action)
