@@ -35,7 +35,6 @@ gradient d log P / d theta_k = -g_k^T h + 1/2 h^T H_k h + 1/2 tr(H^-1 H_k), h = 
 
 from __future__ import annotations
 
-import json
 import math
 import time
 from dataclasses import dataclass, field
@@ -45,6 +44,7 @@ import numpy as np
 
 from marl_social.agents.irl.fit_file import check_fit, load_fit  # noqa: F401 (load_fit public here)
 from marl_social.agents.irl.jets import Jet
+from marl_social.data import strict_json
 from marl_social.data.demonstrations import Demonstration
 from marl_social.sim.costs import FEATURE_NAMES, N_FEATURES, CostWeights, _feature_terms
 from marl_social.sim.dynamics import DT_S
@@ -303,7 +303,7 @@ class IrlResult:
     def save(self, path) -> Path:
         path = Path(path)
         path.parent.mkdir(parents=True, exist_ok=True)
-        path.write_text(json.dumps(self.to_json(), indent=2) + "\n")
+        path.write_text(strict_json.dumps(self.to_json(), indent=2) + "\n")
         return path
 
 

@@ -2,13 +2,13 @@
 
 from __future__ import annotations
 
-import json
 import sys
 from pathlib import Path
 
 import numpy as np
 
 from marl_social.cli.overrides import parse_overrides
+from marl_social.data import strict_json
 
 DEFAULT_OUT = "marl_social_out"
 
@@ -69,7 +69,7 @@ def demo(args) -> int:
             frames = caption_frames(frames)
         gif = write_animation(frames, out / f"{stem}.gif", fps=10)
         print(f"animation: {gif}")
-    (out / f"{stem}_metrics.json").write_text(json.dumps(metrics, indent=2))
+    (out / f"{stem}_metrics.json").write_text(strict_json.dumps(metrics, indent=2))
     print(f"metrics:   {out / f'{stem}_metrics.json'}")
     for key, value in metrics.items():
         print(f"  {key:<30} {value:.3f}" if isinstance(value, float) else f"  {key:<30} {value}")
@@ -86,7 +86,7 @@ def bench(args) -> int:
         rows = run_env_benchmark(tuple(args.agents), n_steps=args.steps, peer=not args.no_peer,
                                  profile=args.profile)
     if args.json:
-        Path(args.json).write_text(json.dumps(rows, indent=2))
+        Path(args.json).write_text(strict_json.dumps(rows, indent=2))
     return 0
 
 
@@ -115,7 +115,7 @@ def reproduce(args) -> int:
     rows = run_table(args.seeds, workers=args.workers, overrides=overrides)
     table = format_table(rows)
     (out / "table.md").write_text(table + "\n")
-    (out / "table.json").write_text(json.dumps(rows, indent=2))
+    (out / "table.json").write_text(strict_json.dumps(rows, indent=2))
     fixed = "".join(f", {k}={v}" for k, v in overrides.items())
     print(f"\n{args.seeds} randomized seeds per cell (marl_social/run.randomized_overrides"
           f"{fixed}):\n")
@@ -148,7 +148,7 @@ def _reproduce_intersection(args) -> int:
     rows = run_table(args.seeds, workers=args.workers)
     table = format_table(rows)
     (out / "table.md").write_text(table + "\n")
-    (out / "table.json").write_text(json.dumps(rows, indent=2))
+    (out / "table.json").write_text(strict_json.dumps(rows, indent=2))
     print(f"\n{args.seeds} randomized seeds per cell "
           f"(marl_social/evaluation/{module_name}.randomized_overrides):\n")
     print(table)

@@ -35,6 +35,7 @@ from collections.abc import Iterable, Iterator
 from contextlib import contextmanager
 from pathlib import Path
 
+from marl_social.data import strict_json
 from marl_social.studies.runs import axes, format_value
 from marl_social.studies.spec import Run, StudySpec
 
@@ -289,6 +290,6 @@ def _prepare_out(spec: StudySpec, out_dir: Path, existing: str) -> dict[str, dic
     meta = study_metadata(spec)
     _check_meta(out_dir, meta)
     done = _prepare_table(table, meta["columns"], existing == "retry_failed")
-    (out_dir / META_FILE).write_text(json.dumps(meta, indent=2, default=str) + "\n")
+    (out_dir / META_FILE).write_text(strict_json.dumps(meta, indent=2, default=str) + "\n")
     return done
 

@@ -27,6 +27,7 @@ import json
 import os
 from pathlib import Path
 
+from marl_social.data import strict_json
 from marl_social.studies.results import (
     META_FILE,
     PARQUET_FILE,
@@ -124,7 +125,7 @@ def arrow_table(out_dir: str | os.PathLike):
         except ValueError as err:
             raise ValueError(f"{path}: column {column!r}: {err}") from None
         names.append(column)
-    schema_meta = {META_KEY: json.dumps(meta, default=str).encode()}
+    schema_meta = {META_KEY: strict_json.dumps(meta, default=str).encode()}
     return pa.Table.from_arrays(arrays, names=names).replace_schema_metadata(schema_meta)
 
 
