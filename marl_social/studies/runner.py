@@ -315,6 +315,11 @@ def cli(args: argparse.Namespace) -> int:
     print(f"summary: {outputs.summary_md}")
     if outputs.figures:
         print(f"plots:   {len(outputs.figures)} in {outputs.figures[0].parent}")
+    if not args.analyze_only and outcome.n_errors:
+        print(f"error: {outcome.n_errors} of the {outcome.n_executed} runs run now failed (each "
+              f"error is in {outcome.results_path.name}; run them again with --resume "
+              "--retry-failed)", file=sys.stderr)
+        return 1
     return 0
 
 

@@ -41,6 +41,7 @@ import re
 from dataclasses import dataclass, field
 from typing import NamedTuple
 
+from marl_social.envs.parallel import MAX_CYCLES
 from marl_social.sim.seeds import MAX_SEED
 
 DEFAULT_PLANNERS = ("social", "aggressive", "conservative", "oracle")
@@ -197,6 +198,9 @@ def _parse_grid(data: dict, source: str) -> dict:
         if not isinstance(values, list) or not values:
             raise _spec_error(source, f"[grid] {name}", f"expected a non-empty list of values, "
                               f"got {values!r}")
+        if len(values) > MAX_AXIS_VALUES:
+            raise _spec_error(source, f"[grid] {name}", f"at most {MAX_AXIS_VALUES} values, "
+                              f"got {len(values)}")
         _check_values(values, source, f"[grid] {name}")
         grid[name] = tuple(values)
     return grid
@@ -253,6 +257,10 @@ def parse_spec(data: dict, source: str = "<spec>", default_name: str = "") -> St
     `validate` and `expand` check it against the scenario. Raises ValueError naming `source`
     and the key.
     """
+    if not data:
+        raise _spec_error(source, "spec", "empty: a study names at least its scenario or a "
+                          "[grid] (e.g. scenario = \"occluded_crosswalk\"; `marl-social study "
+                          "--list` shows the built-in studies)")
     unknown = sorted(set(data) - set(_SPEC_KEYS))
     if unknown:
         raise _spec_error(source, ", ".join(unknown), f"unknown key(s); valid: {list(_SPEC_KEYS)} "
@@ -282,8 +290,8 @@ def parse_spec(data: dict, source: str = "<spec>", default_name: str = "") -> St
         seeds=_parse_seeds(data.get("seeds", DEFAULT_SEEDS), source),
         planners=_str_list(data, "planners", source) or DEFAULT_PLANNERS,
         pedestrians=_str_list(data, "pedestrians", source),
-        max_cycles=_get(data, "max_cycles", int, DEFAULT_MAX_CYCLES, source, lambda v: v >= 1,
-                        "an integer >= 1 [steps]"),
+        max_cycles=_get(data, "max_cycles", int, DEFAULT_MAX_CYCLES, source,
+                        lambda v: 1 <= v <= MAX_CYCLES, f"an integer in [1, {MAX_CYCLES}] [steps]"),
         randomize=_get(data, "randomize", bool, True, source, expected="true or false"),
         sample_seed=_get(data, "sample_seed", int, 0, source, lambda v: v >= 0,
                          "an integer >= 0"),

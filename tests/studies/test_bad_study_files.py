@@ -97,3 +97,33 @@ def test_analyze_only_on_header_only_results(tmp_path, capsys):
                  "--no-plots"]) == 2
     err = capsys.readouterr().err
     assert "results.csv: no result rows" in err and len(err.strip().splitlines()) == 1, err
+
+
+@pytest.mark.parametrize(("text", "where", "what"), [
+    ("", "spec", "empty"),
+    ("max_cycles = 10000000000", "max_cycles", "[1, 1000000000]"),
+    ("[grid]\nhuman_beta = [" + ", ".join(["1.0"] * 200_000) + "]", "[grid] human_beta",
+     "at most 10000 values"),
+])
+def test_absurd_or_empty_specs_are_refused_up_front(tmp_path, text, where, what):
+    path = tmp_path / "spec.toml"
+    path.write_text(text)
+    with pytest.raises(ValueError) as info:
+        studies.load_spec(path)
+    message = str(info.value)
+    assert message.startswith(f"{path}: {where}: ") and what in message, message
+
+
+def test_a_study_whose_runs_failed_exits_1_with_a_summary(tmp_path, monkeypatch, capsys):
+    import marl_social.evaluation.run
+
+    def failing(*args, **kwargs):
+        raise RuntimeError("planner diverged")
+
+    monkeypatch.setattr(marl_social.evaluation.run, "run_episode", failing)
+    path = _spec(tmp_path, "")
+    code = studies.main([str(path), "--out", str(tmp_path / "out"), "--no-progress",
+                         "--no-plots", "--workers", "1"])
+    err = capsys.readouterr().err
+    assert code == 1
+    assert "error: 2 of the 2 runs run now failed" in err and "Traceback" not in err
