@@ -57,6 +57,9 @@ def _is_real(value) -> bool:
     return isinstance(value, float) or abs(value) <= sys.float_info.max
 
 
+MAX_FIT_BYTES = 10**6  # largest theta.json read [bytes]
+
+
 def load_fit(path) -> dict:
     """Read a theta.json written by `marl-social irl fit`; a one-line ValueError otherwise.
 
@@ -65,6 +68,9 @@ def load_fit(path) -> dict:
             naming it.
     """
     path = Path(path)
+    if path.is_file() and path.stat().st_size > MAX_FIT_BYTES:
+        raise ValueError(f"{path}: {path.stat().st_size / 1e6:.1f} MB, more than the limit of "
+                         f"{MAX_FIT_BYTES / 1e6:g} MB for a theta.json file")
     try:
         data = json.loads(path.read_text(encoding="utf-8"))
     except FileNotFoundError:

@@ -34,11 +34,12 @@ from pathlib import Path
 
 import numpy as np
 
-from marl_social.data.archive import is_archive_of, read_npz, short_reason
+from marl_social.data.archive import FLAGS, NUMBERS, TEXT, is_archive_of, read_npz, short_reason
 from marl_social.sim.costs import N_FEATURES
 
-ARCHIVE_FIELDS = ("features", "allowed", "chosen", "first_actions_mps2", "theta_true",
-                  "beta_true", "agent", "source", "t_s")
+ARCHIVE_FIELDS = {  # the arrays of an archive and the dtype kinds each may hold
+    "features": NUMBERS, "allowed": FLAGS, "chosen": "iu", "first_actions_mps2": NUMBERS,
+    "theta_true": NUMBERS, "beta_true": NUMBERS, "agent": TEXT, "source": TEXT, "t_s": NUMBERS}
 FORMAT = "marl-social-decisions/1"
 
 

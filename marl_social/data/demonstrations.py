@@ -51,17 +51,22 @@ from pathlib import Path
 
 import numpy as np
 
-from marl_social.data.archive import read_npz, short_reason
+from marl_social.data.archive import FLAGS, NUMBERS, TEXT, read_npz, short_reason
 from marl_social.sim.costs import N_FEATURES
 from marl_social.sim.road_map import Crosswalk, Route
 
 FORMAT = "marl-social-demonstrations/1"
-ARCHIVE_FIELDS = ("dt_s", "controls_mps2", "s0_m", "v0_mps", "prev_accel_mps2", "v_ref_mps",
-                  "length_m", "width_m", "beta_true", "t0_s", "path_xy", "path_offsets",
-                  "others_xy", "others_heading", "others_length_m", "others_width_m",
-                  "others_is_pedestrian", "others_mask", "crosswalk_center",
-                  "crosswalk_heading_rad", "crosswalk_length_m", "crosswalk_width_m",
-                  "theta_true", "agent", "source")
+MAX_ACCEL_MPS2 = 100.0  # largest |control| of a demonstration [m/s^2] (~10 g)
+MAX_DT_S = 10.0  # longest demonstration step [s]
+MAX_SIZE_M = 100.0  # largest length or width of a demonstrator or another agent [m]
+ARCHIVE_FIELDS = {  # the arrays of an archive and the dtype kinds each may hold
+    **dict.fromkeys(("dt_s", "controls_mps2", "s0_m", "v0_mps", "prev_accel_mps2", "v_ref_mps",
+                     "length_m", "width_m", "beta_true", "t0_s", "path_xy", "others_xy",
+                     "others_heading", "others_length_m", "others_width_m", "crosswalk_center",
+                     "crosswalk_heading_rad", "crosswalk_length_m", "crosswalk_width_m",
+                     "theta_true"), NUMBERS),
+    "path_offsets": "iu", "others_is_pedestrian": FLAGS, "others_mask": FLAGS,
+    "agent": TEXT, "source": TEXT}
 
 
 @dataclass(frozen=True)
@@ -109,10 +114,14 @@ class Demonstration:
         if u.ndim != 1 or len(u) < 1 or not np.all(np.isfinite(u)):
             raise ValueError(f"{who}: controls_mps2 must be a finite (T,) array, got shape "
                              f"{u.shape}")
+        if np.max(np.abs(u)) > MAX_ACCEL_MPS2:
+            raise ValueError(f"{who}: controls_mps2 must lie within +-{MAX_ACCEL_MPS2:g} m/s^2, "
+                             f"got {np.max(np.abs(u)):.3g}")
         object.__setattr__(self, "controls_mps2", u)
-        for name in ("dt_s", "length_m", "width_m"):
-            if not (np.isfinite(getattr(self, name)) and getattr(self, name) > 0):
-                raise ValueError(f"{who}: {name} must be finite and > 0")
+        for name, high in (("dt_s", MAX_DT_S), ("length_m", MAX_SIZE_M), ("width_m", MAX_SIZE_M)):
+            value = getattr(self, name)
+            if isinstance(value, (bool, np.bool_)) or not 0 < value <= high:
+                raise ValueError(f"{who}: {name} must be a number in (0, {high:g}], got {value!r}")
         for name in ("s0_m", "v0_mps", "prev_accel_mps2", "v_ref_mps"):
             if not np.isfinite(getattr(self, name)):
                 raise ValueError(f"{who}: {name} must be finite, got {getattr(self, name)}")
@@ -135,6 +144,8 @@ class Demonstration:
             arr = np.asarray(getattr(self, name), dtype=dtype).reshape(-1)
             if arr.shape != (m,):
                 raise ValueError(f"{who}: {name} must have shape ({m},), got {arr.shape}")
+            if dtype is np.float64 and not np.all((arr > 0) & (arr <= MAX_SIZE_M)):
+                raise ValueError(f"{who}: {name} must lie in (0, {MAX_SIZE_M:g}] m")
             object.__setattr__(self, name, arr)
         theta = np.asarray(self.theta_true, dtype=np.float64).reshape(-1)
         if theta.shape != (N_FEATURES,):

@@ -11,6 +11,7 @@ from dataclasses import dataclass
 
 import numpy as np
 from numpy.lib.stride_tricks import sliding_window_view
+from tqdm import tqdm
 
 from marl_social.data.demonstrations import Demonstration
 from marl_social.data.interaction.paths import PATH_CUTOFF_HZ, RunFit, fit_track
@@ -24,6 +25,7 @@ from marl_social.data.interaction.tracks import (
 
 PATH_MARGIN_M = 30.0  # path kept in a demonstration beyond the segment's ends [m]
 V_REF_PERCENTILE = 85.0  # default v_ref: this percentile of the moving vehicles' speeds
+PROGRESS_MIN_RUNS = 50  # recordings of this many runs of tracks or more show a progress bar
 MAX_ROUNDTRIP_ERROR_M = 0.5  # segments whose replay misses the record by more are dropped [m]
 
 
@@ -159,7 +161,9 @@ def interaction_demonstrations(tracks: dict[str, Track],
     first = np.array([t.timestamp_ms[0] for t in all_tracks])
     last = np.array([t.timestamp_ms[-1] for t in all_tracks])
     demos, dropped = [], []
-    for fit in fits:  # one iteration per run of a track
+    progress = tqdm(fits, desc="cutting tracks into segments", unit="run", leave=False,
+                    disable=len(fits) < PROGRESS_MIN_RUNS, dynamic_ncols=True)
+    for fit in progress:  # one iteration per run of a track
         ego = fit.track
         stamps = ego.timestamp_ms[fit.rows]
         k = len(stamps)
