@@ -14,7 +14,6 @@ from marl_social.data.demonstrations import ARCHIVE_FIELDS, Demonstration, load_
 from marl_social.data.interaction import tracks
 from marl_social.data.interaction.tracks import read_interaction_csv
 
-
 FIXTURES = [HealthCheck.function_scoped_fixture]  # tmp_path is reused: each example overwrites
 
 
