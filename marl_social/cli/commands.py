@@ -288,4 +288,8 @@ def irl_fit(args) -> int:
         _, beta_hat = robot_model_from_fit(result.to_json())
         print(f"   the scale is in the robot's units: add robot_beta_hat={beta_hat:.4g} to use "
               "the learned rationality too")
+    if not (result.converged and np.isfinite(result.scale)):
+        print(f"error: the fit did not converge ({result.message}); {path} holds its last "
+              "iterate, marked converged: false", file=sys.stderr)
+        return 1
     return 0

@@ -8,6 +8,7 @@ Every car has its own field of view (range, cone, occlusion by the others).
 from __future__ import annotations
 
 import math
+import warnings
 from dataclasses import dataclass
 
 import numpy as np
@@ -30,6 +31,7 @@ EXTENT_MARGIN_M = 5.0  # drawn area beyond the outer lane edges [m]
 MIN_SPACING_M = 6.0  # closer cars in a lane would overlap [m]
 MAX_SPEED_MPS = 20.0  # largest allowed speed_mps [m/s]
 MAX_VEHICLES = 1000  # most cars on the road
+SLOW_VEHICLES = 200  # more cars than this are warned about: steps grow with the count squared
 MAX_SPACING_M = 1000.0  # largest gap between cars in a lane [m]
 
 
@@ -56,6 +58,12 @@ class LongRoadParams(ScenarioParams):
     def __post_init__(self):
         super().__post_init__()
         self._check_range("n_vehicles", 1, MAX_VEHICLES)
+        if self.n_vehicles > SLOW_VEHICLES:
+            warnings.warn(f"LongRoadParams.n_vehicles={self.n_vehicles}: a step costs about "
+                          "the square of the car count (every car's field of view is tested "
+                          f"against every other car), so above {SLOW_VEHICLES} cars steps take "
+                          "tenths of a second to seconds (`marl-social bench env` measures "
+                          "them)", RuntimeWarning, stacklevel=2)
         self._check(1 <= self.n_lanes <= 8, "n_lanes", "must be in [1, 8]")
         self._check(self.spacing_m >= MIN_SPACING_M, "spacing_m",
                     f"must be >= {MIN_SPACING_M:g} m (cars would overlap)")

@@ -116,3 +116,17 @@ def test_output_or_input_a_directory(tmp_path, capsys, demos_npz):
     assert "is a directory" in _fit(capsys, tmp_path)
     assert main(["record", "--synthetic", "--segments", "1", "-o", str(tmp_path)]) == 2
     assert "is a directory" in capsys.readouterr().err
+
+
+def test_a_fit_that_does_not_converge_exits_1_with_a_summary(tmp_path, capsys, demos_npz,
+                                                             monkeypatch):
+    import functools
+
+    from marl_social.agents.irl import laplace
+
+    monkeypatch.setattr(laplace, "fit_theta", functools.partial(laplace.fit_theta, max_iter=1))
+    out = tmp_path / "theta.json"
+    assert main(["irl", "fit", str(demos_npz), "-o", str(out)]) == 1
+    err = capsys.readouterr().err.strip()
+    assert err.startswith("error: the fit did not converge") and len(err.splitlines()) == 1
+    assert '"converged": false' in out.read_text()

@@ -66,3 +66,8 @@ def test_an_int_beyond_int64_in_an_action_list_is_a_number(paper_env):
     actions = zero_actions(paper_env)
     actions["robot_0"] = [2**64, 0]
     paper_env.step(actions)  # saturates at the car's limits, like any large command
+
+
+def test_a_road_of_very_many_cars_warns_why_it_is_slow():
+    with pytest.warns(RuntimeWarning, match=r"n_vehicles=1000: a step costs about the square"):
+        make_scenario("long_road", n_vehicles=1000)
