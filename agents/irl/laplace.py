@@ -41,6 +41,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
+from tqdm import tqdm
 
 from marl_social.agents.irl.fit_file import check_fit, load_fit  # noqa: F401 (load_fit public here)
 from marl_social.agents.irl.jets import Jet
@@ -68,6 +69,9 @@ def linear_maps(n_steps: int, dt_s: float) -> tuple[np.ndarray, np.ndarray, np.n
     dist_map = dt_s * dt_s * np.where(lower, j[:, None] - j[None, :] + 0.5, 0.0)
     diff = np.eye(n_steps) - np.eye(n_steps, k=-1)
     return speed_map, dist_map, diff
+
+
+PROGRESS_MIN_DEMOS = 1000  # fits of this many demonstrations or more show progress bars
 
 
 @dataclass(frozen=True)
@@ -193,7 +197,9 @@ class DemoSet:
         lengths = {d.n_steps for d in demos}
         if len(lengths) != 1:
             raise ValueError(f"IRL: demonstrations must share T, got lengths {sorted(lengths)}")
-        derivs = [feature_derivatives(d) for d in demos]
+        derivs = [feature_derivatives(d) for d in tqdm(
+            demos, desc="IRL: derivatives of the demonstrations", unit="demo", leave=False,
+            disable=len(demos) < PROGRESS_MIN_DEMOS, dynamic_ncols=True)]
         return cls(np.stack([x.grad for x in derivs]), np.stack([x.hess for x in derivs]),
                    np.stack([x.totals for x in derivs]))
 
@@ -342,8 +348,11 @@ def fit_theta(demos, fitted=FITTABLE, theta0=None, max_iter: int = 500) -> IrlRe
 
     from scipy.optimize import minimize  # here: scipy.optimize takes ~0.7 s to import
 
-    res = minimize(objective, w0, jac=True, method="L-BFGS-B",
-                   bounds=[(0.0, None)] * len(idx), options={"maxiter": max_iter})
+    with tqdm(total=max_iter, desc="IRL: L-BFGS-B iterations (at most)", unit="it",
+              leave=False, disable=len(data) < PROGRESS_MIN_DEMOS, dynamic_ncols=True) as bar:
+        res = minimize(objective, w0, jac=True, method="L-BFGS-B",
+                       bounds=[(0.0, None)] * len(idx), options={"maxiter": max_iter},
+                       callback=lambda _: bar.update(1))
     theta = np.full(N_FEATURES, np.nan)
     theta[idx] = res.x * unit
     full = np.nan_to_num(theta)
