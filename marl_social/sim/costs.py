@@ -348,9 +348,10 @@ def pairwise_step_features(*, lateral_m, speed_mps, v_ref_mps, accel_mps2, prev_
     """`step_features` of n agents who are each other's others (the env's reward), fast.
 
     The same features, bit for bit, as ``step_features`` with ego = every agent and others =
-    the same n agents (tests/sim/test_costs.py checks it), in fewer array operations: every
-    circle pair of every agent pair in one broadcast (the minimum is exact, so its order does
-    not matter) and each crosswalk's occupancy computed once for egos and others alike.
+    the same n agents (tests/sim/test_costs.py checks it), compiled (sim/feature_kernels.py):
+    the circle gaps, the first five features and the crosswalks' row sums, any n (np.exp and
+    crosswalk_occupancy's np.tanh stay numpy's); each crosswalk's occupancy is computed once
+    for egos and others alike.
 
     Args:
         lateral_m: (n,) lateral offsets from the routes [m].
@@ -371,14 +372,6 @@ def pairwise_step_features(*, lateral_m, speed_mps, v_ref_mps, accel_mps2, prev_
         (n, N_FEATURES) in FEATURE_NAMES order.
     """
     kernels = feature_kernels()
-    if len(xy) > kernels.PAIRWISE_MAX:  # rows numpy sums in more than one pairwise block
-        return _numpy_pairwise_step_features(
-            lateral_m=lateral_m, speed_mps=speed_mps, v_ref_mps=v_ref_mps,
-            accel_mps2=accel_mps2, prev_accel_mps2=prev_accel_mps2, xy=xy, radius=radius,
-            is_ped=is_ped, circles=circles, circle_r=circle_r, other_mask=other_mask,
-            crosswalks=crosswalks, kinds_differ=kinds_differ)
-    # compiled (sim/feature_kernels.py): the circle gaps, the first five features and the
-    # crosswalks' row sums; np.exp and crosswalk_occupancy (np.tanh) stay numpy's
     gap = kernels.circle_gap_matrix(circles, circle_r[:, 0])
     out = kernels.feature_rows(lateral_m, speed_mps, np.broadcast_to(v_ref_mps, len(xy)),
                                accel_mps2, prev_accel_mps2, np.exp(-gap), other_mask)
@@ -388,33 +381,13 @@ def pairwise_step_features(*, lateral_m, speed_mps, v_ref_mps, accel_mps2, prev_
     return out
 
 
-def _numpy_pairwise_step_features(*, lateral_m, speed_mps, v_ref_mps, accel_mps2,
-                                  prev_accel_mps2, xy, radius, is_ped, circles, circle_r,
-                                  other_mask, crosswalks, kinds_differ) -> np.ndarray:
-    """`pairwise_step_features` in numpy: its path for more agents than one pairwise block."""
-    d = circles[:, None, :, None, :] - circles[None, :, None, :, :]  # (n, n, C, C, 2)
-    dx, dy = d[..., 0], d[..., 1]
-    nearest = (dx * dx + dy * dy).min(axis=(2, 3))
-    gap = np.maximum(np.sqrt(nearest) - circle_r[:, None, 0] - circle_r[None, :, 0], 0.0)
-    out = np.empty((len(xy), N_FEATURES))
-    out[:, :5] = np.stack(np.broadcast_arrays(*_feature_terms(
-        lateral_m=lateral_m, speed_mps=speed_mps, v_ref_mps=v_ref_mps, accel_mps2=accel_mps2,
-        prev_accel_mps2=prev_accel_mps2, ego_xy=None, ego_radius=None, ego_is_ped=None,
-        ego_circles=None, ego_circle_r=None, other_xy=None, other_radius=None,
-        other_is_ped=None, other_circles=None, other_circle_r=None, other_mask=other_mask,
-        crosswalks=(), needed=(True,) * 5 + (False,), gap=gap)[:5]), axis=-1)
-    out[:, 5] = _pairwise_conflict(
-        xy, radius, is_ped, other_mask, crosswalks, kinds_differ,
-        lambda occ, pair_mask: _crosswalk_conflict(occ, occ[None, :], pair_mask))
-    return out
-
-
 def _pairwise_conflict(xy, radius, is_ped, other_mask, crosswalks, kinds_differ, term):
     """(n,) conflict feature of n agents who are each other's others (or 0.0: no crosswalk).
 
     Per crosswalk `term(occupancy, pair_mask)`: each agent's occupancy times the summed
-    occupancy of its others of the other kind (`_crosswalk_conflict`, or its compiled row
-    sums), added up over the crosswalks from 0.0 as `_feature_terms` adds them.
+    occupancy of its others of the other kind (the compiled row sums; `_crosswalk_conflict`
+    in the tests' numpy reference), added up over the crosswalks from 0.0 as `_feature_terms`
+    adds them.
     """
     conflict = 0.0
     if crosswalks:

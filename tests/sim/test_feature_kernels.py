@@ -1,13 +1,18 @@
-"""sim/feature_kernels.py gives, bit for bit, the numpy pairwise features it replaced."""
+"""sim/feature_kernels.py gives, bit for bit, the numpy pairwise features it replaced.
+
+The numpy reference: tests/reference/pairwise_features.py. Any number of agents: rows longer
+than numpy's pairwise block (128) sum in halves, as np.sum does.
+"""
 
 from __future__ import annotations
 
 import numpy as np
 import pytest
 
-from marl_social.sim.costs import _numpy_pairwise_step_features, pairwise_step_features
+from marl_social.sim.costs import pairwise_step_features
 from marl_social.sim.footprint import circle_layout, place_along
 from marl_social.sim.road_map import Crosswalk
+from tests.reference.pairwise_features import pairwise_step_features as numpy_features
 
 
 def _scene(rng, n, spread_m):
@@ -38,7 +43,7 @@ def test_the_kernels_give_the_numpy_features(seed):
     rng = np.random.default_rng(seed)
     n = int(rng.choice([1, 2, 3, 7, 8, 9, 15, 16, 17, 31, 64, 100, 128, 129, 140]))
     args = _scene(rng, n, spread_m=float(rng.choice([2.0, 20.0, 200.0])))
-    expected = _numpy_pairwise_step_features(**args)
+    expected = numpy_features(**args)
     got = pairwise_step_features(**args)
     assert got.shape == expected.shape and got.dtype == expected.dtype
     assert got.tobytes() == expected.tobytes()
@@ -50,7 +55,18 @@ def test_a_nan_position_gives_numpys_nans():
     args["circles"] = args["circles"].copy()
     args["circles"][2, 1, 0] = np.nan
     with np.errstate(invalid="ignore"):
-        expected = _numpy_pairwise_step_features(**args)
+        expected = numpy_features(**args)
         got = pairwise_step_features(**args)
     assert np.array_equal(got, expected, equal_nan=True)
     assert np.array_equal(np.signbit(got), np.signbit(expected))
+
+
+@pytest.mark.parametrize("n", [127, 128, 129, 136, 255, 256, 257, 300, 520])
+def test_more_agents_than_one_pairwise_block(n):
+    """Rows of more than 128 agents (np.sum's recursive halving): still numpy's bits."""
+    rng = np.random.default_rng(n)
+    args = _scene(rng, n, spread_m=20.0)
+    args["crosswalks"] = (Crosswalk(np.array([50.0, 0.0]), np.pi / 2, 8.0, 4.0),)
+    expected = numpy_features(**args)
+    got = pairwise_step_features(**args)
+    assert got.tobytes() == expected.tobytes()
