@@ -15,6 +15,7 @@ from __future__ import annotations
 
 import numba
 import numpy as np
+from numba import types
 
 from marl_social.models.gap_kernels import _B1, _F8, _I8, _array
 from marl_social.sim.pairwise_sum import contiguous_sum
@@ -23,6 +24,17 @@ from marl_social.sim.pairwise_sum import contiguous_sum
 
 # gap_kernels' options, written out: a change of them here must change this file for the cache
 _JIT = {"cache": True, "nogil": True, "error_model": "numpy"}
+# step_costs' scene: weights (5,), safety_exp (L, P, T, M), present (L, M), occupancy_tanh
+# (R, P, T), scene_tanh (W, L, T, M), is_pedestrian (L, M), zone_sums (Z, L, T), scale
+_COSTING = types.Tuple((_array(1), _array(4), _array(2, _B1), _array(3), _array(4),
+                        _array(2, _B1), _array(3), _F8))
+# plan_totals' rules: s0 [m], half the length [m], the stop line [m], whether it applies, the
+# curve excess (A, C) [m/s], whether it applies
+_RULES = types.Tuple((_F8, _F8, _F8, _B1, _array(2), _B1))
+# walk_costs' walk: v_ref [m/s], the speed before [m/s], the step [s], plan_dt / DT_S
+_WALK = types.UniTuple(_F8, 4)
+# walk_costs' conflict: occupancy_tanh (W, A, T), scene_tanh (W, L, T, M), pair (L, M)
+_WALK_CONFLICT = types.Tuple((_array(3), _array(4), _array(2, _B1)))
 @numba.njit(cache=True)
 def _conflict(occupancy_tanh, scene_sums, plan, h, t):
     """The conflict feature of plan `plan` in hypothesis h at step t (before its weight).
@@ -78,10 +90,9 @@ def _scene_sums(scene_tanh, pair, zone_sums):
     return sums
 
 
-@numba.njit([(_array(1), _I8, _F8, _F8, _F8, _array(1), _array(4), _array(2, _B1), _array(3),
-              _array(4), _array(2, _B1), _F8)], **_JIT)
-def walk_costs(speeds, n_t, v_ref_mps, prev_speed, dt_s, weights, safety_exp, present,
-               occupancy_tanh, scene_tanh, pair, scale):
+@numba.njit([(_array(1), _I8, _WALK, _array(1), _array(4), _array(2, _B1), _WALK_CONFLICT)],
+            **_JIT)
+def walk_costs(speeds, n_t, walk, weights, safety_exp, present, conflict):
     """pedestrian_q_values: the step costs of the walks summed over the horizon, times scale.
 
     Per step, as models/pedestrian.py adds them: w_speed (v - v_ref)^2, w_accel a^2 and
@@ -93,21 +104,21 @@ def walk_costs(speeds, n_t, v_ref_mps, prev_speed, dt_s, weights, safety_exp, pr
     Args:
         speeds: (A,) candidate speeds [m/s].
         n_t: T, the number of steps.
-        v_ref_mps: the reference speed [m/s].
-        prev_speed: the speed before the plans [m/s].
-        dt_s: the rollout step [s].
+        walk: (v_ref [m/s], the speed before the plans [m/s], the rollout step dt [s],
+            scale = plan_dt / DT_S).
         weights: (5,) the weights of speed, accel, jerk, safety and conflict.
         safety_exp: (L, A, T, M) exp(-max(gap, 0)) (unused with a zero safety weight).
         present: (L, M) the objects present in each hypothesis.
-        occupancy_tanh: (W, A, T) tanh of walk_geometry's arguments of the crosswalks with a
-            pair of the pedestrian and a present vehicle (W = 0: no conflict to add).
-        scene_tanh: (W, L, T, M) tanh of the objects' crosswalk occupancy arguments.
-        pair: (L, M) the vehicles present.
-        scale: plan_dt / DT_S.
+        conflict: (occupancy_tanh (W, A, T): tanh of walk_geometry's arguments of the
+            crosswalks with a pair of the pedestrian and a present vehicle (W = 0: no conflict
+            to add), scene_tanh (W, L, T, M): tanh of the objects' crosswalk occupancy
+            arguments, pair (L, M): the vehicles present).
 
     Returns:
         (L, A) the costs.
     """
+    v_ref_mps, prev_speed, dt_s, scale = walk
+    occupancy_tanh, scene_tanh, pair = conflict
     w_speed, w_accel, w_jerk, w_safety, w_conflict = (weights[0], weights[1], weights[2],
                                                       weights[3], weights[4])
     n_hyp, n_obj = present.shape
@@ -145,10 +156,8 @@ def walk_costs(speeds, n_t, v_ref_mps, prev_speed, dt_s, weights, safety_exp, pr
     return cost
 
 
-@numba.njit([(_array(4), _F8, _F8, _array(1), _array(4), _array(2, _B1), _array(3), _array(4),
-              _array(2, _B1), _array(3), _F8)], **_JIT)
-def step_costs(motion, v_ref_mps, prev_accel, weights, safety_exp, present, occupancy_tanh,
-               scene_tanh, is_pedestrian, zone_sums, scale):
+@numba.njit([(_array(4), _F8, _F8, _COSTING)], **_JIT)
+def step_costs(motion, v_ref_mps, prev_accel, costing):
     """sim/costs.step_cost of the candidates, times scale, as vehicle_gap_evaluation sums it.
 
     The terms w_speed (v - v_ref)^2, w_accel a^2, w_jerk (a_k - a_{k-1})^2, w_safety times the
@@ -163,21 +172,25 @@ def step_costs(motion, v_ref_mps, prev_accel, weights, safety_exp, present, occu
             accelerations [m/s^2] (gap_kernels.plan_evaluation's).
         v_ref_mps: the reference speed [m/s].
         prev_accel: the acceleration before the plans [m/s^2].
-        weights: (5,) the weights of speed, accel, jerk, safety and conflict.
-        safety_exp: (L, P, T, M) exp(-max(gap, 0)), M < circle_gaps.MAX_KERNEL_OBJECTS
-            (unused with a zero safety weight).
-        present: (L, M) the objects present in each hypothesis.
-        occupancy_tanh: (R, P, T) tanh of `occupancy_arguments` of the crosswalks with a pair
-            of a vehicle and a pedestrian and of the zones (R = 0: no conflict to add).
-        scene_tanh: (W, L, T, M) tanh of the objects' crosswalk occupancy arguments
-            (gap_kernels.scene_occupancy_arguments), M < circle_gaps.MAX_KERNEL_OBJECTS.
-        is_pedestrian: (L, M) the pedestrians (those present pair with the ego).
-        zone_sums: (Z, L, T) per zone the present objects' summed claims on it.
-        scale: plan_dt / DT_S.
+        costing: (weights, safety_exp, present, occupancy_tanh, scene_tanh, is_pedestrian,
+            zone_sums, scale), the scene's arrays and the scale:
+            weights: (5,) the weights of speed, accel, jerk, safety and conflict.
+            safety_exp: (L, P, T, M) exp(-max(gap, 0)), M < circle_gaps.MAX_KERNEL_OBJECTS
+                (unused with a zero safety weight).
+            present: (L, M) the objects present in each hypothesis.
+            occupancy_tanh: (R, P, T) tanh of `occupancy_arguments` of the crosswalks with a pair
+                of a vehicle and a pedestrian and of the zones (R = 0: no conflict to add).
+            scene_tanh: (W, L, T, M) tanh of the objects' crosswalk occupancy arguments
+                (gap_kernels.scene_occupancy_arguments), M < circle_gaps.MAX_KERNEL_OBJECTS.
+            is_pedestrian: (L, M) the pedestrians (those present pair with the ego).
+            zone_sums: (Z, L, T) per zone the present objects' summed claims on it.
+            scale: plan_dt / DT_S.
 
     Returns:
         (L, A, C, T) the step costs.
     """
+    (weights, safety_exp, present, occupancy_tanh, scene_tanh, is_pedestrian, zone_sums,
+     scale) = costing
     n_first_actions, n_cont, n_t = motion.shape[1], motion.shape[2], motion.shape[3]
     v = motion[0].reshape((n_first_actions * n_cont, n_t))
     a_eff = motion[2].reshape((n_first_actions * n_cont, n_t))
@@ -384,23 +397,19 @@ def rule_abiding_totals(step_cost, vehicle_gap, clearance, travel_m, s0, half_le
     return totals
 
 
-@numba.njit([(_array(4), _F8, _F8, _array(1), _array(4), _array(2, _B1), _array(3), _array(4),
-              _array(2, _B1), _array(3), _F8, _array(4), _F8, _F8, _F8, _B1, _array(2), _B1)],
-            **_JIT)
-def plan_totals(motion, v_ref_mps, prev_accel, weights, safety_exp, present, occupancy_tanh,
-                scene_tanh, is_pedestrian, zone_sums, scale, gaps, s0, half_length_m, stop_s_m,
-                has_stop, curve_excess, has_curve):
+@numba.njit([(_array(4), _F8, _F8, _COSTING, _array(4), _RULES)], **_JIT)
+def plan_totals(motion, v_ref_mps, prev_accel, costing, gaps, rules):
     """`rule_abiding_totals` of `step_costs`, in one call (a human driver's decision).
 
-    motion to scale are step_costs' arguments; gaps (2, L, A, C) the clearance and the vehicle
-    gap of each plan [m] (gap_kernels.plan_evaluation's); s0 and half_length_m as
-    rule_abiding_totals takes them, the stop line stop_s_m [m] if has_stop and the curve
-    excess (A, C) [m/s] if has_curve; the travel is motion[1]. Returns the (L, A, C) totals of
-    rule_abiding_totals (inf for the excluded plans): the same bits as the two calls
-    (tests/models/test_rule_totals.py).
+    motion to costing are step_costs' arguments; gaps (2, L, A, C) the clearance and the
+    vehicle gap of each plan [m] (gap_kernels.plan_evaluation's); rules (s0 [m], half the
+    driver's length [m], the stop line's arc length [m], whether a stop line applies, the
+    curve excess (A, C) [m/s], whether a curve speed applies); the travel is motion[1].
+    Returns the (L, A, C) totals of rule_abiding_totals (inf for the excluded plans): the
+    same bits as the two calls (tests/models/test_rule_totals.py).
     """
-    cost = step_costs(motion, v_ref_mps, prev_accel, weights, safety_exp, present,
-                      occupancy_tanh, scene_tanh, is_pedestrian, zone_sums, scale)
+    s0, half_length_m, stop_s_m, has_stop, curve_excess, has_curve = rules
+    cost = step_costs(motion, v_ref_mps, prev_accel, costing)
     stop = np.full(1 if has_stop else 0, stop_s_m)
     excess = np.empty(curve_excess.shape if has_curve else (0, 0))
     if has_curve:

@@ -128,20 +128,34 @@ def _cached_model_constants(model: DriverModel) -> tuple:
     return model.candidates, theta
 
 
+def _rule_arguments(model: DriverModel, rules: RoadRules | None) -> dict:
+    """The evaluations' keyword arguments of the road's rules (none without rules)."""
+    if rules is None:
+        return {}
+    return {"yield_zones": rules.yield_zones, "yield_margin_s": model.yield_margin_s,
+            "curve_speed": rules.curve_speed}
+
+
 def _evaluate(model: DriverModel, route: Route, s0: float, v0: float, prev_accel: float,
-              scene: ScenePrediction, crosswalks: tuple[Crosswalk, ...], rules: RoadRules | None,
-              features: bool) -> CandidateEvaluation:
-    extra = {} if rules is None else {"yield_zones": rules.yield_zones,
-                                      "yield_margin_s": model.yield_margin_s,
-                                      "curve_speed": rules.curve_speed}
+              scene: ScenePrediction, crosswalks: tuple[Crosswalk, ...],
+              rules: RoadRules | None) -> CandidateEvaluation:
+    """The candidates' evaluation without feature totals (vehicle_gap_evaluation's)."""
     candidates, theta = _model_constants(model)
-    if not features:  # the same evaluation in fewer array operations
-        return vehicle_gap_evaluation(candidates, theta, model.v_desired_mps, model.vehicle,
-                                      route, s0, v0, prev_accel, scene, crosswalks, **extra)
+    return vehicle_gap_evaluation(candidates, theta, model.v_desired_mps, model.vehicle,
+                                  route, s0, v0, prev_accel, scene, crosswalks,
+                                  **_rule_arguments(model, rules))
+
+
+def _evaluate_features(model: DriverModel, route: Route, s0: float, v0: float,
+                       prev_accel: float, scene: ScenePrediction,
+                       crosswalks: tuple[Crosswalk, ...],
+                       rules: RoadRules | None) -> CandidateEvaluation:
+    """The candidates' evaluation with their feature totals (evaluate_candidates')."""
+    candidates, theta = _model_constants(model)
     return evaluate_candidates(candidates, theta, model.v_desired_mps,
                                model.vehicle, route, s0, v0, prev_accel, scene, crosswalks,
-                               geometry=True, features=features,
-                               vehicle_gaps_only=True, **extra)
+                               geometry=True, features=True,
+                               vehicle_gaps_only=True, **_rule_arguments(model, rules))
 
 
 def rule_abiding_totals(ev: CandidateEvaluation, model: DriverModel, s0: float,
@@ -225,7 +239,7 @@ def driver_q_values(model: DriverModel, route: Route, s0: float, v0: float, prev
                                     rules.stop_s_m)
     if totals is not None:  # the kernels' evaluation and totals in one go
         return np.minimum.reduce(totals, axis=-1)  # totals.min(axis=-1) without its wrapper
-    ev = _evaluate(model, route, s0, v0, prev_accel, scene, crosswalks, rules, False)
+    ev = _evaluate(model, route, s0, v0, prev_accel, scene, crosswalks, rules)
     return rule_abiding_totals(ev, model, s0, rules).min(axis=-1)
 
 
@@ -243,5 +257,5 @@ def driver_choice_features(model: DriverModel, route: Route, s0: float, v0: floa
         allowed (A, C) bool: the continuations rule_abiding_totals keeps.
         Both for the first scene hypothesis.
     """
-    ev = _evaluate(model, route, s0, v0, prev_accel, scene, crosswalks, rules, True)
+    ev = _evaluate_features(model, route, s0, v0, prev_accel, scene, crosswalks, rules)
     return ev.feature_totals[0].copy(), np.isfinite(rule_abiding_totals(ev, model, s0, rules)[0])

@@ -127,10 +127,9 @@ def pedestrian_q_values(model: PedestrianModel, route: Route, s0: float, v_ref: 
     if len(occupancy):
         np.tanh(occupancy, out=occupancy)
         np.tanh(scene_occupancy, out=scene_occupancy)
-    return kernels.walk_costs(speeds, speed_times.shape[1], float(v_ref), float(prev_speed),
-                              float(model.plan_dt_s), weights, exp_arg,
-                              np.ascontiguousarray(scene.mask), occupancy, scene_occupancy,
-                              pair, model.plan_dt_s / DT_S)
+    walk = (float(v_ref), float(prev_speed), float(model.plan_dt_s), model.plan_dt_s / DT_S)
+    return kernels.walk_costs(speeds, speed_times.shape[1], walk, weights, exp_arg,
+                              np.ascontiguousarray(scene.mask), (occupancy, scene_occupancy, pair))
 
 
 _KERNELS: list = []  # [gap_kernels, cost_kernels] once loaded
