@@ -190,15 +190,25 @@ def rule_abiding_totals(ev: CandidateEvaluation, model: DriverModel, s0: float,
     return cost_kernels.rule_abiding_totals(
         cost, _float_array(ev.min_vehicle_gap_m, plans),
         _float_array(ev.vehicle_clearance_m, plans),
-        travel if travel is _NO_TRAVEL else _float_array(travel[..., -1:], plans[1:] + (1,)),
+        travel if travel is _NO_TRAVEL else _float_array(travel, plans[1:] + travel.shape[-1:]),
         float(s0), 0.5 * model.vehicle.length_m,
-        _NO_STOP if stop_s_m is None else np.array([stop_s_m], dtype=np.float64),
+        _NO_STOP if stop_s_m is None else _stop_line(float(stop_s_m)),
         _NO_EXCESS if excess is None else _float_array(excess, plans[1:]))
 
 
 def _float_array(values, shape: tuple) -> np.ndarray:
     """Values broadcast to shape, C-contiguous float64 (the same array when it already is)."""
-    return np.ascontiguousarray(np.broadcast_to(values, shape), dtype=np.float64)
+    if getattr(values, "shape", None) != shape:
+        values = np.broadcast_to(values, shape)
+    return np.ascontiguousarray(values, dtype=np.float64)
+
+
+@functools.lru_cache(maxsize=256)
+def _stop_line(stop_s_m: float) -> np.ndarray:
+    """(1,) read-only: a stop line's arc length [m] as the kernel takes it (a map has few)."""
+    stop = np.array([stop_s_m])
+    stop.setflags(write=False)
+    return stop
 
 
 _NO_TRAVEL = np.zeros((0, 0, 0))  # no stop line: the kernel reads no travel
