@@ -47,7 +47,13 @@ from marl_social.agents.irl.fit_file import check_fit, load_fit  # noqa: F401 (l
 from marl_social.agents.irl.jets import Jet
 from marl_social.data import strict_json
 from marl_social.data.demonstrations import Demonstration
-from marl_social.sim.costs import FEATURE_NAMES, N_FEATURES, CostWeights, _feature_terms
+from marl_social.sim.costs import (
+    FEATURE_NAMES,
+    N_FEATURES,
+    CostWeights,
+    StepInputs,
+    _feature_terms,
+)
 from marl_social.sim.dynamics import DT_S
 from marl_social.sim.footprint import covering_circles
 
@@ -137,15 +143,14 @@ def _position_feature_jets(demo: Demonstration, s: np.ndarray):
         other_circles, other_r = np.moveaxis(oc, 0, 1), np.moveaxis(orad, 0, 1)
         other_xy = np.moveaxis(demo.others_xy, 0, 1)  # (T, M, 2)
         other_radius = 0.5 * np.hypot(demo.others_length_m, demo.others_width_m)
-        terms = _feature_terms(
+        terms = _feature_terms(StepInputs(
             lateral_m=0.0, speed_mps=0.0, v_ref_mps=0.0, accel_mps2=0.0, prev_accel_mps2=0.0,
             ego_xy=ego_xy, ego_radius=0.5 * math.hypot(demo.length_m, demo.width_m),
             ego_is_ped=np.zeros(n, bool), ego_circles=ego_circles, ego_circle_r=circle_r,
             other_xy=other_xy, other_radius=other_radius,
             other_is_ped=np.broadcast_to(demo.others_is_pedestrian, (n, m)),
             other_circles=other_circles, other_circle_r=other_r,
-            other_mask=np.ones((n, m), bool), crosswalks=demo.crosswalks,
-            needed=_POSITION_FEATURES)
+            other_mask=np.ones((n, m), bool), crosswalks=demo.crosswalks), _POSITION_FEATURES)
     else:
         terms = [None] * 4 + [0.0, 0.0]
     out = []

@@ -17,7 +17,12 @@ from marl_social.perception.sensors import Measurements, measure
 from marl_social.perception.signal_view import visible_heads
 from marl_social.scenarios.base import ScenarioLayout
 from marl_social.sim.bodies import Bodies
-from marl_social.sim.costs import N_FEATURES, pairwise_step_features
+from marl_social.sim.costs import (
+    N_FEATURES,
+    AgentFootprints,
+    AgentMotion,
+    pairwise_step_features,
+)
 from marl_social.sim.dynamics import (
     DT_S,
     bicycle_step,
@@ -254,9 +259,7 @@ class World:
             self._pairs_key, self._pairs = key, others
         others = self._pairs
         return pairwise_step_features(
-            lateral_m=lateral, speed_mps=self.state[:, 3], v_ref_mps=self.v_desired_mps,
-            accel_mps2=self.accel_mps2, prev_accel_mps2=self.prev_accel_mps2,
-            xy=xy, radius=self.bounding_radius_m, is_ped=self.is_pedestrian,
-            circles=circles, circle_r=self._circle_r, other_mask=others,
-            crosswalks=self.road_map.crosswalks, kinds_differ=self._kinds_differ,
-        )
+            AgentMotion(lateral, self.state[:, 3], self.v_desired_mps, self.accel_mps2,
+                        self.prev_accel_mps2),
+            AgentFootprints(xy, self.bounding_radius_m, self.is_pedestrian, circles, self._circle_r),
+            others, self.road_map.crosswalks, self._kinds_differ)

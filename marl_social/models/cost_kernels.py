@@ -3,7 +3,7 @@
 `step_costs` (models/gap_evaluation.vehicle_gap_evaluation), `rule_abiding_totals`
 (models/driver.rule_abiding_totals of its result) and `walk_costs`
 (models/pedestrian.pedestrian_q_values, summed over the horizon in np.sum's pairwise order,
-`_pairwise_sum`) cost what models/gap_kernels.py laid out, with the same arithmetic as the
+sim/pairwise_sum.py) cost what models/gap_kernels.py laid out, with the same arithmetic as the
 numpy reference in its order, bit for bit (tests/models/test_gap_evaluation.py,
 test_walk_kernels.py, test_pedestrian_costs.py); np.exp and np.tanh stay in numpy, between
 the two kernels (see gap_kernels.py). Imported at the first decision; `cache=True` as there (and,
@@ -15,89 +15,26 @@ from __future__ import annotations
 
 import numba
 import numpy as np
+from numba import types
 
 from marl_social.models.gap_kernels import _B1, _F8, _I8, _array
+from marl_social.sim.pairwise_sum import contiguous_sum
+
+# pairwise_sum.py stamp: 6635cc8d50a6aec4 (tests/sim/test_pairwise_sum.py)
 
 # gap_kernels' options, written out: a change of them here must change this file for the cache
 _JIT = {"cache": True, "nogil": True, "error_model": "numpy"}
-# the helpers below take one signature each, read-only arrays: their callers pass writable and
-# read-only arrays, literal and variable starts, and numba would compile each combination anew
-# (a second or so each on a cold cache); a writable array converts to its read-only type
-_SUM = (_array(1), _I8, _I8)
-
-
-@numba.njit(_SUM, cache=True)
-def _pairwise_block(values, start, n):
-    """The pairwise_sum of numpy of values[start:start + n] for n <= 128 (no further split).
-
-    Fewer than 8 values: added one by one to -0.0; else eight running sums, combined
-    ((r0 + r1) + (r2 + r3)) + ((r4 + r5) + (r6 + r7)), then the rest one by one.
-    """
-    if n < 8:
-        total = -0.0
-        for i in range(start, start + n):
-            total += values[i]
-        return total
-    r0, r1, r2, r3 = values[start], values[start + 1], values[start + 2], values[start + 3]
-    r4, r5, r6, r7 = values[start + 4], values[start + 5], values[start + 6], values[start + 7]
-    i = 8
-    while i < n - (n % 8):
-        b = start + i
-        r0 += values[b]
-        r1 += values[b + 1]
-        r2 += values[b + 2]
-        r3 += values[b + 3]
-        r4 += values[b + 4]
-        r5 += values[b + 5]
-        r6 += values[b + 6]
-        r7 += values[b + 7]
-        i += 8
-    total = ((r0 + r1) + (r2 + r3)) + ((r4 + r5) + (r6 + r7))
-    while i < n:
-        total += values[start + i]
-        i += 1
-    return total
-
-
-@numba.njit(_SUM, cache=True)
-def _pairwise_sum(values, start, n):
-    """The pairwise_sum of numpy of values[start:start + n] (its add reduction's inner loop).
-
-    Up to 128 values `_pairwise_block`; more: the sum of the two halves' sums, the first half
-    n // 2 rounded down to a multiple of 8 -- numpy's recursion, walked with an explicit
-    stack (numba's on-disk cache does not take recursive functions). np.sum along a
-    contiguous axis is 0.0 + this (tests/models/test_gap_kernels.py checks it).
-    """
-    if n <= 128:
-        return _pairwise_block(values, start, n)
-    # post-order walk of the split tree: (start, n, halves pushed) per pending node
-    node_start = np.empty(128, dtype=np.int64)
-    node_n = np.empty(128, dtype=np.int64)
-    node_split = np.zeros(128, dtype=np.bool_)
-    sums = np.empty(128)
-    depth, n_sums = 1, 0
-    node_start[0], node_n[0] = start, n
-    while depth:
-        depth -= 1
-        first, count = node_start[depth], node_n[depth]
-        if count <= 128:
-            sums[n_sums] = _pairwise_block(values, first, count)
-            n_sums += 1
-        elif node_split[depth]:
-            n_sums -= 1
-            sums[n_sums - 1] = sums[n_sums - 1] + sums[n_sums]
-        else:
-            half = count // 2
-            half -= half % 8
-            node_split[depth] = True  # this node again, to add its halves' sums
-            node_start[depth + 1], node_n[depth + 1] = first + half, count - half
-            node_split[depth + 1] = False
-            node_start[depth + 2], node_n[depth + 2] = first, half
-            node_split[depth + 2] = False
-            depth += 3
-    return sums[0]
-
-
+# step_costs' scene: weights (5,), safety_exp (L, P, T, M), present (L, M), occupancy_tanh
+# (R, P, T), scene_tanh (W, L, T, M), is_pedestrian (L, M), zone_sums (Z, L, T), scale
+_COSTING = types.Tuple((_array(1), _array(4), _array(2, _B1), _array(3), _array(4),
+                        _array(2, _B1), _array(3), _F8))
+# plan_totals' rules: s0 [m], half the length [m], the stop line [m], whether it applies, the
+# curve excess (A, C) [m/s], whether it applies
+_RULES = types.Tuple((_F8, _F8, _F8, _B1, _array(2), _B1))
+# walk_costs' walk: v_ref [m/s], the speed before [m/s], the step [s], plan_dt / DT_S
+_WALK = types.UniTuple(_F8, 4)
+# walk_costs' conflict: occupancy_tanh (W, A, T), scene_tanh (W, L, T, M), pair (L, M)
+_WALK_CONFLICT = types.Tuple((_array(3), _array(4), _array(2, _B1)))
 @numba.njit(cache=True)
 def _conflict(occupancy_tanh, scene_sums, plan, h, t):
     """The conflict feature of plan `plan` in hypothesis h at step t (before its weight).
@@ -116,8 +53,8 @@ def _conflict(occupancy_tanh, scene_sums, plan, h, t):
 def _present_sum(values, present, n_obj):
     """np.sum of values[m] over the present objects m < n_obj (absent ones add 0.0).
 
-    np.sum's order for fewer than 8 values >= +0 (the one-by-one sum, from -0.0); the result
-    plus 0.0, as the reference's sum of an all-zero row is +0.0.
+    One by one from -0.0, plus 0.0: np.sum's order along an axis that is strided in the
+    reference's arrays (any number of objects; pairwise only along a contiguous axis).
     """
     summed = -0.0
     for m in range(n_obj):
@@ -130,8 +67,9 @@ def _scene_sums(scene_tanh, pair, zone_sums):
     """(W + Z, L, T) the objects' summed crosswalk occupancies, then the zones' given sums.
 
     Per crosswalk the sum over the paired objects of their occupancy 0.5 (1 + tanh), as
-    sim/costs._crosswalk_conflict's np.sum of np.where: over fewer than 8 objects
-    (circle_gaps.MAX_KERNEL_OBJECTS) np.sum adds them one by one, along any axis, to 0.0.
+    sim/costs._crosswalk_conflict's np.sum of np.where: one by one to 0.0 (`_present_sum`'s
+    order: the reference's occupancies are strided along the objects; fewer than 8 objects,
+    circle_gaps.MAX_KERNEL_OBJECTS, add so along any axis).
 
     Args:
         scene_tanh: (W, L, T, M) tanh of gap_kernels.scene_occupancy_arguments.
@@ -152,38 +90,35 @@ def _scene_sums(scene_tanh, pair, zone_sums):
     return sums
 
 
-@numba.njit([(_array(1), _I8, _F8, _F8, _F8, _array(1), _array(4), _array(2, _B1), _array(3),
-              _array(4), _array(2, _B1), _F8)], **_JIT)
-def walk_costs(speeds, n_t, v_ref_mps, prev_speed, dt_s, weights, safety_exp, present,
-               occupancy_tanh, scene_tanh, pair, scale):
+@numba.njit([(_array(1), _I8, _WALK, _array(1), _array(4), _array(2, _B1), _WALK_CONFLICT)],
+            **_JIT)
+def walk_costs(speeds, n_t, walk, weights, safety_exp, present, conflict):
     """pedestrian_q_values: the step costs of the walks summed over the horizon, times scale.
 
     Per step, as models/pedestrian.py adds them: w_speed (v - v_ref)^2, w_accel a^2 and
     w_jerk a^2 (a = (v - prev_speed) / dt on the first step, 0 after it), w_safety times the
-    sum over the present objects of exp(-max(gap, 0)) (np.sum's order: one by one, fewer
-    than circle_gaps.MAX_KERNEL_OBJECTS), w_conflict
+    sum over the present objects of exp(-max(gap, 0)) (`_present_sum`'s order), w_conflict
     times 0.0 + the occupancy 0.5 (1 + tanh) times the scene's sum, crosswalk by crosswalk;
     each only if its weight is not zero; then np.sum's pairwise sum over the steps.
 
     Args:
         speeds: (A,) candidate speeds [m/s].
         n_t: T, the number of steps.
-        v_ref_mps: the reference speed [m/s].
-        prev_speed: the speed before the plans [m/s].
-        dt_s: the rollout step [s].
+        walk: (v_ref [m/s], the speed before the plans [m/s], the rollout step dt [s],
+            scale = plan_dt / DT_S).
         weights: (5,) the weights of speed, accel, jerk, safety and conflict.
-        safety_exp: (L, A, T, M) exp(-max(gap, 0)), M < circle_gaps.MAX_KERNEL_OBJECTS
-            (unused with a zero safety weight).
+        safety_exp: (L, A, T, M) exp(-max(gap, 0)) (unused with a zero safety weight).
         present: (L, M) the objects present in each hypothesis.
-        occupancy_tanh: (W, A, T) tanh of walk_geometry's arguments of the crosswalks with a
-            pair of the pedestrian and a present vehicle (W = 0: no conflict to add).
-        scene_tanh: (W, L, T, M) tanh of the objects' crosswalk occupancy arguments.
-        pair: (L, M) the vehicles present.
-        scale: plan_dt / DT_S.
+        conflict: (occupancy_tanh (W, A, T): tanh of walk_geometry's arguments of the
+            crosswalks with a pair of the pedestrian and a present vehicle (W = 0: no conflict
+            to add), scene_tanh (W, L, T, M): tanh of the objects' crosswalk occupancy
+            arguments, pair (L, M): the vehicles present).
 
     Returns:
         (L, A) the costs.
     """
+    v_ref_mps, prev_speed, dt_s, scale = walk
+    occupancy_tanh, scene_tanh, pair = conflict
     w_speed, w_accel, w_jerk, w_safety, w_conflict = (weights[0], weights[1], weights[2],
                                                       weights[3], weights[4])
     n_hyp, n_obj = present.shape
@@ -209,7 +144,7 @@ def walk_costs(speeds, n_t, v_ref_mps, prev_speed, dt_s, weights, safety_exp, pr
                     if w_jerk != 0.0:
                         total = total + w_jerk * squared if started else w_jerk * squared
                         started = True
-                if w_safety != 0.0:  # np.sum of fewer than 8 values >= +0
+                if w_safety != 0.0:  # np.sum over a strided object axis: one by one
                     term = _present_sum(safety_exp[h, a, t], present[h], n_obj) * w_safety
                     total = total + term if started else term
                     started = True
@@ -217,14 +152,12 @@ def walk_costs(speeds, n_t, v_ref_mps, prev_speed, dt_s, weights, safety_exp, pr
                     term = w_conflict * _conflict(occupancy_tanh, scene_sums, a, h, t)
                     total = total + term if started else term
                 steps[t] = total
-            cost[h, a] = (0.0 + _pairwise_sum(steps, 0, n_t)) * scale
+            cost[h, a] = contiguous_sum(steps, 0, n_t) * scale
     return cost
 
 
-@numba.njit([(_array(4), _F8, _F8, _array(1), _array(4), _array(2, _B1), _array(3), _array(4),
-              _array(2, _B1), _array(3), _F8)], **_JIT)
-def step_costs(motion, v_ref_mps, prev_accel, weights, safety_exp, present, occupancy_tanh,
-               scene_tanh, is_pedestrian, zone_sums, scale):
+@numba.njit([(_array(4), _F8, _F8, _COSTING)], **_JIT)
+def step_costs(motion, v_ref_mps, prev_accel, costing):
     """sim/costs.step_cost of the candidates, times scale, as vehicle_gap_evaluation sums it.
 
     The terms w_speed (v - v_ref)^2, w_accel a^2, w_jerk (a_k - a_{k-1})^2, w_safety times the
@@ -239,21 +172,25 @@ def step_costs(motion, v_ref_mps, prev_accel, weights, safety_exp, present, occu
             accelerations [m/s^2] (gap_kernels.plan_evaluation's).
         v_ref_mps: the reference speed [m/s].
         prev_accel: the acceleration before the plans [m/s^2].
-        weights: (5,) the weights of speed, accel, jerk, safety and conflict.
-        safety_exp: (L, P, T, M) exp(-max(gap, 0)), M < circle_gaps.MAX_KERNEL_OBJECTS
-            (unused with a zero safety weight).
-        present: (L, M) the objects present in each hypothesis.
-        occupancy_tanh: (R, P, T) tanh of `occupancy_arguments` of the crosswalks with a pair
-            of a vehicle and a pedestrian and of the zones (R = 0: no conflict to add).
-        scene_tanh: (W, L, T, M) tanh of the objects' crosswalk occupancy arguments
-            (gap_kernels.scene_occupancy_arguments), M < circle_gaps.MAX_KERNEL_OBJECTS.
-        is_pedestrian: (L, M) the pedestrians (those present pair with the ego).
-        zone_sums: (Z, L, T) per zone the present objects' summed claims on it.
-        scale: plan_dt / DT_S.
+        costing: (weights, safety_exp, present, occupancy_tanh, scene_tanh, is_pedestrian,
+            zone_sums, scale), the scene's arrays and the scale:
+            weights: (5,) the weights of speed, accel, jerk, safety and conflict.
+            safety_exp: (L, P, T, M) exp(-max(gap, 0)), M < circle_gaps.MAX_KERNEL_OBJECTS
+                (unused with a zero safety weight).
+            present: (L, M) the objects present in each hypothesis.
+            occupancy_tanh: (R, P, T) tanh of `occupancy_arguments` of the crosswalks with a pair
+                of a vehicle and a pedestrian and of the zones (R = 0: no conflict to add).
+            scene_tanh: (W, L, T, M) tanh of the objects' crosswalk occupancy arguments
+                (gap_kernels.scene_occupancy_arguments), M < circle_gaps.MAX_KERNEL_OBJECTS.
+            is_pedestrian: (L, M) the pedestrians (those present pair with the ego).
+            zone_sums: (Z, L, T) per zone the present objects' summed claims on it.
+            scale: plan_dt / DT_S.
 
     Returns:
         (L, A, C, T) the step costs.
     """
+    (weights, safety_exp, present, occupancy_tanh, scene_tanh, is_pedestrian, zone_sums,
+     scale) = costing
     n_first_actions, n_cont, n_t = motion.shape[1], motion.shape[2], motion.shape[3]
     v = motion[0].reshape((n_first_actions * n_cont, n_t))
     a_eff = motion[2].reshape((n_first_actions * n_cont, n_t))
@@ -379,34 +316,37 @@ def _rule_keepers(front_m, stop_s_m, has_stop, curve_excess, has_curve):
     return ok
 
 
-@numba.njit([(_array(4), _array(3), _array(3), _array(3), _F8, _F8, _F8, _B1, _array(2), _B1)],
+@numba.njit([(_array(4), _array(3), _array(3), _array(3), _F8, _F8, _array(1), _array(2))],
             **_JIT)
 def rule_abiding_totals(step_cost, vehicle_gap, clearance, travel_m, s0, half_length_m,
-                        stop_s_m, has_stop, curve_excess, has_curve):
+                        stop_s_m, curve_excess):
     """models/driver.rule_abiding_totals of a compiled evaluation (its totals, its rules).
 
     The totals are np.sum over the steps of a C-contiguous step_cost (0.0 + its pairwise
-    sum, `_pairwise_sum`); candidates.collision_free_totals sets those of plans touching a
-    vehicle (vehicle gap <= 0) to inf, or, in a hypothesis where every plan does, all but those
-    of the largest clearance (np.max, NaN propagating: then all); then the plans that break
-    a rule (`_rule_keepers`) are set to inf, in each hypothesis where a finite total is left.
+    sum, sim/pairwise_sum.contiguous_sum); candidates.collision_free_totals sets those of
+    plans touching a vehicle (vehicle gap <= 0) to inf, or, in a hypothesis where every plan
+    does, all but those of the largest clearance (np.max, NaN propagating: then all); then
+    the plans that break a rule (`_rule_keepers`) are set to inf, in each hypothesis where a
+    finite total is left.
 
     Args:
         step_cost: (L, A, C, T) the step costs.
         vehicle_gap: (L, A, C) the smallest vehicle gap of each plan [m].
         clearance: (L, A, C) its clearance to vehicles [m].
-        travel_m: (A, C, T) the plans' travel [m] (unused without a stop line).
+        travel_m: (A, C, >= 1) the plans' travel [m], its last step read (unused without a
+            stop line).
         s0: the driver's arc length [m].
         half_length_m: half its length [m]: its front at the end of a plan is at
             s0 + travel + half_length_m [m].
-        stop_s_m: the stop line's arc length [m].
-        has_stop: whether a stop line applies.
-        curve_excess: (A, C) the excess over the curve speed [m/s] (unused without a curve).
-        has_curve: whether a curve speed applies.
+        stop_s_m: (1,) the stop line's arc length [m]; (0,): no stop line applies.
+        curve_excess: (A, C) the excess over the curve speed [m/s]; (0, 0): no curve speed
+            applies.
 
     Returns:
         (L, A, C) the totals, inf for excluded plans.
     """
+    has_stop = len(stop_s_m) > 0
+    has_curve = curve_excess.size > 0
     n_hyp, n_first, n_cont, n_t = step_cost.shape
     totals = np.empty((n_hyp, n_first, n_cont))
     if n_first * n_cont == 0:
@@ -414,7 +354,7 @@ def rule_abiding_totals(step_cost, vehicle_gap, clearance, travel_m, s0, half_le
     flat_cost = step_cost.reshape(n_hyp * n_first * n_cont, n_t)
     flat_totals = totals.reshape(n_hyp * n_first * n_cont)
     for i in range(len(flat_totals)):
-        flat_totals[i] = 0.0 + _pairwise_sum(flat_cost[i], 0, n_t)
+        flat_totals[i] = contiguous_sum(flat_cost[i], 0, n_t)
     for h in range(n_hyp):
         hopeless = True
         for a in range(n_first):
@@ -440,8 +380,9 @@ def rule_abiding_totals(step_cost, vehicle_gap, clearance, travel_m, s0, half_le
     if has_stop:
         for a in range(n_first):
             for c in range(n_cont):
-                front_m[a, c] = s0 + travel_m[a, c, n_t - 1] + half_length_m
-    ok = _rule_keepers(front_m, stop_s_m, has_stop, curve_excess, has_curve)
+                front_m[a, c] = s0 + travel_m[a, c, travel_m.shape[2] - 1] + half_length_m
+    ok = _rule_keepers(front_m, stop_s_m[0] if has_stop else 0.0, has_stop, curve_excess,
+                       has_curve)
     for h in range(n_hyp):
         kept_finite = False
         for a in range(n_first):
@@ -456,24 +397,25 @@ def rule_abiding_totals(step_cost, vehicle_gap, clearance, travel_m, s0, half_le
     return totals
 
 
-@numba.njit([(_array(4), _F8, _F8, _array(1), _array(4), _array(2, _B1), _array(3), _array(4),
-              _array(2, _B1), _array(3), _F8, _array(4), _F8, _F8, _F8, _B1, _array(2), _B1)],
-            **_JIT)
-def plan_totals(motion, v_ref_mps, prev_accel, weights, safety_exp, present, occupancy_tanh,
-                scene_tanh, is_pedestrian, zone_sums, scale, gaps, s0, half_length_m, stop_s_m,
-                has_stop, curve_excess, has_curve):
+@numba.njit([(_array(4), _F8, _F8, _COSTING, _array(4), _RULES)], **_JIT)
+def plan_totals(motion, v_ref_mps, prev_accel, costing, gaps, rules):
     """`rule_abiding_totals` of `step_costs`, in one call (a human driver's decision).
 
-    motion to scale are step_costs' arguments; gaps (2, L, A, C) the clearance and the vehicle
-    gap of each plan [m] (gap_kernels.plan_evaluation's); s0 to has_curve rule_abiding_totals'
-    arguments after its travel (motion[1], (A, C, T) [m]). Returns the (L, A, C) totals of
-    rule_abiding_totals (inf for the excluded plans): the same bits as the two calls
-    (tests/models/test_rule_totals.py).
+    motion to costing are step_costs' arguments; gaps (2, L, A, C) the clearance and the
+    vehicle gap of each plan [m] (gap_kernels.plan_evaluation's); rules (s0 [m], half the
+    driver's length [m], the stop line's arc length [m], whether a stop line applies, the
+    curve excess (A, C) [m/s], whether a curve speed applies); the travel is motion[1].
+    Returns the (L, A, C) totals of rule_abiding_totals (inf for the excluded plans): the
+    same bits as the two calls (tests/models/test_rule_totals.py).
     """
-    cost = step_costs(motion, v_ref_mps, prev_accel, weights, safety_exp, present,
-                      occupancy_tanh, scene_tanh, is_pedestrian, zone_sums, scale)
-    return rule_abiding_totals(cost, gaps[1], gaps[0], motion[1], s0, half_length_m, stop_s_m,
-                               has_stop, curve_excess, has_curve)
+    s0, half_length_m, stop_s_m, has_stop, curve_excess, has_curve = rules
+    cost = step_costs(motion, v_ref_mps, prev_accel, costing)
+    stop = np.full(1 if has_stop else 0, stop_s_m)
+    excess = np.empty(curve_excess.shape if has_curve else (0, 0))
+    if has_curve:
+        excess[:] = curve_excess
+    return rule_abiding_totals(cost, gaps[1], gaps[0], motion[1], s0, half_length_m, stop,
+                               excess)
 
 
 @numba.njit([(_array(1), _F8)], **_JIT)

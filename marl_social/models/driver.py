@@ -25,7 +25,6 @@ from marl_social.models.candidates import (
     CandidateSet,
     ScenePrediction,
     cached_or_computed,
-    collision_free_totals,
     evaluate_candidates,
 )
 from marl_social.models.gap_evaluation import kernel_rule_totals, vehicle_gap_evaluation
@@ -129,20 +128,34 @@ def _cached_model_constants(model: DriverModel) -> tuple:
     return model.candidates, theta
 
 
+def _rule_arguments(model: DriverModel, rules: RoadRules | None) -> dict:
+    """The evaluations' keyword arguments of the road's rules (none without rules)."""
+    if rules is None:
+        return {}
+    return {"yield_zones": rules.yield_zones, "yield_margin_s": model.yield_margin_s,
+            "curve_speed": rules.curve_speed}
+
+
 def _evaluate(model: DriverModel, route: Route, s0: float, v0: float, prev_accel: float,
-              scene: ScenePrediction, crosswalks: tuple[Crosswalk, ...], rules: RoadRules | None,
-              features: bool) -> CandidateEvaluation:
-    extra = {} if rules is None else {"yield_zones": rules.yield_zones,
-                                      "yield_margin_s": model.yield_margin_s,
-                                      "curve_speed": rules.curve_speed}
+              scene: ScenePrediction, crosswalks: tuple[Crosswalk, ...],
+              rules: RoadRules | None) -> CandidateEvaluation:
+    """The candidates' evaluation without feature totals (vehicle_gap_evaluation's)."""
     candidates, theta = _model_constants(model)
-    if not features:  # the same evaluation in fewer array operations
-        return vehicle_gap_evaluation(candidates, theta, model.v_desired_mps, model.vehicle,
-                                      route, s0, v0, prev_accel, scene, crosswalks, **extra)
+    return vehicle_gap_evaluation(candidates, theta, model.v_desired_mps, model.vehicle,
+                                  route, s0, v0, prev_accel, scene, crosswalks,
+                                  **_rule_arguments(model, rules))
+
+
+def _evaluate_features(model: DriverModel, route: Route, s0: float, v0: float,
+                       prev_accel: float, scene: ScenePrediction,
+                       crosswalks: tuple[Crosswalk, ...],
+                       rules: RoadRules | None) -> CandidateEvaluation:
+    """The candidates' evaluation with their feature totals (evaluate_candidates')."""
+    candidates, theta = _model_constants(model)
     return evaluate_candidates(candidates, theta, model.v_desired_mps,
                                model.vehicle, route, s0, v0, prev_accel, scene, crosswalks,
-                               geometry=True, features=features,
-                               vehicle_gaps_only=True, **extra)
+                               geometry=True, features=True,
+                               vehicle_gaps_only=True, **_rule_arguments(model, rules))
 
 
 def rule_abiding_totals(ev: CandidateEvaluation, model: DriverModel, s0: float,
@@ -155,102 +168,54 @@ def rule_abiding_totals(ev: CandidateEvaluation, model: DriverModel, s0: float,
     rules and avoids the predicted vehicles, the rules are dropped under that hypothesis
     (avoiding a collision comes first).
 
+    In one compiled call (models/cost_kernels.rule_abiding_totals; its numpy reference:
+    tests/reference/rule_totals.py, the same bits).
+
     Args:
         ev: the candidates' evaluation (with travel_m, and curve_excess_mps for a bendy route).
         model: the driver's decision model (its vehicle length).
         s0: the driver's arc length along its route [m].
         rules: the road's rules (None: collision_free_totals).
-
-    A compiled evaluation (vehicle_gap_evaluation's) goes through one compiled call
-    (`_compiled_totals`), the same bits as `_numpy_rule_abiding_totals`
-    (tests/models/test_rule_totals.py).
-    """
-    if _compiled_evaluation(ev):
-        return _compiled_totals(ev, model, s0, rules)
-    return _numpy_rule_abiding_totals(ev, model, s0, rules)
-
-
-def _numpy_rule_abiding_totals(ev: CandidateEvaluation, model: DriverModel, s0: float,
-                               rules: RoadRules | None) -> np.ndarray:
-    """rule_abiding_totals in numpy (any evaluation; the reference of the compiled call)."""
-    totals = collision_free_totals(ev)
-    # every plan keeping the rules leaves the totals as they are (np.where of all-True picks them)
-    if rules is None or (rules.stop_s_m is None and ev.curve_excess_mps is None):
-        return totals
-    ok = None  # (A, C) the plans that keep the rules; None: every plan
-    if rules.stop_s_m is not None:
-        front = s0 + ev.travel_m[..., -1] + 0.5 * model.vehicle.length_m  # (A, C)
-        overshoot = np.maximum(front - rules.stop_s_m, 0.0)
-        ok = overshoot <= overshoot.min()
-    if ev.curve_excess_mps is not None:
-        excess = np.maximum(ev.curve_excess_mps, 0.0)
-        if ok is not None:
-            excess = np.where(ok, excess, np.inf)
-        within = excess <= excess.min()
-        ok = within if ok is None else ok & within
-    if ok is None or ok.all():
-        return totals
-    kept = np.where(ok, totals, np.inf)
-    hopeless = ~np.isfinite(kept).any(axis=(-1, -2), keepdims=True)
-    return np.where(hopeless, totals, kept)
-
-
-def _compiled_evaluation(ev: CandidateEvaluation) -> bool:
-    """Whether `_compiled_totals` takes `ev`: float64 arrays, C-contiguous step costs.
-
-    np.sum over the steps of a C-contiguous array is a pairwise sum per plan, which the
-    kernel follows; vehicle_gap_evaluation's compiled evaluations are such.
     """
     cost = ev.step_cost
-    if not (isinstance(cost, np.ndarray) and cost.ndim == 4 and cost.dtype == np.float64
+    if not (isinstance(cost, np.ndarray) and cost.dtype == np.float64
             and cost.flags.c_contiguous):
-        return False
+        # np.sum's own order over a layout the kernel does not walk, as one step to add to 0.0
+        cost = np.ascontiguousarray(np.sum(cost, axis=-1, dtype=np.float64)[..., None])
     plans = cost.shape[:3]
-    travel, excess = ev.travel_m, ev.curve_excess_mps
-    return (getattr(ev.min_vehicle_gap_m, "shape", None) == plans
-            and getattr(ev.vehicle_clearance_m, "shape", None) == plans
-            and getattr(travel, "shape", None) == cost.shape[1:]
-            and travel.dtype == np.float64
-            and (excess is None or getattr(excess, "shape", None) == plans[1:]))
-
-
-def _compiled_totals(ev: CandidateEvaluation, model: DriverModel, s0: float,
-                     rules: RoadRules | None) -> np.ndarray:
-    """rule_abiding_totals in one compiled call (models/cost_kernels.rule_abiding_totals)."""
-    excess = None if rules is None else ev.curve_excess_mps  # no rules: none applies
-    return _kernel_totals(
-        ev.step_cost, np.ascontiguousarray(ev.min_vehicle_gap_m, dtype=np.float64),
-        np.ascontiguousarray(ev.vehicle_clearance_m, dtype=np.float64),
-        np.ascontiguousarray(ev.travel_m),
-        None if excess is None else np.ascontiguousarray(excess, dtype=np.float64),
-        model, s0, rules)
-
-
-def _kernel_totals(step_cost: np.ndarray, vehicle_gap: np.ndarray, clearance: np.ndarray,
-                   travel: np.ndarray, excess: np.ndarray | None, model: DriverModel, s0: float,
-                   rules: RoadRules | None) -> np.ndarray:
-    """`_compiled_totals` of an evaluation's arrays, C-contiguous float64 already.
-
-    Args:
-        step_cost: (L, A, C, T) the step costs.
-        vehicle_gap: (L, A, C) the vehicle gaps [m].
-        clearance: (L, A, C) the vehicle clearances [m].
-        travel: (A, C, T) the distance travelled [m].
-        excess: (A, C) the curve-speed excess [m/s]; None: no curve speed (or no rules).
-        model: the driver's model (its vehicle length).
-        s0: its arc length [m].
-        rules: the road's rules (None: none).
-    """
-    _, cost_kernels = kernel_loading.load()
     stop_s_m = None if rules is None else rules.stop_s_m
+    excess = None if rules is None else ev.curve_excess_mps  # no rules: none applies
+    travel = _NO_TRAVEL if stop_s_m is None else ev.travel_m
+    _, cost_kernels = kernel_loading.load()
     return cost_kernels.rule_abiding_totals(
-        step_cost, vehicle_gap, clearance, travel, float(s0), 0.5 * model.vehicle.length_m,
-        0.0 if stop_s_m is None else float(stop_s_m), stop_s_m is not None,
-        _NO_EXCESS if excess is None else excess, excess is not None)
+        cost, _float_array(ev.min_vehicle_gap_m, plans),
+        _float_array(ev.vehicle_clearance_m, plans),
+        travel if travel is _NO_TRAVEL else _float_array(travel, plans[1:] + travel.shape[-1:]),
+        float(s0), 0.5 * model.vehicle.length_m,
+        _NO_STOP if stop_s_m is None else _stop_line(float(stop_s_m)),
+        _NO_EXCESS if excess is None else _float_array(excess, plans[1:]))
 
 
+def _float_array(values, shape: tuple) -> np.ndarray:
+    """Values broadcast to shape, C-contiguous float64 (the same array when it already is)."""
+    if getattr(values, "shape", None) != shape:
+        values = np.broadcast_to(values, shape)
+    return np.ascontiguousarray(values, dtype=np.float64)
+
+
+@functools.lru_cache(maxsize=256)
+def _stop_line(stop_s_m: float) -> np.ndarray:
+    """(1,) read-only: a stop line's arc length [m] as the kernel takes it (a map has few)."""
+    stop = np.array([stop_s_m])
+    stop.setflags(write=False)
+    return stop
+
+
+_NO_TRAVEL = np.zeros((0, 0, 0))  # no stop line: the kernel reads no travel
+_NO_STOP = np.zeros(0)
 _NO_EXCESS = np.zeros((0, 0))
-_NO_EXCESS.setflags(write=False)
+for _constant in (_NO_TRAVEL, _NO_STOP, _NO_EXCESS):
+    _constant.setflags(write=False)
 
 
 def driver_q_values(model: DriverModel, route: Route, s0: float, v0: float, prev_accel: float,
@@ -284,7 +249,7 @@ def driver_q_values(model: DriverModel, route: Route, s0: float, v0: float, prev
                                     rules.stop_s_m)
     if totals is not None:  # the kernels' evaluation and totals in one go
         return np.minimum.reduce(totals, axis=-1)  # totals.min(axis=-1) without its wrapper
-    ev = _evaluate(model, route, s0, v0, prev_accel, scene, crosswalks, rules, False)
+    ev = _evaluate(model, route, s0, v0, prev_accel, scene, crosswalks, rules)
     return rule_abiding_totals(ev, model, s0, rules).min(axis=-1)
 
 
@@ -302,5 +267,5 @@ def driver_choice_features(model: DriverModel, route: Route, s0: float, v0: floa
         allowed (A, C) bool: the continuations rule_abiding_totals keeps.
         Both for the first scene hypothesis.
     """
-    ev = _evaluate(model, route, s0, v0, prev_accel, scene, crosswalks, rules, True)
+    ev = _evaluate_features(model, route, s0, v0, prev_accel, scene, crosswalks, rules)
     return ev.feature_totals[0].copy(), np.isfinite(rule_abiding_totals(ev, model, s0, rules)[0])

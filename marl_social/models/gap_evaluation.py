@@ -132,7 +132,7 @@ def _evaluation(arrays: tuple, v_ref_mps: float, prev_accel: float,
                 curve_speed: CurveSpeed | None) -> CandidateEvaluation:
     """The CandidateEvaluation of `_kernel_arrays`' result (step_costs applied)."""
     cost_kernels, motion, excess, gaps, cost_arguments = arrays
-    cost = cost_kernels.step_costs(motion, float(v_ref_mps), float(prev_accel), *cost_arguments)
+    cost = cost_kernels.step_costs(motion, float(v_ref_mps), float(prev_accel), cost_arguments)
     v, ds, a_eff = motion  # (A, C, T) each
     clearance, vehicle_gap = gaps  # (L, A, C) each
     return CandidateEvaluation(cost, v, a_eff, None, None, None, vehicle_gap, None, ds,
@@ -160,9 +160,9 @@ def kernel_rule_totals(cands: CandidateSet, theta: np.ndarray, v_ref_mps: float,
         return None
     cost_kernels, motion, excess, gaps, cost_arguments = arrays
     return cost_kernels.plan_totals(
-        motion, float(v_ref_mps), float(prev_accel), *cost_arguments, gaps, float(s0),
+        motion, float(v_ref_mps), float(prev_accel), cost_arguments, gaps, (float(s0),
         0.5 * vehicle.length_m, 0.0 if stop_s_m is None else float(stop_s_m),
-        stop_s_m is not None, excess, curve_speed is not None)
+        stop_s_m is not None, excess, curve_speed is not None))
 
 
 def _kernel_arrays(cands: CandidateSet, theta: np.ndarray, vehicle: VehicleParams,

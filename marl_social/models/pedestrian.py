@@ -7,24 +7,18 @@ the features every agent shares.
 from __future__ import annotations
 
 import functools
-import math
 from dataclasses import dataclass, field
 
 import numpy as np
 
 from marl_social.models.candidates import ScenePrediction
 from marl_social.models.circle_gaps import (
-    MAX_KERNEL_OBJECTS,
-    circle_pair_gap,
     crosswalk_rows,
     scene_circle_inputs,
-    scene_circles,
 )
 from marl_social.sim.costs import (
     OCCUPANCY_SOFTNESS_M,
     CostWeights,
-    _crosswalk_conflict,
-    crosswalk_occupancy,
 )
 from marl_social.sim.dynamics import DT_S
 from marl_social.sim.footprint import circle_layout
@@ -113,20 +107,9 @@ def pedestrian_q_values(model: PedestrianModel, route: Route, s0: float, v_ref: 
     coincide with its centre (offset 0 along its heading; the sign of a zero offset cannot
     change a squared distance), so its centre stands for them
     (tests/models/test_pedestrian_costs.py checks it against step_cost bit for bit).
-    Compiled loops (models/gap_kernels.py, cost_kernels.py: `_compiled_q_values`) compute it
-    for a finite s0 and fewer than MAX_KERNEL_OBJECTS objects; numpy the rest.
-    """
-    if math.isfinite(s0) and scene.mask.shape[1] < MAX_KERNEL_OBJECTS:
-        return _compiled_q_values(model, route, s0, v_ref, prev_speed, scene, crosswalks)
-    return _numpy_q_values(model, route, s0, v_ref, prev_speed, scene, crosswalks)
-
-
-def _compiled_q_values(model: PedestrianModel, route: Route, s0: float, v_ref: float,
-                       prev_speed: float, scene: ScenePrediction,
-                       crosswalks: tuple[Crosswalk, ...]) -> np.ndarray:
-    """`_numpy_q_values` in compiled loops (gap_kernels, then cost_kernels), the same bits.
-
-    np.exp of the safety feature and np.tanh of the crosswalk occupancies in numpy.
+    Compiled loops (models/gap_kernels.py, cost_kernels.py; their numpy reference:
+    tests/reference/pedestrian_q.py) compute it; np.exp of the safety feature and np.tanh of
+    the crosswalk occupancies stay numpy's.
     """
     gap_kernels, kernels = _KERNELS or _kernels()
     _, speeds, _, ego_radius, speed_times, weights = _model_constants(model)
@@ -144,10 +127,9 @@ def _compiled_q_values(model: PedestrianModel, route: Route, s0: float, v_ref: f
     if len(occupancy):
         np.tanh(occupancy, out=occupancy)
         np.tanh(scene_occupancy, out=scene_occupancy)
-    return kernels.walk_costs(speeds, speed_times.shape[1], float(v_ref), float(prev_speed),
-                              float(model.plan_dt_s), weights, exp_arg,
-                              np.ascontiguousarray(scene.mask), occupancy, scene_occupancy,
-                              pair, model.plan_dt_s / DT_S)
+    walk = (float(v_ref), float(prev_speed), float(model.plan_dt_s), model.plan_dt_s / DT_S)
+    return kernels.walk_costs(speeds, speed_times.shape[1], walk, weights, exp_arg,
+                              np.ascontiguousarray(scene.mask), (occupancy, scene_occupancy, pair))
 
 
 _KERNELS: list = []  # [gap_kernels, cost_kernels] once loaded
@@ -159,66 +141,3 @@ def _kernels() -> tuple:
 
     _KERNELS[:] = kernel_loading.load()
     return tuple(_KERNELS)
-
-
-def _numpy_q_values(model: PedestrianModel, route: Route, s0: float, v_ref: float,
-                    prev_speed: float, scene: ScenePrediction,
-                    crosswalks: tuple[Crosswalk, ...]) -> np.ndarray:
-    """pedestrian_q_values in numpy (the reference of the compiled loops; any s0)."""
-    dt = model.plan_dt_s
-    _, speeds, theta, ego_radius, speed_times, _ = _model_constants(model)
-    s = np.minimum(s0 + speed_times, route.length_m)  # (A, T)
-    xy, _ = route.pose_at(s)
-    accel = np.zeros(s.shape)
-    accel[:, 0] = (speeds - prev_speed) / dt
-    w_speed, w_accel, w_jerk, w_safety, w_conflict = (float(w) for w in theta[1:])
-    n_hyp = len(scene.mask)
-    total = None
-
-    def add(total, term):
-        return term if total is None else total + term
-
-    if w_speed != 0.0:
-        term = np.broadcast_to(speeds[:, None], s.shape) - v_ref
-        term *= term
-        term *= w_speed
-        total = add(total, term)
-    if w_accel != 0.0 or w_jerk != 0.0:
-        squared = accel * accel  # the jerk's (a - 0.0)^2 too: a - 0.0 == a
-        if w_accel != 0.0:
-            total = add(total, w_accel * squared)
-        if w_jerk != 0.0:
-            total = add(total, w_jerk * squared)
-    other_mask = scene.mask[:, None, None, :]  # (L, 1, 1, M)
-    if w_safety != 0.0:
-        ox, oy, other_r = scene_circles(scene)
-        gap = circle_pair_gap(xy[None, ..., 0], xy[None, ..., 1], float(ego_radius[0]),
-                              ox, oy, other_r)  # (L, A, T, M)
-        np.maximum(gap, 0.0, out=gap)
-        np.negative(gap, out=gap)
-        np.exp(gap, out=gap)
-        if not scene.mask.all():
-            gap = np.where(other_mask, gap, 0.0)
-        term = np.sum(gap, axis=-1)
-        term *= w_safety
-        total = add(total, term)
-    if w_conflict != 0.0 and crosswalks:
-        pair_mask = other_mask & ~scene.is_pedestrian[:, None, None, :]  # vehicles
-        if not pair_mask.any():  # zeros: they only matter where they broadcast the total
-            shape = (n_hyp,) + s.shape
-            if total is None or total.shape != shape:
-                total = add(total, w_conflict * np.zeros(shape))
-        else:
-            other_xy = scene.xy.swapaxes(1, 2)[:, None]  # (L, 1, T, M, 2)
-            other_radius = scene.radius_m[:, None, None, :]
-            conflict = 0.0
-            for cw in crosswalks:
-                conflict = conflict + _crosswalk_conflict(
-                    crosswalk_occupancy(xy, model.radius_m, cw),
-                    crosswalk_occupancy(other_xy, other_radius, cw), pair_mask)
-            total = add(total, w_conflict * conflict)
-    if total is None:
-        total = np.zeros(s.shape)
-    if total.ndim == 2:  # nothing depended on the scene
-        total = np.broadcast_to(total, (n_hyp,) + s.shape)
-    return total.sum(axis=-1) * (dt / DT_S)

@@ -23,6 +23,7 @@ from __future__ import annotations
 
 import functools
 from dataclasses import dataclass
+from typing import NamedTuple
 
 import numpy as np
 
@@ -254,19 +255,62 @@ def _crosswalk_conflict(occ_ego, occ_other, pair_mask) -> np.ndarray:
     return occ_ego * np.sum(np.where(pair_mask, occ_other, 0.0), axis=-1)
 
 
-def _feature_terms(*, lateral_m, speed_mps, v_ref_mps, accel_mps2, prev_accel_mps2,
-                   ego_xy, ego_radius, ego_is_ped, ego_circles, ego_circle_r,
-                   other_xy, other_radius, other_is_ped, other_circles, other_circle_r, other_mask,
-                   crosswalks, needed=(True,) * N_FEATURES, gap=None, yield_zones=(),
-                   other_occupancy=None) -> list:
-    """The six per-step features in FEATURE_NAMES order (None where not needed).
+class StepInputs(NamedTuple):
+    """What one step's features of a batch of egos depend on (`step_features`' arguments).
 
-    `gap` may pass circle_gap(ego, others) already computed by the caller, `other_occupancy`
-    the others' crosswalk_occupancy(other_xy, other_radius, cw) per crosswalk. `yield_zones`: the
-    conflict zones the ego yields at, each (polygon (V, 2) [m], claim (..., M) in 0..1: how much
-    each other with the right of way there claims the zone, 0 for the others; broadcast
-    against other_mask).
+    Attributes:
+        lateral_m: lateral offset from the route [m].
+        speed_mps: speed [m/s].
+        v_ref_mps: reference speed [m/s].
+        accel_mps2: acceleration [m/s^2].
+        prev_accel_mps2: last step's acceleration [m/s^2].
+        ego_xy: (..., 2) centre [m] (or a Jet, agents/irl/jets.py).
+        ego_radius: (...) bounding radius [m].
+        ego_is_ped: (...) bool.
+        ego_circles: (..., C, 2) covering-circle centres [m] (footprint.covering_circles).
+        ego_circle_r: (..., C) their radii [m].
+        other_xy: (..., M, 2) the others' centres [m].
+        other_radius: (..., M) their bounding radii [m].
+        other_is_ped: (..., M) bool.
+        other_circles: (..., M, C, 2) their covering-circle centres [m].
+        other_circle_r: (..., M, C) their radii [m].
+        other_mask: (..., M) bool, the others that count (not absent, not the ego).
+        crosswalks: the map's crosswalks.
+        gap: circle_gap(ego, others) computed by the caller, or None.
+        yield_zones: the conflict zones the ego yields at, each (polygon (V, 2) [m], claim
+            (..., M) in 0..1: how much each other with the right of way there claims the
+            zone, 0 for the others; broadcast against other_mask).
+        other_occupancy: the others' crosswalk_occupancy per crosswalk, or None.
     """
+
+    lateral_m: object
+    speed_mps: object
+    v_ref_mps: object
+    accel_mps2: object
+    prev_accel_mps2: object
+    ego_xy: object
+    ego_radius: object
+    ego_is_ped: object
+    ego_circles: object
+    ego_circle_r: object
+    other_xy: object
+    other_radius: object
+    other_is_ped: object
+    other_circles: object
+    other_circle_r: object
+    other_mask: object
+    crosswalks: tuple
+    gap: object = None
+    yield_zones: tuple = ()
+    other_occupancy: object = None
+
+
+def _feature_terms(inputs: StepInputs, needed: tuple = (True,) * N_FEATURES) -> list:
+    """The six per-step features in FEATURE_NAMES order (None where not needed)."""
+    (lateral_m, speed_mps, v_ref_mps, accel_mps2, prev_accel_mps2, ego_xy, ego_radius,
+     ego_is_ped, ego_circles, ego_circle_r, other_xy, other_radius, other_is_ped,
+     other_circles, other_circle_r, other_mask, crosswalks, gap, yield_zones,
+     other_occupancy) = inputs
     terms = [None] * N_FEATURES
     if needed[0]:
         terms[0] = np.asarray(lateral_m, dtype=np.float64) ** 2
@@ -315,16 +359,10 @@ def _no_pair_shape(ego_xy, ego_radius, other_xy, other_radius, pair_mask, other_
 def step_features(**kwargs) -> np.ndarray:
     """Feature vector phi of one step for a batch of egos.
 
-    Keyword arguments: lateral_m, speed_mps, v_ref_mps, accel_mps2, prev_accel_mps2;
-    ego_xy (..., 2), ego_radius, ego_is_ped (...), ego_circles (..., C, 2) and ego_circle_r
-    (..., C) from footprint.covering_circles; other_xy (..., M, 2), other_radius,
-    other_is_ped (..., M), other_circles (..., M, C, 2), other_circle_r (..., M, C),
-    other_mask (..., M) bool (excludes absent agents and the ego itself); crosswalks;
-    optionally yield_zones (see the module docstring: ((polygon (V, 2), claim (..., M)),
-    ...)) and other_occupancy (the others' crosswalk_occupancy per crosswalk, computed by
-    the caller). Leading dimensions broadcast. Returns (..., N_FEATURES) in FEATURE_NAMES order.
+    Keyword arguments: the fields of StepInputs (gap, yield_zones and other_occupancy
+    optional). Leading dimensions broadcast. Returns (..., N_FEATURES) in FEATURE_NAMES order.
     """
-    terms = _feature_terms(**kwargs)
+    terms = _feature_terms(StepInputs(**kwargs))
     return np.stack(np.broadcast_arrays(*terms), axis=-1)
 
 
@@ -334,7 +372,7 @@ def step_cost(theta: np.ndarray, **kwargs) -> np.ndarray:
     Computes only the features whose weight is non-zero. Returns the broadcast batch shape (...).
     """
     theta = np.asarray(theta, dtype=np.float64)
-    terms = _feature_terms(needed=tuple(bool(w != 0.0) for w in theta), **kwargs)
+    terms = _feature_terms(StepInputs(**kwargs), tuple(bool(w != 0.0) for w in theta))
     total = 0.0
     for weight, term in zip(theta, terms):
         if term is not None:
@@ -342,27 +380,40 @@ def step_cost(theta: np.ndarray, **kwargs) -> np.ndarray:
     return total
 
 
-def pairwise_step_features(*, lateral_m, speed_mps, v_ref_mps, accel_mps2, prev_accel_mps2,
-                           xy, radius, is_ped, circles, circle_r, other_mask, crosswalks,
-                           kinds_differ=None) -> np.ndarray:
+class AgentMotion(NamedTuple):
+    """What n agents' own features depend on this step, (n,) each."""
+
+    lateral_m: np.ndarray  # lateral offsets from the routes [m]
+    speed_mps: np.ndarray  # speeds [m/s]
+    v_ref_mps: np.ndarray | float  # reference speeds [m/s] (one for all, or (n,))
+    accel_mps2: np.ndarray  # accelerations this step [m/s^2]
+    prev_accel_mps2: np.ndarray  # accelerations last step [m/s^2]
+
+
+class AgentFootprints(NamedTuple):
+    """Where n agents are and the footprints they cover this step."""
+
+    xy: np.ndarray  # (n, 2) centres [m]
+    radius: np.ndarray  # (n,) bounding radii [m]
+    is_ped: np.ndarray  # (n,) bool
+    circles: np.ndarray  # (n, C, 2) covering-circle centres [m] (footprint.circle_layout)
+    circle_r: np.ndarray  # (n, C) their radii [m], one value per footprint
+
+
+def pairwise_step_features(motion: AgentMotion, bodies: AgentFootprints, other_mask: np.ndarray,
+                           crosswalks: tuple, kinds_differ: np.ndarray | None = None
+                           ) -> np.ndarray:
     """`step_features` of n agents who are each other's others (the env's reward), fast.
 
     The same features, bit for bit, as ``step_features`` with ego = every agent and others =
-    the same n agents (tests/sim/test_costs.py checks it), in fewer array operations: every
-    circle pair of every agent pair in one broadcast (the minimum is exact, so its order does
-    not matter) and each crosswalk's occupancy computed once for egos and others alike.
+    the same n agents (tests/sim/test_costs.py checks it), compiled (sim/feature_kernels.py):
+    the circle gaps, the first five features and the crosswalks' row sums, any n (np.exp and
+    crosswalk_occupancy's np.tanh stay numpy's); each crosswalk's occupancy is computed once
+    for egos and others alike.
 
     Args:
-        lateral_m: (n,) lateral offsets from the routes [m].
-        speed_mps: (n,) speeds [m/s].
-        v_ref_mps: (n,) reference speeds [m/s].
-        accel_mps2: (n,) accelerations this step [m/s^2].
-        prev_accel_mps2: (n,) accelerations last step [m/s^2].
-        xy: (n, 2) centres [m].
-        radius: (n,) bounding radii [m].
-        is_ped: (n,) bool.
-        circles: (n, C, 2) covering-circle centres [m] (footprint.circle_layout).
-        circle_r: (n, C) their radii [m], one value per footprint.
+        motion: the agents' offsets, speeds and accelerations.
+        bodies: their positions and covering circles.
         other_mask: (n, n) bool, other_mask[i, j]: agent j counts as an other of agent i.
         crosswalks: the map's crosswalks.
         kinds_differ: (n, n) bool, is_ped[j] != is_ped[i] (computed when None).
@@ -370,15 +421,9 @@ def pairwise_step_features(*, lateral_m, speed_mps, v_ref_mps, accel_mps2, prev_
     Returns:
         (n, N_FEATURES) in FEATURE_NAMES order.
     """
+    lateral_m, speed_mps, v_ref_mps, accel_mps2, prev_accel_mps2 = motion
+    xy, radius, is_ped, circles, circle_r = bodies
     kernels = feature_kernels()
-    if len(xy) > kernels.PAIRWISE_MAX:  # rows numpy sums in more than one pairwise block
-        return _numpy_pairwise_step_features(
-            lateral_m=lateral_m, speed_mps=speed_mps, v_ref_mps=v_ref_mps,
-            accel_mps2=accel_mps2, prev_accel_mps2=prev_accel_mps2, xy=xy, radius=radius,
-            is_ped=is_ped, circles=circles, circle_r=circle_r, other_mask=other_mask,
-            crosswalks=crosswalks, kinds_differ=kinds_differ)
-    # compiled (sim/feature_kernels.py): the circle gaps, the first five features and the
-    # crosswalks' row sums; np.exp and crosswalk_occupancy (np.tanh) stay numpy's
     gap = kernels.circle_gap_matrix(circles, circle_r[:, 0])
     out = kernels.feature_rows(lateral_m, speed_mps, np.broadcast_to(v_ref_mps, len(xy)),
                                accel_mps2, prev_accel_mps2, np.exp(-gap), other_mask)
@@ -388,33 +433,13 @@ def pairwise_step_features(*, lateral_m, speed_mps, v_ref_mps, accel_mps2, prev_
     return out
 
 
-def _numpy_pairwise_step_features(*, lateral_m, speed_mps, v_ref_mps, accel_mps2,
-                                  prev_accel_mps2, xy, radius, is_ped, circles, circle_r,
-                                  other_mask, crosswalks, kinds_differ) -> np.ndarray:
-    """`pairwise_step_features` in numpy: its path for more agents than one pairwise block."""
-    d = circles[:, None, :, None, :] - circles[None, :, None, :, :]  # (n, n, C, C, 2)
-    dx, dy = d[..., 0], d[..., 1]
-    nearest = (dx * dx + dy * dy).min(axis=(2, 3))
-    gap = np.maximum(np.sqrt(nearest) - circle_r[:, None, 0] - circle_r[None, :, 0], 0.0)
-    out = np.empty((len(xy), N_FEATURES))
-    out[:, :5] = np.stack(np.broadcast_arrays(*_feature_terms(
-        lateral_m=lateral_m, speed_mps=speed_mps, v_ref_mps=v_ref_mps, accel_mps2=accel_mps2,
-        prev_accel_mps2=prev_accel_mps2, ego_xy=None, ego_radius=None, ego_is_ped=None,
-        ego_circles=None, ego_circle_r=None, other_xy=None, other_radius=None,
-        other_is_ped=None, other_circles=None, other_circle_r=None, other_mask=other_mask,
-        crosswalks=(), needed=(True,) * 5 + (False,), gap=gap)[:5]), axis=-1)
-    out[:, 5] = _pairwise_conflict(
-        xy, radius, is_ped, other_mask, crosswalks, kinds_differ,
-        lambda occ, pair_mask: _crosswalk_conflict(occ, occ[None, :], pair_mask))
-    return out
-
-
 def _pairwise_conflict(xy, radius, is_ped, other_mask, crosswalks, kinds_differ, term):
     """(n,) conflict feature of n agents who are each other's others (or 0.0: no crosswalk).
 
     Per crosswalk `term(occupancy, pair_mask)`: each agent's occupancy times the summed
-    occupancy of its others of the other kind (`_crosswalk_conflict`, or its compiled row
-    sums), added up over the crosswalks from 0.0 as `_feature_terms` adds them.
+    occupancy of its others of the other kind (the compiled row sums; `_crosswalk_conflict`
+    in the tests' numpy reference), added up over the crosswalks from 0.0 as `_feature_terms`
+    adds them.
     """
     conflict = 0.0
     if crosswalks:

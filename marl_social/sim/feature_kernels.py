@@ -2,10 +2,11 @@
 
 sim/costs.py loads this module at the first `pairwise_step_features` of a process (numba is not
 imported with `import marl_social`). Each kernel gives, value by value, what the numpy
-formulation it replaces gave (kept in tests/sim/test_feature_kernels.py, which checks the two
-agree bit for bit): np.min over the circle pairs, numpy's maximum tie rule, np.sum's pairwise
-summation of a row; np.exp and np.tanh stay numpy's. No fast-math, no threads. Compiled once,
-cached in __pycache__ (cache=True).
+formulation in tests/reference/pairwise_features.py gives (tests/sim/test_feature_kernels.py
+checks the two agree bit for bit, any number of agents): np.min over the circle pairs, numpy's
+maximum tie rule, np.sum's pairwise summation of a row (sim/pairwise_sum.py); np.exp and
+np.tanh stay numpy's. No fast-math, no threads. Compiled once, cached in __pycache__
+(cache=True).
 """
 
 from __future__ import annotations
@@ -16,10 +17,13 @@ import numba
 import numpy as np
 from numba import types
 
+from marl_social.sim.pairwise_sum import contiguous_sum
+
+# pairwise_sum.py stamp: 6635cc8d50a6aec4 (tests/sim/test_pairwise_sum.py)
+
 _F8 = types.float64
 _B1 = types.boolean
 _JIT = {"cache": True, "nogil": True, "error_model": "numpy"}
-PAIRWISE_MAX = 128  # rows up to this long sum as numpy's pairwise_sum does in one block
 
 
 def _array(ndim: int, dtype=_F8):
@@ -28,32 +32,12 @@ def _array(ndim: int, dtype=_F8):
 
 
 @numba.njit(cache=True)
-def _row_sum(values, mask, i, n):
-    """np.sum(np.where(mask[i], values[i], 0.0)) of a row of n <= PAIRWISE_MAX values.
-
-    0.0 plus numpy's pairwise_sum: fewer than 8 values added one by one to -0.0; else eight
-    running sums, combined ((r0 + r1) + (r2 + r3)) + ((r4 + r5) + (r6 + r7)), then the rest
-    one by one (perception/belief/belief_kernels._pairwise_sum's twin: numba's cache notices
-    edits only in a kernel's own file).
-    """
-    if n < 8:
-        total = -0.0
-        for j in range(n):
-            total += values[i, j] if mask[i, j] else 0.0
-        return 0.0 + total
-    r = np.empty(8)
-    for k in range(8):
-        r[k] = values[i, k] if mask[i, k] else 0.0
-    j = 8
-    while j < n - (n % 8):
-        for k in range(8):
-            r[k] += values[i, j + k] if mask[i, j + k] else 0.0
-        j += 8
-    total = ((r[0] + r[1]) + (r[2] + r[3])) + ((r[4] + r[5]) + (r[6] + r[7]))
-    while j < n:
-        total += values[i, j] if mask[i, j] else 0.0
-        j += 1
-    return 0.0 + total
+def _row_sum(values, mask, i, row):
+    """np.sum(np.where(mask[i], values[i], 0.0)) of row i, any length (row: a scratch buffer)."""
+    n = values.shape[1]
+    for j in range(n):
+        row[j] = values[i, j] if mask[i, j] else 0.0
+    return contiguous_sum(row, 0, n)
 
 
 @numba.njit([_F8[:, ::1](_array(3), _array(1))], **_JIT)
@@ -108,6 +92,7 @@ def feature_rows(lateral_m, speed_mps, v_ref_mps, accel_mps2, prev_accel_mps2, s
     """
     n = len(lateral_m)
     out = np.zeros((n, 6))
+    row = np.empty(safety_exp.shape[1])
     for i in range(n):
         out[i, 0] = lateral_m[i] * lateral_m[i]
         dv = speed_mps[i] - v_ref_mps[i]
@@ -115,7 +100,7 @@ def feature_rows(lateral_m, speed_mps, v_ref_mps, accel_mps2, prev_accel_mps2, s
         out[i, 2] = accel_mps2[i] * accel_mps2[i]
         da = accel_mps2[i] - prev_accel_mps2[i]
         out[i, 3] = da * da
-        out[i, 4] = _row_sum(safety_exp, other_mask, i, safety_exp.shape[1])
+        out[i, 4] = _row_sum(safety_exp, other_mask, i, row)
     return out
 
 
@@ -133,6 +118,7 @@ def occupancy_sums(occupancy, pair_mask):
         for j in range(n):
             values[i, j] = occupancy[j]
     out = np.empty(n)
+    row = np.empty(n)
     for i in range(n):
-        out[i] = _row_sum(values, pair_mask, i, n)
+        out[i] = _row_sum(values, pair_mask, i, row)
     return out

@@ -73,35 +73,35 @@ def project_points(x, y, segments, out, k_out):
 
 
 @numba.njit(cache=True)
-def on_lanes(x, y, heading, segments, seg_heading, lane_ends, lane_length, lane_reach,
-             tolerance_rad, out):
+def on_lanes(x, y, heading, segments, lanes, tolerance_rad, out):
     """route_rules.on_lanes' test of each object on each lane, the numpy arithmetic's bits.
 
-    On lane l (the segment columns lane_ends[l - 1] (0 for l = 0) to lane_ends[l] of
-    segments): its arc length s strictly within (0, lane_length[l]), |lateral| <=
-    lane_reach[l] and |(heading - segment heading + pi) mod 2 pi - pi| <= tolerance_rad
-    (np.remainder's floored modulo, as Python's %).
+    On lane l (the segment columns lanes[0, l - 1] (0 for l = 0) to lanes[0, l] of
+    segments): its arc length s strictly within (0, lanes[1, l]), |lateral| <= lanes[2, l]
+    and |(heading - segment heading + pi) mod 2 pi - pi| <= tolerance_rad (np.remainder's
+    floored modulo, as Python's %).
 
     Args:
         x: (M,) the objects' centre x [m].
         y: (M,) their centre y [m].
         heading: (M,) their headings [rad].
-        segments: (6, S) the lanes' centreline segments, lane after lane (project_points').
-        seg_heading: (S,) their headings [rad].
-        lane_ends: (N,) the end column of each lane's segments.
-        lane_length: (N,) the centrelines' lengths [m].
-        lane_reach: (N,) half the lane width plus the lateral margin [m].
+        segments: (7, S) the lanes' centreline segments, lane after lane: project_points'
+            six rows, then the segments' headings [rad].
+        lanes: (3, N) per lane the end column of its segments (a whole number), its
+            centreline's length [m] and half its width plus the lateral margin [m].
         tolerance_rad: the heading tolerance [rad].
         out: (M,) bool, out: on any of the lanes.
     """
+    seg_heading = segments[6]
     for i in range(x.shape[0]):
         found = False
         first = 0
-        for lane in range(lane_ends.shape[0]):
-            s, lateral, k = _project_one(x[i], y[i], segments, first, lane_ends[lane])
-            first = lane_ends[lane]
+        for lane in range(lanes.shape[1]):
+            end = int(lanes[0, lane])
+            s, lateral, k = _project_one(x[i], y[i], segments, first, end)
+            first = end
             dpsi = abs((heading[i] - seg_heading[k] + np.pi) % (2 * np.pi) - np.pi)
-            if (s > 0.0 and s < lane_length[lane] and abs(lateral) <= lane_reach[lane]
+            if (s > 0.0 and s < lanes[1, lane] and abs(lateral) <= lanes[2, lane]
                     and dpsi <= tolerance_rad):
                 found = True
         out[i] = found

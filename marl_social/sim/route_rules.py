@@ -78,13 +78,13 @@ def on_lanes(lanes, xy, heading) -> np.ndarray:
     LANE_LATERAL_MARGIN_M) of the centreline, between the centreline's ends, and its heading is
     within LANE_HEADING_TOLERANCE_RAD of the lane's direction there.
 
-    In one compiled call (sim/route_kernels.on_lanes) for one heading per object; otherwise,
-    and as its reference, `_numpy_on_lanes` (the same bits, tests/sim/test_route_kernels.py).
+    In one compiled call (sim/route_kernels.on_lanes; its numpy reference:
+    tests/reference/lane_test.py).
 
     Args:
         lanes: the lanes (Lane).
         xy: (M, 2) object centres [m].
-        heading: (M,) object headings [rad].
+        heading: (M,) object headings [rad], or one heading for all.
 
     Returns:
         (M,) bool.
@@ -92,26 +92,15 @@ def on_lanes(lanes, xy, heading) -> np.ndarray:
     xy = np.asarray(xy, dtype=np.float64).reshape(-1, 2)
     heading = np.asarray(heading, dtype=np.float64).reshape(-1)
     lanes = tuple(lanes)
-    if not lanes or heading.shape != (len(xy),):
-        return _numpy_on_lanes(lanes, xy, heading)
-    segments, seg_heading, lane_ends, lane_length, lane_reach = _lane_table(lanes)
+    if not lanes:
+        return np.zeros(len(xy), dtype=bool)
+    if heading.shape != (len(xy),):
+        heading = np.broadcast_to(heading, (len(xy),))
+    segments, lane_table = _lane_table(lanes)
     out = np.empty(len(xy), dtype=bool)
     route_kernels().on_lanes(np.ascontiguousarray(xy[:, 0]), np.ascontiguousarray(xy[:, 1]),
-                             np.ascontiguousarray(heading), segments, seg_heading,
-                             lane_ends, lane_length,
-                             lane_reach, LANE_HEADING_TOLERANCE_RAD, out)
-    return out
-
-
-def _numpy_on_lanes(lanes, xy, heading) -> np.ndarray:
-    """on_lanes in numpy, lane by lane (xy (M, 2) and heading float64 arrays)."""
-    out = np.zeros(len(xy), dtype=bool)
-    for lane, route in zip(lanes, _lane_routes(tuple(lanes))):
-        s, lateral, lane_heading = route.project(xy)
-        inside = (s > 0.0) & (s < route.length_m)
-        near = np.abs(lateral) <= 0.5 * lane.width_m + LANE_LATERAL_MARGIN_M
-        dpsi = np.abs((heading - lane_heading + np.pi) % (2 * np.pi) - np.pi)
-        out |= inside & near & (dpsi <= LANE_HEADING_TOLERANCE_RAD)
+                             np.ascontiguousarray(heading), segments, lane_table,
+                             LANE_HEADING_TOLERANCE_RAD, out)
     return out
 
 
@@ -126,20 +115,23 @@ def _lane_table(lanes: tuple[Lane, ...]) -> tuple[np.ndarray, ...]:
     The static map's lanes (its zones' priority lanes) are the same objects at every call.
 
     Returns:
-        (6, S) their centrelines' segments one lane after the other (Route.kernel_segment_table),
-        (S,) the segments' headings [rad], (N,) each lane's end column, (N,) the centrelines'
-        lengths [m] and (N,) half the lane width plus LANE_LATERAL_MARGIN_M [m].
+        (7, S) their centrelines' segments one lane after the other
+        (Route.kernel_segment_table's six rows, then the segments' headings [rad]) and (3, N)
+        per lane the end column of its segments, its centreline's length [m] and half its
+        width plus LANE_LATERAL_MARGIN_M [m].
     """
     key = tuple(id(lane) for lane in lanes)
     hit = _LANE_TABLES.get(key)
     if hit is not None and all(a is b for a, b in zip(hit[0], lanes)):
         return hit[1]
     routes = _lane_routes(lanes)
-    reach = tuple(0.5 * lane.width_m + LANE_LATERAL_MARGIN_M for lane in lanes)
-    table = (np.ascontiguousarray(np.hstack([r.kernel_segment_table for r in routes])),
-             np.concatenate([r.segment_heading_rad for r in routes]),
-             np.cumsum([r.n_segments for r in routes]).astype(np.int64),
-             np.array([r.length_m for r in routes]), np.array(reach, dtype=np.float64))
+    table = (np.ascontiguousarray(np.vstack([
+                 np.hstack([r.kernel_segment_table for r in routes]),
+                 np.concatenate([r.segment_heading_rad for r in routes])])),
+             np.array([np.cumsum([r.n_segments for r in routes]),
+                       [r.length_m for r in routes],
+                       [0.5 * lane.width_m + LANE_LATERAL_MARGIN_M for lane in lanes]],
+                      dtype=np.float64))
     if len(_LANE_TABLES) >= _MAX_LANE_TABLES:
         _LANE_TABLES.clear()
     _LANE_TABLES[key] = (lanes, table)

@@ -11,7 +11,7 @@ import numpy as np
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from marl_social.models import cost_kernels, gap_kernels
+from marl_social.models import gap_kernels
 from marl_social.models.candidates import (
     CandidateSet,
     ScenePrediction,
@@ -22,6 +22,7 @@ from marl_social.models.candidates import (
 )
 from marl_social.models.circle_gaps import circle_pair_gap, scene_circle_inputs, scene_circles
 from marl_social.models.gap_evaluation import vehicle_gap_evaluation
+from marl_social.sim import pairwise_sum
 from marl_social.sim.agent_spec import VehicleParams
 from marl_social.sim.road_map import Crosswalk, Route
 from marl_social.sim.route_rules import CURVE_PROFILE_STEP_M, CurveSpeed
@@ -39,7 +40,7 @@ def test_pairwise_sum_is_np_sum(seed, n, rows):
     # magnitudes 1e-17..1: the order of the additions shows in the last bits
     values = rng.random((rows, n)) * 10.0 ** rng.integers(-17, 1, (rows, n))
     want = np.sum(values, axis=-1)
-    got = np.array([0.0 + cost_kernels._pairwise_sum(row, 0, n) for row in values])
+    got = np.array([pairwise_sum.contiguous_sum(row, 0, n) for row in values])
     assert same_bits(got, want)
 
 

@@ -1,29 +1,31 @@
 """The pedestrian's compiled Q values (models/gap_kernels.py, cost_kernels.py) equal its numpy ones, bit for bit.
 
-Up to 20 objects (from MAX_KERNEL_OBJECTS on numpy), several hypotheses, absent objects, vehicles
-on the crosswalk, weights with zeros, straight and bent crossing routes; and a non-finite
-arc length takes the numpy path.
+The numpy reference: tests/reference/pedestrian_q.py. Up to 40 objects and a crowd of 100-200
+(more than MAX_KERNEL_OBJECTS: np.sum then adds along the reference's strided object axis),
+several hypotheses, absent objects, vehicles on the crosswalk, weights with zeros, straight
+and bent crossing routes, and non-finite arc lengths.
 """
 
 import numpy as np
+import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from marl_social.models import pedestrian
-from marl_social.models.candidates import ScenePrediction
-from marl_social.models.circle_gaps import MAX_KERNEL_OBJECTS
 from marl_social.models.pedestrian import PedestrianModel
 from marl_social.sim.costs import CostWeights
-from marl_social.sim.road_map import Crosswalk, Route
+from marl_social.sim.road_map import Crosswalk
 from tests.helpers import same_bits
 from tests.models.test_pedestrian_costs import random_walk_case
+from tests.reference.pedestrian_q import pedestrian_q_values as numpy_q_values
 
 CROSSWALK = Crosswalk(center=np.array([0.0, 0.0]), walk_heading_rad=0.5 * np.pi,
                       length_m=10.0, width_m=4.0)
 
 
 @settings(max_examples=100, deadline=None)
-@given(seed=st.integers(0, 2**32 - 1), n_hyp=st.integers(1, 4), n_obj=st.integers(0, 20),
+@given(seed=st.integers(0, 2**32 - 1), n_hyp=st.integers(1, 4),
+       n_obj=st.one_of(st.integers(0, 40), st.integers(100, 200)),
        crosswalks=st.integers(0, 2), p_ped=st.sampled_from([0.0, 0.5, 1.0]),
        p_absent=st.sampled_from([0.0, 0.3]), zero_weights=st.booleans())
 def test_compiled_q_values_equal_numpy(seed, n_hyp, n_obj, crosswalks, p_ped, p_absent,
@@ -38,19 +40,17 @@ def test_compiled_q_values_equal_numpy(seed, n_hyp, n_obj, crosswalks, p_ped, p_
                         width_m=3.0)
     args = (model, route, rng.uniform(-1.0, 12.0), rng.choice([0.0, 1.3]),
             rng.uniform(0.0, 2.0), scene, (CROSSWALK, shifted)[:crosswalks])
-    want = pedestrian._numpy_q_values(*args)
+    want = numpy_q_values(*args)
     assert same_bits(pedestrian.pedestrian_q_values(*args), np.asarray(want))
-    if n_obj < MAX_KERNEL_OBJECTS:  # what the kernels take
-        assert same_bits(pedestrian._compiled_q_values(*args), np.asarray(want))
 
 
-def test_a_non_finite_arc_length_takes_numpy():
+@pytest.mark.parametrize("s0", [np.nan, np.inf, -np.inf, 1e300])
+@pytest.mark.parametrize("n_obj", [0, 3, 12])
+def test_a_non_finite_arc_length_gives_numpys_costs(s0, n_obj):
+    rng = np.random.default_rng(n_obj)
     model = PedestrianModel()
-    route = Route([[0.0, -5.0], [0.0, 5.0]])
-    scene = ScenePrediction(np.zeros((1, 0, 16, 2)), np.zeros((1, 0, 16)), np.zeros((1, 0)),
-                            np.zeros((1, 0)), np.zeros((1, 0)), np.zeros((1, 0), bool),
-                            np.zeros((1, 0), bool))
-    with np.errstate(invalid="ignore"):
-        got = pedestrian.pedestrian_q_values(model, route, np.nan, 1.3, 0.0, scene, ())
-        want = pedestrian._numpy_q_values(model, route, np.nan, 1.3, 0.0, scene, ())
-    assert same_bits(got, want)
+    route, scene = random_walk_case(rng, model, 2, n_obj, 0.5, 0.3)
+    with np.errstate(invalid="ignore", over="ignore"):
+        got = pedestrian.pedestrian_q_values(model, route, s0, 1.3, 0.0, scene, (CROSSWALK,))
+        want = numpy_q_values(model, route, s0, 1.3, 0.0, scene, (CROSSWALK,))
+    assert same_bits(got, np.asarray(want))

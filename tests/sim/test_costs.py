@@ -8,6 +8,8 @@ import pytest
 
 from marl_social.sim.costs import (
     FEATURE_NAMES,
+    AgentFootprints,
+    AgentMotion,
     CostWeights,
     crosswalk_occupancy,
     pairwise_step_features,
@@ -144,9 +146,9 @@ def test_pairwise_features_equal_the_generic_ones_bit_for_bit(seed):
         ego_circle_r=circle_r, other_xy=xy[None], other_radius=radius[None],
         other_is_ped=is_ped[None], other_circles=circles[None], other_circle_r=circle_r[None],
         other_mask=others, crosswalks=crosswalks)
-    fast = pairwise_step_features(**scalars, xy=xy, radius=radius, is_ped=is_ped,
-                                  circles=circles, circle_r=circle_r, other_mask=others,
-                                  crosswalks=crosswalks)
+    fast = pairwise_step_features(AgentMotion(**scalars),
+                                  AgentFootprints(xy, radius, is_ped, circles, circle_r), others,
+                                  crosswalks)
     assert generic.shape == fast.shape == (n, len(FEATURE_NAMES))
     assert generic.tobytes() == fast.tobytes()
 

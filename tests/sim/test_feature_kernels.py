@@ -1,13 +1,18 @@
-"""sim/feature_kernels.py gives, bit for bit, the numpy pairwise features it replaced."""
+"""sim/feature_kernels.py gives, bit for bit, the numpy pairwise features it replaced.
+
+The numpy reference: tests/reference/pairwise_features.py. Any number of agents: rows longer
+than numpy's pairwise block (128) sum in halves, as np.sum does.
+"""
 
 from __future__ import annotations
 
 import numpy as np
 import pytest
 
-from marl_social.sim.costs import _numpy_pairwise_step_features, pairwise_step_features
+from marl_social.sim.costs import AgentFootprints, AgentMotion, pairwise_step_features
 from marl_social.sim.footprint import circle_layout, place_along
 from marl_social.sim.road_map import Crosswalk
+from tests.reference.pairwise_features import pairwise_step_features as numpy_features
 
 
 def _scene(rng, n, spread_m):
@@ -21,15 +26,15 @@ def _scene(rng, n, spread_m):
     xy = state[:, :2]
     along, circle_r = circle_layout(length, width, is_ped)
     active = rng.random(n) < 0.8
-    return {"lateral_m": rng.normal(0, 1, n), "speed_mps": state[:, 3],
-            "v_ref_mps": rng.uniform(5, 15, n) if rng.random() < 0.7 else 8.0,
-            "accel_mps2": rng.normal(0, 2, n), "prev_accel_mps2": rng.normal(0, 2, n),
-            "xy": xy, "radius": 0.5 * np.hypot(length, width), "is_ped": is_ped,
-            "circles": place_along(xy, state[:, 2], along), "circle_r": circle_r,
-            "other_mask": active[None, :] & ~np.eye(n, dtype=bool),
-            "crosswalks": (Crosswalk(np.array([50.0, 0.0]), np.pi / 2, 8.0, 4.0),
-                           Crosswalk(np.array([45.0, 3.0]), 0.3, 6.0, 3.0))[
-                               :int(rng.integers(0, 3))],
+    motion = AgentMotion(rng.normal(0, 1, n), state[:, 3],
+                         rng.uniform(5, 15, n) if rng.random() < 0.7 else 8.0,
+                         rng.normal(0, 2, n), rng.normal(0, 2, n))
+    bodies = AgentFootprints(xy, 0.5 * np.hypot(length, width), is_ped,
+                         place_along(xy, state[:, 2], along), circle_r)
+    crosswalks = (Crosswalk(np.array([50.0, 0.0]), np.pi / 2, 8.0, 4.0),
+                  Crosswalk(np.array([45.0, 3.0]), 0.3, 6.0, 3.0))[:int(rng.integers(0, 3))]
+    return {"motion": motion, "bodies": bodies,
+            "other_mask": active[None, :] & ~np.eye(n, dtype=bool), "crosswalks": crosswalks,
             "kinds_differ": None}
 
 
@@ -38,7 +43,7 @@ def test_the_kernels_give_the_numpy_features(seed):
     rng = np.random.default_rng(seed)
     n = int(rng.choice([1, 2, 3, 7, 8, 9, 15, 16, 17, 31, 64, 100, 128, 129, 140]))
     args = _scene(rng, n, spread_m=float(rng.choice([2.0, 20.0, 200.0])))
-    expected = _numpy_pairwise_step_features(**args)
+    expected = numpy_features(**args)
     got = pairwise_step_features(**args)
     assert got.shape == expected.shape and got.dtype == expected.dtype
     assert got.tobytes() == expected.tobytes()
@@ -47,10 +52,22 @@ def test_the_kernels_give_the_numpy_features(seed):
 def test_a_nan_position_gives_numpys_nans():
     rng = np.random.default_rng(1)
     args = _scene(rng, 5, 10.0)
-    args["circles"] = args["circles"].copy()
-    args["circles"][2, 1, 0] = np.nan
+    circles = args["bodies"].circles.copy()
+    circles[2, 1, 0] = np.nan
+    args["bodies"] = args["bodies"]._replace(circles=circles)
     with np.errstate(invalid="ignore"):
-        expected = _numpy_pairwise_step_features(**args)
+        expected = numpy_features(**args)
         got = pairwise_step_features(**args)
     assert np.array_equal(got, expected, equal_nan=True)
     assert np.array_equal(np.signbit(got), np.signbit(expected))
+
+
+@pytest.mark.parametrize("n", [127, 128, 129, 136, 255, 256, 257, 300, 520])
+def test_more_agents_than_one_pairwise_block(n):
+    """Rows of more than 128 agents (np.sum's recursive halving): still numpy's bits."""
+    rng = np.random.default_rng(n)
+    args = _scene(rng, n, spread_m=20.0)
+    args["crosswalks"] = (Crosswalk(np.array([50.0, 0.0]), np.pi / 2, 8.0, 4.0),)
+    expected = numpy_features(**args)
+    got = pairwise_step_features(**args)
+    assert got.tobytes() == expected.tobytes()

@@ -14,6 +14,7 @@ from hypothesis import strategies as st
 
 from marl_social.sim.road_map import Route, RouteSet
 from tests.helpers import same_bits
+from tests.reference.lane_test import on_lanes as numpy_on_lanes
 
 SEEDS = st.integers(0, 2**32 - 1)
 
@@ -162,7 +163,7 @@ def test_on_lanes_matches_numpy_bit_for_bit(seed, n_lanes, n_objects):
     xy[odd[:, :2]] = rng.choice(special, int(odd[:, :2].sum()))
     heading[odd[:, 2]] = rng.choice(special, int(odd[:, 2].sum()))
     with np.errstate(invalid="ignore", over="ignore"):
-        want = route_rules._numpy_on_lanes(tuple(lanes), xy, heading)
+        want = numpy_on_lanes(tuple(lanes), xy, heading)
         got = route_rules.on_lanes(lanes, xy, heading)
     assert got.dtype == bool and np.array_equal(got, want)
 
@@ -230,3 +231,23 @@ def test_footprint_extents_match_numpy_bit_for_bit(seed, straight, shape):
                                            scene_length, scene_width, source,
                                            route.kernel_segment_table, got)
     assert same_bits(got, expected)
+
+
+@pytest.mark.parametrize("n_objects", [0, 1, 3])
+def test_on_lanes_without_lanes_or_with_one_heading_for_all(n_objects):
+    """No lane: no object is on one; one heading for every object: numpy's broadcast."""
+    from marl_social.sim import route_rules
+
+    rng = np.random.default_rng(n_objects)
+    lanes = [_lane(rng) for _ in range(2)]
+    route = route_rules._lane_routes(tuple(lanes))[0]
+    point, along = route.point_at(np.full(n_objects, 0.5 * route.length_m))
+    xy = point + rng.normal(size=(n_objects, 2)) * 0.1
+    lane_heading = float(along[0]) if n_objects else 0.0
+    for heading in (lane_heading, np.array([lane_heading + np.pi])):
+        want = numpy_on_lanes(tuple(lanes), xy, heading)
+        assert np.array_equal(route_rules.on_lanes(lanes, xy, heading), want)
+        assert not route_rules.on_lanes([], xy, heading).any()
+    if n_objects == 3:
+        with pytest.raises(ValueError):
+            route_rules.on_lanes(lanes, xy, np.zeros(2))
