@@ -11,6 +11,7 @@ import math
 import sys
 from pathlib import Path
 
+from marl_social.data.file_limits import MB, check_file_size
 from marl_social.sim.costs import FEATURE_NAMES
 
 
@@ -57,7 +58,7 @@ def _is_real(value) -> bool:
     return isinstance(value, float) or abs(value) <= sys.float_info.max
 
 
-MAX_FIT_BYTES = 10**6  # largest theta.json read [bytes]
+MAX_FIT_BYTES = MB  # largest theta.json read [bytes]
 
 
 def load_fit(path) -> dict:
@@ -68,9 +69,7 @@ def load_fit(path) -> dict:
             naming it.
     """
     path = Path(path)
-    if path.is_file() and path.stat().st_size > MAX_FIT_BYTES:
-        raise ValueError(f"{path}: {path.stat().st_size / 1e6:.1f} MB, more than the limit of "
-                         f"{MAX_FIT_BYTES / 1e6:g} MB for a theta.json file")
+    check_file_size(path, MAX_FIT_BYTES, "a theta.json file")
     try:
         data = json.loads(path.read_text(encoding="utf-8"))
     except FileNotFoundError:

@@ -15,12 +15,14 @@ from pathlib import Path
 
 import numpy as np
 
+from marl_social.data.file_limits import GB, check_file_size
+
 # what np.load raises on a damaged or foreign file
 READ_ERRORS = (OSError, ValueError, EOFError, KeyError, zipfile.BadZipFile, zlib.error,
                UnicodeDecodeError, MemoryError, OverflowError)
 MAX_REASON_CHARS = 120  # some errors quote whole binary headers
-MAX_FILE_BYTES = 10**9  # largest archive read [bytes on disk]
-MAX_ARCHIVE_BYTES = 10**9  # largest total of an archive's arrays once unpacked [bytes]
+MAX_FILE_BYTES = GB  # largest archive read [bytes on disk]
+MAX_ARCHIVE_BYTES = GB  # largest total of an archive's arrays once unpacked [bytes]
 NUMBERS, FLAGS, TEXT = "iuf", "b", "U"  # the dtype kinds a field may hold
 _KIND_NAMES = {NUMBERS: "numbers", FLAGS: "booleans", TEXT: "text", "iu": "integers"}
 
@@ -78,10 +80,7 @@ def read_npz(path, kind: str, file_format: str, fields: dict[str, str]) -> dict[
 
 def _check_sizes(path: Path, kind: str) -> None:
     """A ValueError if the file, or what it unpacks to, is larger than the limits."""
-    size = path.stat().st_size
-    if size > MAX_FILE_BYTES:
-        raise ValueError(f"{path}: {size / 1e9:.2f} GB, more than the {kind} file limit of "
-                         f"{MAX_FILE_BYTES / 1e9:g} GB")
+    check_file_size(path, MAX_FILE_BYTES, f"a {kind} file")
     try:
         with zipfile.ZipFile(path) as archive:
             unpacked = sum(info.file_size for info in archive.infolist())

@@ -36,6 +36,7 @@ from contextlib import contextmanager
 from pathlib import Path
 
 from marl_social.data import strict_json
+from marl_social.data.file_limits import GB, MB, check_file_size
 from marl_social.studies.runs import axes, format_value
 from marl_social.studies.spec import Run, StudySpec
 
@@ -62,6 +63,10 @@ def default_out(name: str) -> Path:
     return DEFAULT_OUT_ROOT / name
 
 
+MAX_RESULTS_BYTES = GB  # largest results.csv read (a million runs take ~0.3 GB)
+MAX_META_BYTES = 10 * MB  # largest study.json read
+
+
 def read_results(path: str | os.PathLike, repair: bool = False) -> tuple[list[str], list[dict]]:
     """Read results.csv: (columns, rows as dicts of strings).
 
@@ -72,6 +77,7 @@ def read_results(path: str | os.PathLike, repair: bool = False) -> tuple[list[st
         ValueError: a row with the wrong number of fields or a duplicate key.
     """
     path = Path(path)
+    check_file_size(path, MAX_RESULTS_BYTES, "a study's results table")
     data = path.read_bytes()
     cut = data.rfind(b"\n") + 1
     if repair and cut < len(data):
@@ -171,6 +177,7 @@ def study_metadata(spec: StudySpec) -> dict:
 
 def read_meta(path: Path) -> dict:
     """study.json as a dict; a one-line ValueError naming the file and field otherwise."""
+    check_file_size(path, MAX_META_BYTES, "a study.json file")
     try:
         meta = json.loads(path.read_text(encoding="utf-8"))
     except FileNotFoundError:

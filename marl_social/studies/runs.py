@@ -22,6 +22,7 @@ from pathlib import Path
 
 import numpy as np
 
+from marl_social.data.file_limits import MB, check_file_size
 from marl_social.studies.spec import (
     DEFAULT_PEDESTRIANS,
     MAX_INT_RANGE,
@@ -57,7 +58,7 @@ def _resolve_spec_path(name_or_path: str | os.PathLike) -> Path:
                      f"(built-in: {sorted(specs)})")
 
 
-MAX_SPEC_BYTES = 10**7  # largest spec file read [bytes]
+MAX_SPEC_BYTES = 10 * MB  # largest spec file read [bytes]
 
 
 def load_spec(name_or_path: str | os.PathLike, validate: bool = True) -> StudySpec:
@@ -70,9 +71,7 @@ def load_spec(name_or_path: str | os.PathLike, validate: bool = True) -> StudySp
         ValueError: naming the file and the key at fault.
     """
     path = _resolve_spec_path(name_or_path)
-    if path.is_file() and path.stat().st_size > MAX_SPEC_BYTES:
-        raise ValueError(f"{path}: {path.stat().st_size / 1e6:.1f} MB, more than the limit of "
-                         f"{MAX_SPEC_BYTES / 1e6:g} MB for a study spec")
+    check_file_size(path, MAX_SPEC_BYTES, "a study spec")
     try:
         data = tomllib.loads(path.read_text(encoding="utf-8"))
     except tomllib.TOMLDecodeError as err:

@@ -92,5 +92,23 @@ def test_a_track_file_beyond_the_limit_is_refused_by_its_size(tmp_path, monkeypa
     path.write_text("track_id,frame_id,timestamp_ms,agent_type,x,y,vx,vy,psi_rad,length,width\n"
                     + "1,1,100,car,0,0,1,0,0,4,2\n" * 100)
     monkeypatch.setattr(tracks, "MAX_CSV_BYTES", 1000)
-    with pytest.raises(ValueError, match=r"vehicle_tracks_000\.csv: 0 MB, more than the limit"):
+    with pytest.raises(ValueError, match=r"000\.csv: .* kB, more than the limit of 1 kB"):
         read_interaction_csv(path)
+
+
+@pytest.mark.parametrize(("module", "limit", "reader"), [
+    ("marl_social.studies.results", "MAX_RESULTS_BYTES", "read_results"),
+    ("marl_social.studies.results", "MAX_META_BYTES", "read_meta"),
+    ("marl_social.studies.runs", "MAX_SPEC_BYTES", "load_spec"),
+    ("marl_social.agents.irl.fit_file", "MAX_FIT_BYTES", "load_fit"),
+])
+def test_every_reader_refuses_a_file_beyond_its_limit_by_its_size(tmp_path, monkeypatch,
+                                                                  module, limit, reader):
+    import importlib
+
+    mod = importlib.import_module(module)
+    path = tmp_path / "big.toml"
+    path.write_text("x" * 5000)
+    monkeypatch.setattr(mod, limit, 1000)
+    with pytest.raises(ValueError, match=r"big\.toml: 5 kB, more than the limit of 1 kB"):
+        getattr(mod, reader)(path)

@@ -16,6 +16,8 @@ from pathlib import Path
 
 import numpy as np
 
+from marl_social.data.file_limits import MB, check_file_size
+
 CSV_COLUMNS = ("track_id", "frame_id", "timestamp_ms", "agent_type", "x", "y", "vx", "vy",
                "psi_rad", "length", "width")
 BASE_COLUMNS = CSV_COLUMNS[:8]  # required in every file
@@ -27,7 +29,7 @@ _MIN_HEADING_SPEED_MPS = 0.2  # below this a pedestrian keeps its last direction
 # coordinates would overflow the path resampling)
 COLUMN_LIMITS = {"frame_id": 1e15, "timestamp_ms": 1e15, "x": 1e8, "y": 1e8, "vx": 1e3,
                  "vy": 1e3, "psi_rad": 1e3, "length": 1e3, "width": 1e3}
-MAX_CSV_BYTES = 500 * 10**6  # largest track file read (parsed, ~3x as much memory) [bytes]
+MAX_CSV_BYTES = 500 * MB  # largest track file read (parsed, ~3x as much memory) [bytes]
 MAX_SPEED_MPS = 1000.0  # consecutive samples of a track farther apart than this are corrupt
 _RECORDING_NAME = re.compile(r"^(?:vehicle|pedestrian)_tracks_(\d+)\.csv$")
 
@@ -122,11 +124,7 @@ def _read_file(path: Path) -> dict[str, Track]:
     """One CSV file -> tracks (see read_interaction_csv)."""
     if not path.is_file():
         raise FileNotFoundError(f"INTERACTION track file {path} does not exist")
-    size = path.stat().st_size
-    if size > MAX_CSV_BYTES:
-        raise ValueError(f"{path.name}: {size / 1e6:.0f} MB, more than the limit of "
-                         f"{MAX_CSV_BYTES / 1e6:.0f} MB for one track file (INTERACTION's are "
-                         "below 30 MB)")
+    check_file_size(path, MAX_CSV_BYTES, "a track file (INTERACTION's are below 30 MB)")
     try:
         return _parse_file(path)
     except UnicodeDecodeError:
