@@ -399,8 +399,7 @@ def _zone_claims(scene: ScenePrediction, zone_edges: np.ndarray, priority: np.nd
     along, radius = _scene_layout(scene.length_m[rows, cols], scene.width_m[rows, cols],
                                   scene.is_pedestrian[rows, cols])
     arguments = kernel_loading.load_all()[3].zone_claim_arguments(  # models/zone_kernels.py
-        np.ascontiguousarray(scene.xy[rows, cols]), dt_s, round(margin_s / dt_s) + 1,
-        np.cos(heading), np.sin(heading), along, radius, zone_edges,
-        OCCUPANCY_SOFTNESS_M)
+        (np.ascontiguousarray(scene.xy[rows, cols]), np.cos(heading), np.sin(heading)),
+        (along, radius), dt_s, round(margin_s / dt_s) + 1, zone_edges, OCCUPANCY_SOFTNESS_M)
     claim[rows, cols] = (0.5 * (1.0 + np.tanh(arguments))).max(axis=0)
     return claim

@@ -318,10 +318,9 @@ def circle_gaps(ego_x, ego_y, ego_r, other_x, other_y, other_r, vehicles, clippe
 
 
 # one signature, read-only arrays: its two callers pass writable and read-only zone tables
-@numba.njit((_array(3), _array(3), _array(3), _F8, _F8, _array(2), _array(3), _array(1, _I8),
-             _F8), **_JIT)
-def occupancy_arguments(xy, ego_x, ego_y, ego_r, ego_radius, crosswalks, zones, zone_sizes,
-                        softness_m):
+@numba.njit((_array(3), types.Tuple((_array(3), _array(3), _F8)), _F8, _array(2),
+             types.Tuple((_array(3), _array(1, _I8))), _F8), **_JIT)
+def occupancy_arguments(xy, ego_circles, ego_radius, crosswalks, zone_table, softness_m):
     """The arguments of np.tanh of the ego's crosswalk and zone occupancies (sim/costs.py).
 
     crosswalk_occupancy(xy, ego_radius, cw) is 0.5 (1 + tanh(0.5 depth / softness)), depth =
@@ -332,19 +331,20 @@ def occupancy_arguments(xy, ego_x, ego_y, ego_r, ego_radius, crosswalks, zones, 
 
     Args:
         xy: (P, T, 2) the ego's positions along its plans [m].
-        ego_x: (K, P, T) x of its covering circles [m].
-        ego_y: (K, P, T) their y [m].
-        ego_r: their radius [m].
+        ego_circles: its covering circles (ego_x (K, P, T) their x [m], ego_y (K, P, T) their
+            y [m], ego_r their radius [m]).
         ego_radius: the ego's bounding radius [m].
         crosswalks: (W, 6) per crosswalk: centre x, y [m], cos and sin of the walk heading,
             half length, half width [m].
-        zones: (Z, V, 5) per zone edge: start x, y [m], edge vector x, y [m], its length [m].
-        zone_sizes: (Z,) the number of edges of each zone.
+        zone_table: (zones (Z, V, 5) per zone edge: start x, y [m], edge vector x, y [m], its
+            length [m]; zone_sizes (Z,) the number of edges of each zone).
         softness_m: sim/costs.OCCUPANCY_SOFTNESS_M [m].
 
     Returns:
         (W + Z, P, T) 0.5 depth / softness, the crosswalks' rows first.
     """
+    ego_x, ego_y, ego_r = ego_circles
+    zones, zone_sizes = zone_table
     n_circles, n_plans, n_t = ego_x.shape
     n_cw = len(crosswalks)
     out = np.empty((n_cw + len(zones), n_plans, n_t))
@@ -435,8 +435,8 @@ def plan_evaluation(increments, n_cont, v0, s0, dt_s, continuations, n_first, ha
             vehicles[h, m] = present[h, m] and not is_pedestrian[h, m]
     gap, clearance, vehicle_gap = circle_gaps(ego_x, ego_y, ego_r, other_x, other_y, other_r,
                                               vehicles, clipped)
-    soft = occupancy_arguments(xy, ego_x, ego_y, ego_r, ego_radius, crosswalks, zones,
-                               zone_sizes, softness_m)
+    soft = occupancy_arguments(xy, (ego_x, ego_y, ego_r), ego_radius, crosswalks,
+                               (zones, zone_sizes), softness_m)
     scene_soft = scene_occupancy_arguments(scene_xy, scene_radius, crosswalks, softness_m)
     n_plans, n_t = v.shape
     n_first_actions = n_plans // n_cont
@@ -500,6 +500,6 @@ def walk_geometry(speed_times, s0, route_length_m, cum_s, pose_table, ego_r, sce
     other_x, other_y = scene_circles(scene_xy, cos_heading, sin_heading, scene_along)
     gap, _, _ = circle_gaps(ego_x, ego_y, ego_r, other_x, other_y, other_r,
                             np.zeros((n_hyp, other_r.shape[1]), dtype=np.bool_), clipped)
-    soft = occupancy_arguments(xy, ego_x, ego_y, ego_r, own_radius_m, crosswalks,
-                               np.zeros((0, 1, 5)), np.zeros(0, dtype=np.int64), softness_m)
+    soft = occupancy_arguments(xy, (ego_x, ego_y, ego_r), own_radius_m, crosswalks,
+                               (np.zeros((0, 1, 5)), np.zeros(0, dtype=np.int64)), softness_m)
     return gap, soft, scene_occupancy_arguments(scene_xy, scene_radius, crosswalks, softness_m)

@@ -12,14 +12,16 @@ import numpy as np
 
 from marl_social.sim.road_map import Route
 
+MIN_LOOKAHEAD_M = 6.0  # pure pursuit's smallest look-ahead distance [m]
+LOOKAHEAD_TIME_S = 1.0  # its look-ahead time at the current speed [s]
+
 
 def pure_pursuit(route: Route, x: float, y: float, psi: float, v: float, s: float,
-                 wheelbase_m: float, min_lookahead_m: float = 6.0,
-                 lookahead_time_s: float = 1.0) -> float:
+                 wheelbase_m: float) -> float:
     """Pure-pursuit steering angle [rad] towards a route point one look-ahead distance ahead.
 
-    The look-ahead distance is max(min_lookahead, v * lookahead_time) [m], counted from arc
-    length s.
+    The look-ahead distance is max(MIN_LOOKAHEAD_M, v * LOOKAHEAD_TIME_S) [m], counted from
+    arc length s.
 
     Args:
         route: the vehicle's route.
@@ -29,10 +31,8 @@ def pure_pursuit(route: Route, x: float, y: float, psi: float, v: float, s: floa
         v: speed [m/s].
         s: arc length along the route [m].
         wheelbase_m: wheelbase [m].
-        min_lookahead_m: smallest look-ahead distance [m].
-        lookahead_time_s: look-ahead time at speed v [s].
     """
-    lookahead = max(min_lookahead_m, lookahead_time_s * v)
+    lookahead = max(MIN_LOOKAHEAD_M, LOOKAHEAD_TIME_S * v)
     tx, ty = route.point_at_float(s + lookahead)
     alpha = math.atan2(ty - y, tx - x) - psi
     alpha = (alpha + math.pi) % (2 * math.pi) - math.pi

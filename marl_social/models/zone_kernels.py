@@ -40,10 +40,12 @@ def _nan_max(a, b):
     return b if (b > a or math.isnan(b)) else a
 
 
-@numba.njit((_array(3), _F8, _I8, _array(2), _array(2), _array(2), _array(2), _array(2),
-              _F8), **_JIT)
-def zone_claim_arguments(xy, dt_s, n_offsets, cos_heading, sin_heading, along, radius, edges,
-                         softness_m):
+_PREDICTED = types.Tuple((_array(3), _array(2), _array(2)))  # xy, cos and sin of the heading
+_CIRCLES = types.UniTuple(_array(2), 2)  # along, radius
+
+
+@numba.njit((_PREDICTED, _CIRCLES, _F8, _I8, _array(2), _F8), **_JIT)
+def zone_claim_arguments(predicted, circles, dt_s, n_offsets, edges, softness_m):
     """The arguments of np.tanh of candidates.zone_claims' occupancies, per time offset.
 
     As zone_claims computes them: each object's velocity is np.gradient's of its positions
@@ -53,13 +55,12 @@ def zone_claim_arguments(xy, dt_s, n_offsets, cos_heading, sin_heading, along, r
     the zone's edges plus the circle's radius (occupancy_arguments' zone rows).
 
     Args:
-        xy: (P, T, 2) the claimants' predicted positions [m].
+        predicted: the P claimants' (xy (P, T, 2) predicted positions [m], cos_heading (P, T)
+            and sin_heading (P, T) np.cos and np.sin of their predicted headings).
+        circles: their covering circles (along (P, C) footprint.circle_layout's offsets along
+            the heading [m], radius (P, C) the circles' radii [m]).
         dt_s: the planner step [s].
         n_offsets: J, the offsets 0, dt_s, ..., (J - 1) dt_s.
-        cos_heading: (P, T) np.cos of their predicted headings.
-        sin_heading: (P, T) np.sin of them.
-        along: (P, C) footprint.circle_layout's offsets along the heading [m].
-        radius: (P, C) the circles' radii [m].
         edges: (V, 5) the zone's edges (sim/costs._polygon_edges): start x, y, vector x, y,
             length [m].
         softness_m: sim/costs.OCCUPANCY_SOFTNESS_M [m].
@@ -67,6 +68,8 @@ def zone_claim_arguments(xy, dt_s, n_offsets, cos_heading, sin_heading, along, r
     Returns:
         (J, P, T) 0.5 depth / softness.
     """
+    xy, cos_heading, sin_heading = predicted
+    along, radius = circles
     n_plans, n_t = cos_heading.shape
     out = np.empty((n_offsets, n_plans, n_t))
     for p in range(n_plans):
