@@ -12,6 +12,7 @@ from __future__ import annotations
 import functools
 import math
 from dataclasses import dataclass
+from typing import NamedTuple
 
 import numpy as np
 
@@ -389,24 +390,59 @@ def _governed(v: np.ndarray, ds: np.ndarray, v0: float, cont: np.ndarray, n_firs
     return v, ds, (v - v_full[..., :-1]) / dt_s
 
 
-def evaluate_candidates(cands: CandidateSet, theta: np.ndarray, v_ref_mps: float,
-                        vehicle: VehicleParams, route: Route, s0: float, v0: float,
-                        prev_accel: float, scene: ScenePrediction,
-                        crosswalks: tuple[Crosswalk, ...], geometry: bool = False,
-                        static_boxes: np.ndarray | None = None,
-                        features: bool = False, yield_zones: tuple = (),
-                        yield_margin_s: float = 0.0,
-                        curve_speed: CurveSpeed | None = None,
+class PlanningEgo(NamedTuple):
+    """Who plans and from where: what `evaluate_candidates` rolls out and costs.
+
+    Attributes:
+        cands: the candidate plans.
+        theta: (N_FEATURES,) the planner's cost weights.
+        v_ref_mps: its reference speed [m/s].
+        vehicle: its body and limits.
+        route: its route.
+        s0: its arc length along the route [m].
+        v0: its speed [m/s].
+        prev_accel: its previous acceleration [m/s^2].
+    """
+
+    cands: CandidateSet
+    theta: np.ndarray
+    v_ref_mps: float
+    vehicle: VehicleParams
+    route: Route
+    s0: float
+    v0: float
+    prev_accel: float
+
+
+class Surroundings(NamedTuple):
+    """What the plans are costed against.
+
+    Attributes:
+        scene: L hypotheses of M predicted objects at the candidates' plan times.
+        crosswalks: the map's crosswalks.
+        yield_zones: the conflict zones the ego yields at, each (polygon (V, 2) [m], priority
+            (L, M) bool: the scene objects with the right of way there); they add to the
+            conflict feature (sim/costs.py) the ego's occupancy times each priority object's
+            claim on the zone (`zone_claims`: in it now or within yield_margin_s at its
+            predicted velocity).
+        yield_margin_s: see yield_zones [s].
+        curve_speed: the curve speed along the route (sim/route_rules.CurveSpeed), for
+            curve_excess_mps; None: not computed.
+    """
+
+    scene: ScenePrediction
+    crosswalks: tuple[Crosswalk, ...]
+    yield_zones: tuple = ()
+    yield_margin_s: float = 0.0
+    curve_speed: CurveSpeed | None = None
+
+
+def evaluate_candidates(ego: PlanningEgo, around: Surroundings, geometry: bool = False,
+                        static_boxes: np.ndarray | None = None, features: bool = False,
                         vehicle_gaps_only: bool = False) -> CandidateEvaluation:
-    """Roll out every candidate and cost it against every scene hypothesis (see module doc).
+    """Roll out every candidate of `ego` and cost it against every hypothesis `around` it.
 
-    yield_zones: the conflict zones the ego yields at, each (polygon (V, 2) [m], priority
-    (L, M) bool: the scene objects with the right of way there); they add to the conflict
-    feature (sim/costs.py) the ego's occupancy times each priority object's claim on the zone
-    (`zone_claims`: in it now or within yield_margin_s [s] at its predicted velocity).
-
-    curve_speed: the curve speed along the route (sim/route_rules.CurveSpeed), for
-    curve_excess_mps; None: not computed.
+    See the module docstring, PlanningEgo and Surroundings.
 
     features: also return the per-feature totals (for discrete-choice IRL, agents/irl/choice.py);
     the costs are computed exactly as without it.
@@ -417,6 +453,8 @@ def evaluate_candidates(cands: CandidateSet, theta: np.ndarray, v_ref_mps: float
     vehicle_gaps_only: with geometry, only the vehicle gaps that collision_free_totals needs
     (min_vehicle_gap_m, vehicle_clearance_m); min_gap_m, conflict and static_gap_m stay None.
     """
+    cands, theta, v_ref_mps, vehicle, route, s0, v0, prev_accel = ego
+    scene, crosswalks, yield_zones, yield_margin_s, curve_speed = around
     dt = cands.plan_dt_s
     plan = _plan_constants(cands)
     v, ds, a_eff = _rollout(v0, plan.increments, dt)

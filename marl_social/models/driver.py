@@ -23,7 +23,9 @@ from marl_social.models import kernel_loading
 from marl_social.models.candidates import (
     CandidateEvaluation,
     CandidateSet,
+    PlanningEgo,
     ScenePrediction,
+    Surroundings,
     cached_or_computed,
     evaluate_candidates,
 )
@@ -128,12 +130,13 @@ def _cached_model_constants(model: DriverModel) -> tuple:
     return model.candidates, theta
 
 
-def _rule_arguments(model: DriverModel, rules: RoadRules | None) -> dict:
-    """The evaluations' keyword arguments of the road's rules (none without rules)."""
+def _surroundings(model: DriverModel, scene: ScenePrediction,
+                  crosswalks: tuple[Crosswalk, ...], rules: RoadRules | None) -> Surroundings:
+    """What a driver's plans are costed against: the scene, and the road's rules if any."""
     if rules is None:
-        return {}
-    return {"yield_zones": rules.yield_zones, "yield_margin_s": model.yield_margin_s,
-            "curve_speed": rules.curve_speed}
+        return Surroundings(scene, crosswalks)
+    return Surroundings(scene, crosswalks, rules.yield_zones, model.yield_margin_s,
+                        rules.curve_speed)
 
 
 def _evaluate(model: DriverModel, route: Route, s0: float, v0: float, prev_accel: float,
@@ -141,9 +144,9 @@ def _evaluate(model: DriverModel, route: Route, s0: float, v0: float, prev_accel
               rules: RoadRules | None) -> CandidateEvaluation:
     """The candidates' evaluation without feature totals (vehicle_gap_evaluation's)."""
     candidates, theta = _model_constants(model)
-    return vehicle_gap_evaluation(candidates, theta, model.v_desired_mps, model.vehicle,
-                                  route, s0, v0, prev_accel, scene, crosswalks,
-                                  **_rule_arguments(model, rules))
+    return vehicle_gap_evaluation(
+        PlanningEgo(candidates, theta, model.v_desired_mps, model.vehicle, route, s0, v0,
+                    prev_accel), _surroundings(model, scene, crosswalks, rules))
 
 
 def _evaluate_features(model: DriverModel, route: Route, s0: float, v0: float,
@@ -152,10 +155,10 @@ def _evaluate_features(model: DriverModel, route: Route, s0: float, v0: float,
                        rules: RoadRules | None) -> CandidateEvaluation:
     """The candidates' evaluation with their feature totals (evaluate_candidates')."""
     candidates, theta = _model_constants(model)
-    return evaluate_candidates(candidates, theta, model.v_desired_mps,
-                               model.vehicle, route, s0, v0, prev_accel, scene, crosswalks,
-                               geometry=True, features=True,
-                               vehicle_gaps_only=True, **_rule_arguments(model, rules))
+    return evaluate_candidates(
+        PlanningEgo(candidates, theta, model.v_desired_mps, model.vehicle, route, s0, v0,
+                    prev_accel), _surroundings(model, scene, crosswalks, rules),
+        geometry=True, features=True, vehicle_gaps_only=True)
 
 
 def rule_abiding_totals(ev: CandidateEvaluation, model: DriverModel, s0: float,
@@ -239,14 +242,10 @@ def driver_q_values(model: DriverModel, route: Route, s0: float, v0: float, prev
         (rule_abiding_totals).
     """
     candidates, theta = _model_constants(model)
-    if rules is None:
-        totals = kernel_rule_totals(candidates, theta, model.v_desired_mps, model.vehicle,
-                                    route, s0, v0, prev_accel, scene, crosswalks)
-    else:
-        totals = kernel_rule_totals(candidates, theta, model.v_desired_mps, model.vehicle,
-                                    route, s0, v0, prev_accel, scene, crosswalks,
-                                    rules.yield_zones, model.yield_margin_s, rules.curve_speed,
-                                    rules.stop_s_m)
+    ego = PlanningEgo(candidates, theta, model.v_desired_mps, model.vehicle, route, s0, v0,
+                      prev_accel)
+    totals = kernel_rule_totals(ego, _surroundings(model, scene, crosswalks, rules),
+                                None if rules is None else rules.stop_s_m)
     if totals is not None:  # the kernels' evaluation and totals in one go
         return np.minimum.reduce(totals, axis=-1)  # totals.min(axis=-1) without its wrapper
     ev = _evaluate(model, route, s0, v0, prev_accel, scene, crosswalks, rules)

@@ -32,7 +32,9 @@ from marl_social.models import kernel_loading
 from marl_social.models.candidates import (
     CandidateEvaluation,
     CandidateSet,
+    PlanningEgo,
     ScenePrediction,
+    Surroundings,
     _plan_constants,
     _vehicle_circles,
     evaluate_candidates,
@@ -46,22 +48,18 @@ from marl_social.models.circle_gaps import crosswalk_rows as crosswalk_rows_of
 from marl_social.sim.agent_spec import VehicleParams
 from marl_social.sim.costs import OCCUPANCY_SOFTNESS_M, _polygon_edges
 from marl_social.sim.dynamics import DT_S
-from marl_social.sim.road_map import Crosswalk, Route
+from marl_social.sim.road_map import Route
 from marl_social.sim.route_rules import CURVE_PROFILE_STEP_M, CurveSpeed
 
 
-def vehicle_gap_evaluation(cands: CandidateSet, theta: np.ndarray, v_ref_mps: float,
-                           vehicle: VehicleParams, route: Route, s0: float, v0: float,
-                           prev_accel: float, scene: ScenePrediction,
-                           crosswalks: tuple[Crosswalk, ...], yield_zones: tuple = (),
-                           yield_margin_s: float = 0.0,
-                           curve_speed: CurveSpeed | None = None) -> CandidateEvaluation:
+def vehicle_gap_evaluation(ego: PlanningEgo, around: Surroundings) -> CandidateEvaluation:
     """evaluate_candidates(..., geometry=True, vehicle_gaps_only=True), the same bits.
 
-    The arguments are those of models/candidates.evaluate_candidates (theta (N_FEATURES,),
-    scene L hypotheses of M objects at cands.plan_times_s); so is the result: step_cost
-    (L, A, C, T), v, a_eff and travel_m (A, C, T), min_vehicle_gap_m and vehicle_clearance_m
-    (L, A, C) [m], curve_excess_mps (A, C) [m/s] with curve_speed; the other fields None.
+    The arguments are those of models/candidates.evaluate_candidates (ego.theta (N_FEATURES,),
+    around.scene L hypotheses of M objects at the candidates' plan_times_s); so is the result:
+    step_cost (L, A, C, T), v, a_eff and travel_m (A, C, T), min_vehicle_gap_m and
+    vehicle_clearance_m (L, A, C) [m], curve_excess_mps (A, C) [m/s] with a curve speed; the
+    other fields None.
 
     The rollouts, the gaps and the step costs are compiled loops (models/gap_kernels.py,
     cost_kernels.py; they read the route's per-segment pose table, Route.segment_pose_table and
@@ -70,61 +68,44 @@ def vehicle_gap_evaluation(cands: CandidateSet, theta: np.ndarray, v_ref_mps: fl
     MAX_KERNEL_OBJECTS or more objects (models/circle_gaps.py), and no continuations (the
     kernels count the first actions as plans / continuations).
     """
-    evaluation = kernel_gap_evaluation(cands, theta, v_ref_mps, vehicle, route, s0, v0,
-                                       prev_accel, scene, crosswalks, yield_zones,
-                                       yield_margin_s, curve_speed)
+    evaluation = kernel_gap_evaluation(ego, around)
     if evaluation is None:
-        return evaluate_candidates(cands, theta, v_ref_mps, vehicle, route, s0, v0, prev_accel,
-                                   scene, crosswalks, geometry=True, yield_zones=yield_zones,
-                                   yield_margin_s=yield_margin_s, curve_speed=curve_speed,
-                                   vehicle_gaps_only=True)
+        return evaluate_candidates(ego, around, geometry=True, vehicle_gaps_only=True)
     return evaluation
 
 
-def kernel_gap_evaluation(cands: CandidateSet, theta: np.ndarray, v_ref_mps: float,
-                          vehicle: VehicleParams, route: Route, s0: float, v0: float,
-                          prev_accel: float, scene: ScenePrediction,
-                          crosswalks: tuple[Crosswalk, ...], yield_zones: tuple = (),
-                          yield_margin_s: float = 0.0, curve_speed: CurveSpeed | None = None
-                          ) -> CandidateEvaluation | None:
+def kernel_gap_evaluation(ego: PlanningEgo, around: Surroundings) -> CandidateEvaluation | None:
     """`vehicle_gap_evaluation` by the kernels; None where they do not take the case.
 
     The arguments and the result are vehicle_gap_evaluation's (None: its cases for
     evaluate_candidates). The result's arrays are C-contiguous float64, as
     models/driver.py's compiled totals take them without a copy.
     """
-    arrays = _kernel_arrays(cands, theta, vehicle, route, s0, v0, scene, crosswalks,
-                            yield_zones, yield_margin_s, curve_speed)
+    arrays = _kernel_arrays(ego, around)
     if arrays is None:
         return None
-    return _evaluation(arrays, v_ref_mps, prev_accel, curve_speed)
+    return _evaluation(arrays, ego.v_ref_mps, ego.prev_accel, around.curve_speed)
 
 
-def vehicle_gap_evaluations(cands: CandidateSet, theta: np.ndarray, v_ref_mps: float,
-                            vehicle: VehicleParams, route: Route, s0: float,
-                            speeds_mps: np.ndarray, prev_accel: float, scene: ScenePrediction,
-                            crosswalks: tuple[Crosswalk, ...], yield_zones: tuple = (),
-                            yield_margin_s: float = 0.0, curve_speed: CurveSpeed | None = None
-                            ) -> list[CandidateEvaluation]:
+def vehicle_gap_evaluations(ego: PlanningEgo, speeds_mps: np.ndarray,
+                            around: Surroundings) -> list[CandidateEvaluation]:
     """`vehicle_gap_evaluation` from each of several initial speeds, the scene's work shared.
 
-    speeds_mps: (S,) initial speeds [m/s]; the other arguments are vehicle_gap_evaluation's.
-    Returns the S evaluations, each bit for bit vehicle_gap_evaluation's from its speed: the
-    scene's covering circles, its objects' claims on the zones and the crosswalk rows are
-    computed once, and only the rollouts, the gaps and the step costs once per speed (the
-    perception/belief model of a human averaged over the robot's estimate of its speed).
+    speeds_mps: (S,) initial speeds [m/s], in place of ego.v0; the other arguments are
+    vehicle_gap_evaluation's. Returns the S evaluations, each bit for bit
+    vehicle_gap_evaluation's from its speed: the scene's covering circles, its objects' claims
+    on the zones and the crosswalk rows are computed once, and only the rollouts, the gaps and
+    the step costs once per speed (the perception/belief model of a human averaged over the
+    robot's estimate of its speed).
     """
-    shared = _kernel_scene(cands, theta, vehicle, route, s0, scene, crosswalks, yield_zones,
-                           yield_margin_s, curve_speed)
+    shared = _kernel_scene(ego, around)
     out = []
     for v0 in (float(v) for v in speeds_mps):
         if shared is not None and _kernel_speed(v0):
-            out.append(_evaluation(_kernel_motion(shared, v0), v_ref_mps, prev_accel,
-                                   curve_speed))
+            out.append(_evaluation(_kernel_motion(shared, v0), ego.v_ref_mps, ego.prev_accel,
+                                   around.curve_speed))
         else:
-            out.append(vehicle_gap_evaluation(cands, theta, v_ref_mps, vehicle, route, s0, v0,
-                                              prev_accel, scene, crosswalks, yield_zones,
-                                              yield_margin_s, curve_speed))
+            out.append(vehicle_gap_evaluation(ego._replace(v0=v0), around))
     return out
 
 
@@ -139,11 +120,7 @@ def _evaluation(arrays: tuple, v_ref_mps: float, prev_accel: float,
                                clearance, None if curve_speed is None else excess)
 
 
-def kernel_rule_totals(cands: CandidateSet, theta: np.ndarray, v_ref_mps: float,
-                       vehicle: VehicleParams, route: Route, s0: float, v0: float,
-                       prev_accel: float, scene: ScenePrediction,
-                       crosswalks: tuple[Crosswalk, ...], yield_zones: tuple = (),
-                       yield_margin_s: float = 0.0, curve_speed: CurveSpeed | None = None,
+def kernel_rule_totals(ego: PlanningEgo, around: Surroundings,
                        stop_s_m: float | None = None) -> np.ndarray | None:
     """models/driver.rule_abiding_totals of `kernel_gap_evaluation`'s evaluation, in fewer calls.
 
@@ -154,21 +131,17 @@ def kernel_rule_totals(cands: CandidateSet, theta: np.ndarray, v_ref_mps: float,
     driver.rule_abiding_totals counts it with rules. Returns the (L, A, C) totals, inf for
     the excluded plans; None where kernel_gap_evaluation returns None.
     """
-    arrays = _kernel_arrays(cands, theta, vehicle, route, s0, v0, scene, crosswalks,
-                            yield_zones, yield_margin_s, curve_speed)
+    arrays = _kernel_arrays(ego, around)
     if arrays is None:
         return None
     cost_kernels, motion, excess, gaps, cost_arguments = arrays
     return cost_kernels.plan_totals(
-        motion, float(v_ref_mps), float(prev_accel), cost_arguments, gaps, (float(s0),
-        0.5 * vehicle.length_m, 0.0 if stop_s_m is None else float(stop_s_m),
-        stop_s_m is not None, excess, curve_speed is not None))
+        motion, float(ego.v_ref_mps), float(ego.prev_accel), cost_arguments, gaps,
+        (float(ego.s0), 0.5 * ego.vehicle.length_m, 0.0 if stop_s_m is None else float(stop_s_m),
+         stop_s_m is not None, excess, around.curve_speed is not None))
 
 
-def _kernel_arrays(cands: CandidateSet, theta: np.ndarray, vehicle: VehicleParams,
-                   route: Route, s0: float, v0: float, scene: ScenePrediction,
-                   crosswalks: tuple[Crosswalk, ...], yield_zones: tuple,
-                   yield_margin_s: float, curve_speed: CurveSpeed | None) -> tuple | None:
+def _kernel_arrays(ego: PlanningEgo, around: Surroundings) -> tuple | None:
     """gap_kernels.plan_evaluation's arrays, np.exp and np.tanh applied; None: not its case.
 
     Returns:
@@ -176,11 +149,10 @@ def _kernel_arrays(cands: CandidateSet, theta: np.ndarray, vehicle: VehicleParam
         clearance and vehicle gap [m], and step_costs' arguments after v_ref and prev_accel
         as a tuple).
     """
-    if not _kernel_speed(v0):
+    if not _kernel_speed(ego.v0):
         return None
-    shared = _kernel_scene(cands, theta, vehicle, route, s0, scene, crosswalks, yield_zones,
-                           yield_margin_s, curve_speed)
-    return None if shared is None else _kernel_motion(shared, v0)
+    shared = _kernel_scene(ego, around)
+    return None if shared is None else _kernel_motion(shared, ego.v0)
 
 
 def _kernel_speed(v0: float) -> bool:
@@ -207,22 +179,20 @@ class _KernelScene:
     conflict_rows: tuple
 
 
-def _kernel_scene(cands: CandidateSet, theta: np.ndarray, vehicle: VehicleParams,
-                  route: Route, s0: float, scene: ScenePrediction,
-                  crosswalks: tuple[Crosswalk, ...], yield_zones: tuple,
-                  yield_margin_s: float, curve_speed: CurveSpeed | None) -> _KernelScene | None:
+def _kernel_scene(ego: PlanningEgo, around: Surroundings) -> _KernelScene | None:
     """The scene's kernel inputs, shared by every initial speed; None: not the kernels' case."""
+    cands, scene, s0 = ego.cands, around.scene, ego.s0
     if not abs(s0) < _LARGEST_ARC_LENGTH_M or (
             scene.mask.shape[1] >= MAX_KERNEL_OBJECTS) or len(cands.continuations_mps2) == 0:
         return None
     kernels, cost_kernels = _KERNELS or _kernels()
-    plan = _prepared_plan(cands, vehicle)
-    weights = _weights(theta)  # speed, accel, jerk, safety, conflict
+    plan = _prepared_plan(cands, ego.vehicle)
+    weights = _weights(ego.theta)  # speed, accel, jerk, safety, conflict
     w_conflict = weights[4]
     conflict_rows = _conflict_rows(
-        scene, crosswalks if w_conflict != 0.0 else (), yield_zones if w_conflict != 0.0 else (),
-        yield_margin_s, plan.dt_s)
-    return _KernelScene(kernels, cost_kernels, plan, float(s0), curve_speed, route,
+        scene, around.crosswalks if w_conflict != 0.0 else (),
+        around.yield_zones if w_conflict != 0.0 else (), around.yield_margin_s, plan.dt_s)
+    return _KernelScene(kernels, cost_kernels, plan, float(s0), around.curve_speed, ego.route,
                         scene_circle_inputs(scene),
                         np.ascontiguousarray(scene.radius_m, dtype=float),
                         np.ascontiguousarray(scene.mask), np.ascontiguousarray(scene.is_pedestrian),

@@ -17,7 +17,12 @@ from dataclasses import replace
 
 import numpy as np
 
-from marl_social.models.candidates import CandidateEvaluation, ScenePrediction
+from marl_social.models.candidates import (
+    CandidateEvaluation,
+    PlanningEgo,
+    ScenePrediction,
+    Surroundings,
+)
 from marl_social.models.driver import DriverModel, RoadRules, rule_abiding_totals
 from marl_social.models.gap_evaluation import vehicle_gap_evaluations
 from marl_social.models.yield_expectation import YieldExpectation
@@ -134,9 +139,10 @@ class HumanPrediction:
         speeds = (np.array([v0]) if speed_std_mps is None
                   else speed_nodes_mps(v0, speed_std_mps))
         evaluations = vehicle_gap_evaluations(
-            self._candidates, self._theta_no_speed, 0.0, self.model.vehicle, route, s0, speeds,
-            prev_accel, scene, self.road_map.crosswalks, yield_zones=zones,
-            yield_margin_s=self.model.yield_margin_s, curve_speed=curve)
+            PlanningEgo(self._candidates, self._theta_no_speed, 0.0, self.model.vehicle, route,
+                        s0, v0, prev_accel), speeds,
+            Surroundings(scene, self.road_map.crosswalks, zones, self.model.yield_margin_s,
+                         curve))
         q = [self._evaluated(ev, s0, zones, curve, inverse) for ev in evaluations]
         return q[0] if speed_std_mps is None else np.stack(q)
 

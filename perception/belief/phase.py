@@ -35,7 +35,7 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
-from marl_social.models.candidates import ScenePrediction
+from marl_social.models.candidates import PlanningEgo, ScenePrediction, Surroundings
 from marl_social.models.driver import RoadRules, rule_abiding_totals
 from marl_social.models.gap_evaluation import vehicle_gap_evaluation
 from marl_social.perception.belief.action_model import (
@@ -313,10 +313,10 @@ class SignalPhaseBelief:
         scene = others if others is not None else self._empty_scene()
         v0 = max(car.v_mps, 0.0)
         curve = self.social.prediction.curve_speed(car.route)
-        ev = vehicle_gap_evaluation(model.candidates, model.theta.as_array(),
-                                    model.v_desired_mps, model.vehicle, car.route, car.s_m, v0,
-                                    prev_accel, scene, self.road_map.crosswalks,
-                                    curve_speed=curve)
+        ev = vehicle_gap_evaluation(
+            PlanningEgo(model.candidates, model.theta.as_array(), model.v_desired_mps,
+                        model.vehicle, car.route, car.s_m, v0, prev_accel),
+            Surroundings(scene, self.road_map.crosswalks, curve_speed=curve))
         q_go = rule_abiding_totals(ev, model, car.s_m, RoadRules(None, (), curve))[0]
         q_stop = rule_abiding_totals(ev, model, car.s_m, RoadRules(car.line_s_m, (), curve))[0]
         stops = stops_per_phase(self.head_states, car)

@@ -14,6 +14,7 @@ from marl_social.agents.irl import laplace as irl
 from marl_social.agents.irl.jets import Jet
 from marl_social.agents.irl.synthetic import near_rational_demonstrations
 from marl_social.data.demonstrations import Demonstration, load_demonstrations, save_demonstrations
+from marl_social.models.candidates import PlanningEgo, Surroundings
 from marl_social.sim.costs import FEATURE_NAMES, CostWeights
 from marl_social.sim.road_map import Crosswalk
 
@@ -64,9 +65,9 @@ def test_feature_totals_equal_the_planners_cost_module():
                             demo.others_length_m[None], demo.others_width_m[None],
                             0.5 * np.hypot(demo.others_length_m, demo.others_width_m)[None],
                             demo.others_is_pedestrian[None], np.ones((1, 2), bool))
-    ev = evaluate_candidates(cands, theta, demo.v_ref_mps, VehicleParams(), demo.route,
-                             demo.s0_m, demo.v0_mps, demo.prev_accel_mps2, scene,
-                             demo.crosswalks)
+    ev = evaluate_candidates(
+        PlanningEgo(cands, theta, demo.v_ref_mps, VehicleParams(), demo.route, demo.s0_m,
+                    demo.v0_mps, demo.prev_accel_mps2), Surroundings(scene, demo.crosswalks))
     ours = theta @ irl.feature_derivatives(demo).totals
     assert ours == pytest.approx(ev.step_cost.sum(), rel=1e-9)
 

@@ -13,7 +13,13 @@ import pytest
 from hypothesis import example, given, settings
 from hypothesis import strategies as st
 
-from marl_social.models.candidates import CandidateSet, ScenePrediction, evaluate_candidates
+from marl_social.models.candidates import (
+    CandidateSet,
+    PlanningEgo,
+    ScenePrediction,
+    Surroundings,
+    evaluate_candidates,
+)
 from marl_social.models.driver import DriverModel, RoadRules, rule_abiding_totals
 from marl_social.models.gap_evaluation import (
     kernel_gap_evaluation,
@@ -80,8 +86,9 @@ def test_vehicle_gap_evaluation_equals_evaluate_candidates(seed, n_hyp, n_obj, b
             rng.uniform(0.0, 40.0), rng.uniform(0.0, 12.0), rng.uniform(-3.0, 2.0), scene,
             crosswalks)
     extra = {"yield_zones": yield_zones, "yield_margin_s": 1.5, "curve_speed": curve}
-    reference = evaluate_candidates(*args, geometry=True, vehicle_gaps_only=True, **extra)
-    fast = vehicle_gap_evaluation(*args, **extra)
+    ego, around = PlanningEgo(*args[:8]), Surroundings(*args[8:], **extra)
+    reference = evaluate_candidates(ego, around, geometry=True, vehicle_gaps_only=True)
+    fast = vehicle_gap_evaluation(ego, around)
     for name in FIELDS:
         want, got = getattr(reference, name), getattr(fast, name)
         assert (want is None) == (got is None), name
@@ -131,9 +138,10 @@ def test_kernel_rule_totals_equal_the_evaluations_totals(seed, n_hyp, n_obj, ben
     args = (CANDIDATES, theta, rng.uniform(5.0, 12.0), model.vehicle, route, s0, v0,
             rng.uniform(-3.0, 2.0), scene, crosswalks)
     extra = () if road is None else (road.yield_zones, model.yield_margin_s, road.curve_speed)
-    ev = kernel_gap_evaluation(*args, *extra)
+    ego, around = PlanningEgo(*args[:8]), Surroundings(*args[8:], *extra)
+    ev = kernel_gap_evaluation(ego, around)
     want = rule_abiding_totals(ev, model, s0, road)
-    got = kernel_rule_totals(*args, *extra, *(() if road is None else (road.stop_s_m,)))
+    got = kernel_rule_totals(ego, around, *(() if road is None else (road.stop_s_m,)))
     assert got.shape == want.shape
     assert np.array_equal(got, want, equal_nan=True)
     assert np.array_equal(np.signbit(got), np.signbit(want))
@@ -166,10 +174,12 @@ def test_evaluations_from_several_speeds_equal_one_evaluation_per_speed(
     head = (CANDIDATES, theta, rng.uniform(5.0, 12.0), VehicleParams(), route,
             rng.uniform(0.0, 40.0))
     tail = (rng.uniform(-3.0, 2.0), scene, crosswalks)
-    shared = vehicle_gap_evaluations(*head, np.array(speeds), *tail, **extra)
+    around = Surroundings(*tail[1:], **extra)
+    shared = vehicle_gap_evaluations(PlanningEgo(*head, np.nan, tail[0]), np.array(speeds),
+                                     around)
     assert len(shared) == len(speeds)
     for v0, got_ev in zip(speeds, shared):
-        want_ev = vehicle_gap_evaluation(*head, v0, *tail, **extra)
+        want_ev = vehicle_gap_evaluation(PlanningEgo(*head, v0, tail[0]), around)
         for name in FIELDS:
             want, got = getattr(want_ev, name), getattr(got_ev, name)
             assert (want is None) == (got is None), name

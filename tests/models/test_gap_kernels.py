@@ -14,7 +14,9 @@ from hypothesis import strategies as st
 from marl_social.models import gap_kernels
 from marl_social.models.candidates import (
     CandidateSet,
+    PlanningEgo,
     ScenePrediction,
+    Surroundings,
     _governed,
     _plan_constants,
     _rollout,
@@ -141,8 +143,9 @@ def test_vehicle_gap_evaluation_with_many_objects(seed, n_hyp, n_obj, crosswalk,
     extra = {"yield_zones": tuple((polygon + 3.0 * k, rng.random((n_hyp, n_obj)) < 0.6)
                                   for k in range(zones)), "yield_margin_s": 1.5,
              "curve_speed": CurveSpeed(route, 2.5, 2.3) if bent else None}
-    want = evaluate_candidates(*args, geometry=True, vehicle_gaps_only=True, **extra)
-    got = vehicle_gap_evaluation(*args, **extra)
+    ego, around = PlanningEgo(*args[:8]), Surroundings(*args[8:], **extra)
+    want = evaluate_candidates(ego, around, geometry=True, vehicle_gaps_only=True)
+    got = vehicle_gap_evaluation(ego, around)
     for name in ("step_cost", "v", "a_eff", "travel_m", "min_vehicle_gap_m",
                  "vehicle_clearance_m") + (("curve_excess_mps",) if bent else ()):
         assert same_bits(getattr(got, name), np.asarray(getattr(want, name))), name
@@ -157,8 +160,9 @@ def test_initial_states_the_kernels_do_not_take_are_evaluated_by_the_reference()
                             np.zeros((1, 0), bool))
     for v0, s0 in ((-0.0, 3.0), (np.inf, 3.0), (2.0, 1e13), (np.nan, 0.0)):
         args = (CANDIDATES, np.ones(6), 8.0, VehicleParams(), route, s0, v0, 0.0, scene, ())
-        want = evaluate_candidates(*args, geometry=True, vehicle_gaps_only=True)
-        got = vehicle_gap_evaluation(*args)
+        ego, around = PlanningEgo(*args[:8]), Surroundings(*args[8:])
+        want = evaluate_candidates(ego, around, geometry=True, vehicle_gaps_only=True)
+        got = vehicle_gap_evaluation(ego, around)
         for name in ("step_cost", "v", "a_eff", "travel_m"):
             assert same_bits(np.asarray(getattr(got, name)), np.asarray(getattr(want, name)))
 
