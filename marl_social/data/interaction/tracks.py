@@ -29,7 +29,7 @@ _MIN_HEADING_SPEED_MPS = 0.2  # below this a pedestrian keeps its last direction
 # coordinates would overflow the path resampling)
 COLUMN_LIMITS = {"frame_id": 1e15, "timestamp_ms": 1e15, "x": 1e8, "y": 1e8, "vx": 1e3,
                  "vy": 1e3, "psi_rad": 1e3, "length": 1e3, "width": 1e3}
-MAX_CSV_BYTES = 500 * MB  # largest track file read (parsed, ~3x as much memory) [bytes]
+MAX_CSV_BYTES = 40 * MB  # largest track file read: parsing takes ~27x its size in memory (~1 GB)
 MAX_SPEED_MPS = 1000.0  # consecutive samples of a track farther apart than this are corrupt
 _RECORDING_NAME = re.compile(r"^(?:vehicle|pedestrian)_tracks_(\d+)\.csv$")
 
@@ -124,7 +124,8 @@ def _read_file(path: Path) -> dict[str, Track]:
     """One CSV file -> tracks (see read_interaction_csv)."""
     if not path.is_file():
         raise FileNotFoundError(f"INTERACTION track file {path} does not exist")
-    check_file_size(path, MAX_CSV_BYTES, "a track file (INTERACTION's are below 30 MB)")
+    check_file_size(path, MAX_CSV_BYTES, "a track file (its parsed rows take ~27x its size "
+                    "in memory; split the recording)")
     try:
         return _parse_file(path)
     except UnicodeDecodeError:
