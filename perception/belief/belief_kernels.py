@@ -267,10 +267,8 @@ def joint_posterior(predicted, exp_total, floor, n_v):
     return posterior.reshape(n_l, n_v), by_l, by_v
 
 
-@numba.njit((_array(2), _array(2), _F8, _array(1), _array(1), _F8, _F8, _F8, _F8, _B1),
-            **_JIT)
-def visible_counts(dist, bearing, heading, angles, depth, rng, half, tolerance, radius,
-                   full_circle):
+@numba.njit((_array(2), _array(2), _F8, _array(1), _array(1), types.UniTuple(_F8, 4)), **_JIT)
+def visible_counts(dist, bearing, heading, angles, depth, cone):
     """(P,) how many of each region's K points (P, K) the depth rays show free.
 
     own_sensors.OwnSensors.visible_fraction after np.hypot and np.arctan2: the bearing
@@ -284,12 +282,12 @@ def visible_counts(dist, bearing, heading, angles, depth, rng, half, tolerance, 
         heading: the robot's heading [rad] (subtracted from bearing).
         angles: (R,) ray directions, ascending [rad].
         depth: (R,) depth along each ray [m].
-        rng: sensor range [m].
-        half: sensor half-angle [rad].
-        tolerance: cone edge tolerance [rad].
-        radius: a point is free if the ray reaches its distance less this [m].
-        full_circle: half >= pi (the rays wrap around).
+        cone: (rng, half, tolerance, radius): the sensor's range [m] and half-angle [rad]
+            (half >= pi: the rays wrap around), the cone edge's tolerance [rad], and the
+            radius [m] a point is free with if the ray reaches its distance less it.
     """
+    rng, half, tolerance, radius = cone
+    full_circle = half >= np.pi
     n_p, n_k = dist.shape
     n_rays = len(angles)
     counts = np.zeros(n_p, dtype=np.int64)
@@ -401,8 +399,11 @@ def speed_q_values(base, speeds, v_ref, weight, rows):
                     low = min(low, total)
                 kept[k, j, a] = low
     out = np.empty((len(rows), n_v, n_act))
-    for i in range(len(rows)):
-        out[i] = kept[rows[i]]
+    for i in range(len(rows)):  # element by element: no broadcast whose shapes numba must check
+        k = rows[i]
+        for j in range(n_v):
+            for a in range(n_act):
+                out[i, j, a] = kept[k, j, a]
     return out
 
 
