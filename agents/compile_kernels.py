@@ -2,7 +2,7 @@
 
 Five parts are compiled on first use and cached on disk (`cache=True`, in each package's
 __pycache__): the planners' kernels (models/kernel_loading.py, ~30 s), the belief's
-(perception/belief/compiled.py, ~8 s), the MPC's ("tree": its tree solver, its QP's
+(perception/belief/compiled.py, ~6 s), the MPC's ("tree": its tree solver, its QP's
 assembly, the corridor test and its bounds: agents/robot/tree_ipm.py, qp_kernels.py,
 corridor_kernels.py, ~15 s; one MPC plan compiles the last), the simulator's ("sim": the
 route projection and lane test, sim/route_kernels.py, the contact test's broad phase,
@@ -42,7 +42,7 @@ PARTS = ("planners", "belief", "tree", "sim", "perception")
 # about the CPU seconds each part takes to compile alone in a fresh process, its imports
 # included (the weights of `split_parts`: only their ratios matter); on 2 cores the planners
 # compile beside the other four
-PART_SECONDS = {"planners": 31.0, "belief": 8.0, "tree": 16.0, "sim": 6.5, "perception": 4.0}
+PART_SECONDS = {"planners": 31.0, "belief": 6.5, "tree": 16.0, "sim": 6.5, "perception": 4.0}
 # each part: the module whose folder holds its kernel files, and those files' names
 _FILES = {
     "planners": ("marl_social.models.kernel_loading",
