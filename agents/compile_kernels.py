@@ -1,15 +1,16 @@
 """Every numba kernel of marl-social, loaded (and compiled into numba's cache) ahead of a run.
 
 Five parts are compiled on first use and cached on disk (`cache=True`, in each package's
-__pycache__): the planners' kernels (models/kernel_loading.py, ~30 s on 2 cores), the
-belief's (perception/belief/compiled.py, ~15 s), the MPC's ("tree": its tree solver, its QP's
+__pycache__): the planners' kernels (models/kernel_loading.py, ~30 s), the belief's
+(perception/belief/compiled.py, ~6 s), the MPC's ("tree": its tree solver, its QP's
 assembly, the corridor test and its bounds: agents/robot/tree_ipm.py, qp_kernels.py,
 corridor_kernels.py, ~15 s; one MPC plan compiles the last), the simulator's ("sim": the
 route projection and lane test, sim/route_kernels.py, the contact test's broad phase,
 sim/geometry_kernels.py, the observation's encoding, sim/observation_kernels.py, and the
 env's pairwise cost features, sim/feature_kernels.py, ~6 s) and the perception's
 ("perception": the field of view's arithmetic around its ray queries,
-perception/fov_kernels.py, and the measurements', perception/sensor_kernels.py, ~5 s). A
+perception/fov_kernels.py, and the measurements', perception/sensor_kernels.py, ~4 s; CPU
+seconds of one process compiling the part alone). A
 process that finds no cache compiles them itself, so on a fresh install several processes
 started at once (a test run on every core, a study's workers, a vector env's) each compile the
 same kernels. `compile_kernels` compiles them once, before such processes start; the parts are
@@ -38,9 +39,10 @@ import numpy as np
 from marl_social.sim.kernel_cache import will_compile
 
 PARTS = ("planners", "belief", "tree", "sim", "perception")
-# about the CPU seconds each part takes to compile alone in a fresh process (the weights of
-# `split_parts`: only their ratios matter)
-PART_SECONDS = {"planners": 23.0, "belief": 9.0, "tree": 10.0, "sim": 4.0, "perception": 3.0}
+# about the CPU seconds each part takes to compile alone in a fresh process, its imports
+# included (the weights of `split_parts`: only their ratios matter); on 2 cores the planners
+# compile beside the other four
+PART_SECONDS = {"planners": 31.0, "belief": 6.5, "tree": 16.0, "sim": 6.5, "perception": 4.0}
 # each part: the module whose folder holds its kernel files, and those files' names
 _FILES = {
     "planners": ("marl_social.models.kernel_loading",

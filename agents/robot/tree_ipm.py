@@ -114,11 +114,12 @@ def _riccati_factor(parent, hess, fg, quu_inv, gain, p_next, h):
 
 
 @numba.njit(cache=True)
-def _riccati_solve(parent, rho, fg, quu_inv, gain, dz, p_next, feed, dx_next):
+def _riccati_solve(parent, rho, fg, quu_inv, gain, dz, work):
     """The Newton step dz (n, 5) for the linear term rho (n, 5), with dx = 0 at the root.
 
-    p_next (n, 3), feed (n, 2), dx_next (n, 3): work arrays.
+    work: the work arrays (p_next (n, 3), feed (n, 2), dx_next (n, 3)).
     """
+    p_next, feed, dx_next = work
     n = parent.shape[0]
     p_next[:] = 0.0
     q = np.empty(5)
@@ -166,17 +167,17 @@ def _dot5(a, b):
 
 
 @numba.njit(cache=True)
-def tree_ipm(parent, x0, fg, out_rows, alpha, beta, rows, lb, ub, settings):
+def tree_ipm(tree, x0, alpha, beta, lb, ub, settings):
     """Mehrotra's predictor-corrector on the tree QP (module docstring).
 
     Args:
-        parent: (n,) int64 parent of each node (-1: the root), parents before children.
+        tree: the tree's fixed arrays (TreeLayout.tree), (parent, fg, out_rows, rows):
+            parent (n,) int64 parent of each node (-1: the root), parents before children;
+            fg (3, 5) the dynamics [F G]: next state = F x + G u; out_rows (5, 5) E, the
+            outputs y = E (x, u) the cost is on; rows (n, 7, 5) each node's constraint rows D.
         x0: (3,) the root's state.
-        fg: (3, 5) the dynamics [F G]: next state = F x + G u.
-        out_rows: (5, 5) E, the outputs y = E (x, u) the cost is on.
         alpha: (n, 5) quadratic cost of each output.
         beta: (n, 5) its linear cost.
-        rows: (n, 7, 5) each node's constraint rows D.
         lb: (n, 7) lower bounds (-inf: none).
         ub: (n, 7) upper bounds (inf: none).
         settings: (7,) MAX_ITER, PRIMAL_TOL, DUAL_TOL, MU_TOL, STALL_MU, STALL_DUAL,
@@ -189,6 +190,7 @@ def tree_ipm(parent, x0, fg, out_rows, alpha, beta, rows, lb, ub, settings):
         x_next (n, 3) their next states; info (3,) the last primal residual, relative dual
         residual and mu.
     """
+    parent, fg, out_rows, rows = tree
     max_iter, primal_tol, dual_tol, mu_tol = int(settings[0]), settings[1], settings[2], \
         settings[3]
     stall_mu, stall_dual, step_fraction = settings[4], settings[5], settings[6]
@@ -323,7 +325,7 @@ def tree_ipm(parent, x0, fg, out_rows, alpha, beta, rows, lb, ub, settings):
                     if w != 0.0:
                         for c in range(5):
                             rho[j, c] += w * rows[j, r, c]
-            _riccati_solve(parent, rho, fg, quu_inv, gain, dz, work3, work2, work3b)
+            _riccati_solve(parent, rho, fg, quu_inv, gain, dz, (work3, work2, work3b))
             step = 1.0
             for j in range(n):
                 for r in range(N_ROWS):
@@ -397,6 +399,7 @@ class TreeLayout:
         rows[:, 5] = [0.0, 0.0, 0.0, 1.0, 1.0]
         rows[:, 6] = self.out_rows[4]
         self.rows = rows
+        self.tree = (self.parent, self.fg, self.out_rows, rows)  # tree_ipm's fixed arrays
         r = qp._rows
         self._grid = np.stack([r["speed"], r["low"], r["up"]])  # (3, L, N) qp.py's rows
         self._var_rows = np.stack([r["jerk"], r["accel"], r["comfort"], r["slack"]], axis=1)
@@ -419,8 +422,8 @@ class TreeLayout:
         """
         n = self.n_nodes
         free = np.full((n, N_ROWS), np.inf)
-        tree_ipm(self.parent, np.zeros(3), self.fg, self.out_rows, np.ones((n, 5)),
-                 np.zeros((n, 5)), self.rows, -free, free, _settings())
+        tree_ipm(self.tree, np.zeros(3), np.ones((n, 5)), np.zeros((n, 5)), -free, free,
+                 _settings())
 
     def bounds(self, lower: np.ndarray, upper: np.ndarray, prev_accel: float
                ) -> tuple[np.ndarray, np.ndarray]:
@@ -487,8 +490,7 @@ class TreeLayout:
             lb, ub = lb.copy(), ub.copy()
             lb[free, 5:] = -np.inf
             ub[free, 5:] = np.inf
-        status, _, z, x_next, info = tree_ipm(self.parent, x0, self.fg, self.out_rows, alpha,
-                                              beta, self.rows, lb, ub, _settings())
+        status, _, z, x_next, info = tree_ipm(self.tree, x0, alpha, beta, lb, ub, _settings())
         x = np.zeros(self.n_vars)
         accel = z[:, 3]
         x[:self.n_nodes] = accel

@@ -35,7 +35,7 @@ def demo(args) -> int:
     from marl_social.evaluation.run import run_episode
     from marl_social.scenarios import make_scenario
     from marl_social.viz.animation import write_animation
-    from marl_social.viz.figures import plot_episode
+    from marl_social.viz.figures import EpisodeArrays, plot_episode
     from marl_social.viz.overlay import caption_frames, crosswalk_ahead
 
     overrides = demo_overrides(args)
@@ -54,8 +54,7 @@ def demo(args) -> int:
         beliefs = {"robot's P(pedestrian): perceived or inferred": trace.extras["p_pedestrian"]}
     title = ", ".join([args.scenario] + ([f"pedestrian={pedestrian}"] if pedestrian else [])
                       + [f"robot: {params.robot_planner} planner"])
-    figure = plot_episode(res.road_map, trace.names, trace.roles, trace.times_s, trace.states,
-                          trace.active, trace.visible, out / f"{stem}.png",
+    figure = plot_episode(res.road_map, EpisodeArrays.from_trace(trace), out / f"{stem}.png",
                           title=title, beliefs=beliefs)
     print(f"figure:    {figure}")
     if not args.no_animation:

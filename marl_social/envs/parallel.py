@@ -295,7 +295,7 @@ class SocialDrivingEnv(ParallelEnv, EzPickle):
                 fan_agents = [follow] if follow is not None else []
             self._renderer = Renderer(
                 road_map, show=self.render_mode == "human",
-                width_px=cfg.width_px, height_px=cfg.height_px, dpi=cfg.dpi,
+                size=cfg.frame_size,
                 view=(x0, min(x1, x0 + cfg.view_width_m), y0, y1) if follow is not None else None,
                 follow=follow, fan_agents=fan_agents,
             )

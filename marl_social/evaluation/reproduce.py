@@ -155,7 +155,7 @@ def format_table(rows: list[dict]) -> str:
 
 def write_figures(out: Path, seed: int = 0) -> list[Path]:
     from marl_social.evaluation.run import run_episode
-    from marl_social.viz.figures import plot_episode
+    from marl_social.viz.figures import EpisodeArrays, plot_episode
 
     paths = []
     for stem, planner, variant in FIGURES:
@@ -166,7 +166,7 @@ def write_figures(out: Path, seed: int = 0) -> list[Path]:
         if "p_pedestrian" in tr.extras and planner == "social":
             beliefs["inferred P(pedestrian) (robot belief)"] = tr.extras["p_pedestrian"]
         paths.append(plot_episode(
-            res.road_map, tr.names, tr.roles, tr.times_s, tr.states, tr.active, tr.visible,
+            res.road_map, EpisodeArrays.from_trace(tr),
             out / f"{stem}.png", title=f"{planner} planner, pedestrian {variant}",
             beliefs=beliefs or None))
     return paths

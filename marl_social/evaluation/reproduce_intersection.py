@@ -251,7 +251,7 @@ def write_figures(out: Path, seed: int = 0) -> list[Path]:
     (trace extra "p_vehicle"; 1 while it sees one) for a belief-based planner.
     """
     from marl_social.evaluation.run import run_episode
-    from marl_social.viz.figures import plot_episode
+    from marl_social.viz.figures import EpisodeArrays, plot_episode
 
     paths = []
     for stem, planner, variant in FIGURES:
@@ -265,7 +265,7 @@ def write_figures(out: Path, seed: int = 0) -> list[Path]:
         if "p_vehicle" in tr.extras:
             seen["robot_0's belief in a hidden car"] = tr.extras["p_vehicle"]
         paths.append(plot_episode(
-            res.road_map, tr.names, tr.roles, tr.times_s, tr.states, tr.active, tr.visible,
+            res.road_map, EpisodeArrays.from_trace(tr),
             out / f"{stem}.png", title=f"T-intersection: {planner} planner, V3 {variant}",
             beliefs=seen, belief_title="who sees the hidden car V3, the robot's belief in it"))
     return paths

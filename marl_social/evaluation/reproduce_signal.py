@@ -139,7 +139,7 @@ def format_table(rows: list[dict]) -> str:
 def write_figures(out: Path, seed: int = 0) -> list[Path]:
     """The FIGURES as PNGs in `out`; panel (c): the robot's belief in each of the two phases."""
     from marl_social.evaluation.run import run_episode
-    from marl_social.viz.figures import plot_episode
+    from marl_social.viz.figures import EpisodeArrays, plot_episode
 
     paths = []
     for stem, planner, variant in FIGURES:
@@ -149,7 +149,7 @@ def write_figures(out: Path, seed: int = 0) -> list[Path]:
         beliefs = {f"robot_0's belief: {name}": tr.extras[f"phase_{name}"]
                    for name in VARIANTS if f"phase_{name}" in tr.extras}
         paths.append(plot_episode(
-            res.road_map, tr.names, tr.roles, tr.times_s, tr.states, tr.active, tr.visible,
+            res.road_map, EpisodeArrays.from_trace(tr),
             out / f"{stem}.png", title=f"Signalized intersection: {planner} planner, {variant}",
             beliefs=beliefs, belief_title="the robot's belief in the signal phase",
             signal_states=tr.signal_states))

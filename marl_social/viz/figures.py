@@ -44,6 +44,37 @@ _TIME_EPS_S = 1e-9  # tolerance when matching snapshot times [s]
 
 
 @dataclass(frozen=True, eq=False)
+class EpisodeArrays:
+    """What `plot_episode` draws of an episode (n agents, T steps), as given.
+
+    Attributes:
+        names: (n,) agent names.
+        roles: (n,) agent roles ("robot", "human", "pedestrian").
+        times_s: (T,) increasing times [s].
+        states: (T, n, 4) [x m, y m, heading rad, speed m/s].
+        active: (T, n) bool, agent still in the episode (inactive steps are not drawn).
+        visible: (T, n, n) bool, visible[t, o, j] = observer o sees agent j at step t.
+        lengths_m: optional (n,) footprint lengths [m]; default 4.5 m cars.
+        widths_m: optional (n,) footprint widths [m]; default 1.8 m cars.
+    """
+
+    names: Sequence[str]
+    roles: Sequence[str]
+    times_s: np.ndarray
+    states: np.ndarray
+    active: np.ndarray
+    visible: np.ndarray
+    lengths_m: np.ndarray | None = None
+    widths_m: np.ndarray | None = None
+
+    @classmethod
+    def from_trace(cls, trace) -> EpisodeArrays:
+        """The arrays of an evaluation Trace: its agents, times, states and visibility."""
+        return cls(trace.names, trace.roles, trace.times_s, trace.states, trace.active,
+                   trace.visible)
+
+
+@dataclass(frozen=True, eq=False)
 class _Episode:
     """An episode's validated arrays (n agents, T steps).
 
@@ -89,10 +120,9 @@ def _snapshot_indices(times_s: np.ndarray, every_s: float) -> np.ndarray:
     return np.unique(np.clip(idx, 0, len(times_s) - 1))
 
 
-def plot_episode(road_map: RoadMap, names: Sequence[str], roles: Sequence[str], times_s,
-                 states, active, visible, path, title: str = "",
+def plot_episode(road_map: RoadMap, arrays: EpisodeArrays, path, title: str = "",
                  beliefs: Mapping[str, np.ndarray] | None = None,
-                 lengths_m=None, widths_m=None, snapshot_every_s: float = 1.0,
+                 snapshot_every_s: float = 1.0,
                  belief_title: str = "probability of the pedestrian perceived",
                  signal_states=None) -> Path:
     """Paper-style episode figure (like Figs. 3-6 of Sun et al. 2019), saved as PNG.
@@ -105,18 +135,12 @@ def plot_episode(road_map: RoadMap, names: Sequence[str], roles: Sequence[str], 
 
     Args:
         road_map: the static map.
-        names: (n,) agent names.
-        roles: (n,) agent roles ("robot", "human", "pedestrian").
-        times_s: (T,) increasing times [s].
-        states: (T, n, 4) [x m, y m, heading rad, speed m/s].
-        active: (T, n) bool, agent still in the episode (inactive steps are not drawn).
-        visible: (T, n, n) bool, visible[t, o, j] = observer o sees agent j at step t.
+        arrays: the episode's agents, times, states, activity, visibility and footprints
+            (`EpisodeArrays`; of an evaluation Trace: `EpisodeArrays.from_trace`).
         path: output PNG (parent directories are created).
         title: figure title.
         beliefs: optional {label: (T,) values in [0, 1]} drawn in panel (c), e.g. the robot's
             inferred belief that a pedestrian is there.
-        lengths_m: optional (n,) footprint lengths [m]; default 4.5 m cars.
-        widths_m: optional (n,) footprint widths [m]; default 1.8 m cars.
         snapshot_every_s: time between snapshots in panel (a) [s].
         belief_title: the title of panel (c) (after "(c) "), e.g. what `beliefs` are about.
         signal_states: optional (T, H) states (sim/signals RED, YELLOW, GREEN) of the map's H
@@ -127,8 +151,7 @@ def plot_episode(road_map: RoadMap, names: Sequence[str], roles: Sequence[str], 
     Returns:
         The path written.
     """
-    episode = _checked_episode(names, roles, times_s, states, active, visible, lengths_m,
-                               widths_m)
+    episode = _checked_episode(arrays)
     t_len = len(episode.times_s)
     beliefs = dict(beliefs or {})
     for label, series in beliefs.items():
@@ -180,27 +203,20 @@ def plot_episode(road_map: RoadMap, names: Sequence[str], roles: Sequence[str], 
     return path
 
 
-def _checked_episode(names, roles, times_s, states, active, visible, lengths_m,
-                     widths_m) -> _Episode:
-    """The episode as arrays, with every shape checked (ValueError naming the array).
+def _checked_episode(arrays: EpisodeArrays) -> _Episode:
+    """`arrays` as numpy arrays, with every shape checked (ValueError naming the array).
 
-    Args:
-        names: (n,) agent names.
-        roles: (n,) agent roles.
-        times_s: (T,) strictly increasing times [s].
-        states: (T, n, 4) [x m, y m, heading rad, speed m/s].
-        active: (T, n) bool.
-        visible: (T, n, n) bool.
-        lengths_m: (n,) footprint lengths [m] or None for DEFAULT_CAR_LENGTH_M.
-        widths_m: (n,) footprint widths [m] or None for DEFAULT_CAR_WIDTH_M.
+    The times must increase strictly; footprints left None are DEFAULT_CAR_LENGTH_M and
+    DEFAULT_CAR_WIDTH_M.
     """
-    names, roles = list(names), list(roles)
+    names, roles = list(arrays.names), list(arrays.roles)
+    lengths_m, widths_m = arrays.lengths_m, arrays.widths_m
     n = len(names)
-    times_s = np.asarray(times_s, dtype=np.float64).reshape(-1)
+    times_s = np.asarray(arrays.times_s, dtype=np.float64).reshape(-1)
     t_len = len(times_s)
-    states = np.asarray(states, dtype=np.float64)
-    active = np.asarray(active, dtype=bool)
-    visible = np.asarray(visible, dtype=bool)
+    states = np.asarray(arrays.states, dtype=np.float64)
+    active = np.asarray(arrays.active, dtype=bool)
+    visible = np.asarray(arrays.visible, dtype=bool)
     checks = (("roles", (len(roles),), (n,)), ("states", states.shape, (t_len, n, 4)),
               ("active", active.shape, (t_len, n)), ("visible", visible.shape, (t_len, n, n)))
     for label, got, want in checks:

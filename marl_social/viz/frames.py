@@ -30,12 +30,10 @@ from marl_social.viz.style import (
     BACKGROUND_COLOR,
     BODY_EDGE_PT,
     CAR_FRONT_ALPHA,
+    DEFAULT_FRAME_SIZE,
     FAN_ALPHA,
     FAN_EDGE_ALPHA,
     FAN_EDGE_PT,
-    FRAME_DPI,
-    FRAME_HEIGHT_PX,
-    FRAME_WIDTH_PX,
     LABEL_FONT_PT,
     LABEL_LIFT_PX,
     OTHER_FAN_ALPHA,
@@ -56,6 +54,7 @@ from marl_social.viz.style import (
     TILE_CACHE,
     TIME_FONT_PT,
     TIME_OFFSET_PX,
+    FrameSize,
     role_colors,
 )
 from marl_social.viz.text import MonoText, Sprite, label_sprite
@@ -107,8 +106,8 @@ class Renderer:
         road_map: the static map.
         show: "human" mode: also display every frame in a pyplot window if a GUI backend is
             available; otherwise (headless) silently behave like rgb_array.
-        width_px: frame width [px].
-        height_px: frame height [px].
+        size: the frames' width and height [px] and resolution for font sizes and line widths
+            [px per inch] (style.FrameSize; default 1000 x 240 px at 100 dpi).
         view: (xmin, xmax, ymin, ymax) region to show [m]; default the map's `extent`. It is grown
             in one direction to keep 1 m the same length on both axes (no distortion).
         follow: name of an agent to keep horizontally centred (e.g. "robot_0"); None = fixed
@@ -119,7 +118,6 @@ class Renderer:
             the robot is in view).
         fan_agents: names of the agents whose field of view is drawn when `draw` gets a fov;
             None = every agent (on crowded maps pass e.g. ["robot_0"]: fans cost fill time).
-        dpi: resolution for font sizes and line widths [px per inch].
 
     `view`, `follow` and `fan_agents` are attributes that may be changed between frames.
 
@@ -130,11 +128,11 @@ class Renderer:
     would overlap an earlier one (robots first) is left out.
     """
 
-    def __init__(self, road_map: RoadMap, show: bool = False, width_px: int = FRAME_WIDTH_PX,
-                 height_px: int = FRAME_HEIGHT_PX, view: tuple | None = None,
-                 follow: str | None = None, fan_agents: Sequence[str] | None = None,
-                 dpi: int = FRAME_DPI, follow_within_map: bool = True):
+    def __init__(self, road_map: RoadMap, show: bool = False, size: FrameSize = DEFAULT_FRAME_SIZE,
+                 view: tuple | None = None, follow: str | None = None,
+                 fan_agents: Sequence[str] | None = None, follow_within_map: bool = True):
         """Build the Agg figure with the static map; frames rasterise its tiles on demand."""
+        width_px, height_px, dpi = size.width_px, size.height_px, size.dpi
         for label, value in (("width_px", width_px), ("height_px", height_px), ("dpi", dpi)):
             if isinstance(value, bool) or int(value) != value or value < 16:
                 raise ValueError(f"{label} must be an integer >= 16, got {value!r}")

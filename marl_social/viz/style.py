@@ -79,6 +79,24 @@ def role_colors(role: str) -> tuple[str, str]:
 
 
 @dataclass(frozen=True)
+class FrameSize:
+    """A live frame's size (viz/frames.Renderer).
+
+    Attributes:
+        width_px: frame width [px].
+        height_px: frame height [px].
+        dpi: resolution for font sizes and line widths [px per inch].
+    """
+
+    width_px: int = FRAME_WIDTH_PX
+    height_px: int = FRAME_HEIGHT_PX
+    dpi: int = FRAME_DPI
+
+
+DEFAULT_FRAME_SIZE = FrameSize()
+
+
+@dataclass(frozen=True)
 class RenderConfig:
     """How the env draws its frames (`render_mode="rgb_array"` or `"human"`).
 
@@ -120,6 +138,11 @@ class RenderConfig:
         fans = self.max_agents_with_fans
         self._check(isinstance(fans, int) and not isinstance(fans, bool) and fans >= 0,
                     "max_agents_with_fans", "must be an integer >= 0")
+
+    @property
+    def frame_size(self) -> FrameSize:
+        """The frames' size (width_px, height_px, dpi)."""
+        return FrameSize(self.width_px, self.height_px, self.dpi)
 
     def _check(self, ok: bool, field_name: str, message: str) -> None:
         if not ok:

@@ -16,7 +16,8 @@ bit for bit (tests/perception/test_belief_kernels.py):
 
 One signature each, `cache=True`, no fastmath, error_model "numpy" (a division by zero gives
 inf or NaN as in numpy); a compiled function calls only compiled functions of this file
-(numba's cache notices changes of this file only). Imported at the first update
+(numba's cache notices changes of this file only), an index 0 as np.int64(0) (numba would
+compile the helper once more for a literal 0). Imported at the first update
 (`compiled.kernels`).
 """
 
@@ -174,7 +175,7 @@ def shifted_log_model_terms(z, log_norm, a_obs, actions, sigma, log_gauss_norm):
     for r in range(n_rows):
         for a in range(n_act):
             x[r, a] = (z[r, a] - log_norm[r]) + log_gauss[a]
-        t = _nan_max(x[r], 0, n_act)
+        t = _nan_max(x[r], np.int64(0), n_act)
         if not math.isfinite(t):
             t = 0.0
         top[r] = t
@@ -191,7 +192,7 @@ def bounded(log_lik, max_ratio):
     for i in range(n):
         if not math.isfinite(log_lik[i]):
             return out
-    floor = _nan_max(log_lik, 0, n) - max_ratio
+    floor = _nan_max(log_lik, np.int64(0), n) - max_ratio
     for i in range(n):
         if not out[i] >= floor:
             out[i] = floor
@@ -214,7 +215,7 @@ def joint_log_likelihood(predicted, own, social, n_v):
     for i in range(n):  # np.maximum(predicted, 0.0): NaN stays
         predicted[i] = max(predicted[i], 0.0)
     out = np.empty(2 * n + n_l)
-    _sanitized(own, 0, n_l, out, 2 * n)
+    _sanitized(own, np.int64(0), n_l, out, 2 * n)
     total = np.empty(n)
     for i in range(n):
         total[i] = out[2 * n + i // n_v]
@@ -222,12 +223,12 @@ def joint_log_likelihood(predicted, own, social, n_v):
     rows = np.empty(n)
     raw = np.zeros(n)
     for h in range(n_h):
-        _sanitized(flat, h * n, n, rows, 0)
+        _sanitized(flat, h * n, n, rows, np.int64(0))
         for i in range(n):
             total[i] += rows[i]
             raw[i] += flat[h * n + i]
-    _sanitized(total, 0, n, out, 0)
-    _sanitized(raw, 0, n, out, n)
+    _sanitized(total, np.int64(0), n, out, np.int64(0))
+    _sanitized(raw, np.int64(0), n, out, n)
     return out
 
 
@@ -267,10 +268,8 @@ def joint_posterior(predicted, exp_total, floor, n_v):
     return posterior.reshape(n_l, n_v), by_l, by_v
 
 
-@numba.njit((_array(2), _array(2), _F8, _array(1), _array(1), _F8, _F8, _F8, _F8, _B1),
-            **_JIT)
-def visible_counts(dist, bearing, heading, angles, depth, rng, half, tolerance, radius,
-                   full_circle):
+@numba.njit((_array(2), _array(2), _F8, _array(1), _array(1), types.UniTuple(_F8, 4)), **_JIT)
+def visible_counts(dist, bearing, heading, angles, depth, cone):
     """(P,) how many of each region's K points (P, K) the depth rays show free.
 
     own_sensors.OwnSensors.visible_fraction after np.hypot and np.arctan2: the bearing
@@ -284,12 +283,12 @@ def visible_counts(dist, bearing, heading, angles, depth, rng, half, tolerance, 
         heading: the robot's heading [rad] (subtracted from bearing).
         angles: (R,) ray directions, ascending [rad].
         depth: (R,) depth along each ray [m].
-        rng: sensor range [m].
-        half: sensor half-angle [rad].
-        tolerance: cone edge tolerance [rad].
-        radius: a point is free if the ray reaches its distance less this [m].
-        full_circle: half >= pi (the rays wrap around).
+        cone: (rng, half, tolerance, radius): the sensor's range [m] and half-angle [rad]
+            (half >= pi: the rays wrap around), the cone edge's tolerance [rad], and the
+            radius [m] a point is free with if the ray reaches its distance less it.
     """
+    rng, half, tolerance, radius = cone
+    full_circle = half >= np.pi
     n_p, n_k = dist.shape
     n_rays = len(angles)
     counts = np.zeros(n_p, dtype=np.int64)
@@ -387,7 +386,7 @@ def speed_q_values(base, speeds, v_ref, weight, rows):
                 for t in range(n_t):
                     d = flat[start + t] - v_ref[j]
                     squares[t] = d * d
-                speed[j, a, c] = weight * _pairwise_sum(squares, 0, n_t)
+                speed[j, a, c] = weight * _pairwise_sum(squares, np.int64(0), n_t)
     kept = np.empty((n_kept, n_v, n_act))
     for k in range(n_kept):
         for j in range(n_v):
@@ -401,8 +400,11 @@ def speed_q_values(base, speeds, v_ref, weight, rows):
                     low = min(low, total)
                 kept[k, j, a] = low
     out = np.empty((len(rows), n_v, n_act))
-    for i in range(len(rows)):
-        out[i] = kept[rows[i]]
+    for i in range(len(rows)):  # element by element: no broadcast whose shapes numba must check
+        k = rows[i]
+        for j in range(n_v):
+            for a in range(n_act):
+                out[i, j, a] = kept[k, j, a]
     return out
 
 

@@ -83,7 +83,7 @@ class OwnSensors:
         # compiled (belief_kernels.visible_counts: the same arithmetic)
         counts = compiled.kernels().visible_counts(
             np.hypot(rel_x, rel_y), np.arctan2(rel_y, rel_x), math.atan2(s, c), angles, depth,
-            rng, half, CONE_TOLERANCE_RAD, 0.5 * PEDESTRIAN_DIAMETER_M, half >= np.pi)
+            (rng, half, CONE_TOLERANCE_RAD, 0.5 * PEDESTRIAN_DIAMETER_M))
         # the mean of each row's K booleans: an exact count over K, divided as np.mean divides
         out[self._present_idx] = counts / self._region_x.shape[1]
         return out

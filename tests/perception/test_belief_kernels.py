@@ -182,8 +182,8 @@ def test_visible_counts_are_numpys(seed, n_p, n_k, n_rays, half):
     heading = float(rng.uniform(-4, 4))
     angles = np.ascontiguousarray(depth_ray_angles(np.array([half]), n_rays)[0])
     depth = rng.uniform(0, 60, n_rays)
-    counts = compiled.kernels().visible_counts(dist, bearing, heading, angles, depth, 40.0, half,
-                                               1e-9, 0.25, half >= np.pi)
+    counts = compiled.kernels().visible_counts(dist, bearing, heading, angles, depth,
+                                               (40.0, half, 1e-9, 0.25))
     assert np.array_equal(counts, _reference_visible_counts(dist, bearing, heading, angles,
                                                             depth, 40.0, half))
 

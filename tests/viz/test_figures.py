@@ -7,7 +7,7 @@ import pytest
 from PIL import Image
 
 import marl_social
-from marl_social.viz.figures import plot_episode
+from marl_social.viz.figures import EpisodeArrays, plot_episode
 from tests.viz.pixels import green_pixels, red_pixels
 
 
@@ -30,7 +30,7 @@ def _episode(steps: int = 25):
 def test_plot_episode_writes_a_readable_png(tmp_path):
     road_map, names, roles, times, states, active, visible = _episode()
     belief = np.linspace(0.0, 1.0, len(times))
-    path = plot_episode(road_map, names, roles, times, states, active, visible,
+    path = plot_episode(road_map, EpisodeArrays(names, roles, times, states, active, visible),
                         tmp_path / "figs" / "episode.png", title="test episode",
                         beliefs={"robot belief": belief})
     assert path.exists()
@@ -46,8 +46,8 @@ def test_plot_episode_writes_a_readable_png(tmp_path):
 def test_plot_episode_rejects_inconsistent_shapes(tmp_path):
     road_map, names, roles, times, states, active, visible = _episode(5)
     with pytest.raises(ValueError, match="states"):
-        plot_episode(road_map, names, roles, times, states[:-1], active, visible,
+        plot_episode(road_map, EpisodeArrays(names, roles, times, states[:-1], active, visible),
                      tmp_path / "x.png")
     with pytest.raises(ValueError, match="belief"):
-        plot_episode(road_map, names, roles, times, states, active, visible, tmp_path / "x.png",
-                     beliefs={"belief": np.zeros(3)})
+        plot_episode(road_map, EpisodeArrays(names, roles, times, states, active, visible),
+                     tmp_path / "x.png", beliefs={"belief": np.zeros(3)})

@@ -14,7 +14,7 @@ from marl_social.envs.world import World
 from marl_social.perception.fov import FovResult
 from marl_social.scenarios import make_scenario
 from marl_social.viz.frames import Renderer
-from marl_social.viz.style import RenderConfig
+from marl_social.viz.style import FrameSize, RenderConfig
 from tests.viz.pixels import green_pixels, red_pixels
 
 W, H = 1000, 240
@@ -153,7 +153,7 @@ def test_follow_keeps_the_agent_centred_and_stitches_the_map(world):
 
 
 def test_frame_size_and_errors(world):
-    small = Renderer(world.road_map, width_px=320, height_px=200)
+    small = Renderer(world.road_map, size=FrameSize(320, 200))
     assert small.draw(world).shape == (200, 320, 3)
     with pytest.raises(ValueError, match="view"):
         Renderer(world.road_map, view=(10.0, 0.0, -5.0, 5.0))

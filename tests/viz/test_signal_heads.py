@@ -7,7 +7,7 @@ from matplotlib.colors import to_rgb
 
 import marl_social
 from marl_social.viz.frames import Renderer
-from marl_social.viz.style import SIGNAL_STATE_COLORS
+from marl_social.viz.style import SIGNAL_STATE_COLORS, FrameSize
 
 
 def _pixel(renderer: Renderer, frame: np.ndarray, xy) -> np.ndarray:
@@ -19,7 +19,7 @@ def test_every_head_is_drawn_in_the_state_it_shows():
     env = marl_social.parallel_env(scenario="signalized_intersection", max_cycles=400)
     env.reset(seed=0)
     heads = env.world.signal_heads
-    renderers = [Renderer(env.world.road_map, width_px=200, height_px=200,  # one per head
+    renderers = [Renderer(env.world.road_map, size=FrameSize(200, 200),  # one per head
                           view=(x - 4.0, x + 4.0, y - 4.0, y + 4.0))
                  for x, y in (head.position for head in heads)]
     shown = set()
@@ -50,12 +50,12 @@ def test_paper_figure_shows_each_heads_state_over_time(tmp_path):
     from matplotlib.image import imread
 
     from marl_social.evaluation.run import run_episode
-    from marl_social.viz.figures import plot_episode
+    from marl_social.viz.figures import EpisodeArrays, plot_episode
 
     res = run_episode("signalized_intersection", seed=0, robot_planner="oracle",
                       phase="protected_left", phase_elapsed_s=8.0, max_cycles=30)
     tr = res.trace
-    args = (res.road_map, tr.names, tr.roles, tr.times_s, tr.states, tr.active, tr.visible)
+    args = (res.road_map, EpisodeArrays.from_trace(tr))
 
     def count(path, state):
         img = imread(path)[..., :3]
