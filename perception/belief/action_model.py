@@ -15,7 +15,6 @@ import numpy as np
 
 from marl_social.models.boltzmann import boltzmann
 from marl_social.perception.belief import compiled
-from marl_social.perception.belief.compiled import PAIRWISE_MAX
 
 # the model of a human averaged over the robot's estimate of its speed: three-point Gauss-Hermite
 # nodes at -sqrt 3, 0, +sqrt 3 standard deviations of the estimate, weights 1/6, 2/3, 1/6
@@ -56,9 +55,12 @@ def action_log_likelihood(q_values: np.ndarray, beta: float, a_obs: float,
     sigma = max(float(sigma_mps2), SIGMA_MIN_MPS2)
     actions = np.asarray(actions_mps2, dtype=np.float64)
     log_gauss_norm = math.log(sigma * math.sqrt(2 * math.pi))
-    if math.isinf(beta) or not 0 < q.shape[-1] <= PAIRWISE_MAX:
-        log_model = _log_model(q, beta, a_obs, actions, sigma, log_gauss_norm)
-    else:  # the same arithmetic, the steps between np.exp and np.log compiled
+    if q.shape[-1] == 0:
+        raise ValueError("action_log_likelihood: no candidate actions (q_values' last axis is "
+                         "empty)")
+    if math.isinf(beta):
+        log_model = _argmin_log_model(q, a_obs, actions, sigma, log_gauss_norm)
+    else:  # numpy's np.exp and np.log, the steps between them compiled
         log_model = _compiled_log_model(q, beta, a_obs, actions, sigma, log_gauss_norm)
     if log_model is None:
         return np.zeros(q.shape[:-1])
@@ -110,20 +112,13 @@ def speed_averaged_log_likelihood(q_nodes: np.ndarray, beta: float, a_obs: float
     return logsumexp(ll + weights, axis=0)
 
 
-def _log_model(q: np.ndarray, beta: float, a_obs: float, actions: np.ndarray, sigma: float,
-               log_gauss_norm: float) -> np.ndarray | None:
-    """Log sum_u softmax(-beta q)[u] N(a_obs; u, sigma^2) (...), in numpy; None if not finite.
-
-    The reference of `_compiled_log_model` (and the path for beta = inf).
-    """
+def _argmin_log_model(q: np.ndarray, a_obs: float, actions: np.ndarray, sigma: float,
+                      log_gauss_norm: float) -> np.ndarray | None:
+    """Log sum_u argmin(q)[u] N(a_obs; u, sigma^2) (...): beta = inf; None if not finite."""
     if not math.isfinite(a_obs) or not np.all(np.isfinite(q)):
         return None
-    if math.isinf(beta):
-        with np.errstate(divide="ignore"):
-            log_p = np.log(boltzmann(q, beta))
-    else:
-        z = -beta * (q - q.min(axis=-1, keepdims=True))
-        log_p = z - np.log(np.exp(z).sum(axis=-1, keepdims=True))
+    with np.errstate(divide="ignore"):
+        log_p = np.log(boltzmann(q, math.inf))
     with np.errstate(over="ignore"):  # an absurd a_obs gives -inf everywhere: uninformative
         log_gauss = -0.5 * ((a_obs - actions) / sigma) ** 2 - log_gauss_norm
     return logsumexp(log_p + log_gauss, axis=-1)
@@ -131,10 +126,11 @@ def _log_model(q: np.ndarray, beta: float, a_obs: float, actions: np.ndarray, si
 
 def _compiled_log_model(q: np.ndarray, beta: float, a_obs: float, actions: np.ndarray,
                         sigma: float, log_gauss_norm: float) -> np.ndarray | None:
-    """`_log_model` for a finite beta, bit for bit: numpy's np.exp and np.log, the rest compiled.
+    """Log sum_u softmax(-beta q)[u] N(a_obs; u, sigma^2) (...), finite beta; None if not finite.
 
-    belief_kernels.boltzmann_exponents, row_sums and shifted_log_model_terms do the
-    reference's arithmetic in its order (q's last axis at most PAIRWISE_MAX long).
+    numpy's np.exp and np.log; belief_kernels.boltzmann_exponents, row_sums and
+    shifted_log_model_terms do the rest in the order of the numpy formulation they replaced
+    (tests/perception/test_belief_kernels.py compares them bit for bit, any row length).
     """
     if not math.isfinite(a_obs):
         return None

@@ -29,6 +29,10 @@ import numba
 import numpy as np
 from numba import types
 
+from marl_social.sim.pairwise_sum import contiguous_sum
+
+# pairwise_sum.py stamp: 6635cc8d50a6aec4 (tests/sim/test_pairwise_sum.py)
+
 _F8 = types.float64
 _I8 = types.int64
 _B1 = types.boolean
@@ -43,42 +47,6 @@ def _array(ndim: int, dtype=_F8):
 def _writable(ndim: int, dtype=_F8):
     """The numba type of a writable C-contiguous array (a kernel that writes into it)."""
     return types.Array(dtype, ndim, "C")
-
-
-@numba.njit(cache=True)
-def _pairwise_sum(values, start, n):
-    """np.sum of values[start:start + n] along a contiguous axis, n <= 128 (compiled.PAIRWISE_MAX).
-
-    0.0 plus numpy's pairwise_sum: fewer than 8 values added one by one to -0.0; else eight
-    running sums, combined ((r0 + r1) + (r2 + r3)) + ((r4 + r5) + (r6 + r7)), then the rest
-    one by one.
-    models/cost_kernels._pairwise_sum is its twin (without the 0.0 +): numba's cache notices
-    edits only in a kernel's own file, so a kernel here may not call one there.
-    """
-    if n < 8:
-        total = -0.0
-        for i in range(start, start + n):
-            total += values[i]
-        return 0.0 + total
-    r0, r1, r2, r3 = values[start], values[start + 1], values[start + 2], values[start + 3]
-    r4, r5, r6, r7 = values[start + 4], values[start + 5], values[start + 6], values[start + 7]
-    i = 8
-    while i < n - (n % 8):
-        b = start + i
-        r0 += values[b]
-        r1 += values[b + 1]
-        r2 += values[b + 2]
-        r3 += values[b + 3]
-        r4 += values[b + 4]
-        r5 += values[b + 5]
-        r6 += values[b + 6]
-        r7 += values[b + 7]
-        i += 8
-    total = ((r0 + r1) + (r2 + r3)) + ((r4 + r5) + (r6 + r7))
-    while i < n:
-        total += values[start + i]
-        i += 1
-    return 0.0 + total
 
 
 @numba.njit(cache=True)
@@ -148,12 +116,12 @@ def boltzmann_exponents(q, beta):
 
 @numba.njit((_array(2),), **_JIT)
 def row_sums(values):
-    """values.sum(axis=-1) of values (R, A), A <= 128 (numpy's pairwise order)."""
+    """values.sum(axis=-1) of values (R, A), any A (numpy's pairwise order)."""
     n_rows, n_act = values.shape
     flat = values.ravel()
     out = np.empty(n_rows)
     for r in range(n_rows):
-        out[r] = _pairwise_sum(flat, r * n_act, n_act)
+        out[r] = contiguous_sum(flat, r * n_act, n_act)
     return out
 
 
@@ -256,7 +224,7 @@ def joint_posterior(predicted, exp_total, floor, n_v):
     _normalize(posterior)
     by_l = np.empty(n_l)
     for i in range(n_l):
-        by_l[i] = max(_pairwise_sum(posterior, i * n_v, n_v), floor)
+        by_l[i] = max(contiguous_sum(posterior, i * n_v, n_v), floor)
     by_v = np.zeros(n_v)
     for i in range(n_l):
         for j in range(n_v):
@@ -386,7 +354,7 @@ def speed_q_values(base, speeds, v_ref, weight, rows):
                 for t in range(n_t):
                     d = flat[start + t] - v_ref[j]
                     squares[t] = d * d
-                speed[j, a, c] = weight * _pairwise_sum(squares, np.int64(0), n_t)
+                speed[j, a, c] = weight * contiguous_sum(squares, np.int64(0), n_t)
     kept = np.empty((n_kept, n_v, n_act))
     for k in range(n_kept):
         for j in range(n_v):

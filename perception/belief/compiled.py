@@ -14,10 +14,6 @@ from types import ModuleType
 
 from marl_social.sim.kernel_cache import load_kernels
 
-# the longest contiguous sum the kernels take (belief_kernels._pairwise_sum: numpy's pairwise
-# block, no further split); longer rows stay in numpy
-PAIRWISE_MAX = 128
-
 
 @functools.cache  # called at every belief kernel use: a cached call, not load_kernels' lookup
 def kernels() -> ModuleType:

@@ -28,7 +28,6 @@ from marl_social.models.gap_evaluation import vehicle_gap_evaluations
 from marl_social.models.yield_expectation import YieldExpectation
 from marl_social.perception.belief import compiled
 from marl_social.perception.belief.action_model import speed_nodes_mps
-from marl_social.perception.belief.compiled import PAIRWISE_MAX
 from marl_social.perception.belief.config import BeliefConfig
 from marl_social.perception.belief.human_scene import HumanScenes
 from marl_social.perception.belief.hypotheses import Hypothesis
@@ -75,7 +74,6 @@ class HumanPrediction:
         self._kept_rows_memo: dict[bytes, tuple] = {}  # present (L,) -> (inverse, keep)
         # the speed feature theta_speed (v - v_ref)^2 per planner step, in simulator-step units
         self._speed_weight = config.theta_hat.speed * (self._candidates.plan_dt_s / DT_S)
-        self._v_ref_column = self.traffic_grid_mps[:, None, None, None]  # (V, 1, 1, 1) [m/s]
         self.scenes = HumanScenes(
             hypotheses, times, config, self.model.vehicle,
             YieldExpectation(road_map) if config.human_expects_yield else None)
@@ -151,10 +149,10 @@ class HumanPrediction:
         """(L, V, A) Q*_H of one speed's evaluation of the kept scenes (`q_values`)."""
         # (L, A, C): predicted collisions and plans too fast for its bends excluded
         base = rule_abiding_totals(ev, self.model, s0, RoadRules(None, zones, curve))
-        if ev.v.shape[-1] > PAIRWISE_MAX or not base.shape[-1]:
-            speed = self._speed_weight * np.square(ev.v - self._v_ref_column).sum(axis=-1)
-            return (base[:, None] + speed[None]).min(axis=-1)[inverse]  # (V, A, C) speed
-        # the same arithmetic compiled: the speed feature, its minimum over the continuations
+        if not base.shape[-1]:
+            raise ValueError("HumanPrediction: the model's candidates have no continuations")
+        # compiled: the speed feature, its minimum over the continuations (the numpy
+        # formulation it replaced: tests/perception/test_belief_kernels.py)
         return compiled.kernels().speed_q_values(
             np.ascontiguousarray(base), np.ascontiguousarray(ev.v), self.traffic_grid_mps,
             self._speed_weight, inverse)
