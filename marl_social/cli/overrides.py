@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import difflib
 import json
+import re
 import warnings
 
 from marl_social.scenarios import SCENARIOS
@@ -57,12 +58,18 @@ def variant_names(scenario: str, key: str) -> list[str]:
     return list(dict.fromkeys(v for v in values if isinstance(v, str)))
 
 
+_SETTING_NAME = re.compile(r"[A-Za-z_][A-Za-z0-9_.]*")
+
+
 def split_assignment(text: str) -> tuple[str, str]:
     """("key", "value") from "key=value" (the value may hold "="), else a ValueError."""
     key, sep, value = text.partition("=")
     key = key.strip()
     if not sep or not key:
-        raise ValueError(f"--set {text!r}: expected KEY=VALUE, e.g. --set human_blind=true")
+        raise ValueError(f"--set {text!r}: expected KEY=VALUE, e.g. --set human.blind=true")
+    if not _SETTING_NAME.fullmatch(key):
+        raise ValueError(f"--set {text!r}: a setting's name is letters, digits, _ and dots "
+                         "(`marl-social params SCENARIO` lists them)")
     return key, value.strip()
 
 
