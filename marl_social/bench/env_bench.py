@@ -1,6 +1,6 @@
 """Benchmarks (never timed unit tests): env steps per second vs number of agents.
 
-Side by side with highway-env's intersection-multi-agent-v1 at the same agent count and
+Side by side with highway-env's intersection-multi-agent-v2 at the same agent count and
 dt = 0.1 s.
 
 Random actions: accelerations uniform over each car's full range; steering uniform within
@@ -215,7 +215,7 @@ def bench_planners(n_episodes: int = 3, robot_planner: str = "social", echo=prin
     time, which waiting to be scheduled on a busy machine does not inflate; the robot's also
     split into its belief update and its MPC solve), and env steps/s end to end with every agent on
     its built-in planner; with highway-env installed, the robot's
-    decision also as a multiple of one highway-env ``intersection-multi-agent-v1`` step with 3
+    decision also as a multiple of one highway-env ``intersection-multi-agent-v2`` step with 3
     agents measured in the same run. Returns the numbers; prints a table.
     """
     if scenario not in PLANNER_BENCH_SITUATIONS:
@@ -306,7 +306,7 @@ def bench_planners(n_episodes: int = 3, robot_planner: str = "social", echo=prin
         out["highway_env_step_ms"] = step_ms
         out["robot_decision_per_highway_step_median"] = out["robot_0_decision_ms_median"] / step_ms
         out["robot_decision_per_highway_step_p99"] = out["robot_0_decision_ms_p99"] / step_ms
-        echo(f"highway-env intersection-multi-agent-v1, 3 agents: {step_ms:.3f} ms per step "
+        echo(f"highway-env {bench_highway.ENV_ID}, 3 agents: {step_ms:.3f} ms per step "
              f"(same run); robot decision = {out['robot_decision_per_highway_step_median']:.2f} "
              f"(median), {out['robot_decision_per_highway_step_p99']:.2f} (p99) highway-env "
              "steps")
