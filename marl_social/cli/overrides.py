@@ -15,6 +15,7 @@ import json
 import re
 import warnings
 
+from marl_social.data import strict_json
 from marl_social.scenarios import SCENARIOS
 from marl_social.scenarios.settings_tree import Leaf, settings_leaves
 
@@ -185,7 +186,8 @@ def describe_params(scenario: str, as_json: bool = False) -> str:
     params_cls = scenario_class(scenario).params_cls
     leaves = settings_leaves(params_cls)
     if as_json:
-        return json.dumps({name: leaf.as_json() for name, leaf in leaves.items()}, indent=1)
+        return strict_json.dumps({name: leaf.as_json() for name, leaf in leaves.items()},
+                                 indent=1)
     lines = [f"scenario {scenario!r} ({params_cls.__name__}); set with --set NAME=VALUE:"]
     for name, leaf in leaves.items():
         unit = f" [{leaf.unit}]" if leaf.unit and "[" not in leaf.doc else ""
