@@ -85,8 +85,10 @@ def _scene_sums(scene_tanh, pair, zone_sums):
                 for m in range(n_obj):
                     summed += 0.5 * (1.0 + scene_tanh[i, h, t, m]) if pair[h, m] else 0.0
                 sums[i, h, t] = 0.0 + summed
-    for z in range(len(zone_sums)):
-        sums[n_cw + z] = zone_sums[z]
+    for z in range(len(zone_sums)):  # element by element (a slice copy compiles numba's
+        for h in range(n_hyp):  # shape-error message: seconds of compiling)
+            for t in range(n_t):
+                sums[n_cw + z, h, t] = zone_sums[z, h, t]
     return sums
 
 
@@ -229,8 +231,10 @@ def step_costs(motion, v_ref_mps, prev_accel, costing):
     # element sees the per-step order of the reference (own, then + safety, then + conflict,
     # then x scale), the branches decided once, not per element
     cost = np.empty((n_hyp, n_plans, n_t))
-    for h in range(n_hyp):
-        cost[h] = own
+    for h in range(n_hyp):  # element by element (a slice copy compiles a shape-error message)
+        for p in range(n_plans):
+            for t in range(n_t):
+                cost[h, p, t] = own[p, t]
     if w_safety != 0.0:  # np.sum over the present objects of fewer than 8 values >= +0
         summed = np.empty((n_plans, n_t))
         for h in range(n_hyp):
@@ -412,8 +416,10 @@ def plan_totals(motion, v_ref_mps, prev_accel, costing, gaps, rules):
     cost = step_costs(motion, v_ref_mps, prev_accel, costing)
     stop = np.full(1 if has_stop else 0, stop_s_m)
     excess = np.empty(curve_excess.shape if has_curve else (0, 0))
-    if has_curve:
-        excess[:] = curve_excess
+    if has_curve:  # element by element (a slice copy compiles a shape-error message)
+        for a in range(excess.shape[0]):
+            for c in range(excess.shape[1]):
+                excess[a, c] = curve_excess[a, c]
     return rule_abiding_totals(cost, gaps[1], gaps[0], motion[1], s0, half_length_m, stop,
                                excess)
 

@@ -279,8 +279,10 @@ def circle_gaps(ego_x, ego_y, ego_r, other_x, other_y, other_r, vehicles, clippe
                     if j and (other_x[j, h, m, t] != other_x[0, h, m, t]
                               or other_y[j, h, m, t] != other_y[0, h, m, t]):
                         disc = False
-            if shared:
-                gap[h, :, :, m] = gap[0, :, :, m]
+            if shared:  # element by element: a slice copy compiles numba's shape-error message
+                for p in range(n_plans):
+                    for t in range(n_t):
+                        gap[h, p, t, m] = gap[0, p, t, m]
                 continue
             nearest[:] = np.inf
             for k in range(n_circles):
@@ -440,10 +442,15 @@ def plan_evaluation(increments, n_cont, v0, s0, dt_s, continuations, n_first, ha
     scene_soft = scene_occupancy_arguments(scene_xy, scene_radius, crosswalks, softness_m)
     n_plans, n_t = v.shape
     n_first_actions = n_plans // n_cont
+    # element by element: a slice copy compiles numba's shape-error message (seconds)
     motion = np.empty((3, n_plans, n_t))
-    motion[0], motion[1], motion[2] = v, ds, a_eff
+    for p in range(n_plans):
+        for t in range(n_t):
+            motion[0, p, t], motion[1, p, t], motion[2, p, t] = v[p, t], ds[p, t], a_eff[p, t]
     gaps = np.empty((2,) + clearance.shape)
-    gaps[0], gaps[1] = clearance, vehicle_gap
+    for h in range(clearance.shape[0]):
+        for p in range(clearance.shape[1]):
+            gaps[0, h, p], gaps[1, h, p] = clearance[h, p], vehicle_gap[h, p]
     return (motion.reshape((3, n_first_actions, n_cont, n_t)), excess.reshape(
         (n_first_actions if has_curve else 0, n_cont)), gap, soft, scene_soft,
         gaps.reshape((2, clearance.shape[0], n_first_actions, n_cont)))
