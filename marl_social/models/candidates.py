@@ -159,6 +159,9 @@ class CandidateSet:
     def __post_init__(self):
         if not self.horizon_s > self.first_segment_s >= self.plan_dt_s > 0:
             raise ValueError("CandidateSet: need horizon_s > first_segment_s >= plan_dt_s > 0")
+        if not len(self.first_actions_mps2) or not len(self.continuations_mps2):
+            raise ValueError("CandidateSet: need at least one first action and one "
+                             "continuation")
 
     @property
     def n_steps(self) -> int:
@@ -437,6 +440,24 @@ class Surroundings(NamedTuple):
     curve_speed: CurveSpeed | None = None
 
 
+LARGEST_SPEED_MPS = 1e6  # the planners' range of initial speeds and arc lengths (the
+LARGEST_ARC_LENGTH_M = 1e12  # compiled kernels' curve-speed grid index then fits an int64)
+
+
+def checked_initial_state(s0: float, v0: float) -> tuple[float, float]:
+    """(s0, v0) [m, m/s] of a plan's start, checked: finite and within the planners' range.
+
+    A speed of -0.0 is 0.0 (+0.0 returned). Raises ValueError naming the value otherwise.
+    """
+    if not abs(s0) < LARGEST_ARC_LENGTH_M:
+        raise ValueError(f"a plan's initial arc length s0={s0} m must be finite and below "
+                         f"{LARGEST_ARC_LENGTH_M:g} m in magnitude")
+    if not abs(v0) < LARGEST_SPEED_MPS:
+        raise ValueError(f"a plan's initial speed v0={v0} m/s must be finite and below "
+                         f"{LARGEST_SPEED_MPS:g} m/s in magnitude")
+    return s0, v0 + 0.0
+
+
 def evaluate_candidates(ego: PlanningEgo, around: Surroundings, geometry: bool = False,
                         static_boxes: np.ndarray | None = None, features: bool = False,
                         vehicle_gaps_only: bool = False) -> CandidateEvaluation:
@@ -454,6 +475,7 @@ def evaluate_candidates(ego: PlanningEgo, around: Surroundings, geometry: bool =
     (min_vehicle_gap_m, vehicle_clearance_m); min_gap_m, conflict and static_gap_m stay None.
     """
     cands, theta, v_ref_mps, vehicle, route, s0, v0, prev_accel = ego
+    s0, v0 = checked_initial_state(s0, v0)
     scene, crosswalks, yield_zones, yield_margin_s, curve_speed = around
     dt = cands.plan_dt_s
     plan = _plan_constants(cands)

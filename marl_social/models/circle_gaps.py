@@ -13,13 +13,6 @@ import numpy as np
 from marl_social.sim.costs import _cos_sin, crosswalk_occupancy
 from marl_social.sim.footprint import circle_layout
 
-# The compiled kernels (models/gap_kernels.py, cost_kernels.py) take scenes of fewer objects
-# than this, as they sum the safety feature and the crosswalk occupancies over them: np.sum
-# of values >= +0 adds fewer than 8 one by one whatever the memory layout; from 8 on it is
-# pairwise along a contiguous axis and sequential along a strided one, and which one the
-# reference's broadcasts produce depends on the shapes.
-MAX_KERNEL_OBJECTS = 8
-
 
 def circle_pair_gap(ego_x, ego_y, ego_r: float, other_x, other_y, other_r) -> np.ndarray:
     """(L, ..., T, M) sim/costs.circle_gap(clip=False) of ego plans and scene objects.

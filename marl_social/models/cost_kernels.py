@@ -50,16 +50,21 @@ def _conflict(occupancy_tanh, scene_sums, plan, h, t):
 
 
 @numba.njit(cache=True)
-def _present_sum(values, present, n_obj):
-    """np.sum of values[m] over the present objects m < n_obj (absent ones add 0.0).
+def _present_sum(values, present, n_obj, scratch):
+    """sim/costs.object_sum of values[m] over the present objects m < n_obj (absent: 0.0).
 
-    One by one from -0.0, plus 0.0: np.sum's order along an axis that is strided in the
-    reference's arrays (any number of objects; pairwise only along a contiguous axis).
+    np.sum's order along a contiguous axis: below 8 values one by one from -0.0, plus 0.0;
+    from 8 on numpy's pairwise sum (sim/pairwise_sum.contiguous_sum) of the values copied
+    into scratch (n_obj,), the absent ones 0.0 in their places.
     """
-    summed = -0.0
+    if n_obj < 8:
+        summed = -0.0
+        for m in range(n_obj):
+            summed += values[m] if present[m] else 0.0
+        return 0.0 + summed
     for m in range(n_obj):
-        summed += values[m] if present[m] else 0.0
-    return 0.0 + summed
+        scratch[m] = values[m] if present[m] else 0.0
+    return contiguous_sum(scratch, 0, n_obj)
 
 
 @numba.njit((_array(4), _array(2, _B1), _array(3)), cache=True)
@@ -67,9 +72,7 @@ def _scene_sums(scene_tanh, pair, zone_sums):
     """(W + Z, L, T) the objects' summed crosswalk occupancies, then the zones' given sums.
 
     Per crosswalk the sum over the paired objects of their occupancy 0.5 (1 + tanh), as
-    sim/costs._crosswalk_conflict's np.sum of np.where: one by one to 0.0 (`_present_sum`'s
-    order: the reference's occupancies are strided along the objects; fewer than 8 objects,
-    circle_gaps.MAX_KERNEL_OBJECTS, add so along any axis).
+    sim/costs._crosswalk_conflict sums them (object_sum of np.where: `_present_sum`).
 
     Args:
         scene_tanh: (W, L, T, M) tanh of gap_kernels.scene_occupancy_arguments.
@@ -78,13 +81,14 @@ def _scene_sums(scene_tanh, pair, zone_sums):
     """
     n_cw, n_hyp, n_t, n_obj = scene_tanh.shape
     sums = np.empty((n_cw + len(zone_sums), n_hyp, n_t))
+    occupancy = np.empty(n_obj)
+    scratch = np.empty(n_obj)
     for i in range(n_cw):
         for h in range(n_hyp):
             for t in range(n_t):
-                summed = -0.0
                 for m in range(n_obj):
-                    summed += 0.5 * (1.0 + scene_tanh[i, h, t, m]) if pair[h, m] else 0.0
-                sums[i, h, t] = 0.0 + summed
+                    occupancy[m] = 0.5 * (1.0 + scene_tanh[i, h, t, m])
+                sums[i, h, t] = _present_sum(occupancy, pair[h], n_obj, scratch)
     for z in range(len(zone_sums)):  # element by element (a slice copy compiles numba's
         for h in range(n_hyp):  # shape-error message: seconds of compiling)
             for t in range(n_t):
@@ -99,7 +103,7 @@ def walk_costs(speeds, n_t, walk, weights, safety_exp, present, conflict):
 
     Per step, as models/pedestrian.py adds them: w_speed (v - v_ref)^2, w_accel a^2 and
     w_jerk a^2 (a = (v - prev_speed) / dt on the first step, 0 after it), w_safety times the
-    sum over the present objects of exp(-max(gap, 0)) (`_present_sum`'s order), w_conflict
+    sum over the present objects of exp(-max(gap, 0)) (`_present_sum`), w_conflict
     times 0.0 + the occupancy 0.5 (1 + tanh) times the scene's sum, crosswalk by crosswalk;
     each only if its weight is not zero; then np.sum's pairwise sum over the steps.
 
@@ -127,6 +131,7 @@ def walk_costs(speeds, n_t, walk, weights, safety_exp, present, conflict):
     add_conflict = len(occupancy_tanh) > 0 and w_conflict != 0.0
     scene_sums = _scene_sums(scene_tanh, pair, np.zeros((0, n_hyp, n_t)))
     steps = np.empty(n_t)
+    scratch = np.empty(n_obj)
     cost = np.empty((n_hyp, len(speeds)))
     for h in range(n_hyp):
         for a in range(len(speeds)):
@@ -146,8 +151,9 @@ def walk_costs(speeds, n_t, walk, weights, safety_exp, present, conflict):
                     if w_jerk != 0.0:
                         total = total + w_jerk * squared if started else w_jerk * squared
                         started = True
-                if w_safety != 0.0:  # np.sum over a strided object axis: one by one
-                    term = _present_sum(safety_exp[h, a, t], present[h], n_obj) * w_safety
+                if w_safety != 0.0:
+                    term = _present_sum(safety_exp[h, a, t], present[h], n_obj,
+                                        scratch) * w_safety
                     total = total + term if started else term
                     started = True
                 if add_conflict:
@@ -177,13 +183,13 @@ def step_costs(motion, v_ref_mps, prev_accel, costing):
         costing: (weights, safety_exp, present, occupancy_tanh, scene_tanh, is_pedestrian,
             zone_sums, scale), the scene's arrays and the scale:
             weights: (5,) the weights of speed, accel, jerk, safety and conflict.
-            safety_exp: (L, P, T, M) exp(-max(gap, 0)), M < circle_gaps.MAX_KERNEL_OBJECTS
-                (unused with a zero safety weight).
+            safety_exp: (L, P, T, M) exp(-max(gap, 0)) (unused with a zero safety
+                weight).
             present: (L, M) the objects present in each hypothesis.
             occupancy_tanh: (R, P, T) tanh of `occupancy_arguments` of the crosswalks with a pair
                 of a vehicle and a pedestrian and of the zones (R = 0: no conflict to add).
             scene_tanh: (W, L, T, M) tanh of the objects' crosswalk occupancy arguments
-                (gap_kernels.scene_occupancy_arguments), M < circle_gaps.MAX_KERNEL_OBJECTS.
+                (gap_kernels.scene_occupancy_arguments).
             is_pedestrian: (L, M) the pedestrians (those present pair with the ego).
             zone_sums: (Z, L, T) per zone the present objects' summed claims on it.
             scale: plan_dt / DT_S.
@@ -235,18 +241,28 @@ def step_costs(motion, v_ref_mps, prev_accel, costing):
         for p in range(n_plans):
             for t in range(n_t):
                 cost[h, p, t] = own[p, t]
-    if w_safety != 0.0:  # np.sum over the present objects of fewer than 8 values >= +0
+    if w_safety != 0.0:  # sim/costs.object_sum over the present objects (values >= +0)
         summed = np.empty((n_plans, n_t))
+        scratch = np.empty(n_obj)
         for h in range(n_hyp):
-            summed[:] = -0.0
-            for m in range(n_obj):  # an absent object adds +0.0: nothing once 0.0 + is taken
-                if present[h, m]:
-                    for p in range(n_plans):
-                        for t in range(n_t):
-                            summed[p, t] += safety_exp[h, p, t, m]
+            if n_obj < 8:  # one by one, the objects outermost (the loops vectorize)
+                summed[:] = -0.0
+                for m in range(n_obj):  # an absent object adds +0.0: nothing once 0.0 + is
+                    if present[h, m]:  # taken
+                        for p in range(n_plans):
+                            for t in range(n_t):
+                                summed[p, t] += safety_exp[h, p, t, m]
+                for p in range(n_plans):
+                    for t in range(n_t):
+                        summed[p, t] = 0.0 + summed[p, t]
+            else:  # pairwise, step by step
+                for p in range(n_plans):
+                    for t in range(n_t):
+                        summed[p, t] = _present_sum(safety_exp[h, p, t], present[h], n_obj,
+                                                    scratch)
             for p in range(n_plans):
                 for t in range(n_t):
-                    term = (0.0 + summed[p, t]) * w_safety
+                    term = summed[p, t] * w_safety
                     cost[h, p, t] = cost[h, p, t] + term if started else term
     if add_conflict:
         n_rows = len(occupancy_tanh)

@@ -29,7 +29,7 @@ from marl_social.models.candidates import (
     cached_or_computed,
     evaluate_candidates,
 )
-from marl_social.models.gap_evaluation import kernel_rule_totals, vehicle_gap_evaluation
+from marl_social.models.gap_evaluation import kernel_rule_totals
 from marl_social.sim.agent_spec import VehicleParams
 from marl_social.sim.costs import CostWeights
 from marl_social.sim.road_map import Crosswalk, Route
@@ -139,16 +139,6 @@ def _surroundings(model: DriverModel, scene: ScenePrediction,
                         rules.curve_speed)
 
 
-def _evaluate(model: DriverModel, route: Route, s0: float, v0: float, prev_accel: float,
-              scene: ScenePrediction, crosswalks: tuple[Crosswalk, ...],
-              rules: RoadRules | None) -> CandidateEvaluation:
-    """The candidates' evaluation without feature totals (vehicle_gap_evaluation's)."""
-    candidates, theta = _model_constants(model)
-    return vehicle_gap_evaluation(
-        PlanningEgo(candidates, theta, model.v_desired_mps, model.vehicle, route, s0, v0,
-                    prev_accel), _surroundings(model, scene, crosswalks, rules))
-
-
 def _evaluate_features(model: DriverModel, route: Route, s0: float, v0: float,
                        prev_accel: float, scene: ScenePrediction,
                        crosswalks: tuple[Crosswalk, ...],
@@ -246,10 +236,7 @@ def driver_q_values(model: DriverModel, route: Route, s0: float, v0: float, prev
                       prev_accel)
     totals = kernel_rule_totals(ego, _surroundings(model, scene, crosswalks, rules),
                                 None if rules is None else rules.stop_s_m)
-    if totals is not None:  # the kernels' evaluation and totals in one go
-        return np.minimum.reduce(totals, axis=-1)  # totals.min(axis=-1) without its wrapper
-    ev = _evaluate(model, route, s0, v0, prev_accel, scene, crosswalks, rules)
-    return rule_abiding_totals(ev, model, s0, rules).min(axis=-1)
+    return np.minimum.reduce(totals, axis=-1)  # totals.min(axis=-1) without its wrapper
 
 
 def driver_choice_features(model: DriverModel, route: Route, s0: float, v0: float,

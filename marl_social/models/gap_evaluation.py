@@ -37,16 +37,12 @@ from marl_social.models.candidates import (
     Surroundings,
     _plan_constants,
     _vehicle_circles,
-    evaluate_candidates,
+    checked_initial_state,
 )
-from marl_social.models.circle_gaps import (
-    MAX_KERNEL_OBJECTS,
-    _scene_layout,
-    scene_circle_inputs,
-)
+from marl_social.models.circle_gaps import _scene_layout, scene_circle_inputs
 from marl_social.models.circle_gaps import crosswalk_rows as crosswalk_rows_of
 from marl_social.sim.agent_spec import VehicleParams
-from marl_social.sim.costs import OCCUPANCY_SOFTNESS_M, _polygon_edges
+from marl_social.sim.costs import OCCUPANCY_SOFTNESS_M, _polygon_edges, object_sum
 from marl_social.sim.dynamics import DT_S
 from marl_social.sim.road_map import Route
 from marl_social.sim.route_rules import CURVE_PROFILE_STEP_M, CurveSpeed
@@ -63,28 +59,12 @@ def vehicle_gap_evaluation(ego: PlanningEgo, around: Surroundings) -> CandidateE
 
     The rollouts, the gaps and the step costs are compiled loops (models/gap_kernels.py,
     cost_kernels.py; they read the route's per-segment pose table, Route.segment_pose_table and
-    vertex_s_m); np.exp and np.tanh stay in numpy. What the kernels do not take takes
-    evaluate_candidates itself: a non-finite or -0.0 speed, a huge speed or arc length,
-    MAX_KERNEL_OBJECTS or more objects (models/circle_gaps.py), and no continuations (the
-    kernels count the first actions as plans / continuations).
+    vertex_s_m); np.exp and np.tanh stay in numpy. Any number of objects; the initial state
+    is checked as evaluate_candidates checks it (candidates.checked_initial_state: a
+    ValueError for a non-finite or out-of-range speed or arc length).
     """
-    evaluation = kernel_gap_evaluation(ego, around)
-    if evaluation is None:
-        return evaluate_candidates(ego, around, geometry=True, vehicle_gaps_only=True)
-    return evaluation
-
-
-def kernel_gap_evaluation(ego: PlanningEgo, around: Surroundings) -> CandidateEvaluation | None:
-    """`vehicle_gap_evaluation` by the kernels; None where they do not take the case.
-
-    The arguments and the result are vehicle_gap_evaluation's (None: its cases for
-    evaluate_candidates). The result's arrays are C-contiguous float64, as
-    models/driver.py's compiled totals take them without a copy.
-    """
-    arrays = _kernel_arrays(ego, around)
-    if arrays is None:
-        return None
-    return _evaluation(arrays, ego.v_ref_mps, ego.prev_accel, around.curve_speed)
+    return _evaluation(_kernel_arrays(ego, around), ego.v_ref_mps, ego.prev_accel,
+                       around.curve_speed)
 
 
 def vehicle_gap_evaluations(ego: PlanningEgo, speeds_mps: np.ndarray,
@@ -99,14 +79,9 @@ def vehicle_gap_evaluations(ego: PlanningEgo, speeds_mps: np.ndarray,
     robot's estimate of its speed).
     """
     shared = _kernel_scene(ego, around)
-    out = []
-    for v0 in (float(v) for v in speeds_mps):
-        if shared is not None and _kernel_speed(v0):
-            out.append(_evaluation(_kernel_motion(shared, v0), ego.v_ref_mps, ego.prev_accel,
-                                   around.curve_speed))
-        else:
-            out.append(vehicle_gap_evaluation(ego._replace(v0=v0), around))
-    return out
+    return [_evaluation(_kernel_motion(shared, checked_initial_state(ego.s0, float(v))[1]),
+                        ego.v_ref_mps, ego.prev_accel, around.curve_speed)
+            for v in speeds_mps]
 
 
 def _evaluation(arrays: tuple, v_ref_mps: float, prev_accel: float,
@@ -121,43 +96,33 @@ def _evaluation(arrays: tuple, v_ref_mps: float, prev_accel: float,
 
 
 def kernel_rule_totals(ego: PlanningEgo, around: Surroundings,
-                       stop_s_m: float | None = None) -> np.ndarray | None:
-    """models/driver.rule_abiding_totals of `kernel_gap_evaluation`'s evaluation, in fewer calls.
+                       stop_s_m: float | None = None) -> np.ndarray:
+    """models/driver.rule_abiding_totals of `vehicle_gap_evaluation`'s evaluation, in fewer calls.
 
     The step costs and the totals in one compiled call (cost_kernels.plan_totals: step_costs,
     then rule_abiding_totals, the same bits), without the CandidateEvaluation in between.
-    The arguments are kernel_gap_evaluation's and stop_s_m, the stop line's arc length
+    The arguments are vehicle_gap_evaluation's and stop_s_m, the stop line's arc length
     (RoadRules.stop_s_m) [m] (None: no stop line); the curve speed counts as a rule, as
     driver.rule_abiding_totals counts it with rules. Returns the (L, A, C) totals, inf for
-    the excluded plans; None where kernel_gap_evaluation returns None.
+    the excluded plans.
     """
-    arrays = _kernel_arrays(ego, around)
-    if arrays is None:
-        return None
-    cost_kernels, motion, excess, gaps, cost_arguments = arrays
+    cost_kernels, motion, excess, gaps, cost_arguments = _kernel_arrays(ego, around)
     return cost_kernels.plan_totals(
         motion, float(ego.v_ref_mps), float(ego.prev_accel), cost_arguments, gaps,
         (float(ego.s0), 0.5 * ego.vehicle.length_m, 0.0 if stop_s_m is None else float(stop_s_m),
          stop_s_m is not None, excess, around.curve_speed is not None))
 
 
-def _kernel_arrays(ego: PlanningEgo, around: Surroundings) -> tuple | None:
-    """gap_kernels.plan_evaluation's arrays, np.exp and np.tanh applied; None: not its case.
+def _kernel_arrays(ego: PlanningEgo, around: Surroundings) -> tuple:
+    """gap_kernels.plan_evaluation's arrays, np.exp and np.tanh applied.
 
     Returns:
         (cost_kernels, motion (3, A, C, T), curve excess (A, C) or (0, C), gaps (2, L, A, C):
         clearance and vehicle gap [m], and step_costs' arguments after v_ref and prev_accel
         as a tuple).
     """
-    if not _kernel_speed(ego.v0):
-        return None
-    shared = _kernel_scene(ego, around)
-    return None if shared is None else _kernel_motion(shared, ego.v0)
-
-
-def _kernel_speed(v0: float) -> bool:
-    """Whether the kernels take this initial speed [m/s] (finite, not huge, not -0.0)."""
-    return abs(v0) < _LARGEST_SPEED_MPS and not (v0 == 0.0 and math.copysign(1.0, v0) < 0.0)
+    _, v0 = checked_initial_state(ego.s0, ego.v0)
+    return _kernel_motion(_kernel_scene(ego, around), v0)
 
 
 @dataclass(frozen=True)
@@ -179,12 +144,10 @@ class _KernelScene:
     conflict_rows: tuple
 
 
-def _kernel_scene(ego: PlanningEgo, around: Surroundings) -> _KernelScene | None:
-    """The scene's kernel inputs, shared by every initial speed; None: not the kernels' case."""
-    cands, scene, s0 = ego.cands, around.scene, ego.s0
-    if not abs(s0) < _LARGEST_ARC_LENGTH_M or (
-            scene.mask.shape[1] >= MAX_KERNEL_OBJECTS) or len(cands.continuations_mps2) == 0:
-        return None
+def _kernel_scene(ego: PlanningEgo, around: Surroundings) -> _KernelScene:
+    """The scene's kernel inputs, shared by every initial speed."""
+    cands, scene = ego.cands, around.scene
+    s0, _ = checked_initial_state(ego.s0, 0.0)
     kernels, cost_kernels = _KERNELS or _kernels()
     plan = _prepared_plan(cands, ego.vehicle)
     weights = _weights(ego.theta)  # speed, accel, jerk, safety, conflict
@@ -222,8 +185,6 @@ def _kernel_motion(shared: _KernelScene, v0: float) -> tuple:
         shared.is_pedestrian, zone_sums, plan.cost_scale)
 
 
-_LARGEST_SPEED_MPS = 1e6  # the kernels' v0 and s0 bounds (the curve-speed grid index of any
-_LARGEST_ARC_LENGTH_M = 1e12  # arc length along the plans then fits an int64 by far)
 _NO_CURVE = np.zeros(1)
 _NO_ZONES = (np.zeros((0, 1, 5)), np.zeros(0, dtype=np.int64))
 for _constant in (_NO_CURVE, *_NO_ZONES):
@@ -326,7 +287,7 @@ def _conflict_rows(scene: ScenePrediction, crosswalks: tuple, yield_zones: tuple
         (W, 6) the crosswalks' centre x, y [m], cos and sin of the walk heading, half length
         and half width [m]; (Z, V, 5) the zones' edges (sim/costs._polygon_edges) and (Z,)
         their numbers; (Z, L, T) per zone the present objects' claims on it (zone_claims)
-        summed over them as sim/costs sums them (np.sum of np.where over the objects' axis).
+        summed over them as sim/costs sums them (object_sum of np.where over the objects' axis).
     """
     if crosswalks and not np.count_nonzero(scene.mask & scene.is_pedestrian):  # ego: a car
         crosswalks = ()
@@ -338,9 +299,9 @@ def _conflict_rows(scene: ScenePrediction, crosswalks: tuple, yield_zones: tuple
     for row, zone_edges in zip(zone_rows, edges):
         row[:len(zone_edges)] = zone_edges
     mask = scene.mask[:, None, None, None, :]
-    sums = [np.sum(np.where(mask, _zone_claims(scene, row[:len(zone_edges)], priority,
-                                               yield_margin_s, dt)
-                            .swapaxes(1, 2)[:, None, None], 0.0), axis=-1)  # (L, 1, 1, T)
+    sums = [object_sum(np.where(mask, _zone_claims(scene, row[:len(zone_edges)], priority,
+                                                   yield_margin_s, dt)
+                                .swapaxes(1, 2)[:, None, None], 0.0))  # (L, 1, 1, T)
             for row, zone_edges, (_, priority) in zip(zone_rows, edges, yield_zones)]
     return (crosswalk_rows, zone_rows, np.array([len(e) for e in edges], dtype=np.int64),
             np.stack(sums).reshape(len(sums), len(scene.mask), -1))

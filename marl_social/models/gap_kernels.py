@@ -11,11 +11,10 @@ tests/models/test_gap_evaluation.py):
   into a fused multiply-add and this module never asks for fastmath;
 * minima and maxima propagate NaN as np.minimum / np.maximum do (their order cannot matter
   otherwise: no signed zero reaches them, see the functions' docstrings);
-* sums follow np.sum's order: pairwise along a contiguous axis (cost_kernels._pairwise_sum), which
-  for fewer than 8 values >= +0 is the one-by-one sum along any axis -- the safety feature's
-  sum over the objects is compiled for fewer than circle_gaps.MAX_KERNEL_OBJECTS objects
-  only, as the reference's memory layout (and so its order) varies beyond; cumulative sums
-  are np.cumsum's sequential ones;
+* sums follow np.sum's order along a contiguous axis: numpy's pairwise summation
+  (sim/pairwise_sum.py), which below 8 values is the one-by-one sum; the sums over the
+  objects are sim/costs.object_sum's, that order whatever the reference's memory layout;
+  cumulative sums are np.cumsum's sequential ones;
 * the transcendental functions (np.exp of the safety feature, np.tanh of the crosswalk
   occupancy) stay in numpy: numpy's SIMD exp differs from libm's in the last bit. The kernels
   hand numpy the array to exponentiate and take the result back.

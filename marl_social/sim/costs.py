@@ -246,13 +246,27 @@ def _distinct_circles(circles: np.ndarray) -> np.ndarray:
     return circles
 
 
+def object_sum(values) -> np.ndarray:
+    """(...) values (..., M) summed over the others' (last) axis, in one order for any layout.
+
+    np.sum's order along a contiguous axis: one by one below 8 values, numpy's pairwise
+    summation from 8 on (sim/pairwise_sum.py, which the compiled kernels call). np.sum alone
+    would add a strided axis one by one instead, so its bits would depend on how the array
+    happens to be laid out in memory; from 8 others a strided array is copied first.
+    """
+    if isinstance(values, np.ndarray) and values.shape[-1] >= 8 and (
+            values.strides[-1] != values.itemsize or not values.flags.c_contiguous):
+        values = np.ascontiguousarray(values)
+    return np.sum(values, axis=-1)
+
+
 def _crosswalk_conflict(occ_ego, occ_other, pair_mask) -> np.ndarray:
     """(...) one crosswalk's conflict term.
 
     The ego's occupancy (...) times the summed occupancy occ_other (..., M) of its others of
-    the other kind (pair_mask (..., M)).
+    the other kind (pair_mask (..., M)), summed by `object_sum`.
     """
-    return occ_ego * np.sum(np.where(pair_mask, occ_other, 0.0), axis=-1)
+    return occ_ego * object_sum(np.where(pair_mask, occ_other, 0.0))
 
 
 class StepInputs(NamedTuple):
@@ -323,7 +337,7 @@ def _feature_terms(inputs: StepInputs, needed: tuple = (True,) * N_FEATURES) -> 
     if needed[4]:
         if gap is None:
             gap = circle_gap(ego_circles, ego_circle_r, other_circles, other_circle_r)
-        terms[4] = np.sum(np.where(other_mask, np.exp(-gap), 0.0), axis=-1)
+        terms[4] = object_sum(np.where(other_mask, np.exp(-gap), 0.0))
     if needed[5]:
         conflict = 0.0
         if crosswalks:
@@ -342,7 +356,7 @@ def _feature_terms(inputs: StepInputs, needed: tuple = (True,) * N_FEATURES) -> 
                     crosswalk_occupancy(ego_xy, ego_radius, cw), occ_other, pair_mask)
         for polygon, claim in yield_zones:
             occ_ego = zone_occupancy(ego_circles, ego_circle_r, polygon)
-            conflict = conflict + occ_ego * np.sum(np.where(other_mask, claim, 0.0), axis=-1)
+            conflict = conflict + occ_ego * object_sum(np.where(other_mask, claim, 0.0))
         terms[5] = conflict
     return terms
 

@@ -22,7 +22,6 @@ from marl_social.models.candidates import (
 )
 from marl_social.models.driver import DriverModel, RoadRules, rule_abiding_totals
 from marl_social.models.gap_evaluation import (
-    kernel_gap_evaluation,
     kernel_rule_totals,
     vehicle_gap_evaluation,
     vehicle_gap_evaluations,
@@ -139,7 +138,7 @@ def test_kernel_rule_totals_equal_the_evaluations_totals(seed, n_hyp, n_obj, ben
             rng.uniform(-3.0, 2.0), scene, crosswalks)
     extra = () if road is None else (road.yield_zones, model.yield_margin_s, road.curve_speed)
     ego, around = PlanningEgo(*args[:8]), Surroundings(*args[8:], *extra)
-    ev = kernel_gap_evaluation(ego, around)
+    ev = vehicle_gap_evaluation(ego, around)
     want = rule_abiding_totals(ev, model, s0, road)
     got = kernel_rule_totals(ego, around, *(() if road is None else (road.stop_s_m,)))
     assert got.shape == want.shape
@@ -157,8 +156,7 @@ def test_evaluations_from_several_speeds_equal_one_evaluation_per_speed(
         seed, n_hyp, n_obj, bent, crosswalk, zones, p_ped, odd_speed):
     """vehicle_gap_evaluations shares the scene's work: each speed's result is unchanged by it.
 
-    Speeds the kernels do not take (-0.0, nan, huge) among them fall back to evaluate_candidates
-    for that speed alone.
+    A speed of -0.0 among them is evaluated as 0.0; a non-finite or huge one is refused.
     """
     rng = np.random.default_rng(seed)
     route = _route(rng, bent)
@@ -175,6 +173,10 @@ def test_evaluations_from_several_speeds_equal_one_evaluation_per_speed(
             rng.uniform(0.0, 40.0))
     tail = (rng.uniform(-3.0, 2.0), scene, crosswalks)
     around = Surroundings(*tail[1:], **extra)
+    if odd_speed is not None and not abs(odd_speed) < 1e6:
+        with pytest.raises(ValueError, match="initial speed"):
+            vehicle_gap_evaluations(PlanningEgo(*head, np.nan, tail[0]), np.array(speeds), around)
+        return
     shared = vehicle_gap_evaluations(PlanningEgo(*head, np.nan, tail[0]), np.array(speeds),
                                      around)
     assert len(shared) == len(speeds)

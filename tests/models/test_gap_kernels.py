@@ -8,6 +8,7 @@ vehicle_gap_evaluation on many objects and hypotheses.
 """
 
 import numpy as np
+import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
@@ -125,12 +126,13 @@ def test_circle_gaps_is_circle_pair_gap(seed, n_hyp, n_obj, p_ped, shared, nan):
 
 
 @settings(max_examples=40, deadline=None)
-@given(seed=st.integers(0, 2**32 - 1), n_hyp=st.integers(1, 5), n_obj=st.integers(7, 20),
+@given(seed=st.integers(0, 2**32 - 1), n_hyp=st.integers(1, 5),
+       n_obj=st.one_of(st.integers(7, 20), st.integers(125, 140)),
        crosswalk=st.booleans(), p_absent=st.sampled_from([0.0, 0.3]), zones=st.integers(0, 2),
        bent=st.booleans())
 def test_vehicle_gap_evaluation_with_many_objects(seed, n_hyp, n_obj, crosswalk, p_absent,
                                                   zones, bent):
-    """Seven objects and more (from MAX_KERNEL_OBJECTS on evaluate_candidates computes them)."""
+    """Seven objects and more: from 8 on np.sum's pairwise order, beyond 128 its halving too."""
     rng = np.random.default_rng(seed)
     route = _route(rng, bent)
     scene = random_scene(rng, n_hyp, n_obj, CANDIDATES.n_steps, 0.4, p_absent, (-5.0, 30.0))
@@ -153,18 +155,35 @@ def test_vehicle_gap_evaluation_with_many_objects(seed, n_hyp, n_obj, crosswalk,
                               getattr(want, name).sum(axis=-1), equal_nan=True), name
 
 
-def test_initial_states_the_kernels_do_not_take_are_evaluated_by_the_reference():
+def test_a_negative_zero_speed_is_zero_and_out_of_range_states_are_refused():
+    """-0.0 is evaluated as 0.0; a non-finite or huge speed or arc length: a ValueError."""
     route = Route([[-60.0, -1.75], [120.0, -1.75]])
     scene = ScenePrediction(np.zeros((1, 0, 12, 2)), np.zeros((1, 0, 12)), np.zeros((1, 0)),
                             np.zeros((1, 0)), np.zeros((1, 0)), np.zeros((1, 0), bool),
                             np.zeros((1, 0), bool))
-    for v0, s0 in ((-0.0, 3.0), (np.inf, 3.0), (2.0, 1e13), (np.nan, 0.0)):
+
+    def evaluations(s0, v0):
         args = (CANDIDATES, np.ones(6), 8.0, VehicleParams(), route, s0, v0, 0.0, scene, ())
         ego, around = PlanningEgo(*args[:8]), Surroundings(*args[8:])
-        want = evaluate_candidates(ego, around, geometry=True, vehicle_gaps_only=True)
-        got = vehicle_gap_evaluation(ego, around)
-        for name in ("step_cost", "v", "a_eff", "travel_m"):
-            assert same_bits(np.asarray(getattr(got, name)), np.asarray(getattr(want, name)))
+        return (evaluate_candidates(ego, around, geometry=True, vehicle_gaps_only=True),
+                vehicle_gap_evaluation(ego, around))
+
+    (want, got), (zero, _) = evaluations(3.0, -0.0), evaluations(3.0, 0.0)
+    for name in ("step_cost", "v", "a_eff", "travel_m"):
+        assert same_bits(np.asarray(getattr(got, name)), np.asarray(getattr(want, name)))
+        assert same_bits(np.asarray(getattr(got, name)), np.asarray(getattr(zero, name)))
+    for s0, v0, what in ((3.0, np.inf, "speed"), (3.0, np.nan, "speed"), (3.0, -2e6, "speed"),
+                         (1e13, 2.0, "arc length"), (np.nan, 2.0, "arc length")):
+        for evaluate in (evaluate_candidates, vehicle_gap_evaluation):
+            args = (CANDIDATES, np.ones(6), 8.0, VehicleParams(), route, s0, v0, 0.0, scene, ())
+            with pytest.raises(ValueError, match=f"initial {what}"):
+                evaluate(PlanningEgo(*args[:8]), Surroundings(*args[8:]))
+
+
+def test_a_candidate_set_needs_first_actions_and_continuations():
+    for first, continuations in (((), (0.0,)), ((0.0,), ())):
+        with pytest.raises(ValueError, match="at least one first action and one continuation"):
+            CandidateSet(first, continuations, 0.5, 3.0, 0.25)
 
 
 @settings(max_examples=80, deadline=None)

@@ -1,7 +1,7 @@
 """The pedestrian's compiled Q values (models/gap_kernels.py, cost_kernels.py) equal its numpy ones, bit for bit.
 
 The numpy reference: tests/reference/pedestrian_q.py. Up to 40 objects and a crowd of 100-200
-(more than MAX_KERNEL_OBJECTS: np.sum then adds along the reference's strided object axis),
+(more than 8: sim/costs.object_sum then adds pairwise whatever the reference's layout),
 several hypotheses, absent objects, vehicles on the crosswalk, weights with zeros, straight
 and bent crossing routes, and non-finite arc lengths.
 """

@@ -7,7 +7,7 @@ import numpy as np
 from marl_social.models.candidates import ScenePrediction
 from marl_social.models.circle_gaps import circle_pair_gap, scene_circles
 from marl_social.models.pedestrian import PedestrianModel, _model_constants
-from marl_social.sim.costs import _crosswalk_conflict, crosswalk_occupancy
+from marl_social.sim.costs import _crosswalk_conflict, crosswalk_occupancy, object_sum
 from marl_social.sim.dynamics import DT_S
 from marl_social.sim.road_map import Crosswalk, Route
 
@@ -50,7 +50,7 @@ def pedestrian_q_values(model: PedestrianModel, route: Route, s0: float, v_ref: 
         np.exp(gap, out=gap)
         if not scene.mask.all():
             gap = np.where(other_mask, gap, 0.0)
-        term = np.sum(gap, axis=-1)
+        term = object_sum(gap)
         term *= w_safety
         total = add(total, term)
     if w_conflict != 0.0 and crosswalks:
