@@ -17,6 +17,7 @@ import numpy as np
 from marl_social.sim.kernel_cache import route_kernels
 from marl_social.sim.signals import SignalHead, SignalPlan
 
+PROJECT_POINT_LOOP_MAX = 16  # Route.project_point loops in Python up to this many segments
 
 def _as_polyline(points, name: str) -> np.ndarray:
     """Validate a polyline given as (P, 2) points, P >= 2, finite, no zero-length segment."""
@@ -169,12 +170,14 @@ class Route:
         return np.unique(s)
 
     def project_point(self, x: float, y: float) -> tuple[float, float]:
-        """Arc length [m] and signed lateral offset [m] of one point.
+        """Arc length [m] and signed lateral offset [m] of one point: `project`'s, bit for bit.
 
-        The scalar version of `project`, in plain Python for short routes (a planner's per-step
-        query); on a single-segment route its result is project's, bit for bit.
+        The scalar version of `project` (a planner's per-step query): plain Python up to
+        PROJECT_POINT_LOOP_MAX segments, where a loop costs less than a call into numpy,
+        project itself beyond; the same arithmetic either way (the distance to the foot point
+        x - (start + t dir), the first closest segment).
         """
-        if len(self.segment_length_m) > 16:
+        if len(self.segment_length_m) > PROJECT_POINT_LOOP_MAX:
             s, lateral, _ = self.project(np.array([x, y]))
             return float(s), float(lateral)
         best = (math.inf, 0.0, 0.0)
@@ -182,7 +185,7 @@ class Route:
                                                   self._seg_len_list, self._cum_s_list):
             rx, ry = x - sx, y - sy
             t = min(max(rx * dx + ry * dy, 0.0), length)
-            cx, cy = rx - t * dx, ry - t * dy
+            cx, cy = x - (sx + t * dx), y - (sy + t * dy)
             d2 = cx * cx + cy * cy
             if d2 < best[0]:
                 best = (d2, s0 + t, dx * ry - dy * rx)

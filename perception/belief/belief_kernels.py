@@ -286,14 +286,13 @@ def visible_counts(dist, bearing, heading, angles, depth, cone):
     return counts
 
 
-@numba.njit((_F8, _F8, _array(2), _array(1, _I8), _array(1, _B1)), **_JIT)
-def lane_projections(x, y, segments, first_segment, numpy_path):
+@numba.njit((_F8, _F8, _array(2), _array(1, _I8)), **_JIT)
+def lane_projections(x, y, segments, first_segment):
     """Route.project_point(x, y) of one point on each of N lanes: (N,) arc lengths, laterals.
 
     Per lane its segments' foot points, clamped to the segments, and the first closest one,
-    with the arithmetic of the path project_point takes: its Python loop (rel - t dir) for
-    up to 16 segments, Route._project's (x - (start + t dir)) beyond (numpy_path); for a
-    finite point (np.argmin's first minimum is then the loop's first strict one).
+    with project_point's arithmetic (the distance x - (start + t dir)); for a finite point
+    (np.argmin's first minimum is then the loop's first strict one).
 
     Args:
         x: the point's x [m].
@@ -301,7 +300,6 @@ def lane_projections(x, y, segments, first_segment, numpy_path):
         segments: (S, 6) every lane's segments in lane order: start x, y [m], unit direction
             x, y, length [m], arc length at the start [m].
         first_segment: (N + 1,) lane i's segments are first_segment[i]:first_segment[i + 1].
-        numpy_path: (N,) whether lane i has more than 16 segments.
     """
     n_lanes = len(first_segment) - 1
     s_out = np.empty(n_lanes)
@@ -313,10 +311,7 @@ def lane_projections(x, y, segments, first_segment, numpy_path):
             length, s0 = segments[k, 4], segments[k, 5]
             rx, ry = x - sx, y - sy
             t = min(max(rx * dx + ry * dy, 0.0), length)
-            if numpy_path[lane]:
-                ex, ey = x - (sx + t * dx), y - (sy + t * dy)
-            else:
-                ex, ey = rx - t * dx, ry - t * dy
+            ex, ey = x - (sx + t * dx), y - (sy + t * dy)
             d2 = ex * ex + ey * ey
             if d2 < best_d2:
                 best_d2, best_s, best_lateral = d2, s0 + t, dx * ry - dy * rx

@@ -27,7 +27,6 @@ LANE_JOIN_M = 0.5  # a lane starting this close to another's end continues it [m
 MAX_CHAINED_LANES = 4  # a car's path follows at most this many lanes
 ROUTE_MEMO_SIZE = 256  # route_of remembers this many recent queries (a step's tracks, twice)
 _SAME_POINT_M = 1e-6  # a continuation's first point this close to the end is the same point [m]
-PROJECT_POINT_LOOP_MAX = 16  # Route.project_point loops in Python up to this many segments
 
 
 def _angle_diff(a, b):
@@ -90,9 +89,6 @@ class LanePaths:
             lane.vertex_s_m[:-1]])
             for lane in self._lanes]) if lanes else np.zeros((0, 6))
         self._first_segment = np.cumsum([0] + [lane.n_segments for lane in self._lanes])
-        # Route.project_point's numpy path (Route.project) for more than 16 segments
-        self._numpy_path = np.array([lane.n_segments > PROJECT_POINT_LOOP_MAX
-                                     for lane in self._lanes], dtype=bool)
 
     @staticmethod
     def _find_successors(lanes) -> list[list[int]]:
@@ -153,7 +149,7 @@ class LanePaths:
         """
         if math.isfinite(x) and math.isfinite(y) and self._lanes:
             s_all, lateral_all = compiled.kernels().lane_projections(
-                x, y, self._segments, self._first_segment, self._numpy_path)
+                x, y, self._segments, self._first_segment)
             projections = zip(s_all.tolist(), lateral_all.tolist())
         else:
             projections = (lane.project_point(x, y) for lane in self._lanes)

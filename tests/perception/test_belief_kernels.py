@@ -191,9 +191,8 @@ def test_visible_counts_are_numpys(seed, n_p, n_k, n_rays, half):
 @settings(max_examples=200, deadline=None)
 @given(seed=SEEDS, n_lanes=st.integers(1, 5))
 def test_lane_projections_are_project_point(seed, n_lanes):
-    """Short lanes (Route.project_point's Python loop) and long ones (its numpy path)."""
-    from marl_social.perception.belief.paths import PROJECT_POINT_LOOP_MAX
-    from marl_social.sim.road_map import Route
+    """Short lanes (Route.project_point's Python loop) and long ones (Route.project)."""
+    from marl_social.sim.road_map import PROJECT_POINT_LOOP_MAX, Route
 
     rng = np.random.default_rng(seed)
     lanes = []
@@ -207,10 +206,8 @@ def test_lane_projections_are_project_point(seed, n_lanes):
                                            r.segment_length_m, r.vertex_s_m[:-1]])
                           for r in lanes])
     first = np.cumsum([0] + [r.n_segments for r in lanes])
-    numpy_path = np.array([r.n_segments > PROJECT_POINT_LOOP_MAX for r in lanes])
     for x, y in rng.normal(size=(20, 2)) * 80:
-        s, lateral = compiled.kernels().lane_projections(float(x), float(y), segments, first,
-                                                         numpy_path)
+        s, lateral = compiled.kernels().lane_projections(float(x), float(y), segments, first)
         want = np.array([r.project_point(float(x), float(y)) for r in lanes])
         assert _same(s, want[:, 0]) and _same(lateral, want[:, 1])
 

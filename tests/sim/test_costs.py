@@ -102,13 +102,17 @@ def test_cost_weights_validation():
     assert CostWeights.from_any([1, 2, 3, 4, 5, 6]).crosswalk == 6.0
 
 
-def test_scalar_projection_matches_vectorized():
-    route = Route([[0, 0], [10, 0], [15, 5], [15, 20]])
+def test_scalar_projection_is_the_vectorized_one_bit_for_bit():
+    """project_point (a Python loop on short routes) is project, on short and long routes."""
     rng = np.random.default_rng(1)
-    for x, y in rng.uniform([-5, -5], [25, 25], (200, 2)):
-        s, lat, _ = route.project(np.array([x, y]))
-        s2, lat2 = route.project_point(float(x), float(y))
-        assert s2 == pytest.approx(float(s)) and lat2 == pytest.approx(float(lat))
+    routes = [Route([[0, 0], [10, 0], [15, 5], [15, 20]])] + [
+        Route(np.cumsum(rng.normal(size=(n, 2)) * rng.uniform(0.1, 20), axis=0))
+        for n in (2, 3, 16, 17, 18, 40) for _ in range(5)]
+    for route in routes:
+        lo, hi = route.points.min(axis=0) - 10.0, route.points.max(axis=0) + 10.0
+        for x, y in rng.uniform(lo, hi, (100, 2)):
+            s, lat, _ = route.project(np.array([x, y]))
+            assert route.project_point(float(x), float(y)) == (float(s), float(lat))
 
 
 def test_a_pedestrian_on_the_sidewalk_does_not_occupy_the_crosswalk():
