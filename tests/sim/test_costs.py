@@ -107,7 +107,7 @@ def test_scalar_projection_is_the_vectorized_one_bit_for_bit():
     rng = np.random.default_rng(1)
     routes = [Route([[0, 0], [10, 0], [15, 5], [15, 20]])] + [
         Route(np.cumsum(rng.normal(size=(n, 2)) * rng.uniform(0.1, 20), axis=0))
-        for n in (2, 3, 16, 17, 18, 40) for _ in range(5)]
+        for n in (2, 3, 5, 6, 7, 16, 17, 40) for _ in range(5)]
     for route in routes:
         lo, hi = route.points.min(axis=0) - 10.0, route.points.max(axis=0) + 10.0
         for x, y in rng.uniform(lo, hi, (100, 2)):
