@@ -190,7 +190,7 @@ def _add_maps(sub) -> None:
                           description="Lanelet2 maps as the simulator sees them (needs "
                                       "`pip install -e \".[maps]\"`).")
     maps_sub = maps.add_subparsers(dest="maps_command", required=True, metavar="{list,show}")
-    maps_sub.add_parser("list", help="the built-in maps")
+    maps_sub.add_parser("list", formatter_class=FORMATTER, help="the built-in maps")
     show = maps_sub.add_parser("show", formatter_class=FORMATTER,
                                help="a map's summary: lanes, crosswalks, stop lines, signals, "
                                     "occluders, what could not be mapped")

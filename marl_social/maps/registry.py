@@ -17,13 +17,13 @@ from marl_social.maps.errors import MapError
 from marl_social.maps.loading import read_lanelet_map
 from marl_social.sim.road_map import RoadMap
 
-BUILTIN_DIR = Path(__file__).resolve().parent / "builtin"
+BUILTIN_DIR = Path(__file__).resolve().parent / "builtin-maps"  # no package name: data only
 MAX_CACHED_MAPS = 8
 
 
 @dataclass(frozen=True)
 class BuiltinMap:
-    """A map shipped with the package: its file (under maps/builtin/) and UTM origin [deg]."""
+    """A map shipped with the package: its file (under maps/builtin-maps/) and UTM origin [deg]."""
 
     file: str
     origin: tuple[float, float]
