@@ -184,6 +184,24 @@ def _add_irl(sub) -> None:
     fit.set_defaults(func=commands.irl_fit)
 
 
+def _add_maps(sub) -> None:
+    maps = sub.add_parser("maps", formatter_class=FORMATTER,
+                          help="real maps: `maps list`, `maps show NAME --figure PATH`",
+                          description="Lanelet2 maps as the simulator sees them (needs "
+                                      "`pip install -e \".[maps]\"`).")
+    maps_sub = maps.add_subparsers(dest="maps_command", required=True, metavar="{list,show}")
+    maps_sub.add_parser("list", formatter_class=FORMATTER, help="the built-in maps")
+    show = maps_sub.add_parser("show", formatter_class=FORMATTER,
+                               help="a map's summary: lanes, crosswalks, stop lines, signals, "
+                                    "occluders, what could not be mapped")
+    show.add_argument("map", help="a built-in map's name or a Lanelet2 .osm file")
+    show.add_argument("--origin", type=float, nargs=2, metavar=("LAT", "LON"), default=None,
+                      help="UTM origin [deg] (None: a built-in map's own, else the file's)")
+    show.add_argument("--figure", default=None, metavar="PATH",
+                      help="also save a figure of the whole map as the simulator sees it")
+    maps.set_defaults(func=commands.maps)
+
+
 def _add_params(sub) -> None:
     params = sub.add_parser("params", formatter_class=FORMATTER,
                             help="list a scenario's settings (for --set)",
@@ -243,7 +261,7 @@ def build_parser() -> argparse.ArgumentParser:
     sub = parser.add_subparsers(dest="command", required=True, metavar="SUBCOMMAND",
                                 title="subcommands")
     for add in (_add_demo, _add_reproduce, _add_record, _add_irl, _add_study, _add_bench,
-                _add_params):
+                _add_params, _add_maps):
         add(sub)
     return parser
 

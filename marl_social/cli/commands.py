@@ -1,4 +1,4 @@
-"""The subcommands of `marl-social`: demo, bench, reproduce, record and irl fit."""
+"""The subcommands of `marl-social`: demo, bench, reproduce, record, irl fit and maps."""
 
 from __future__ import annotations
 
@@ -292,3 +292,25 @@ def irl_fit(args) -> int:
               "iterate, marked converged: false", file=sys.stderr)
         return 1
     return 0
+
+
+def maps(args) -> int:
+    """`marl-social maps list | show MAP [--figure PATH]`."""
+    import warnings
+
+    from marl_social.maps import BUILTIN_MAPS, MapConversionWarning, load_map
+    from marl_social.maps.figure import plot_map
+    from marl_social.maps.summary import describe
+
+    if args.maps_command == "list":
+        for name, builtin in BUILTIN_MAPS.items():
+            print(f"{name:<12} {builtin.description}")
+        return 0
+    with warnings.catch_warnings():  # the summary lists what was not mapped
+        warnings.simplefilter("ignore", MapConversionWarning)
+        loaded = load_map(args.map, origin=args.origin)
+    print(describe(args.map, loaded))
+    if args.figure:
+        print(f"figure: {plot_map(*loaded, args.figure, title=f'map {args.map}')}")
+    return 0
+

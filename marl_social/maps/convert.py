@@ -1,0 +1,506 @@
+"""A Lanelet2 map as the simulator's RoadMap, with the MapElements that name its pieces.
+
+What becomes what (lanelet2's German traffic rules for a vehicle decide who may drive where):
+
+- a lanelet a car may use: a Lane (its centre line, the mean distance between its bounds as
+  width); a two-way lanelet gives one lane each way; its speed limit from the traffic rules;
+- a crosswalk lanelet: a Crosswalk, the rectangle along its centre line that holds it;
+- a traffic light element: a signal group, a "signal" StopLine at its stop line (the part of
+  the line across the lanes it controls; the lanelet's end where it names none) and one
+  SignalHead per light, facing the traffic it controls; the cycle is signal_plan's default;
+- a right of way element: the priority of the conflict zones between its right-of-way and
+  its yield lanes (and the lanes that start within RULE_REACH_M after them: the junction's
+  lanes after short approach lanelets); its
+  stop line a "stop_sign" StopLine when it refers to a stop sign (STOP_SIGN_SUBTYPES), else a
+  give-way line that only the zones carry;
+- two lanes that overlap (the routing graph's conflicting lanelets; lanes leaving the same
+  lane are not in conflict): a ConflictZone, the convex hull of their overlap;
+- walls, fences, guard rails, buildings: static polygons (occluders.py); parking areas kept.
+
+Anything else, and anything that fails on the way, is listed in MapElements.not_mapped and in
+one warning (MapConversionWarning): the converter never guesses silently.
+"""
+
+from __future__ import annotations
+
+import math
+import warnings
+from collections import Counter, defaultdict
+
+import numpy as np
+
+from marl_social.maps.elements import (
+    ConflictElement,
+    CrosswalkElement,
+    JunctionElement,
+    LaneElement,
+    LaneKey,
+    MapElements,
+    MapSource,
+    SignalElement,
+    StopLineElement,
+)
+from marl_social.maps.geometry import (
+    aligned_rectangle,
+    clean_polyline,
+    overlap_hull,
+    polyline_crossings,
+    polylines_cross,
+)
+from marl_social.maps.occluders import map_occluders
+from marl_social.maps.signal_plan import default_signal_plan
+from marl_social.sim.road_map import ConflictZone, Crosswalk, Lane, RoadMap, Route, StopLine
+from marl_social.sim.signals import SignalHead
+
+RULE_REACH_M = 30.0  # a rule on a lane also holds on the lanes starting this close after it [m]
+STOP_SIGN_SUBTYPES = ("de206", "usR1-1", "stop_sign", "stop")  # traffic sign subtypes: stop
+EXTENT_MARGIN_M = 5.0  # the drawn extent around everything mapped [m]
+MIN_LANE_WIDTH_M = 1.0  # a lane narrower than this (a degenerate lanelet) is not mapped [m]
+LISTED_IDS = 6  # ids listed per line of the summary before "..."
+
+
+class MapConversionWarning(UserWarning):
+    """The one-warning summary of what a map conversion could not map."""
+
+
+def _xy(points) -> np.ndarray:
+    """(P, 2) x, y [m] of lanelet2 points (a line string, a polygon)."""
+    return np.array([[p.x, p.y] for p in points], dtype=np.float64).reshape(-1, 2)
+
+
+def _attr(element, key: str, default: str = "") -> str:
+    """A lanelet2 element's attribute, or default (lanelet2's AttributeMap has no .get)."""
+    return element.attributes[key] if key in element.attributes else default  # noqa: SIM401
+
+
+def _key(lanelet) -> LaneKey:
+    return LaneKey(int(lanelet.id), bool(lanelet.inverted()))
+
+
+def _ids(items) -> str:
+    items = sorted(items)
+    head = ", ".join(str(i) for i in items[:LISTED_IDS])
+    return head + (", ..." if len(items) > LISTED_IDS else "")
+
+
+def _heading_near(polyline: np.ndarray, point: np.ndarray) -> float:
+    """Heading [rad] of the segment of a polyline (P, 2) [m] closest to a point (2,) [m]."""
+    start, d = polyline[:-1], np.diff(polyline, axis=0)
+    t = np.clip(((point - start) * d).sum(axis=1) / (d * d).sum(axis=1), 0.0, 1.0)
+    k = int(np.argmin(np.linalg.norm(start + t[:, None] * d - point, axis=1)))
+    return math.atan2(d[k, 1], d[k, 0])
+
+
+def _mean_width(left: np.ndarray, right: np.ndarray) -> float:
+    """Mean distance [m] between two bounds (P, 2), (Q, 2), resampled at equal arc fractions."""
+    def resample(line: np.ndarray, n: int) -> np.ndarray:
+        s = np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(line, axis=0), axis=1))])
+        if s[-1] <= 0.0:
+            return np.repeat(line[:1], n, axis=0)
+        f = np.linspace(0.0, s[-1], n)
+        return np.column_stack([np.interp(f, s, line[:, 0]), np.interp(f, s, line[:, 1])])
+
+    n = max(len(left), len(right), 2) * 2
+    return float(np.mean(np.linalg.norm(resample(left, n) - resample(right, n), axis=1)))
+
+
+class _Converter:
+    """One conversion's state: the lanelet2 map, its rules and graph, what is built so far."""
+
+    def __init__(self, lanelet_map, source: MapSource, problems):
+        import lanelet2
+
+        rules_mod = lanelet2.traffic_rules
+        self.map = lanelet_map
+        self.source = source
+        self.rules = rules_mod.create(rules_mod.Locations.Germany,
+                                      rules_mod.Participants.Vehicle)
+        self.graph = lanelet2.routing.RoutingGraph(lanelet_map, self.rules)
+        self.not_mapped = []
+        problems = [p.strip() for p in problems if not p.strip().lower().startswith("errors")]
+        if problems:  # e.g. a regulatory element of a type lanelet2 knows no rule for
+            listed = "; ".join(p.lstrip("- ") for p in problems[:LISTED_IDS])
+            self.not_mapped.append(f"lanelet2 could not read {len(problems)} elements: {listed}"
+                                   + ("; ..." if len(problems) > LISTED_IDS else ""))
+        self.lanes: list[Lane] = []
+        self.lane_views: dict[LaneKey, object] = {}
+        self.lane_polygons: dict[LaneKey, np.ndarray] = {}
+        self.lane_elements: dict[LaneKey, LaneElement] = {}
+        self.lane_lengths_m: dict[LaneKey, float] = {}
+        self.stop_lines: list[StopLine] = []
+        self.heads: list[SignalHead] = []
+        self.signals: dict[int, SignalElement] = {}
+        self.stop_line_elements: dict[int, StopLineElement] = {}
+        self.roles: list[tuple[object, dict[LaneKey, str]]] = []  # right of way elements
+        self.signal_groups: dict[LaneKey, set[str]] = defaultdict(set)
+        self.used_lines: set[int] = set()
+        self.crosswalk_elements: dict[int, CrosswalkElement] = {}
+        self.walk_paths: dict[int, np.ndarray] = {}  # crosswalk lanelet id -> centre line
+
+    # lanes and crosswalks -----------------------------------------------------------------
+
+    def map_lanelets(self) -> list[Crosswalk]:
+        """Lanes (self.lanes) and crosswalks (returned, with their elements in self)."""
+        crosswalks = []
+        skipped = Counter()
+        for lanelet in sorted(self.map.laneletLayer, key=lambda ll: ll.id):
+            subtype = _attr(lanelet, "subtype", "(none)")
+            if subtype == "crosswalk":
+                crosswalks.append(self._crosswalk(lanelet, len(crosswalks)))
+            elif self.rules.canPass(lanelet):
+                views = [lanelet] if self.rules.isOneWay(lanelet) else [lanelet,
+                                                                        lanelet.invert()]
+                for view in views:
+                    self._add_lane(view, subtype)
+            else:
+                skipped[subtype] += 1
+        if skipped:
+            self.not_mapped.append(f"{sum(skipped.values())} lanelets no car may use: "
+                                   + ", ".join(f"{k} {v}" for k, v in sorted(skipped.items())))
+        self._link_lanes()
+        for element in list(self.crosswalk_elements.values()):
+            walk = self.walk_paths[element.lanelet_id]
+            crossed = tuple(k for k in self.lane_views
+                            if polylines_cross(self.lanes[self.lane_elements[k].index]
+                                               .centerline, walk))
+            self.crosswalk_elements[element.lanelet_id] = CrosswalkElement(
+                element.lanelet_id, element.index, crossed)
+        return crosswalks
+
+    def _crosswalk(self, lanelet, index: int) -> Crosswalk:
+        walk = clean_polyline(_xy(lanelet.centerline))
+        outline = np.concatenate([_xy(lanelet.leftBound), _xy(lanelet.rightBound)])
+        heading = math.atan2(*(walk[-1] - walk[0])[::-1])
+        center, length, width = aligned_rectangle(outline, heading)
+        self.walk_paths[int(lanelet.id)] = walk
+        self.crosswalk_elements[int(lanelet.id)] = CrosswalkElement(int(lanelet.id), index, ())
+        return Crosswalk(center, heading, length, width)
+
+    def _add_lane(self, view, subtype: str) -> None:
+        key = _key(view)
+        centerline = clean_polyline(_xy(view.centerline))
+        left, right = _xy(view.leftBound), _xy(view.rightBound)
+        width = _mean_width(left, right) if len(left) and len(right) else 0.0
+        if len(centerline) < 2 or width < MIN_LANE_WIDTH_M:
+            self.not_mapped.append(f"lanelet {key.lanelet_id}: degenerate (centre line of "
+                                   f"{len(centerline)} points, width {width:.2f} m)")
+            return
+        name = f"lanelet_{key.lanelet_id}" + ("_inverted" if key.inverted else "")
+        self.lane_views[key] = view
+        self.lane_polygons[key] = np.concatenate([left, right[::-1]])
+        limit = float(self.rules.speedLimit(view).speedLimitMPS)
+        self.lane_elements[key] = LaneElement(len(self.lanes), key, subtype, limit, (), ())
+        self.lanes.append(Lane(centerline, width, name))
+        self.lane_lengths_m[key] = float(np.linalg.norm(np.diff(centerline, axis=0),
+                                                        axis=1).sum())
+
+    def _link_lanes(self) -> None:
+        """The routing graph's successors, predecessors and lane-change neighbours of each lane."""
+        dead_ends = []
+        for key, view in self.lane_views.items():
+            def known(lanelets):
+                return tuple(k for k in (_key(ll) for ll in lanelets) if k in self.lane_views)
+
+            left, right = self.graph.left(view), self.graph.right(view)
+            element = self.lane_elements[key]
+            successors = known(self.graph.following(view))
+            self.lane_elements[key] = LaneElement(
+                element.index, key, element.subtype, element.speed_limit_mps, successors,
+                known(self.graph.previous(view)), known([left] if left else []),
+                known([right] if right else []))
+            if not successors:
+                dead_ends.append(key.lanelet_id)
+        if dead_ends:
+            self.not_mapped.append(f"{len(dead_ends)} lanes without a routable successor (the "
+                                   f"map's edge, or a gap in it): lanelets {_ids(dead_ends)}")
+
+    def reach(self, key: LaneKey, reach_m: float = RULE_REACH_M) -> set[LaneKey]:
+        """The lane and the lanes that start less than reach_m [m] after its end."""
+        found, frontier = {key}, [(key, 0.0)]
+        while frontier:
+            lane, start_m = frontier.pop()
+            for succ in self.lane_elements[lane].successors:
+                if succ not in found:
+                    found.add(succ)
+                    end_m = start_m + self.lane_lengths_m[succ]
+                    if end_m < reach_m:
+                        frontier.append((succ, end_m))
+        return found
+
+    # regulatory elements -------------------------------------------------------------------
+
+    def map_regulatory_elements(self) -> None:
+        """Signals, right of way and stop lines from the regulatory elements."""
+        users = defaultdict(list)  # element id -> the lanes referencing it
+        for key, view in self.lane_views.items():
+            if not key.inverted:
+                for element in view.regulatoryElements:
+                    users[int(element.id)].append(key)
+        unused, unknown = [], []
+        for element in sorted(self.map.regulatoryElementLayer, key=lambda r: r.id):
+            subtype = _attr(element, "subtype", "(none)")
+            self.used_lines |= {int(p.id) for params in element.parameters.values()
+                                for p in params if hasattr(p, "id")}
+            lanes = users.get(int(element.id), [])
+            if subtype == "traffic_light" and lanes:
+                self._traffic_light(element, lanes)
+            elif subtype == "right_of_way" and (element.rightOfWayLanelets()
+                                                or element.yieldLanelets()):
+                self._right_of_way(element)
+            elif subtype in ("speed_limit", "traffic_sign") and lanes:
+                pass  # the traffic rules read them (each lane's speed limit)
+            elif subtype in ("traffic_light", "speed_limit", "traffic_sign", "right_of_way"):
+                unused.append(f"{element.id} ({subtype})")
+            else:
+                unknown.append(f"{element.id} ({subtype})")
+        if unused:
+            self.not_mapped.append(f"{len(unused)} regulatory elements no lane uses: "
+                                   + ", ".join(unused))
+        if unknown:
+            self.not_mapped.append(f"{len(unknown)} regulatory elements of a kind the "
+                                   f"simulator has no rule for: {', '.join(unknown)}")
+
+    def _stop_segment(self, line: np.ndarray | None, lanes: list[LaneKey]) -> np.ndarray:
+        """(2, 2) the part [m] of a stop line across `lanes` (their ends where line is None)."""
+        if line is None:  # Lanelet2: no stop line, stop at the lanelet's end
+            ends = [_xy(bound)[-1] for k in lanes
+                    for bound in (self.lane_views[k].leftBound, self.lane_views[k].rightBound)]
+            line = np.array([ends[0], ends[-1]])
+        chord = np.array([line[0], line[-1]])
+        direction = chord[1] - chord[0]
+        length = float(np.hypot(*direction))
+        direction = direction / length
+        spans = []
+        for key in lanes:
+            centerline = self.lanes[self.lane_elements[key].index].centerline
+            s = polyline_crossings(line, centerline)
+            if len(s):
+                hit = Route(line).point_at(s[0])[0]
+                u = float((hit - chord[0]) @ direction)
+                half = 0.5 * self.lanes[self.lane_elements[key].index].width_m
+                spans += [u - half, u + half]
+        if not spans:
+            return chord
+        lo, hi = max(min(spans), 0.0), min(max(spans), length)
+        return np.array([chord[0] + lo * direction, chord[0] + hi * direction])
+
+    def _traffic_light(self, element, lanes: list[LaneKey]) -> None:
+        line = element.stopLine
+        line_xy = _xy(line) if line is not None else None
+        segment = self._stop_segment(line_xy, lanes)
+        lane_index = self.lane_elements[lanes[0]].index
+        stop_index = len(self.stop_lines)
+        self.stop_lines.append(StopLine(segment, "signal", lane_index))
+        group = f"light_{element.id}"
+        heading = _heading_near(self.lanes[lane_index].centerline, segment.mean(axis=0))
+        head_indices = []
+        for light in element.trafficLights:
+            head_indices.append(len(self.heads))
+            self.heads.append(SignalHead(_xy(light).mean(axis=0), float(heading) + math.pi,
+                                         group, stop_index, name=f"light_{light.id}"))
+        self.signals[int(element.id)] = SignalElement(int(element.id), group, tuple(head_indices),
+                                                      stop_index, tuple(lanes))
+        for key in lanes:
+            for reached in self.reach(key):
+                self.signal_groups[reached].add(group)
+        if line is not None:
+            self._note_stop_line(int(line.id), "signal", stop_index, lanes, int(element.id))
+
+    def _right_of_way(self, element) -> None:
+        roles: dict[LaneKey, str] = {}
+        for lanelets, role in ((element.rightOfWayLanelets(), "priority"),
+                               (element.yieldLanelets(), "yield")):
+            for lanelet in lanelets:
+                key = _key(lanelet)
+                if key in self.lane_views:
+                    for reached in self.reach(key):
+                        roles.setdefault(reached, role)
+        self.roles.append((element, roles))
+        line = element.stopLine
+        if line is None:
+            return
+        yielding = [_key(ll) for ll in element.yieldLanelets() if _key(ll) in self.lane_views]
+        signs = {_attr(s, "subtype") for s in element.parameters["refers"]} \
+            if "refers" in element.parameters else set()
+        if yielding and signs & set(STOP_SIGN_SUBTYPES) and _attr(element, "fallback") != "yes":
+            index = len(self.stop_lines)
+            segment = self._stop_segment(_xy(line), yielding)
+            self.stop_lines.append(StopLine(segment, "stop_sign",
+                                            self.lane_elements[yielding[0]].index))
+            self._note_stop_line(int(line.id), "stop_sign", index, yielding, int(element.id))
+        else:
+            self._note_stop_line(int(line.id), "yield", None, yielding, int(element.id))
+
+    def _note_stop_line(self, line_id: int, rule: str, index, lanes, element_id: int) -> None:
+        old = self.stop_line_elements.get(line_id)
+        indices = (old.indices if old else ()) + ((index,) if index is not None else ())
+        merged_lanes = tuple(dict.fromkeys((old.lanes if old else ()) + tuple(lanes)))
+        elements = (old.regulatory_elements if old else ()) + (element_id,)
+        if old and old.rule in ("signal", "stop_sign") and rule == "yield":
+            rule = old.rule  # a line both a light's and a fallback give-way: the light's
+        self.stop_line_elements[line_id] = StopLineElement(line_id, rule, indices, merged_lanes,
+                                                           elements)
+
+    def unused_stop_lines(self) -> None:
+        """Stop lines no regulatory element uses: kept with rule "", listed as not mapped."""
+        across = 0
+        unused = []
+        for line in sorted(self.map.lineStringLayer, key=lambda ls: ls.id):
+            if _attr(line, "type") != "stop_line" or int(line.id) in self.stop_line_elements:
+                continue
+            xy = _xy(line)
+            lanes = tuple(k for k in self.lane_views
+                          if polylines_cross(self.lanes[self.lane_elements[k].index].centerline,
+                                             xy))
+            across += bool(lanes)
+            unused.append(int(line.id))
+            self.stop_line_elements[int(line.id)] = StopLineElement(int(line.id), "", (), lanes)
+        if unused:
+            self.not_mapped.append(f"{len(unused)} stop lines no regulatory element uses ("
+                                   f"{across} across lanes, the others off every lane): no "
+                                   f"rule to stop by, kept in elements.stop_lines with rule ''")
+        signs = [int(ls.id) for ls in self.map.lineStringLayer
+                 if _attr(ls, "type") == "traffic_sign" and int(ls.id) not in self.used_lines]
+        if signs:
+            self.not_mapped.append(f"{len(signs)} traffic signs no regulatory element uses: "
+                                   f"{_ids(signs)}")
+
+    # conflicts, junctions, signal plan -------------------------------------------------------
+
+    def map_conflicts(self) -> tuple[list[ConflictZone], dict]:
+        """Conflict zones of overlapping lanes, with their priority (module docstring)."""
+        pairs = set()
+        for key, view in self.lane_views.items():
+            for other in self.graph.conflicting(view):
+                other_key = _key(other)
+                if other_key in self.lane_views and other_key != key:
+                    pairs.add(tuple(sorted((key, other_key))))
+        zones, conflicts = [], {}
+        thin, undecided = [], 0
+        for a, b in sorted(pairs):
+            if set(self.lane_elements[a].predecessors) & set(self.lane_elements[b].predecessors):
+                continue  # two lanes leaving the same lane: one follows the other, no conflict
+            hull = overlap_hull(self.lane_polygons[a], self.lane_polygons[b])
+            if hull is None:
+                thin.append(a.lanelet_id)
+                continue
+            priority, rule = self._priority(a, b)
+            undecided += rule == ""
+            indices = tuple(self.lane_elements[k].index for k in priority)
+            zone_name = f"conflict_{a.lanelet_id}_{b.lanelet_id}"
+            conflicts[(a, b)] = ConflictElement((a, b), len(zones), priority, rule)
+            zones.append(ConflictZone(hull, zone_name, indices))
+        if thin:
+            self.not_mapped.append(f"{len(thin)} lane overlaps too thin for a conflict zone")
+        if undecided:
+            self.not_mapped.append(f"{undecided} conflicts no regulatory element or signal "
+                                   "decides: their zones give no lane priority (rule '')")
+        return zones, conflicts
+
+    def _priority(self, a: LaneKey, b: LaneKey) -> tuple[tuple[LaneKey, ...], str]:
+        ordered = sorted(self.roles, key=lambda er: _attr(er[0], "fallback") == "yes")
+        for element, roles in ordered:
+            ra, rb = roles.get(a), roles.get(b)
+            if {ra, rb} == {"priority", "yield"}:
+                fallback = " (fallback)" if _attr(element, "fallback") == "yes" else ""
+                return ((a,) if ra == "priority" else (b,)), f"right_of_way:{element.id}{fallback}"
+        ga, gb = self.signal_groups.get(a, set()), self.signal_groups.get(b, set())
+        if ga and gb and not ga & gb:
+            return (), "signals"
+        return (), ""
+
+    def junctions(self, conflicts: dict) -> dict[int, JunctionElement]:
+        """Connected components of the conflict graph, with their signals and stop lines."""
+        parent: dict[LaneKey, LaneKey] = {}
+
+        def find(k):
+            while parent.setdefault(k, k) != k:
+                k = parent[k]
+            return k
+
+        for a, b in conflicts:
+            parent[find(a)] = find(b)
+        members = defaultdict(list)
+        for k in list(parent):
+            members[find(k)].append(k)
+        def reached(lanes) -> set[LaneKey]:
+            return set().union(*(self.reach(k) for k in lanes))
+
+        signal_reach = {i: reached(s.lanes) for i, s in self.signals.items()}
+        line_reach = {i: reached(s.lanes) for i, s in self.stop_line_elements.items()}
+        out = {}
+        for lanes in members.values():
+            lanes = sorted(lanes)
+            inside = set(lanes)
+            junction_id = min(k.lanelet_id for k in lanes)
+            out[junction_id] = JunctionElement(
+                junction_id, tuple(lanes), tuple(p for p in conflicts if p[0] in inside),
+                tuple(sorted(i for i, r in signal_reach.items() if r & inside)),
+                tuple(sorted(i for i, r in line_reach.items() if r & inside)))
+        return out
+
+    def signal_plan(self, conflicts: dict):
+        """The default cycle of the map's signal groups (signal_plan.py), None without any."""
+        if not self.signals:
+            return None
+        groups = [s.group for s in self.signals.values()]
+        reached = {s.group: set().union(*(self.reach(k) for k in s.lanes))
+                   for s in self.signals.values()}
+        conflicting = set()
+        for ga in groups:
+            for gb in groups:
+                if ga < gb and any((a, b) in conflicts or (b, a) in conflicts or a == b
+                                   for a in reached[ga] for b in reached[gb]):
+                    conflicting.add(frozenset((ga, gb)))
+        return default_signal_plan(groups, conflicting)
+
+
+def _extent(road_map_parts) -> tuple[float, float, float, float]:
+    pts = np.concatenate([np.asarray(p).reshape(-1, 2) for p in road_map_parts])
+    lo, hi = pts.min(axis=0) - EXTENT_MARGIN_M, pts.max(axis=0) + EXTENT_MARGIN_M
+    return float(lo[0]), float(hi[0]), float(lo[1]), float(hi[1])
+
+
+def convert_lanelet_map(lanelet_map, source: MapSource, problems=(), name: str = ""):
+    """The RoadMap and MapElements of a loaded Lanelet2 map (module docstring).
+
+    Args:
+        lanelet_map: lanelet2's LaneletMap (projected).
+        source: where it came from (MapSource).
+        problems: what lanelet2 reported while loading it (strings).
+        name: the map's name in the warning (default: its file).
+
+    Returns:
+        (road_map, elements): the RoadMap (no routes: a scene adds them) and MapElements.
+    """
+    conv = _Converter(lanelet_map, source, list(problems))
+    crosswalks = conv.map_lanelets()
+    if not conv.lanes:
+        from marl_social.maps.errors import MapError
+
+        raise MapError(f"{source.path}: the map has no lanelet a car may drive on")
+    conv.map_regulatory_elements()
+    conv.unused_stop_lines()
+    zones, conflicts = conv.map_conflicts()
+    plan = conv.signal_plan(conflicts)
+    polygons, sources, parking, skipped_areas = map_occluders(lanelet_map)
+    if skipped_areas:
+        conv.not_mapped.append("areas that are no obstacle or of unknown height: " + ", ".join(
+            f"{k} {v}" for k, v in sorted(skipped_areas.items())))
+    limits = Counter(e.speed_limit_mps for e in conv.lane_elements.values())
+    road_map = RoadMap(
+        lanes=tuple(conv.lanes), crosswalks=tuple(crosswalks), static_polygons=tuple(polygons),
+        speed_limit_mps=limits.most_common(1)[0][0],
+        extent=_extent([lane.centerline for lane in conv.lanes] + list(polygons)),
+        stop_lines=tuple(conv.stop_lines), conflict_zones=tuple(zones),
+        signal_heads=tuple(conv.heads), signal_plan=plan)
+    elements = MapElements(
+        source=source, lanes=conv.lane_elements, crosswalks=conv.crosswalk_elements,
+        stop_lines=conv.stop_line_elements, signals=conv.signals, conflicts=conflicts,
+        junctions=conv.junctions(conflicts), parking_areas=parking,
+        occluder_sources=tuple(sources), not_mapped=tuple(conv.not_mapped))
+    if conv.not_mapped:
+        warnings.warn(MapConversionWarning(
+            f"map {name or source.path}: not mapped: " + "; ".join(conv.not_mapped)),
+            stacklevel=3)
+    return road_map, elements
