@@ -53,8 +53,10 @@ class CounterfactualWarning:
         return min(times) if times else float("nan")
 
     def as_metrics(self) -> dict:
-        """The flat numbers for an episode's metrics: warning_lead_s, first_warned_s,
-        robot_first_sees_hidden_s and human_warned_s_<human> [s]."""
+        """The flat numbers for an episode's metrics [s].
+
+        warning_lead_s, first_warned_s, robot_first_sees_hidden_s, human_warned_s_<human>.
+        """
         out = {"warning_lead_s": self.warning_lead_s, "first_warned_s": self.first_warned_s,
                "robot_first_sees_hidden_s": self.robot_first_sees_s}
         out.update({f"human_warned_s_{h}": t for h, t in self.human_warned_s.items()})

@@ -311,16 +311,20 @@ def claim_episode(job: tuple) -> tuple:
     """One episode for the claims tests: (planner, variant, seed, metrics + timings, error).
 
     Args:
-        job: (planner, variant, seed, max_cycles, overrides[, until]); the overrides go on
-            top of randomized_overrides(seed) (the "wide" preset); until: a class of
-            marl_social/evaluation/stopping.py (or any zero-argument factory of a condition),
-            built afresh for the episode, which ends it once the condition holds.
+        job: (planner, variant, seed, max_cycles, overrides[, until[, counterfactual]]); the
+            overrides go on top of randomized_overrides(seed) (the "wide" preset); until: a
+            class of marl_social/evaluation/stopping.py (or any zero-argument factory of a
+            condition), built afresh for the episode, which ends it once the condition holds;
+            counterfactual: also the humans' warning (run_episode's counterfactual: the
+            metrics warning_lead_s, ...).
     """
-    planner, variant, seed, max_cycles, extra, *until_factory = job
+    planner, variant, seed, max_cycles, extra, *rest = job
     try:
-        until = until_factory[0]() if until_factory and until_factory[0] is not None else None
+        until = rest[0]() if rest and rest[0] is not None else None
+        counterfactual = bool(rest[1]) if len(rest) > 1 else False
         res = run_episode("occluded_crosswalk", seed=seed, robot_planner=planner,
                           pedestrian=variant, max_cycles=max_cycles, until=until,
+                          counterfactual=counterfactual,
                           **{**randomized_overrides(seed, "wide"), **extra})
         summary = {**res.metrics, **interaction_timings(res)}
         infeasible = res.trace.extras.get("mpc_infeasible")

@@ -58,7 +58,7 @@ def test_the_human_warns_where_it_departs_from_the_same_seed_without_the_pedestr
     warned = res.warning.human_warned_s["human_0"]
     assert warned == pytest.approx(0.8)
     h = res.trace.index("human_0")
-    k = int(round(warned / 0.1))
+    k = round(warned / 0.1)
     gap = without.trace.states[: k + 1, h, 3] - res.trace.states[: k + 1, h, 3]
     assert gap[-1] >= WARNING_SPEED_MPS and np.all(np.abs(gap[:-1]) < WARNING_SPEED_MPS)
     sight = res.metrics["robot_first_sees_pedestrian_s"]
