@@ -153,7 +153,12 @@ def test_a_warning_left_turner_tells_the_social_robot_of_the_hidden_car(runs):
     Warns (evaluation/counterfactual.py): its speed departs >= 1 m/s from its speed in the
     same seed without V3 (what it does because of V3, not its curve speed).
 
-    MEASURED_WARNED
+    Measured 35 of 37 (95 %) on seeds 0-49 and 31 of 36 (86 %, below the claim) on 50-99:
+    the misses 30 and 38 are confident 0.1 s after the sight, 63, 69, 80, 93 and 95 later.
+    Counted before as "human_0 waited for V3" (it let V3 pass, slower than 3.5 m/s and 0.3
+    m/s slower than without V3 at a step before V3 left the crossing; no lead asked), it was
+    36 of 36 on 0-49, 94 % of 33 on 50-99, 96 % of 28 on 100-149, 91 % of 35 on 150-199 and
+    94 % of 33 on 250-299 (reproduce_intersection.left_turner_held_back, still in its table).
     """
     warned = [m for m in runs[WARNED_CASE] if m["warning_lead_s"] >= LEAD_S]
     assert len(warned) >= 10

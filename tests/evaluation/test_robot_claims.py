@@ -92,13 +92,14 @@ def test_social_planner_never_collides_and_always_yields(runs):
 
 
 def test_social_planner_decelerates_gently_when_the_human_warns_it(runs):
-    """Where the human brakes for the pedestrian >= 0.5 s before the robot sees it: max
+    """Where a human warns the robot >= LEAD_S before it sees the pedestrian: max
     deceleration <= 4 m/s^2 in >= 90 % of those seeds.
 
-    Measured 20 of 21 on these seeds (0-49), 17 of 18 on 50-99 and 18 of 18 on 100-149. The
-    two misses (seed 0: 4.06 m/s^2, human beta 6.8; seed 65: 4.15 m/s^2, beta 2.6, whose
-    braking is noise) see the pedestrian about 20 m before their stop with a belief the
-    human's behaviour did not raise.
+    Measured 18 of 18 on these seeds (0-49) and 15 of 15 on 50-99. Counted as "the human
+    brakes for the pedestrian" (a 1 m/s^2 braking after it first sees it, below its cruise
+    speed) it was 20 of 21 and 17 of 18: the two misses (seed 0: 4.06 m/s^2, human beta 6.8;
+    seed 65: 4.15 m/s^2, beta 2.6) braked so without the pedestrian too (seed 0: never 1 m/s
+    from its speed without it), a warning only by that count.
     """
     warned = _warned(runs, WARNED_CASE)
     assert len(warned) >= 10
@@ -107,11 +108,11 @@ def test_social_planner_decelerates_gently_when_the_human_warns_it(runs):
 
 
 def test_social_planner_brakes_without_jerks_when_the_human_warns_it(runs):
-    """Where the human brakes for the pedestrian >= 0.5 s before the robot sees it: max jerk
+    """Where a human warns the robot >= LEAD_S before it sees the pedestrian: max jerk
     <= 10 m/s^3 in >= 90 % of those seeds.
 
-    Measured 20 of 21 on these seeds (0-49), 17 of 18 on 50-99, 18 of 18 on 100-149 (the
-    misses: seeds 0 and 65, those of the deceleration claim).
+    Measured 18 of 18 on these seeds (0-49) and 15 of 15 on 50-99 (counted by the human's
+    braking: 20 of 21 and 17 of 18, the misses seeds 0 and 65 of the deceleration claim).
     """
     warned = _warned(runs, WARNED_CASE)
     assert len(warned) >= 10

@@ -116,7 +116,10 @@ def test_a_warning_human_tells_the_social_robot_the_protected_left(runs):
     """Where a human warned >= LEAD_S before the robot pulls out, the robot's belief in the
     protected left exceeds 0.9 before it pulls out in >= 95 % of those seeds.
 
-    MEASURED_SIGNAL
+    A human warns in every protected-left seed (the cross cars slow for their red, the
+    left-turners go). Measured 49 of 50 on seeds 0-49 (seed 24: the robot pulls out at 2.5 s
+    with its belief below 0.9 all along) and 46 of 50 (92 %, below the claim) on 50-99
+    (52, 55, 56, 87).
     """
     warned = [m for m in runs[WARNED_CASE]
               if m["first_warned_s"] <= np.nan_to_num(m["turn_s"], nan=np.inf) - LEAD_S]

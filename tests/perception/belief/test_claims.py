@@ -105,7 +105,9 @@ def holds_once_confident(case: dict) -> bool:
 def test_the_belief_is_confident_before_the_robot_sees_the_pedestrian(episodes):
     """Holds on seeds 0-49 (14 of 14), NOT on seeds the belief was not tuned on.
 
-    Measured 2026-12-03 (MARL_CLAIM_SEED0): 11 of 13 on 50-99, 13 of 16 on 100-149, 10 of 11
+    With the counterfactual warning: 14 of 14 on 0-49, 11 of 13 on 50-99 (misses 60, 97).
+    Measured before it (the human slowed 1 m/s below its speed when the pedestrian started),
+    2026-12-03 (MARL_CLAIM_SEED0): 11 of 13 on 50-99, 13 of 16 on 100-149, 10 of 11
     on 400-449, 9 of 10 on 450-499, 11 of 15 on 500-549, 10 of 10 on 550-599, 17 of 20 on
     600-649: 81 of 95 (85 %) over those seven sets. Four misses (419, 502, 504, 649) are humans
     that slow by 1 m/s and then pass the crosswalk in front of the pedestrian; in most others
@@ -129,7 +131,8 @@ def test_the_belief_is_confident_before_the_robot_sees_the_pedestrian(episodes):
 def test_the_belief_holds_once_confident(episodes):
     """Holds on seeds 0-49 (14 of 14), not on every fresh set.
 
-    Measured 2026-12-03 (MARL_CLAIM_SEED0): 11 of 11 on 50-99, 13 of 13 on 100-149, 10 of 10
+    With the counterfactual warning: 14 of 14 on 0-49, 11 of 11 on 50-99. Measured before it,
+    2026-12-03 (MARL_CLAIM_SEED0): 11 of 11 on 50-99, 13 of 13 on 100-149, 10 of 10
     on 400-449, 9 of 9 on 450-499, 10 of 10 on 550-599, but 10 of 11 on 500-549 (seed 524
     falls to 0.28) and 16 of 17 on 600-649 (seed 626 falls to 0.01): one miss among ten-odd
     confident seeds is below 95 %.
