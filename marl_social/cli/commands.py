@@ -115,11 +115,23 @@ def reproduce(args) -> int:
     table = format_table(rows)
     (out / "table.md").write_text(table + "\n")
     (out / "table.json").write_text(strict_json.dumps(rows, indent=2))
+    _reliability_figure(args, out)
     fixed = "".join(f", {k}={v}" for k, v in overrides.items())
     print(f"\n{args.seeds} randomized seeds per cell (marl_social/run.randomized_overrides"
           f"{fixed}):\n")
     print(table)
     return 0
+
+
+def _reliability_figure(args, out: Path) -> None:
+    """The belief's reliability diagram over the table's seeds (belief_reliability.py).
+
+    With and without what the scene hides, the same seeds.
+    """
+    from marl_social.evaluation.belief_reliability import write_reliability_figure
+
+    path, brier = write_reliability_figure(args.scenario, out, range(args.seeds), args.workers)
+    print(f"figure: {path} (Brier score {brier:.3f})")
 
 
 # the reproduce module of each intersection scenario (figures, table, randomization)
@@ -148,6 +160,7 @@ def _reproduce_intersection(args) -> int:
     table = format_table(rows)
     (out / "table.md").write_text(table + "\n")
     (out / "table.json").write_text(strict_json.dumps(rows, indent=2))
+    _reliability_figure(args, out)
     print(f"\n{args.seeds} randomized seeds per cell "
           f"(marl_social/evaluation/{module_name}.randomized_overrides):\n")
     print(table)

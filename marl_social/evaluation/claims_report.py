@@ -36,6 +36,7 @@ TITLES = {"occluded_crosswalk": "The occluded crosswalk (paper Fig. 2)",
           "t_intersection": "The T-intersection (paper Fig. 1 b)",
           "signalized_intersection": "The signalized intersection (paper Fig. 1 c)"}
 FORCED_MPS2 = 3.0  # braking forced on a human beyond this is hard [m/s^2]
+LEAD_S = 0.5  # a human warned (evaluation/counterfactual.py) this long before counts [s]
 
 
 def _claim(text: str, holds, measured: str, **values) -> dict:
@@ -70,10 +71,11 @@ def crosswalk_claims(seeds: list[int], workers: int) -> list[dict]:
     cases = [("social", "crossing"), ("aggressive", "crossing"), ("oracle", "crossing"),
              ("social", "none"), ("oracle", "none"), ("conservative", "none"),
              ("social", "waiting"), ("oracle", "waiting")]
-    r = _run(claim_episode, [(p, v, s, horizon[v], {}, until.get(v, PassedCrosswalk))
+    r = _run(claim_episode, [(p, v, s, horizon[v], {}, until.get(v, PassedCrosswalk),
+                              (p, v) == ("social", "crossing"))
                              for p, v in cases for s in seeds], workers)
     social, n = r[("social", "crossing")], len(seeds)
-    warned = [m for m in social if m["human_brakes_s"] + 0.5 <= m["robot_first_sees_pedestrian_s"]]
+    warned = [m for m in social if m["warning_lead_s"] >= LEAD_S]
     k_decel = int(np.sum(_col(warned, "max_decel_mps2") <= 4.0))
     k_jerk = int(np.sum(_col(warned, "max_jerk_mps3") <= 10.0))
     delay = [m["robot_moves_again_s"] - m["pedestrian_clears_lane_s"] for m in social
@@ -94,8 +96,9 @@ def crosswalk_claims(seeds: list[int], workers: int) -> list[dict]:
                "{collisions} collisions, yielded in {yielded} of {n}", n=n,
                collisions=sum(bool(m["robot_collision"]) for m in social),
                yielded=sum(bool(m["yielded"]) for m in social)),
-        _claim("social, warned (the human brakes >= 0.5 s before the robot sees the "
-               "pedestrian): brakes <= 4 m/s^2 in >= 90 %", k_decel >= 0.9 * len(warned),
+        _claim("social, warned (a human's speed departs >= 1 m/s from the same seed's without "
+               "the pedestrian >= 0.5 s before the robot sees it): brakes <= 4 m/s^2 in >= 90 %",
+               k_decel >= 0.9 * len(warned),
                "{k} of {n} warned seeds", k=k_decel, n=len(warned)),
         _claim("social, warned: jerk <= 10 m/s^3 in >= 90 %", k_jerk >= 0.9 * len(warned),
                "{k} of {n} warned seeds", k=k_jerk, n=len(warned)),
@@ -132,7 +135,8 @@ def intersection_claims(seeds: list[int], workers: int) -> list[dict]:
     horizon = {"none": 120, "near": 150}
     cases = [("social", "none"), ("oracle", "none"), ("conservative", "none"),
              ("social", "near"), ("oracle", "near"), ("aggressive", "near")]
-    jobs = [(p, v, s, horizon[v]) for p, v in cases for s in seeds]
+    jobs = [(p, v, s, horizon[v], {}, (p, v) == ("social", "near")) for p, v in cases
+            for s in seeds]
     results = reproduce.map_jobs(reproduce_intersection.claim_episode, jobs, workers, False)
     reproduce_intersection.add_held_back(results)
     r = _by_case(results)
@@ -149,9 +153,9 @@ def intersection_claims(seeds: list[int], workers: int) -> list[dict]:
     hits = {p: sum(bool(m["robot_collision"]) for m in near[p]) for p in near}
     bad = sum(bool(m["robot_collision"]) or m["others_max_decel_mps2"] > FORCED_MPS2
               for m in near["aggressive"])
-    waited = [m for m in near["social"] if m["human_0_held_back"] == 1.0]
+    warned = [m for m in near["social"] if m["warning_lead_s"] >= LEAD_S]
     early = sum(m["belief_09_s"] < np.nan_to_num(m["robot_first_sees_v3_s"], nan=np.inf)
-                for m in waited)
+                for m in warned)
     claims = [
         _claim("no hidden car: social within 10 % of the oracle's time to clear the junction",
                t[("social", "none")] <= 1.10 * t[("oracle", "none")],
@@ -169,9 +173,10 @@ def intersection_claims(seeds: list[int], workers: int) -> list[dict]:
     return claims + [
         _claim("V3 near: the aggressive robot collides or forces braking > 3 m/s^2 in most "
                "seeds", bad > 0.5 * n, "{k} of {n} seeds", k=bad, n=n),
-        _claim("V3 near, a left-turner waits for V3: belief > 0.9 before the robot sees V3 "
-               "in >= 90 %", bool(waited) and early >= 0.9 * len(waited),
-               "{k} of {n} seeds where it waited", k=int(early), n=len(waited))]
+        _claim("V3 near, a left-turner warned (its speed departs >= 1 m/s from the same seed's "
+               "without V3 >= 0.5 s before the robot sees V3): belief > 0.9 before the robot "
+               "sees V3 in >= 90 %", bool(warned) and early >= 0.9 * len(warned),
+               "{k} of {n} warned seeds", k=int(early), n=len(warned))]
 
 
 def signal_claims(seeds: list[int], workers: int) -> list[dict]:
@@ -179,8 +184,9 @@ def signal_claims(seeds: list[int], workers: int) -> list[dict]:
     cases = [("social", "protected_left"), ("conservative", "protected_left"),
              ("oracle", "protected_left"), ("social", "cross_green"),
              ("aggressive", "cross_green")]
-    r = _run(reproduce_signal.claim_episode, [(p, v, s, reproduce_signal.MAX_CYCLES)
-                                              for p, v in cases for s in seeds], workers)
+    r = _run(reproduce_signal.claim_episode,
+             [(p, v, s, reproduce_signal.MAX_CYCLES, (p, v) == ("social", "protected_left"))
+              for p, v in cases for s in seeds], workers)
     n, limit_s = len(seeds), reproduce_signal.MAX_CYCLES * 0.1
 
     def turn(case):  # never pulling out counts as the episode's length
@@ -192,6 +198,9 @@ def signal_claims(seeds: list[int], workers: int) -> list[dict]:
     worst = float(np.max(_col(r[("social", "cross_green")], "others_max_decel_mps2")))
     bad = sum(bool(m["collision"]) or m["others_max_decel_mps2"] > FORCED_MPS2
               for m in r[("aggressive", "cross_green")])
+    warned = [m for m in r[("social", "protected_left")]
+              if m["first_warned_s"] <= np.nan_to_num(m["turn_s"], nan=np.inf) - LEAD_S]
+    early = sum(m["belief_09_s"] < np.nan_to_num(m["turn_s"], nan=np.inf) for m in warned)
     return [
         _claim("protected left: social pulls out >= 2 s sooner than the conservative robot",
                cons - social >= 2.0, "{social:.2f} s vs {conservative:.2f} s (it never pulled "
@@ -203,7 +212,12 @@ def signal_claims(seeds: list[int], workers: int) -> list[dict]:
         _claim("cross traffic on green: social never forces braking > 3 m/s^2",
                worst <= FORCED_MPS2, "hardest forced braking {worst:.2f} m/s^2", worst=worst),
         _claim("cross traffic on green: the aggressive robot collides or forces braking > 3 "
-               "m/s^2 in most seeds", bad > 0.5 * n, "{k} of {n} seeds", k=bad, n=n)]
+               "m/s^2 in most seeds", bad > 0.5 * n, "{k} of {n} seeds", k=bad, n=n),
+        _claim("protected left, a human warned (its speed departs >= 1 m/s from the same "
+               "seed's on cross green >= 0.5 s before the robot pulls out): belief > 0.9 in "
+               "the protected left before the robot pulls out in >= 95 %",
+               bool(warned) and early >= 0.95 * len(warned), "{k} of {n} warned seeds",
+               k=int(early), n=len(warned))]
 
 
 CLAIMS = {"occluded_crosswalk": crosswalk_claims, "t_intersection": intersection_claims,

@@ -159,11 +159,13 @@ def claim_episode(job: tuple) -> tuple:
     """One episode for the claims tests: (planner, variant, seed, summary, error).
 
     The summary: the episode's metrics, human_0_waited, left_turner_record and
-    hidden_vehicle_timings (left_turner_held_back pairs it with the same seed without V3).
+    hidden_vehicle_timings (left_turner_held_back pairs it with the same seed without V3);
+    with counterfactual, the humans' warning (run_episode's counterfactual: warning_lead_s,
+    ...).
 
     Args:
-        job: (planner, variant, seed, max_cycles) or (..., extra overrides: dict); the
-            episode runs with randomized_overrides(seed), updated by the extra overrides.
+        job: (planner, variant, seed, max_cycles[, extra overrides: dict[, counterfactual]]);
+            the episode runs with randomized_overrides(seed), updated by the extra overrides.
     """
     from marl_social.evaluation.run import run_episode
 
@@ -171,7 +173,9 @@ def claim_episode(job: tuple) -> tuple:
     try:
         overrides = {**randomized_overrides(seed), **(extra[0] if extra else {})}
         res = run_episode(SCENARIO, seed=seed, robot_planner=planner, hidden_vehicle=variant,
-                          max_cycles=max_cycles, **overrides)
+                          max_cycles=max_cycles,
+                          counterfactual=bool(extra[1]) if len(extra) > 1 else False,
+                          **overrides)
         summary = dict(res.metrics)
         hidden = f"human_{res.trace.roles.count('human') - 1}"  # V3 is the last human
         summary["human_0_waited"] = first_left_turner_waited(res, hidden)

@@ -85,20 +85,30 @@ def _nanmean(values) -> float:
 def claim_episode(job: tuple) -> tuple:
     """One episode: (planner, variant, seed, summary, error).
 
-    The summary: the episode's metrics and turn_s (`turn_time_s`).
+    The summary: the episode's metrics and turn_s (`turn_time_s`); with counterfactual, the
+    humans' warning against the same seed in the other phase (run_episode's counterfactual),
+    first_warned_s, and belief_09_s: when the robot's belief in the phase running first
+    exceeds 0.9 (nan: never).
 
     Args:
-        job: (planner, variant, seed, max_cycles); the episode runs with
+        job: (planner, variant, seed, max_cycles[, counterfactual]); the episode runs with
             randomized_overrides(seed).
     """
     from marl_social.evaluation.run import run_episode
 
-    planner, variant, seed, max_cycles = job
+    planner, variant, seed, max_cycles, *counterfactual = job
     try:
         res = run_episode(SCENARIO, seed=seed, robot_planner=planner, phase=variant,
-                          max_cycles=max_cycles, **randomized_overrides(seed))
+                          max_cycles=max_cycles, counterfactual=bool(counterfactual and
+                                                                     counterfactual[0]),
+                          **randomized_overrides(seed))
         summary = dict(res.metrics)
         summary["turn_s"] = turn_time_s(res)
+        belief = res.trace.extras.get(f"phase_{variant}")
+        high = np.flatnonzero(np.nan_to_num(belief, nan=0.0) > 0.9) if belief is not None \
+            else []
+        summary["belief_09_s"] = (float(res.trace.times_s[high[0]]) if len(high)
+                                  else float("nan"))
         return planner, variant, seed, summary, None
     except Exception as err:  # noqa: BLE001  (a failed run is recorded, the table goes on)
         return planner, variant, seed, None, f"{type(err).__name__}: {err}"

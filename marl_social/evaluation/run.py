@@ -13,6 +13,7 @@ import numpy as np
 from marl_social.agents.human import BoltzmannDriver
 from marl_social.envs.parallel import parallel_env
 from marl_social.envs.policies import policies, truth_signal_phase, truth_tracks
+from marl_social.evaluation.counterfactual import CounterfactualWarning, counterfactual_warning
 from marl_social.evaluation.rollout import record_episode
 from marl_social.metrics.episode import belief_metrics, episode_metrics
 from marl_social.sim.road_map import RoadMap
@@ -35,6 +36,9 @@ class EpisodeResult:
             and rationality.
         decisions: {human: [(features, allowed, chosen), ...]}
             (agents/human.BoltzmannDriver.decisions) with record_human_decisions.
+        warning: with counterfactual=True, the humans' warnings of the hidden agent against
+            the same seed without it (evaluation/counterfactual.py; None: not asked for, or
+            a scene that hides nothing); its numbers are also in metrics.
     """
 
     metrics: dict
@@ -42,6 +46,7 @@ class EpisodeResult:
     road_map: RoadMap
     specs: dict | None = None
     decisions: dict | None = None
+    warning: CounterfactualWarning | None = None
 
 
 class _RecordingRobot:
@@ -78,7 +83,7 @@ class _RecordingRobot:
 
 def run_episode(scenario: str = "occluded_crosswalk", seed: int = 0, render: bool = False,
                 max_cycles: int = 200, record_human_decisions: bool = False, until=None,
-                **overrides) -> EpisodeResult:
+                counterfactual: bool = False, **overrides) -> EpisodeResult:
     """Run one episode with `marl_social.policies` and return its metrics and trace.
 
     The robot's planner comes from the `robot_planner` override.
@@ -93,6 +98,11 @@ def run_episode(scenario: str = "occluded_crosswalk", seed: int = 0, render: boo
         until: None, or a condition `until(env) -> bool` that ends the episode at the first
             state where it holds (marl_social/evaluation/stopping.py); the trace and metrics
             are then those of the steps so far.
+        counterfactual: also run the same seed, for as many steps, with the scenario's hidden
+            agent removed (`Scenario.hidden_agent().absent`) and report when each human's
+            speed first departed from that run's (EpisodeResult.warning and the metrics
+            warning_lead_s, first_warned_s, robot_first_sees_hidden_s, human_warned_s_<name>;
+            evaluation/counterfactual.py). The episode itself is unchanged.
         overrides: scenario parameters (e.g. pedestrian="none", robot_planner="aggressive").
     """
     env = parallel_env(scenario=scenario, max_cycles=max_cycles,
@@ -117,10 +127,18 @@ def run_episode(scenario: str = "occluded_crosswalk", seed: int = 0, render: boo
             trace.extras[key] = series
     metrics = episode_metrics(trace, env.road_map)
     metrics.update(belief_metrics(trace, env.road_map))
+    hidden = env.scenario.hidden_agent() if counterfactual else None
     env.close()
     decisions = ({a: list(p.decisions) for a, p in humans.items()}
                  if record_human_decisions else None)
-    return EpisodeResult(metrics, trace, env.road_map, dict(env.agent_specs), decisions)
+    warning = None
+    if hidden is not None:
+        without = run_episode(scenario, seed=seed, max_cycles=max(n_states - 1, 1),
+                              **{**overrides, **hidden.absent})
+        warning = counterfactual_warning(trace, without.trace, hidden)
+        metrics.update(warning.as_metrics())
+    return EpisodeResult(metrics, trace, env.road_map, dict(env.agent_specs), decisions,
+                         warning)
 
 
 RANDOMIZATIONS: dict[str, dict[str, tuple[float, float]]] = {
@@ -293,16 +311,20 @@ def claim_episode(job: tuple) -> tuple:
     """One episode for the claims tests: (planner, variant, seed, metrics + timings, error).
 
     Args:
-        job: (planner, variant, seed, max_cycles, overrides[, until]); the overrides go on
-            top of randomized_overrides(seed) (the "wide" preset); until: a class of
-            marl_social/evaluation/stopping.py (or any zero-argument factory of a condition),
-            built afresh for the episode, which ends it once the condition holds.
+        job: (planner, variant, seed, max_cycles, overrides[, until[, counterfactual]]); the
+            overrides go on top of randomized_overrides(seed) (the "wide" preset); until: a
+            class of marl_social/evaluation/stopping.py (or any zero-argument factory of a
+            condition), built afresh for the episode, which ends it once the condition holds;
+            counterfactual: also the humans' warning (run_episode's counterfactual: the
+            metrics warning_lead_s, ...).
     """
-    planner, variant, seed, max_cycles, extra, *until_factory = job
+    planner, variant, seed, max_cycles, extra, *rest = job
     try:
-        until = until_factory[0]() if until_factory and until_factory[0] is not None else None
+        until = rest[0]() if rest and rest[0] is not None else None
+        counterfactual = bool(rest[1]) if len(rest) > 1 else False
         res = run_episode("occluded_crosswalk", seed=seed, robot_planner=planner,
                           pedestrian=variant, max_cycles=max_cycles, until=until,
+                          counterfactual=counterfactual,
                           **{**randomized_overrides(seed, "wide"), **extra})
         summary = {**res.metrics, **interaction_timings(res)}
         infeasible = res.trace.extras.get("mpc_infeasible")

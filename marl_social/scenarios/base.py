@@ -351,6 +351,23 @@ class ScenarioLayout:
     signals: SignalController | None = None
 
 
+@dataclass(frozen=True)
+class HiddenAgent:
+    """What a scene hides from the robot, and the same episode without it (the counterfactual).
+
+    Attributes:
+        names: the agents the robot cannot see at first (its first sight of one reveals what is
+            hidden); () where what is hidden is no agent (a signal phase the robot cannot read).
+        absent: the scenario overrides of the counterfactual episode: the hidden agent removed
+            (or the hidden state the other way round).
+        belief: the trace extra of the robot's belief in it (evaluation/run.EpisodeResult).
+    """
+
+    names: tuple[str, ...]
+    absent: dict
+    belief: str
+
+
 class Scenario(ABC):
     """A scenario: name, parameter class and layout builder."""
 
@@ -366,3 +383,11 @@ class Scenario(ABC):
     @abstractmethod
     def build(self, rng: np.random.Generator) -> ScenarioLayout:
         """The layout for one episode. The agent names and kinds must not depend on rng."""
+
+    def hidden_agent(self) -> HiddenAgent | None:
+        """What this episode hides from the robot and how to run it without (None: nothing).
+
+        The hidden agents come last among the agents, so that removing them shifts no other
+        agent's index (its policy's seed, evaluation/rollout.record_episode).
+        """
+        return None

@@ -26,6 +26,7 @@ from marl_social.scenarios.base import (
     MAX_SPEED_LIMIT_MPS,
     MAX_VEHICLE_SPEED_MPS,
     THETA_ROBOT,
+    HiddenAgent,
     Scenario,
     ScenarioLayout,
     ScenarioParams,
@@ -198,6 +199,12 @@ class OccludedCrosswalk(Scenario):
                                EXTENT_MARGIN_M),
         )
         return ScenarioLayout(road_map, tuple(agents), p)
+
+    def hidden_agent(self) -> HiddenAgent | None:
+        """The pedestrian, hidden by the human's car (removed: pedestrian="none")."""
+        if self.params.pedestrian == "none":
+            return None
+        return HiddenAgent(("pedestrian_0",), {"pedestrian": "none"}, "p_pedestrian")
 
     @staticmethod
     def _houses_y() -> float:

@@ -37,7 +37,12 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from marl_social.scenarios.base import MAX_VEHICLE_SPEED_MPS, Scenario, ScenarioLayout
+from marl_social.scenarios.base import (
+    MAX_VEHICLE_SPEED_MPS,
+    HiddenAgent,
+    Scenario,
+    ScenarioLayout,
+)
 from marl_social.scenarios.intersection_agents import (
     IntersectionParams,
     human_spec,
@@ -189,6 +194,17 @@ class SignalizedIntersection(Scenario):
         )
         controller = SignalController(plan, plan.phase_index(p.phase), p.phase_elapsed_s)
         return ScenarioLayout(road_map, tuple(agents), p, controller)
+
+    def hidden_agent(self) -> HiddenAgent:
+        """The cross traffic's phase: the robot sees the cross cars, not their head.
+
+        No agent is hidden (the robot sees the cross cars from the start, there is nothing in
+        the way); the counterfactual is the other phase of PHASES, in which the left-turners
+        do what they do not do in this one (go on their arrow, or wait).
+        """
+        p: SignalizedIntersectionParams = self.params
+        other = next(phase for phase in PHASES if phase != p.phase)
+        return HiddenAgent((), {"phase": other}, f"phase_{p.phase}")
 
     def signal_plan(self) -> SignalPlan:
         """The fixed-time cycle (module docstring), with this scenario's durations."""

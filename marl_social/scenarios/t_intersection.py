@@ -30,7 +30,12 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from marl_social.scenarios.base import MAX_VEHICLE_SPEED_MPS, Scenario, ScenarioLayout
+from marl_social.scenarios.base import (
+    MAX_VEHICLE_SPEED_MPS,
+    HiddenAgent,
+    Scenario,
+    ScenarioLayout,
+)
 from marl_social.scenarios.intersection_agents import (
     IntersectionParams,
     human_spec,
@@ -157,6 +162,13 @@ class TIntersection(Scenario):
             stop_lines=(stop_line,), conflict_zones=zones,
         )
         return ScenarioLayout(road_map, tuple(agents), p)
+
+    def hidden_agent(self) -> HiddenAgent | None:
+        """V3, hidden by the parked cars (removed: hidden_vehicle="none")."""
+        p: TIntersectionParams = self.params
+        if p.hidden_vehicle == "none":
+            return None
+        return HiddenAgent((f"human_{p.n_humans}",), {"hidden_vehicle": "none"}, "p_vehicle")
 
     # -- paths -------------------------------------------------------------------------------
     @staticmethod

@@ -9,8 +9,9 @@ once per module, on two processes.
 The claims: with no hidden car the social robot is about as fast as the oracle and much faster
 than the conservative robot (which waits for every car it cannot rule out); with V3 near, the
 social robot, like the oracle, never collides and never forces V3 to brake hard, while the
-aggressive robot (what it cannot see is absent) does in most seeds; and a left-turner that waits
-for V3 tells the social robot V3 is there before the robot sees it.
+aggressive robot (what it cannot see is absent) does in most seeds; and a left-turner that warns
+of V3 (its speed departs 1 m/s from the same seed's without V3, evaluation/counterfactual.py)
+tells the social robot V3 is there before the robot sees it.
 
 Seeds: MARL_CLAIM_SEEDS (default 50) seeds from MARL_CLAIM_SEED0 (default 0), e.g.
 MARL_CLAIM_SEED0=50 runs seeds 50-99 (claims are judged on seeds the code was not tuned on).
@@ -45,11 +46,13 @@ CASES = [("social", "none"), ("oracle", "none"), ("conservative", "none"),
 HORIZON = {"none": 120, "near": 150}
 HARD_BRAKE_MPS2 = 3.0  # braking forced on V3 beyond this is hard [m/s^2]
 BELIEF_HIGH = 0.9  # the belief in a hidden car counts as high above this
+WARNED_CASE = ("social", "near")  # its seeds also run without V3: the left-turners' warning
+LEAD_S = 0.5  # a left-turner warned at least this long before the robot sees V3 [s]
 
 
 @pytest.fixture(scope="module")
 def runs() -> dict:
-    jobs = [(p, v, s, HORIZON[v], EXTRA) for p, v in CASES
+    jobs = [(p, v, s, HORIZON[v], EXTRA, (p, v) == WARNED_CASE) for p, v in CASES
             for s in SEEDS]
     with mp.get_context("spawn").Pool(2) as pool:
         results = pool.map(claim_episode, jobs, chunksize=4)
@@ -143,25 +146,22 @@ def test_aggressive_robot_pulls_out_in_front_of_a_near_hidden_car(runs):
     assert np.mean(bad) > 0.5, np.mean(bad)
 
 
-def test_a_waiting_left_turner_tells_the_social_robot_of_the_hidden_car(runs):
-    """In >= 90 % of the near seeds where the first left-turner waits for V3, the robot's belief
-    in a hidden car exceeds 0.9 before it first sees V3.
+def test_a_warning_left_turner_tells_the_social_robot_of_the_hidden_car(runs):
+    """In >= 90 % of the near seeds where a left-turner warns of V3 at least LEAD_S before the
+    robot first sees it, the robot's belief in a hidden car exceeds 0.9 before that sight.
 
-    Waits for V3 (reproduce_intersection.left_turner_held_back): it lets V3 pass and V3 holds
-    it back: at a step before V3 has left the crossing it is below 3.5 m/s and > 0.3 m/s slower
-    than at that step of the same seed without V3. A left-turner that V3 passes before it gets
-    there lets V3 pass without waiting (all 50 near seeds let V3 pass; in most of the others
-    human_0 never slows below its curve speed, 4.4 m/s).
+    Warns (evaluation/counterfactual.py): its speed departs >= 1 m/s from its speed in the
+    same seed without V3 (what it does because of V3, not its curve speed).
 
-    Measured (2026-12-01): 100 % of 36 (seeds 0-49), 94 % of 33 (50-99), 96 % of 28 (100-149),
-    91 % of 35 (150-199) and, on seeds not looked at before this reading was fixed, 94 % of 33
-    (250-299). Where it fails the left-turner is held back only 0.1-0.3 s before the robot sees
-    V3 (170, 172, 178) or the belief stays below 0.9 (69, 93, 144, 256, 283). Counted over every
-    near seed in which human_0 enters the crossing after V3 has left it, it was 64-72 %.
+    Measured 35 of 37 (95 %) on seeds 0-49 and 31 of 36 (86 %, below the claim) on 50-99:
+    the misses 30 and 38 are confident 0.1 s after the sight, 63, 69, 80, 93 and 95 later.
+    Counted before as "human_0 waited for V3" (it let V3 pass, slower than 3.5 m/s and 0.3
+    m/s slower than without V3 at a step before V3 left the crossing; no lead asked), it was
+    36 of 36 on 0-49, 94 % of 33 on 50-99, 96 % of 28 on 100-149, 91 % of 35 on 150-199 and
+    94 % of 33 on 250-299 (reproduce_intersection.left_turner_held_back, still in its table).
     """
-    case = ("social", "near")
-    waited = [m for m in runs[case] if m["human_0_held_back"] == 1.0]
-    assert len(waited) >= 10
+    warned = [m for m in runs[WARNED_CASE] if m["warning_lead_s"] >= LEAD_S]
+    assert len(warned) >= 10
     early = [m["belief_09_s"] < np.nan_to_num(m["robot_first_sees_v3_s"], nan=np.inf)
-             for m in waited]
+             for m in warned]
     assert np.mean(early) >= 0.9, np.mean(early)

@@ -32,6 +32,8 @@ CASES = [("social", "crossing"), ("aggressive", "crossing"), ("oracle", "crossin
          ("social", "none"), ("oracle", "none"), ("conservative", "none"),
          ("social", "waiting"), ("oracle", "waiting")]
 LEARNED_CASES = [("social", "crossing"), ("social", "none")]
+WARNED_CASE = ("social", "crossing")
+LEAD_S = 0.5  # the human warned at least this long before the robot sees the pedestrian [s]
 # the robot passes the crosswalk within 8 s without a pedestrian: 10 s episodes suffice; a slow
 # pedestrian starting late leaves the robot's lane after up to 3 + 7 / 0.5 s
 HORIZON = {"crossing": 200, "none": 100, "waiting": 150}
@@ -58,7 +60,9 @@ def learned_model(tmp_path_factory):
 @pytest.fixture(scope="module")
 def runs(learned_model) -> dict:
     learned = {"robot_theta_hat": str(learned_model)}
-    jobs = [(p, v, s, HORIZON[v], {}, UNTIL[v]) for p, v in CASES for s in SEEDS]
+    # the social robot's crossing seeds also run without the pedestrian: the human's warning
+    jobs = [(p, v, s, HORIZON[v], {}, UNTIL[v], (p, v) == WARNED_CASE)
+            for p, v in CASES for s in SEEDS]
     jobs += [(p, v, s, HORIZON[v], learned, UNTIL[v]) for p, v in LEARNED_CASES for s in SEEDS]
     with mp.get_context("spawn").Pool(2) as pool:
         results = pool.map(claim_episode, jobs, chunksize=4)
@@ -74,10 +78,10 @@ def _values(runs, case, key) -> np.ndarray:
 
 
 def _warned(runs, case) -> list[dict]:
-    """The seeds where the human brakes for the pedestrian at least 0.5 s before the robot first
-    sees it (the social cue arrives first; `interaction_timings`' human_brakes_s)."""
-    return [m for m in runs[case]
-            if m["human_brakes_s"] + 0.5 <= m["robot_first_sees_pedestrian_s"]]
+    """The seeds where a human warned the robot at least LEAD_S before it first sees the
+    pedestrian: its speed departed >= 1 m/s from the same seed's without the pedestrian
+    (evaluation/counterfactual.py, warning_lead_s)."""
+    return [m for m in runs[case] if m["warning_lead_s"] >= LEAD_S]
 
 
 def test_social_planner_never_collides_and_always_yields(runs):
@@ -88,28 +92,29 @@ def test_social_planner_never_collides_and_always_yields(runs):
 
 
 def test_social_planner_decelerates_gently_when_the_human_warns_it(runs):
-    """Where the human brakes for the pedestrian >= 0.5 s before the robot sees it: max
+    """Where a human warns the robot >= LEAD_S before it sees the pedestrian: max
     deceleration <= 4 m/s^2 in >= 90 % of those seeds.
 
-    Measured 20 of 21 on these seeds (0-49), 17 of 18 on 50-99 and 18 of 18 on 100-149. The
-    two misses (seed 0: 4.06 m/s^2, human beta 6.8; seed 65: 4.15 m/s^2, beta 2.6, whose
-    braking is noise) see the pedestrian about 20 m before their stop with a belief the
-    human's behaviour did not raise.
+    Measured 18 of 18 on these seeds (0-49) and 15 of 15 on 50-99. Counted as "the human
+    brakes for the pedestrian" (a 1 m/s^2 braking after it first sees it, below its cruise
+    speed) it was 20 of 21 and 17 of 18: the two misses (seed 0: 4.06 m/s^2, human beta 6.8;
+    seed 65: 4.15 m/s^2, beta 2.6) braked so without the pedestrian too (seed 0: never 1 m/s
+    from its speed without it), a warning only by that count.
     """
-    warned = _warned(runs, ("social", "crossing"))
+    warned = _warned(runs, WARNED_CASE)
     assert len(warned) >= 10
     decel = np.array([m["max_decel_mps2"] for m in warned])
     assert np.mean(decel <= 4.0) >= 0.9, np.sort(decel)
 
 
 def test_social_planner_brakes_without_jerks_when_the_human_warns_it(runs):
-    """Where the human brakes for the pedestrian >= 0.5 s before the robot sees it: max jerk
+    """Where a human warns the robot >= LEAD_S before it sees the pedestrian: max jerk
     <= 10 m/s^3 in >= 90 % of those seeds.
 
-    Measured 20 of 21 on these seeds (0-49), 17 of 18 on 50-99, 18 of 18 on 100-149 (the
-    misses: seeds 0 and 65, those of the deceleration claim).
+    Measured 18 of 18 on these seeds (0-49) and 15 of 15 on 50-99 (counted by the human's
+    braking: 20 of 21 and 17 of 18, the misses seeds 0 and 65 of the deceleration claim).
     """
-    warned = _warned(runs, ("social", "crossing"))
+    warned = _warned(runs, WARNED_CASE)
     assert len(warned) >= 10
     jerk = np.array([m["max_jerk_mps3"] for m in warned])
     assert np.mean(jerk <= 10.0) >= 0.9, np.sort(jerk)

@@ -11,7 +11,10 @@ cross traffic has red", turns at least 2 s sooner than the conservative robot (w
 for the cross traffic to stop or pass) and within 15 % of the oracle (which knows the phase),
 without collision; with the cross traffic on green the social robot never collides and never
 forces a cross car to brake harder than 3 m/s^2, while the aggressive robot (it assumes the
-favourable phase) collides or forces hard braking in most seeds.
+favourable phase) collides or forces hard braking in most seeds; where a human warns it of the
+protected left (its speed departs 1 m/s from the same seed's on cross green,
+evaluation/counterfactual.py: a left-turner starts, a cross car slows for its red) the social
+robot's belief in that phase is confident before it pulls out.
 """
 
 from __future__ import annotations
@@ -30,11 +33,13 @@ pytestmark = [pytest.mark.slow, pytest.mark.long]  # 50 seeds x 5 cases: long, o
 SEEDS = claim_seeds()  # MARL_CLAIM_SEEDS, MARL_CLAIM_SEED0 (tests/helpers.claim_seeds)
 CASES = [("social", "protected_left"), ("conservative", "protected_left"),
          ("oracle", "protected_left"), ("social", "cross_green"), ("aggressive", "cross_green")]
+WARNED_CASE = ("social", "protected_left")  # its seeds also run on cross green: the warning
+LEAD_S = 0.5  # a human warned at least this long before the robot pulls out [s]
 
 
 @pytest.fixture(scope="module")
 def runs() -> dict:
-    jobs = [(p, v, s, MAX_CYCLES) for p, v in CASES for s in SEEDS]
+    jobs = [(p, v, s, MAX_CYCLES, (p, v) == WARNED_CASE) for p, v in CASES for s in SEEDS]
     with mp.get_context("spawn").Pool(2) as pool:
         results = pool.map(claim_episode, jobs, chunksize=4)
     out = {case: [] for case in CASES}
@@ -105,3 +110,19 @@ def test_aggressive_collides_or_forces_hard_braking_in_most_cross_green_seeds(ru
     (more than 8 m/s^2) when the robot is ready: even the aggressive robot then waits for it."""
     bad = [_bad(m) for m in runs[("aggressive", "cross_green")]]
     assert np.mean(bad) > 0.5, np.mean(bad)
+
+
+def test_a_warning_human_tells_the_social_robot_the_protected_left(runs):
+    """Where a human warned >= LEAD_S before the robot pulls out, the robot's belief in the
+    protected left exceeds 0.9 before it pulls out in >= 95 % of those seeds.
+
+    A human warns in every protected-left seed (the cross cars slow for their red, the
+    left-turners go). Measured 49 of 50 on seeds 0-49 (seed 24: the robot pulls out at 2.5 s
+    with its belief below 0.9 all along) and 46 of 50 (92 %, below the claim) on 50-99
+    (52, 55, 56, 87).
+    """
+    warned = [m for m in runs[WARNED_CASE]
+              if m["first_warned_s"] <= np.nan_to_num(m["turn_s"], nan=np.inf) - LEAD_S]
+    assert len(warned) >= 10
+    early = [m["belief_09_s"] < np.nan_to_num(m["turn_s"], nan=np.inf) for m in warned]
+    assert np.mean(early) >= 0.95, np.mean(early)

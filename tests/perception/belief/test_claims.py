@@ -5,10 +5,10 @@ delay 0-3 s, human lead 10-30 m, human speed 8-14 m/s, human beta 2-30 log-unifo
 episode runs the robot's ``social`` planner. Episodes are computed once per module, on two
 processes, and reduced to a few numbers per seed.
 
-* The human brakes for the pedestrian (after the pedestrian starts to walk, the human's speed
-  falls SLOWED_MPS below its speed at that moment: a single noisy braking sample of a
-  low-beta human that then drives on is not braking for the pedestrian) at least 0.5 s
-  before the robot first sees the pedestrian: then the belief exceeds 0.9 before the robot sees the pedestrian in >= 95 % of
+* The human warns the robot (its speed departs 1 m/s from its speed in the same seed without
+  the pedestrian, evaluation/counterfactual.py: what it does because of the pedestrian, not
+  a settling towards its own cruise speed) at least 0.5 s before the robot first sees the
+  pedestrian: then the belief exceeds 0.9 before the robot sees the pedestrian in >= 95 % of
   those seeds and, once above 0.9, does not fall below 0.5 before it sees it in >= 95 %.
 * No pedestrian and a 1.0 m robot position noise: the belief stays below 0.5 and the robot
   never brakes harder than 2 m/s^2 in >= 90 % of the seeds.
@@ -25,9 +25,7 @@ import pytest
 from tests.helpers import claim_seeds
 
 SEEDS = claim_seeds()  # 0-49; MARL_CLAIM_SEED0=N: seeds N..N+49 (tests/helpers.claim_seeds)
-DT_S = 0.1
-LEAD_S = 0.5  # the human brakes at least this long before the robot sees the pedestrian [s]
-SLOWED_MPS = 1.0  # the human has braked for the pedestrian once this much slower [m/s]
+LEAD_S = 0.5  # the human warns at least this long before the robot sees the pedestrian [s]
 CONFIDENT, DOUBT = 0.9, 0.5
 
 pytestmark = pytest.mark.slow
@@ -48,34 +46,26 @@ def widened_overrides(seed: int) -> dict:
 
 
 def crossing_summary(seed: int) -> dict:
-    """One crossing episode: the steps of the human's braking onset and of the robot's first
-    sight of the pedestrian, and the belief before that sight.
+    """One crossing episode: the step of the robot's first sight of the pedestrian, the
+    human's warning's lead over it and the belief before it.
 
     The episode ends when the robot first sees the pedestrian (stopping.RobotSees): what the
-    claims read is settled by then. A braking onset later than that sight, or none, counts
-    alike (not a warning), and so does a pedestrian that has not started to walk by then.
+    claims read is settled by then; the same seed runs as long without the pedestrian (the
+    counterfactual). A warning later than that sight, or none, gives no lead.
     """
     from marl_social.evaluation.run import run_episode
     from marl_social.evaluation.stopping import RobotSees
 
     overrides = widened_overrides(seed)
     result = run_episode(seed=seed, pedestrian="crossing", robot_planner="social",
-                         until=RobotSees("pedestrian_0"), **overrides)
+                         until=RobotSees("pedestrian_0"), counterfactual=True, **overrides)
     trace = result.trace
-    robot, human, ped = (trace.index(n) for n in ("robot_0", "human_0", "pedestrian_0"))
+    robot, ped = (trace.index(n) for n in ("robot_0", "pedestrian_0"))
     visible = np.asarray(trace.visible)[:, robot, ped]
     first_seen = int(np.argmax(visible)) if visible.any() else len(visible)
-    speed = np.asarray(trace.states)[:, human, 3]
-    times = np.asarray(trace.times_s)
-    walking = times >= overrides["pedestrian_start_delay_s"]
-    onset = len(visible)  # state index; no braking for a pedestrian that has not started
-    if walking.any():
-        start = int(np.argmax(walking))
-        slowed = (speed < speed[start] - SLOWED_MPS) & (np.arange(len(speed)) >= start)
-        onset = int(np.argmax(slowed)) if slowed.any() else onset
     belief = np.asarray(trace.extras["p_pedestrian"], dtype=np.float64)
-    return {"seed": seed, "first_seen": first_seen, "onset": onset, "seen": bool(visible.any()),
-            "belief": belief[:first_seen].tolist()}
+    return {"seed": seed, "first_seen": first_seen, "seen": bool(visible.any()),
+            "lead_s": result.metrics["warning_lead_s"], "belief": belief[:first_seen].tolist()}
 
 
 def noise_summary(seed: int) -> dict:
@@ -98,9 +88,8 @@ def episodes():
 
 
 def social_cases(crossing: list[dict]) -> list[dict]:
-    """The seeds where the human brakes >= LEAD_S before the robot sees the pedestrian."""
-    lead = round(LEAD_S / DT_S)
-    return [c for c in crossing if c["seen"] and c["onset"] <= c["first_seen"] - lead]
+    """The seeds where the human warns >= LEAD_S before the robot sees the pedestrian."""
+    return [c for c in crossing if c["seen"] and c["lead_s"] >= LEAD_S]
 
 
 def confident_before_seen(case: dict) -> bool:
@@ -116,7 +105,9 @@ def holds_once_confident(case: dict) -> bool:
 def test_the_belief_is_confident_before_the_robot_sees_the_pedestrian(episodes):
     """Holds on seeds 0-49 (14 of 14), NOT on seeds the belief was not tuned on.
 
-    Measured 2026-12-03 (MARL_CLAIM_SEED0): 11 of 13 on 50-99, 13 of 16 on 100-149, 10 of 11
+    With the counterfactual warning: 14 of 14 on 0-49, 11 of 13 on 50-99 (misses 60, 97).
+    Measured before it (the human slowed 1 m/s below its speed when the pedestrian started),
+    2026-12-03 (MARL_CLAIM_SEED0): 11 of 13 on 50-99, 13 of 16 on 100-149, 10 of 11
     on 400-449, 9 of 10 on 450-499, 11 of 15 on 500-549, 10 of 10 on 550-599, 17 of 20 on
     600-649: 81 of 95 (85 %) over those seven sets. Four misses (419, 502, 504, 649) are humans
     that slow by 1 m/s and then pass the crosswalk in front of the pedestrian; in most others
@@ -140,7 +131,8 @@ def test_the_belief_is_confident_before_the_robot_sees_the_pedestrian(episodes):
 def test_the_belief_holds_once_confident(episodes):
     """Holds on seeds 0-49 (14 of 14), not on every fresh set.
 
-    Measured 2026-12-03 (MARL_CLAIM_SEED0): 11 of 11 on 50-99, 13 of 13 on 100-149, 10 of 10
+    With the counterfactual warning: 14 of 14 on 0-49, 11 of 11 on 50-99. Measured before it,
+    2026-12-03 (MARL_CLAIM_SEED0): 11 of 11 on 50-99, 13 of 13 on 100-149, 10 of 10
     on 400-449, 9 of 9 on 450-499, 10 of 10 on 550-599, but 10 of 11 on 500-549 (seed 524
     falls to 0.28) and 16 of 17 on 600-649 (seed 626 falls to 0.01): one miss among ten-odd
     confident seeds is below 95 %.
