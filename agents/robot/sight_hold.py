@@ -36,7 +36,7 @@ yields to), and only where the robot's planner parameter `sight_hold` is set (a 
 whose weights give the hidden cars nothing (aggressive, oracle) never holds.
 
 What it costs: time, for politeness. Measured on the T-intersection's randomized seeds
-(robot_epsilon 0.05, the claims of tests/evaluation/test_intersection_claims.py; the
+(robot_epsilon 0.05, the intersection claims of the tests (tests/evaluation); the
 robot's model of the humans averaged over its estimate of their speed,
 perception/belief/action_model.speed_averaged_log_likelihood; a merge claim held short of the
 zone, agents/robot/right_of_way.py): V3 forced to brake > 3 m/s^2 by the social robot in 0 of
