@@ -31,6 +31,7 @@ PARKED_LENGTH_M, PARKED_WIDTH_M = 4.5, 1.8  # a parked car's footprint [m]
 PARKED_CURB_GAP_M = 0.3  # between the lane's edge and a parked car [m]
 PARKED_BEFORE_CROSSWALK_M = 3.0  # a parked car ends this far before the crosswalk [m]
 PEDESTRIAN_CLEARANCE_M = 0.5  # a pedestrian's start keeps this far from every occluder [m]
+SMOOTH_STEP_M, SMOOTH_HALF_WINDOW_M = 1.0, 4.0  # routes resampled and averaged (smooth_polyline)
 ROUTE_CHECK_STEP_M = 1.0  # routes are checked against occluders at points this far apart [m]
 
 
@@ -202,7 +203,38 @@ def lane_path(loaded, key: LaneKey, crossing_m: float, reach: tuple[float, float
     if extended[1] > 0.0:
         ahead = chained[-1] - chained[-2]
         chained = np.vstack([chained, chained[-1] + extended[1] * ahead / np.linalg.norm(ahead)])
-    return LanePath(keys, chained, crossing, own.width_m, (extended[0], extended[1]))
+    smooth = smooth_polyline(chained)
+    crossing_xy = Route(chained).point_at(crossing)[0]
+    crossing = float(Route(smooth).project(crossing_xy[None])[0][0])
+    return LanePath(keys, smooth, crossing, own.width_m, (extended[0], extended[1]))
+
+
+def smooth_polyline(points: np.ndarray, step_m: float = SMOOTH_STEP_M,
+                    half_window_m: float = SMOOTH_HALF_WINDOW_M) -> np.ndarray:
+    """(Q, 2) a polyline (P, 2) [m] resampled every step_m [m], each point the mean over
+    half_window_m [m] either side (the ends kept; past them the line goes on straight).
+
+    A map's centre lines are digitized: a few degrees of kink between half-metre segments
+    would read as tight curves (a planner's curvature speed bound), which the lanes are not.
+    """
+    s = np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(points, axis=0), axis=1))])
+    n = max(int(math.ceil(s[-1] / step_m)), 1)
+    half = max(int(round(half_window_m / step_m)), 0)
+    grid = np.linspace(-half * s[-1] / n, s[-1] + half * s[-1] / n, n + 1 + 2 * half)
+
+    def at(u: np.ndarray) -> np.ndarray:  # linear inside, straight on past the ends
+        xy = np.column_stack([np.interp(u, s, points[:, 0]), np.interp(u, s, points[:, 1])])
+        head = (points[1] - points[0]) / s[1]
+        tail = (points[-1] - points[-2]) / (s[-1] - s[-2])
+        xy[u < 0] = points[0] + u[u < 0, None] * head
+        xy[u > s[-1]] = points[-1] + (u[u > s[-1], None] - s[-1]) * tail
+        return xy
+
+    samples = at(grid)
+    kernel = np.ones(2 * half + 1) / (2 * half + 1)
+    smooth = np.column_stack([np.convolve(samples[:, k], kernel, mode="valid") for k in (0, 1)])
+    smooth[0], smooth[-1] = points[0], points[-1]
+    return smooth
 
 
 def _hits_occluder(points: np.ndarray, polygons, clearance_m: float = 0.0) -> bool:

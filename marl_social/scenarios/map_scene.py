@@ -6,7 +6,9 @@ lane beside it in the same direction, human_lead_m ahead, hiding a pedestrian at
 crosswalk's end on the human's side (a parked car along the right curb where no such lane
 exists), the map's occluders. The robot starts approach_m before the crosswalk. The scene's map
 holds the map's lanes, crosswalks, stop lines, conflict zones, signals and occluders within
-SCENE_MARGIN_M of the routes; the robot's stages come from them as on any map.
+SCENE_MARGIN_M of the routes; the robot's stages come from them as on any map. Where a
+signal stands on the robot's approach, the map's cycle starts with its green (the situation is
+the hidden pedestrian, not the light).
 
 Variants: pedestrian = "crossing", "waiting" or "none", as in occluded_crosswalk; the same
 randomization knobs (human_lead_m, human_speed_mps, human_beta, pedestrian_speed_mps,
@@ -43,6 +45,7 @@ OCCLUDERS = ("auto", "human", "parked")
 SCENE_MARGIN_M = 30.0  # the scene's map: what lies within this of its routes [m]
 MAX_APPROACH_M = 200.0  # the robot's farthest start before the crosswalk [m]
 MAX_CURB_OFFSET_M = 3.0  # the pedestrian's farthest wait past the crosswalk's end [m]
+SIGNAL_GREEN_AHEAD_M = 250.0  # signals this close ahead of the robot's start start green [m]
 
 
 @dataclass(frozen=True)
@@ -233,8 +236,24 @@ class MapScene(Scenario):
                            speed_limit_mps=self.plan.speed_limit_mps, extent=base.extent,
                            stop_lines=base.stop_lines, conflict_zones=base.conflict_zones,
                            signal_heads=base.signal_heads, signal_plan=base.signal_plan)
-        signals = SignalController(base.signal_plan) if base.signal_plan is not None else None
-        return ScenarioLayout(road_map, tuple(specs), p, signals)
+        return ScenarioLayout(road_map, tuple(specs), p, self._signals(routes["robot_0"]))
+
+    def _signals(self, robot_route: Route) -> SignalController | None:
+        """The map's cycle, started at the phase that shows the robot's approach green.
+
+        The crosswalk situation is about the hidden pedestrian: a signal ahead of the robot
+        (SIGNAL_GREEN_AHEAD_M or less past its start) starts its green; else the cycle's start.
+        """
+        plan = self.road_map.signal_plan
+        if plan is None:
+            return None
+        start_m = self.plan.robot.crossing_m - self.params.approach_m
+        lines = {i for i, line in enumerate(self.road_map.stop_lines)
+                 if any(0.0 <= s - start_m <= SIGNAL_GREEN_AHEAD_M
+                        for s in robot_route.segment_crossings(line.segment))}
+        groups = {h.group for h in self.road_map.signal_heads if h.stop_line in lines}
+        phase = next((k for k, ph in enumerate(plan.phases) if groups <= set(ph.green)), 0)
+        return SignalController(plan, phase, 0.0)
 
     @staticmethod
     def _start(route: Route, s_m: float, speed_mps: float) -> np.ndarray:
