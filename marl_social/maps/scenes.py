@@ -60,6 +60,9 @@ class ScenarioNeeds(NamedTuple):
     edge_extension_m: float = 40.0
 
 
+DEFAULT_NEEDS = ScenarioNeeds()
+
+
 class LanePath(NamedTuple):
     """A chain of lanes as one polyline.
 
@@ -211,15 +214,17 @@ def lane_path(loaded, key: LaneKey, crossing_m: float, reach: tuple[float, float
 
 def smooth_polyline(points: np.ndarray, step_m: float = SMOOTH_STEP_M,
                     half_window_m: float = SMOOTH_HALF_WINDOW_M) -> np.ndarray:
-    """(Q, 2) a polyline (P, 2) [m] resampled every step_m [m], each point the mean over
-    half_window_m [m] either side (the ends kept; past them the line goes on straight).
+    """(Q, 2) a polyline (P, 2) [m] resampled every step_m [m], averaged over a window.
+
+    Each point is the mean over half_window_m [m] either side (the ends kept; past them the
+    line goes on straight).
 
     A map's centre lines are digitized: a few degrees of kink between half-metre segments
     would read as tight curves (a planner's curvature speed bound), which the lanes are not.
     """
     s = np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(points, axis=0), axis=1))])
-    n = max(int(math.ceil(s[-1] / step_m)), 1)
-    half = max(int(round(half_window_m / step_m)), 0)
+    n = max(math.ceil(s[-1] / step_m), 1)
+    half = max(round(half_window_m / step_m), 0)
     grid = np.linspace(-half * s[-1] / n, s[-1] + half * s[-1] / n, n + 1 + 2 * half)
 
     def at(u: np.ndarray) -> np.ndarray:  # linear inside, straight on past the ends
@@ -282,7 +287,7 @@ def _parked_car(path: LanePath, crosswalk, side: int) -> np.ndarray:
     return np.array([center - a - w, center + a - w, center + a + w, center - a + w])
 
 
-def crosswalk_plan(loaded, crosswalk_id: int, needs: ScenarioNeeds = ScenarioNeeds(),
+def crosswalk_plan(loaded, crosswalk_id: int, needs: ScenarioNeeds = DEFAULT_NEEDS,
                    occluder: str = "auto") -> CrosswalkPlan:
     """The crosswalk situation on one crosswalk of a map (module docstring).
 
@@ -326,8 +331,10 @@ def _why_not(crosswalk_id: int, reasons: list[str]) -> SceneError:
 
 
 def _options(loaded, crossing: dict[LaneKey, float], occluder: str):
-    """(robot lane, human lane or None, side) to try, best first: a human on the right, on the
-    left, then a parked car on a right curb; each by lanelet id."""
+    """(robot lane, human lane or None, side, crossing) to try, best first.
+
+    A human on the right, on the left, then a parked car on a right curb; each by lanelet id.
+    """
     _, elements = loaded
     humans, parked = [], []
     for key in sorted(crossing):
