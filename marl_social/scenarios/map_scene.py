@@ -6,7 +6,8 @@ lane beside it in the same direction, human_lead_m ahead, hiding a pedestrian at
 crosswalk's end on the human's side (a parked car along the right curb where no such lane
 exists), the map's occluders. The robot starts approach_m before the crosswalk. The scene's map
 holds the map's lanes, crosswalks, stop lines, conflict zones, signals and occluders within
-SCENE_MARGIN_M of the routes; the robot's stages come from them as on any map. Where a
+SCENE_MARGIN_M of the routes, in a frame about the crosswalk's centre (rounded to the metre);
+the robot's stages come from them as on any map. Where a
 signal stands on the robot's approach, the map's cycle starts with its green (the situation is
 the hidden pedestrian, not the light).
 
@@ -149,12 +150,14 @@ def _near(points: np.ndarray, box: tuple[float, float, float, float]) -> bool:
 
 
 def scene_road_map(full: RoadMap, box: tuple[float, float, float, float],
-                   extra_polygons: tuple[np.ndarray, ...] = ()) -> RoadMap:
-    """The part of a map within box (xmin, xmax, ymin, ymax) [m], its indices renumbered.
+                   origin: np.ndarray, extra_polygons: tuple[np.ndarray, ...] = ()) -> RoadMap:
+    """The part of a map within box (xmin, xmax, ymin, ymax) [m], in a frame about origin.
 
     Lanes, crosswalks, occluders and conflict zones with a point in the box; stop lines on
     the kept lanes (a lane-less one within the box); the signal heads of the kept stop lines
-    with the map's plan. No routes.
+    with the map's plan; indices renumbered, every point moved by -origin (2,) [m] (the
+    observation spaces hold the padding of empty slots, 0, only where the scene is about the
+    origin). extra_polygons are in the map's frame. No routes.
     """
     lane_ids = [i for i, lane in enumerate(full.lanes) if _near(lane.centerline, box)]
     new_lane = {old: new for new, old in enumerate(lane_ids)}
@@ -162,18 +165,24 @@ def scene_road_map(full: RoadMap, box: tuple[float, float, float, float],
     for i, line in enumerate(full.stop_lines):
         if line.lane in new_lane or (line.lane == -1 and _near(line.segment, box)):
             new_line[i] = len(lines)
-            lines.append(StopLine(line.segment, line.kind, new_lane.get(line.lane, -1)))
-    heads = tuple(dataclasses.replace(h, stop_line=new_line[h.stop_line])
+            lines.append(StopLine(line.segment - origin, line.kind, new_lane.get(line.lane, -1)))
+    heads = tuple(dataclasses.replace(h, stop_line=new_line[h.stop_line],
+                                      position=h.position - origin)
                   for h in full.signal_heads if h.stop_line in new_line)
-    zones = tuple(dataclasses.replace(z, priority_lanes=tuple(
+    zones = tuple(dataclasses.replace(z, polygon=z.polygon - origin, priority_lanes=tuple(
         new_lane[i] for i in z.priority_lanes if i in new_lane))
         for z in full.conflict_zones if _near(z.polygon, box))
+    x0, x1, y0, y1 = box
     return RoadMap(
-        lanes=tuple(full.lanes[i] for i in lane_ids),
-        crosswalks=tuple(c for c in full.crosswalks if _near(c.polygon(), box)),
-        static_polygons=tuple(p for p in full.static_polygons if _near(p, box))
-        + tuple(extra_polygons),
-        speed_limit_mps=full.speed_limit_mps, extent=box, stop_lines=tuple(lines),
+        lanes=tuple(dataclasses.replace(full.lanes[i], centerline=full.lanes[i].centerline
+                                        - origin) for i in lane_ids),
+        crosswalks=tuple(dataclasses.replace(c, center=c.center - origin)
+                         for c in full.crosswalks if _near(c.polygon(), box)),
+        static_polygons=tuple(p - origin for p in full.static_polygons if _near(p, box))
+        + tuple(p - origin for p in extra_polygons),
+        speed_limit_mps=full.speed_limit_mps,
+        extent=(x0 - origin[0], x1 - origin[0], y0 - origin[1], y1 - origin[1]),
+        stop_lines=tuple(lines),
         conflict_zones=zones, signal_heads=heads,
         signal_plan=full.signal_plan if heads else None)
 
@@ -210,6 +219,8 @@ class MapScene(Scenario):
                               curb_offset_m=p.pedestrian_curb_offset_m)
         self.element_id = element
         self.plan = crosswalk_plan(loaded, element, needs, p.occluder)
+        crosswalk = loaded.road_map.crosswalks[loaded.elements.crosswalks[element].index]
+        self.origin = np.round(crosswalk.center)  # the scene's frame: about the crosswalk [m]
         self.road_map = self._scene_map(loaded.road_map)
 
     def _scene_map(self, full: RoadMap) -> RoadMap:
@@ -221,7 +232,7 @@ class MapScene(Scenario):
         lo, hi = everything.min(axis=0) - SCENE_MARGIN_M, everything.max(axis=0) + SCENE_MARGIN_M
         extra = () if plan.parked_car is None else (plan.parked_car,)
         return scene_road_map(full, (float(lo[0]), float(hi[0]), float(lo[1]), float(hi[1])),
-                              extra)
+                              self.origin, extra)
 
     def build(self, rng: np.random.Generator) -> ScenarioLayout:
         """Robot, human (or none: a parked car) and pedestrian on the scene's map (no rng)."""
@@ -262,7 +273,7 @@ class MapScene(Scenario):
 
     def _robot(self) -> tuple[AgentSpec, Route]:
         p: MapSceneParams = self.params
-        route = Route(self.plan.robot.points, "robot_0")
+        route = Route(self.plan.robot.points - self.origin, "robot_0")
         robot_model = {"beta_hat": p.robot_beta_hat, "epsilon": p.robot_epsilon,
                        "stage_settings": p.robot_stage_settings}
         if p.robot_theta_hat:
@@ -280,7 +291,7 @@ class MapScene(Scenario):
         p: MapSceneParams = self.params
         if self.plan.human is None:
             return []
-        route = Route(self.plan.human.points, "human_0")
+        route = Route(self.plan.human.points - self.origin, "human_0")
         theta = CostWeights.from_any(p.human_theta) if p.human_theta else CostWeights()
         start_m = self.plan.human.crossing_m - (p.approach_m - p.human_lead_m)
         spec = AgentSpec(
@@ -295,7 +306,7 @@ class MapScene(Scenario):
         p: MapSceneParams = self.params
         if p.pedestrian == "none":
             return []
-        start, end = self.plan.pedestrian_path
+        start, end = self.plan.pedestrian_path - self.origin
         heading = math.atan2(end[1] - start[1], end[0] - start[0])
         crossing = p.pedestrian == "crossing"
         spec = AgentSpec(
@@ -308,4 +319,4 @@ class MapScene(Scenario):
             cost_weights=THETA_PEDESTRIAN,
             planner={"crossing": crossing, "start_delay_s": p.pedestrian_start_delay_s,
                      "beta": p.pedestrian_beta})
-        return [(spec, Route(self.plan.pedestrian_path, "pedestrian_0"))]
+        return [(spec, Route(self.plan.pedestrian_path - self.origin, "pedestrian_0"))]
