@@ -29,7 +29,7 @@ from marl_social.perception.tracking import TrackSet
 from marl_social.sim.agent_spec import AgentSpec
 from marl_social.sim.dynamics import DT_S
 from marl_social.sim.observation import Measurements, ObservationLayout
-from marl_social.sim.road_map import Crosswalk, RoadMap
+from marl_social.sim.road_map import Crosswalk, RoadMap, Route
 
 
 def vehicles_expected_to_yield(tracks: TrackSet, crosswalk: Crosswalk, decel_mps2: float
@@ -65,6 +65,18 @@ def vehicles_expected_to_yield(tracks: TrackSet, crosswalk: Crosswalk, decel_mps
     return np.array(out, dtype=bool)
 
 
+def own_crosswalk(route: Route, crosswalks: tuple[Crosswalk, ...]) -> Crosswalk | None:
+    """The crosswalk a pedestrian's route uses: the one holding most of its points 0.5 m apart.
+
+    The first on a tie (the map's first when the route uses none); None without crosswalks.
+    """
+    if not crosswalks:
+        return None
+    points = route.point_at(np.arange(0.0, route.length_m, 0.5))[0]
+    counts = [int(np.count_nonzero(cw.contains(points))) for cw in crosswalks]
+    return crosswalks[int(np.argmax(counts))]
+
+
 class BoltzmannPedestrian(BoltzmannPolicy):
     """A pedestrian policy (see module docstring).
 
@@ -85,6 +97,7 @@ class BoltzmannPedestrian(BoltzmannPolicy):
                                 v_walk_mps=max(spec.v_desired_mps, 0.1),
                                 radius_m=spec.pedestrian.radius_m)
         super().__init__(spec, layout, road_map, model)
+        self.own_crosswalk = own_crosswalk(self.route, self.crosswalks)
         self.reset()
 
     def reset_state(self) -> None:
@@ -96,7 +109,7 @@ class BoltzmannPedestrian(BoltzmannPolicy):
         """Constant-velocity scene without the vehicles it expects to yield to it."""
         if not self.crosswalks:
             return super().predict(tracks)
-        yielding = vehicles_expected_to_yield(tracks, self.crosswalks[0],
+        yielding = vehicles_expected_to_yield(tracks, self.own_crosswalk,
                                               self.model.expected_yield_decel_mps2)
         return ScenePrediction.from_tracks(tracks, self._times, ~yielding[None])
 

@@ -202,6 +202,18 @@ def _add_maps(sub) -> None:
     maps.set_defaults(func=commands.maps)
 
 
+def _add_scenes(sub) -> None:
+    scenes = sub.add_parser("scenes", formatter_class=FORMATTER,
+                            help="where each situation can be built on a map (map_scene's "
+                                 "element=ID), and why not elsewhere",
+                            description="The elements of a Lanelet2 map where "
+                                        "`--scenario map_scene` builds each situation.")
+    scenes.add_argument("map", help="a built-in map's name or a Lanelet2 .osm file")
+    scenes.add_argument("--json", action="store_true",
+                        help='print the buildable ones as [{"element": ID, "situation": NAME}]')
+    scenes.set_defaults(func=commands.scenes)
+
+
 def _add_params(sub) -> None:
     params = sub.add_parser("params", formatter_class=FORMATTER,
                             help="list a scenario's settings (for --set)",
@@ -261,7 +273,7 @@ def build_parser() -> argparse.ArgumentParser:
     sub = parser.add_subparsers(dest="command", required=True, metavar="SUBCOMMAND",
                                 title="subcommands")
     for add in (_add_demo, _add_reproduce, _add_record, _add_irl, _add_study, _add_bench,
-                _add_params, _add_maps):
+                _add_params, _add_maps, _add_scenes):
         add(sub)
     return parser
 

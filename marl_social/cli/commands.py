@@ -1,4 +1,4 @@
-"""The subcommands of `marl-social`: demo, bench, reproduce, record, irl fit and maps."""
+"""The subcommands of `marl-social`: demo, bench, reproduce, record, irl fit, maps, scenes."""
 
 from __future__ import annotations
 
@@ -327,3 +327,32 @@ def maps(args) -> int:
         print(f"figure: {plot_map(*loaded, args.figure, title=f'map {args.map}')}")
     return 0
 
+
+
+def scenes(args) -> int:
+    """`marl-social scenes MAP [--json]`: map_scene's elements per situation, and why not."""
+    import json
+    import warnings
+
+    from marl_social.maps import MapConversionWarning, load_map
+    from marl_social.maps.scenes import scene_listing
+
+    with warnings.catch_warnings():  # `maps show` lists what was not mapped
+        warnings.simplefilter("ignore", MapConversionWarning)
+        entries = scene_listing(load_map(args.map))
+    if args.json:
+        print(json.dumps([{"element": e.element, "situation": e.situation}
+                          for e in entries if not e.reason]))
+        return 0
+    for situation in sorted({e.situation for e in entries}, key=[e.situation for e in
+                                                                   entries].index):
+        built = [e for e in entries if e.situation == situation and not e.reason]
+        print(f"{situation}: {len(built)} buildable"
+              + (f" ({', '.join(str(e.element) for e in built)})" if built else ""))
+        refused = [e for e in entries if e.situation == situation and e.reason]
+        if len({e.reason for e in refused}) == 1 and len(refused) > 1:  # one reason for all
+            print(f"  not its {len(refused)} elements: {refused[0].reason}")
+            continue
+        for e in refused:
+            print(f"  not {e.element}: {e.reason}")
+    return 0

@@ -195,19 +195,22 @@ class _Converter:
                                                         axis=1).sum())
 
     def _link_lanes(self) -> None:
-        """The routing graph's successors, predecessors and lane-change neighbours of each lane."""
+        """The routing graph's successors, predecessors and neighbours (lane change or not) of each lane."""
         dead_ends = []
         for key, view in self.lane_views.items():
             def known(lanelets):
                 return tuple(k for k in (_key(ll) for ll in lanelets) if k in self.lane_views)
 
-            left, right = self.graph.left(view), self.graph.right(view)
+            def one(lanelet):
+                return known([lanelet] if lanelet else [])
+
             element = self.lane_elements[key]
             successors = known(self.graph.following(view))
             self.lane_elements[key] = LaneElement(
                 element.index, key, element.subtype, element.speed_limit_mps, successors,
-                known(self.graph.previous(view)), known([left] if left else []),
-                known([right] if right else []))
+                known(self.graph.previous(view)), one(self.graph.left(view)),
+                one(self.graph.right(view)), one(self.graph.adjacentLeft(view)),
+                one(self.graph.adjacentRight(view)))
             if not successors:
                 dead_ends.append(key.lanelet_id)
         if dead_ends:

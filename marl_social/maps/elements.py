@@ -49,6 +49,8 @@ class LaneElement:
         speed_limit_mps: the traffic rules' speed limit on it [m/s].
         successors, predecessors: the lanes a car may drive on next / came from (LaneKeys).
         left, right: the lanes beside it a car may change to (LaneKeys).
+        adjacent_left, adjacent_right: the lanes beside it in the same direction a car may
+            not change to (a solid or virtual line between; LaneKeys).
     """
 
     index: int
@@ -59,6 +61,12 @@ class LaneElement:
     predecessors: tuple[LaneKey, ...]
     left: tuple[LaneKey, ...] = ()
     right: tuple[LaneKey, ...] = ()
+    adjacent_left: tuple[LaneKey, ...] = ()
+    adjacent_right: tuple[LaneKey, ...] = ()
+
+    def beside(self, side: int) -> tuple[LaneKey, ...]:
+        """The lanes beside it in the same direction on one side (+1 left, -1 right)."""
+        return self.left + self.adjacent_left if side > 0 else self.right + self.adjacent_right
 
 
 @dataclass(frozen=True)

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 from marl_social.scenarios.base import Scenario, ScenarioLayout, ScenarioParams, make_params
 from marl_social.scenarios.long_road import LongRoad
+from marl_social.scenarios.map_scene import MapScene
 from marl_social.scenarios.occluded_crosswalk import OccludedCrosswalk
 from marl_social.scenarios.signalized_intersection import SignalizedIntersection
 from marl_social.scenarios.t_intersection import TIntersection
@@ -13,6 +14,7 @@ SCENARIOS: dict[str, type[Scenario]] = {
     LongRoad.name: LongRoad,
     TIntersection.name: TIntersection,
     SignalizedIntersection.name: SignalizedIntersection,
+    MapScene.name: MapScene,
 }
 
 

@@ -1,0 +1,322 @@
+"""A paper situation built around one element of a real map (maps/scenes.py).
+
+`situation="crosswalk"` on a crosswalk of a Lanelet2 map (Sun et al. 2019, Fig. 2, on real
+streets): the robot's route through the crosswalk along the map's lanes, a human driver in the
+lane beside it in the same direction, human_lead_m ahead, hiding a pedestrian at the
+crosswalk's end on the human's side (a parked car along the right curb where no such lane
+exists), the map's occluders. The robot starts approach_m before the crosswalk. The scene's map
+holds the map's lanes, crosswalks, stop lines, conflict zones, signals and occluders within
+SCENE_MARGIN_M of the routes, in a frame about the crosswalk's centre (rounded to the metre);
+the robot's stages come from them as on any map. Where a
+signal stands on the robot's approach, the map's cycle starts with its green (the situation is
+the hidden pedestrian, not the light).
+
+Variants: pedestrian = "crossing", "waiting" or "none", as in occluded_crosswalk; the same
+randomization knobs (human_lead_m, human_speed_mps, human_beta, pedestrian_speed_mps,
+pedestrian_start_delay_s).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from marl_social.maps import load_map
+from marl_social.maps.scenes import ScenarioNeeds, SceneError, crosswalk_plan, scene_listing
+from marl_social.scenarios.base import (
+    MAX_POS_NOISE_M,
+    MAX_SENSOR_RANGE_M,
+    MAX_VEHICLE_SPEED_MPS,
+    THETA_ROBOT,
+    Scenario,
+    ScenarioLayout,
+    ScenarioParams,
+)
+from marl_social.scenarios.occluded_crosswalk import PEDESTRIAN_VARIANTS, THETA_PEDESTRIAN
+from marl_social.sim.agent_spec import AgentSpec, PedestrianParams, SensorParams, VehicleParams
+from marl_social.sim.costs import CostWeights
+from marl_social.sim.road_map import RoadMap, Route, StopLine
+from marl_social.sim.signals import SignalController
+
+SITUATIONS = ("crosswalk",)  # built so far (maps/scenes.SITUATIONS lists the others)
+OCCLUDERS = ("auto", "human", "parked")
+SCENE_MARGIN_M = 30.0  # the scene's map: what lies within this of its routes [m]
+MAX_APPROACH_M = 200.0  # the robot's farthest start before the crosswalk [m]
+MAX_CURB_OFFSET_M = 3.0  # the pedestrian's farthest wait past the crosswalk's end [m]
+SIGNAL_GREEN_AHEAD_M = 250.0  # signals this close ahead of the robot's start start green [m]
+
+
+@dataclass(frozen=True)
+class MapSceneParams(ScenarioParams):
+    """Map scene parameters (SI units).
+
+    Attributes:
+        map: a built-in map's name ("karlsruhe") or the path of a Lanelet2 .osm file.
+        element: the Lanelet2 id of the element the scene is built around (0: the map's first
+            element where the situation can be built; `marl-social scenes MAP` lists them).
+        situation: "crosswalk" (the robot, a human beside it and a hidden pedestrian).
+        occluder: what hides the pedestrian: "human" (a driver in the lane beside the
+            robot's), "parked" (a car along the right curb) or "auto" (a human where a lane
+            beside allows one, else a parked car).
+        pedestrian: "crossing", "waiting" or "none".
+        approach_m: the robot's start before the crosswalk along its route [m].
+        robot_speed_mps, human_speed_mps: initial speeds [m/s].
+        robot_desired_speed_mps, human_desired_speed_mps: cruise speeds [m/s].
+        human_lead_m: how far the human car starts ahead of the robot [m].
+        pedestrian_speed_mps: walking speed when crossing [m/s].
+        pedestrian_start_delay_s: time at which a crossing pedestrian steps off the curb [s].
+        pedestrian_curb_offset_m: how far past the crosswalk's end the pedestrian waits [m].
+        robot_sensor_range_m, human_sensor_range_m, pedestrian_sensor_range_m: [m].
+        robot_half_fov_deg, human_half_fov_deg, pedestrian_half_fov_deg: cone half-angles [deg].
+        robot_pos_noise_m, human_pos_noise_m: measurement noise stds [m].
+        human_beta, pedestrian_beta: rationality of the human driver / pedestrian planners
+            (higher = more rational, inf = always the best action, 0 = uniformly random).
+        human_theta: the human driver's cost weights (6 numbers or a mapping; empty = the
+            default CostWeights).
+        robot_theta_hat, robot_beta_hat: the robot's model of the humans' cost weights and
+            rationality (as in occluded_crosswalk).
+        robot_epsilon: the robot's tail threshold on beliefs (MPC and belief).
+    """
+
+    map: str = "karlsruhe"
+    element: int = 0
+    situation: str = "crosswalk"
+    occluder: str = "auto"
+    pedestrian: str = "crossing"
+    approach_m: float = 60.0
+    robot_speed_mps: float = 11.5
+    human_speed_mps: float = 11.5
+    robot_desired_speed_mps: float = 11.5
+    human_desired_speed_mps: float = 11.5
+    human_lead_m: float = 20.0
+    pedestrian_speed_mps: float = 1.3
+    pedestrian_start_delay_s: float = 1.0
+    pedestrian_curb_offset_m: float = 1.0
+    robot_sensor_range_m: float = 40.0
+    human_sensor_range_m: float = 60.0
+    pedestrian_sensor_range_m: float = 60.0
+    robot_half_fov_deg: float = 60.0
+    human_half_fov_deg: float = 60.0
+    pedestrian_half_fov_deg: float = 100.0
+    robot_pos_noise_m: float = 0.05
+    human_pos_noise_m: float = 0.05
+    human_beta: float = 5.0
+    pedestrian_beta: float = 5.0
+    human_theta: tuple = ()
+    robot_theta_hat: tuple = ()
+    robot_beta_hat: float = 0.3
+    robot_epsilon: float = 0.02
+
+    def __post_init__(self):
+        super().__post_init__()
+        self._normalize_cost_weights("human_theta")
+        self._normalize_cost_weights("robot_theta_hat", fit_file=True)
+        for name in ("map", "situation", "occluder", "pedestrian"):
+            self._check(isinstance(getattr(self, name), str), name, "must be a string")
+        self._check(self.situation in SITUATIONS, "situation",
+                    f"must be one of {SITUATIONS} (junction and signal scenes are not built yet)")
+        self._check(self.occluder in OCCLUDERS, "occluder", f"must be one of {OCCLUDERS}")
+        self._check(self.pedestrian in PEDESTRIAN_VARIANTS, "pedestrian",
+                    f"must be one of {PEDESTRIAN_VARIANTS}")
+        self._check(self.element >= 0, "element", "must be a Lanelet2 id (>= 0; 0: the first)")
+        self._check(self.robot_beta_hat >= 0.0, "robot_beta_hat", "must be >= 0 (inf allowed)")
+        self._check(0.0 <= self.robot_epsilon < 1.0, "robot_epsilon", "must be in [0, 1)")
+        for name in ("human_beta", "pedestrian_beta"):
+            self._check(getattr(self, name) >= 0.0, name, "must be >= 0 (inf allowed)")
+        self._check_range("approach_m", 10.0, MAX_APPROACH_M, "m")
+        for name in ("robot_speed_mps", "human_speed_mps", "robot_desired_speed_mps",
+                     "human_desired_speed_mps"):
+            self._check_range(name, 0.0, MAX_VEHICLE_SPEED_MPS, "m/s")
+        self._check_range("pedestrian_speed_mps", 0.1, 2.0, "m/s")
+        self._check_range("pedestrian_start_delay_s", 0.0, 3600.0, "s")
+        self._check_range("human_lead_m", 5.0, self.approach_m, "m")
+        self._check_range("pedestrian_curb_offset_m", 0.0, MAX_CURB_OFFSET_M, "m")
+        for name in ("robot_sensor_range_m", "human_sensor_range_m", "pedestrian_sensor_range_m"):
+            self._check_range(name, 0.0, MAX_SENSOR_RANGE_M, "m", low_open=True)
+        for name in ("robot_half_fov_deg", "human_half_fov_deg", "pedestrian_half_fov_deg"):
+            self._check_range(name, 0.0, 180.0, "deg", low_open=True)
+        for name in ("robot_pos_noise_m", "human_pos_noise_m"):
+            self._check_range(name, 0.0, MAX_POS_NOISE_M, "m")
+
+
+def _near(points: np.ndarray, box: tuple[float, float, float, float]) -> bool:
+    """Whether any point (N, 2) [m] lies in box (xmin, xmax, ymin, ymax) [m]."""
+    x0, x1, y0, y1 = box
+    return bool(np.any((points[:, 0] >= x0) & (points[:, 0] <= x1)
+                       & (points[:, 1] >= y0) & (points[:, 1] <= y1)))
+
+
+def scene_road_map(full: RoadMap, box: tuple[float, float, float, float],
+                   origin: np.ndarray, extra_polygons: tuple[np.ndarray, ...] = ()) -> RoadMap:
+    """The part of a map within box (xmin, xmax, ymin, ymax) [m], in a frame about origin.
+
+    Lanes, crosswalks, occluders and conflict zones with a point in the box; stop lines on
+    the kept lanes (a lane-less one within the box); the signal heads of the kept stop lines
+    with the map's plan; indices renumbered, every point moved by -origin (2,) [m] (the
+    observation spaces hold the padding of empty slots, 0, only where the scene is about the
+    origin). extra_polygons are in the map's frame. No routes.
+    """
+    lane_ids = [i for i, lane in enumerate(full.lanes) if _near(lane.centerline, box)]
+    new_lane = {old: new for new, old in enumerate(lane_ids)}
+    lines, new_line = [], {}
+    for i, line in enumerate(full.stop_lines):
+        if line.lane in new_lane or (line.lane == -1 and _near(line.segment, box)):
+            new_line[i] = len(lines)
+            lines.append(StopLine(line.segment - origin, line.kind, new_lane.get(line.lane, -1)))
+    heads = tuple(dataclasses.replace(h, stop_line=new_line[h.stop_line],
+                                      position=h.position - origin)
+                  for h in full.signal_heads if h.stop_line in new_line)
+    zones = tuple(dataclasses.replace(z, polygon=z.polygon - origin, priority_lanes=tuple(
+        new_lane[i] for i in z.priority_lanes if i in new_lane))
+        for z in full.conflict_zones if _near(z.polygon, box))
+    x0, x1, y0, y1 = box
+    return RoadMap(
+        lanes=tuple(dataclasses.replace(full.lanes[i], centerline=full.lanes[i].centerline
+                                        - origin) for i in lane_ids),
+        crosswalks=tuple(dataclasses.replace(c, center=c.center - origin)
+                         for c in full.crosswalks if _near(c.polygon(), box)),
+        static_polygons=tuple(p - origin for p in full.static_polygons if _near(p, box))
+        + tuple(p - origin for p in extra_polygons),
+        speed_limit_mps=full.speed_limit_mps,
+        extent=(x0 - origin[0], x1 - origin[0], y0 - origin[1], y1 - origin[1]),
+        stop_lines=tuple(lines),
+        conflict_zones=zones, signal_heads=heads,
+        signal_plan=full.signal_plan if heads else None)
+
+
+class MapScene(Scenario):
+    """A paper situation around one element of a Lanelet2 map (module docstring)."""
+
+    name = "map_scene"
+    params_cls = MapSceneParams
+    variants = ({"pedestrian": "crossing"}, {"pedestrian": "waiting"}, {"pedestrian": "none"})
+
+    def __init__(self, **overrides):
+        super().__init__(**overrides)
+        p: MapSceneParams = self.params
+        loaded = load_map(p.map)
+        element = p.element
+        if element == 0:
+            buildable = [e.element for e in scene_listing(loaded)
+                         if e.situation == p.situation and not e.reason]
+            if not buildable:
+                raise SceneError(f"map {p.map}: no element where a {p.situation} scene can be "
+                                 "built (`marl-social scenes` says why)")
+            element = buildable[0]
+        if element not in loaded.elements.crosswalks:
+            known = any(element in table for table in (
+                loaded.elements.junctions, loaded.elements.signals, loaded.elements.stop_lines,
+                loaded.elements.lanes and {k.lanelet_id for k in loaded.elements.lanes}))
+            what = "is no crosswalk" if known else "is no element"
+            raise SceneError(f"map {p.map}: element {element} {what} of the map, so no "
+                             f"{p.situation} scene (its crosswalks: "
+                             + (", ".join(str(i) for i in sorted(loaded.elements.crosswalks))
+                                or "none") + ")")
+        needs = ScenarioNeeds(approach_m=p.approach_m, human_lead_m=p.human_lead_m,
+                              curb_offset_m=p.pedestrian_curb_offset_m)
+        self.element_id = element
+        self.plan = crosswalk_plan(loaded, element, needs, p.occluder)
+        crosswalk = loaded.road_map.crosswalks[loaded.elements.crosswalks[element].index]
+        self.origin = np.round(crosswalk.center)  # the scene's frame: about the crosswalk [m]
+        self.road_map = self._scene_map(loaded.road_map)
+
+    def _scene_map(self, full: RoadMap) -> RoadMap:
+        plan = self.plan
+        points = [plan.robot.points, plan.pedestrian_path]
+        if plan.human is not None:
+            points.append(plan.human.points)
+        everything = np.concatenate(points)
+        lo, hi = everything.min(axis=0) - SCENE_MARGIN_M, everything.max(axis=0) + SCENE_MARGIN_M
+        extra = () if plan.parked_car is None else (plan.parked_car,)
+        return scene_road_map(full, (float(lo[0]), float(hi[0]), float(lo[1]), float(hi[1])),
+                              self.origin, extra)
+
+    def build(self, rng: np.random.Generator) -> ScenarioLayout:
+        """Robot, human (or none: a parked car) and pedestrian on the scene's map (no rng)."""
+        p: MapSceneParams = self.params
+        specs, routes = [], {}
+        for spec, route in [self._robot(), *self._human(), *self._pedestrian()]:
+            specs.append(spec)
+            routes[spec.name] = route
+        base = self.road_map
+        road_map = RoadMap(lanes=base.lanes, crosswalks=base.crosswalks,
+                           static_polygons=base.static_polygons, routes=routes,
+                           speed_limit_mps=self.plan.speed_limit_mps, extent=base.extent,
+                           stop_lines=base.stop_lines, conflict_zones=base.conflict_zones,
+                           signal_heads=base.signal_heads, signal_plan=base.signal_plan)
+        return ScenarioLayout(road_map, tuple(specs), p, self._signals(routes["robot_0"]))
+
+    def _signals(self, robot_route: Route) -> SignalController | None:
+        """The map's cycle, started at the phase that shows the robot's approach green.
+
+        The crosswalk situation is about the hidden pedestrian: a signal ahead of the robot
+        (SIGNAL_GREEN_AHEAD_M or less past its start) starts its green; else the cycle's start.
+        """
+        plan = self.road_map.signal_plan
+        if plan is None:
+            return None
+        start_m = self.plan.robot.crossing_m - self.params.approach_m
+        lines = {i for i, line in enumerate(self.road_map.stop_lines)
+                 if any(0.0 <= s - start_m <= SIGNAL_GREEN_AHEAD_M
+                        for s in robot_route.segment_crossings(line.segment))}
+        groups = {h.group for h in self.road_map.signal_heads if h.stop_line in lines}
+        phase = next((k for k, ph in enumerate(plan.phases) if groups <= set(ph.green)), 0)
+        return SignalController(plan, phase, 0.0)
+
+    @staticmethod
+    def _start(route: Route, s_m: float, speed_mps: float) -> np.ndarray:
+        xy, heading = route.point_at(s_m)
+        return np.array([xy[0], xy[1], float(heading), speed_mps])
+
+    def _robot(self) -> tuple[AgentSpec, Route]:
+        p: MapSceneParams = self.params
+        route = Route(self.plan.robot.points - self.origin, "robot_0")
+        robot_model = {"beta_hat": p.robot_beta_hat, "epsilon": p.robot_epsilon,
+                       "stage_settings": p.robot_stage_settings}
+        if p.robot_theta_hat:
+            robot_model["theta_hat"] = p.robot_theta_hat
+        spec = AgentSpec(
+            "robot_0", "vehicle", "robot",
+            self._start(route, self.plan.robot.crossing_m - p.approach_m, p.robot_speed_mps),
+            sensor=SensorParams(p.robot_sensor_range_m, math.radians(p.robot_half_fov_deg),
+                                pos_noise_m=p.robot_pos_noise_m),
+            vehicle=VehicleParams(), v_desired_mps=p.robot_desired_speed_mps,
+            cost_weights=THETA_ROBOT, planner=robot_model)
+        return spec, route
+
+    def _human(self) -> list[tuple[AgentSpec, Route]]:
+        p: MapSceneParams = self.params
+        if self.plan.human is None:
+            return []
+        route = Route(self.plan.human.points - self.origin, "human_0")
+        theta = CostWeights.from_any(p.human_theta) if p.human_theta else CostWeights()
+        start_m = self.plan.human.crossing_m - (p.approach_m - p.human_lead_m)
+        spec = AgentSpec(
+            "human_0", "vehicle", "human", self._start(route, start_m, p.human_speed_mps),
+            sensor=SensorParams(p.human_sensor_range_m, math.radians(p.human_half_fov_deg),
+                                pos_noise_m=p.human_pos_noise_m),
+            vehicle=VehicleParams(), v_desired_mps=p.human_desired_speed_mps,
+            cost_weights=theta, planner={"beta": p.human_beta})
+        return [(spec, route)]
+
+    def _pedestrian(self) -> list[tuple[AgentSpec, Route]]:
+        p: MapSceneParams = self.params
+        if p.pedestrian == "none":
+            return []
+        start, end = self.plan.pedestrian_path - self.origin
+        heading = math.atan2(end[1] - start[1], end[0] - start[0])
+        crossing = p.pedestrian == "crossing"
+        spec = AgentSpec(
+            "pedestrian_0", "pedestrian", "pedestrian",
+            np.array([start[0], start[1], heading, 0.0]),
+            sensor=SensorParams(p.pedestrian_sensor_range_m,
+                                math.radians(p.pedestrian_half_fov_deg)),
+            pedestrian=PedestrianParams(),
+            v_desired_mps=p.pedestrian_speed_mps if crossing else 0.0,
+            cost_weights=THETA_PEDESTRIAN,
+            planner={"crossing": crossing, "start_delay_s": p.pedestrian_start_delay_s,
+                     "beta": p.pedestrian_beta})
+        return [(spec, Route(self.plan.pedestrian_path - self.origin, "pedestrian_0"))]
