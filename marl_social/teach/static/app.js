@@ -33,8 +33,8 @@
   function showError(text) {
     app.error = text;
     const box = $("error");
-    box.textContent = text;
-    box.hidden = !text;
+    box.textContent = text;  // one line of fixed height: no layout shift under the pointer
+    box.title = text;
   }
 
   function configure() {
