@@ -10,9 +10,9 @@ pytest.importorskip("starlette", reason="the teach extra is not installed: "
                     'pip install -e ".[teach]"')
 pytest.importorskip("httpx2", reason="starlette's TestClient needs httpx2 (the teach extra)")
 
-from starlette.testclient import TestClient  # noqa: E402
+from starlette.testclient import TestClient
 
-from marl_social.teach.server import ServerOptions, create_app  # noqa: E402
+from marl_social.teach.server import ServerOptions, create_app
 
 
 @pytest.fixture(scope="module")
@@ -118,3 +118,40 @@ def test_closed_tabs_free_their_slot_and_past_the_limit_is_busy(client):
         page = client.get("/")
         assert page.status_code == 503 and "busy" in page.text
     assert client.get("/").status_code == 200
+
+
+def test_twenty_tabs_at_once_are_bounded():
+    """The default limit (4 tabs playing) holds with 20 tabs open; the rest read "busy"."""
+    from contextlib import ExitStack
+
+    from marl_social.teach.server import DEFAULT_MAX_SESSIONS
+
+    with TestClient(create_app(ServerOptions(warm_up=False))) as client, ExitStack() as tabs:
+        first = [json.loads(tabs.enter_context(client.websocket_connect("/ws")).receive_text())
+                 for _ in range(20)]
+        kinds = [m["type"] for m in first]
+        assert kinds.count("status") == DEFAULT_MAX_SESSIONS
+        assert kinds.count("busy") == 20 - DEFAULT_MAX_SESSIONS
+        assert client.get("/").status_code == 503
+    assert client.app.state.live == set()
+
+
+def test_the_cli_binds_loopback_and_hints_without_the_extra(monkeypatch, capsys):
+    import builtins
+
+    from marl_social.cli.app import build_parser
+    from marl_social.teach import launch
+
+    args = build_parser().parse_args(["teach"])
+    assert args.host == "127.0.0.1" and args.port == 8765 and not args.open
+    real_import = builtins.__import__
+
+    def no_uvicorn(name, *rest, **kw):
+        if name == "uvicorn":
+            raise ImportError(name)
+        return real_import(name, *rest, **kw)
+
+    monkeypatch.setattr(builtins, "__import__", no_uvicorn)
+    assert launch.serve() == 2
+    err = capsys.readouterr().err.strip()
+    assert err.count("\n") == 0 and 'pip install -e ".[teach]"' in err
