@@ -40,6 +40,7 @@
   function configure() {
     app.changeAt = performance.now();
     app.changeEpisode = app.episodeId;
+    app.latencyMs = null;  // until the new episode is drawn
     showError("");
     send({ type: "configure", settings: { ...app.values }, compare: app.compare });
   }
