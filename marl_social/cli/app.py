@@ -262,6 +262,26 @@ def _study(args) -> int:
     return args.study_func(args)
 
 
+def _add_teach(sub) -> None:
+    teach = sub.add_parser("teach", formatter_class=FORMATTER,
+                           help="the teaching app: the simulator live in the browser",
+                           description="Serve the teaching app (needs the teach extra: "
+                           'pip install -e ".[teach]"; docs/teach.md).')
+    teach.add_argument("--host", default="127.0.0.1",
+                       help="address to bind (loopback: only this machine)")
+    teach.add_argument("--port", type=int, default=8765, help="TCP port")
+    teach.add_argument("--open", action="store_true", help="open the page in the browser")
+    teach.add_argument("--max-sessions", type=int, default=4,
+                       help="tabs playing at once; more get a busy page")
+    teach.set_defaults(func=_teach)
+
+
+def _teach(args) -> int:
+    from marl_social.teach.launch import serve
+
+    return serve(args.host, args.port, args.open, args.max_sessions)
+
+
 def build_parser() -> argparse.ArgumentParser:
     """The `marl-social` parser with every subcommand."""
     parser = argparse.ArgumentParser(
@@ -273,7 +293,7 @@ def build_parser() -> argparse.ArgumentParser:
     sub = parser.add_subparsers(dest="command", required=True, metavar="SUBCOMMAND",
                                 title="subcommands")
     for add in (_add_demo, _add_reproduce, _add_record, _add_irl, _add_study, _add_bench,
-                _add_params, _add_maps, _add_scenes):
+                _add_params, _add_maps, _add_scenes, _add_teach):
         add(sub)
     return parser
 
