@@ -1,7 +1,7 @@
 """MkDocs hook: the static player's script and style, from the teaching app's package folder.
 
 docs/teach/player.html loads assets/render.js, assets/player.js and assets/teach.css; they live
-once, in marl_social/teach/static/ (the live app serves the same files), and are copied into
+once, in marl_social/teach/page-assets/ (the live app serves the same files), and are copied into
 the built site's teach/assets/ after the build.
 """
 
@@ -11,7 +11,7 @@ import shutil
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[2]
-STATIC = ROOT / "marl_social" / "teach" / "static"
+STATIC = ROOT / "marl_social" / "teach" / "page-assets"
 PLAYER_ASSETS = ("render.js", "player.js", "teach.css")
 
 

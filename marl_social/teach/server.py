@@ -56,7 +56,7 @@ class ServerOptions:
 
 
 def _static_dir():
-    return resources.files("marl_social.teach") / "static"
+    return resources.files("marl_social.teach") / "page-assets"
 
 
 class Kernels:
