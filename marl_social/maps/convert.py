@@ -62,6 +62,8 @@ LISTED_IDS = 6  # ids listed per line of the summary before "..."
 class MapConversionWarning(UserWarning):
     """The one-warning summary of what a map conversion could not map."""
 
+RIGHT_BEFORE_LEFT = "right_before_left (default)"  # the rule of a crossing nothing else decides
+
 
 def _xy(points) -> np.ndarray:
     """(P, 2) x, y [m] of lanelet2 points (a line string, a polygon)."""
@@ -388,6 +390,8 @@ class _Converter:
                 thin.append(a.lanelet_id)
                 continue
             priority, rule = self._priority(a, b)
+            if rule == "":
+                priority, rule = self._from_the_right(a, b, hull.mean(axis=0))
             undecided += rule == ""
             indices = tuple(self.lane_elements[k].index for k in priority)
             zone_name = f"conflict_{a.lanelet_id}_{b.lanelet_id}"
@@ -395,9 +399,14 @@ class _Converter:
             zones.append(ConflictZone(hull, zone_name, indices))
         if thin:
             self.not_mapped.append(f"{len(thin)} lane overlaps too thin for a conflict zone")
+        by_default = sum(c.rule == RIGHT_BEFORE_LEFT for c in conflicts.values())
+        if by_default:
+            self.not_mapped.append(f"{by_default} conflicts no regulatory element or signal "
+                                   f"decides: given to the lane from the right ({RIGHT_BEFORE_LEFT})")
         if undecided:
-            self.not_mapped.append(f"{undecided} conflicts no regulatory element or signal "
-                                   "decides: their zones give no lane priority (rule '')")
+            self.not_mapped.append(f"{undecided} conflicts no regulatory element, signal or "
+                                   "default decides (merging or oncoming lanes): their zones "
+                                   "give no lane priority (rule '')")
         return zones, conflicts
 
     def _priority(self, a: LaneKey, b: LaneKey) -> tuple[tuple[LaneKey, ...], str]:
@@ -410,6 +419,24 @@ class _Converter:
         ga, gb = self.signal_groups.get(a, set()), self.signal_groups.get(b, set())
         if ga and gb and not ga & gb:
             return (), "signals"
+        return (), ""
+
+    def _from_the_right(self, a: LaneKey, b: LaneKey, point: np.ndarray
+                        ) -> tuple[tuple[LaneKey, ...], str]:
+        """The default rule of an undecided crossing: the lane from the right has priority.
+
+        Lanelet2's example maps follow German rules, whose default at a junction without
+        signs or signals is right before left (StVO section 8). Two lanes crossing at
+        45-135 degrees at the zone (their headings at its centre point (2,) [m]): the one
+        arriving from the other's right keeps the right of way. Merging or oncoming lanes are
+        left undecided.
+        """
+        heading_a = _heading_near(self.lanes[self.lane_elements[a].index].centerline, point)
+        heading_b = _heading_near(self.lanes[self.lane_elements[b].index].centerline, point)
+        turn = math.remainder(heading_b - heading_a, 2.0 * math.pi)  # b relative to a [rad]
+        if math.radians(45.0) < abs(turn) < math.radians(135.0):
+            # b heading to a's left (turn > 0) comes from a's right
+            return ((b,) if turn > 0.0 else (a,)), RIGHT_BEFORE_LEFT
         return (), ""
 
     def junctions(self, conflicts: dict) -> dict[int, JunctionElement]:

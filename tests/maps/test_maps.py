@@ -8,6 +8,7 @@ import numpy as np
 import pytest
 
 from marl_social.maps import MapConversionWarning, MapError, load_map
+from marl_social.maps.convert import RIGHT_BEFORE_LEFT
 from marl_social.maps.geometry import convex_pieces, polygon_area
 from marl_social.maps.registry import _CACHE, BUILTIN_DIR, BUILTIN_MAPS
 from tests.maps.synthetic import synthetic_osm
@@ -119,7 +120,11 @@ def test_interaction_convention_local_xy(tmp_path):
     assert len(road_map.conflict_zones) == 1  # the two lanes cross at (25, 0)
     zone = road_map.conflict_zones[0]
     assert zone.contains(np.array([25.0, 0.0]))
-    assert el.conflicts[((100, False), (101, False))].rule == ""  # nothing decides it
+    # nothing in the map decides it: right before left, lane 101 (northbound) comes from the
+    # right of lane 100 (eastbound)
+    conflict = el.conflicts[((100, False), (101, False))]
+    assert conflict.rule == RIGHT_BEFORE_LEFT and conflict.priority == ((101, False),)
+    assert zone.priority_lanes == (el.lanes[(101, False)].index,)
     assert [kind for kind, _ in el.occluder_sources] == ["wall"]
     message = str(record[0].message)
     assert "mystery_rule" in message  # the unknown regulatory element, listed
