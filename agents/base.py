@@ -22,7 +22,7 @@ from typing import Protocol, runtime_checkable
 import numpy as np
 
 from marl_social.models.boltzmann import boltzmann
-from marl_social.models.candidates import ScenePrediction
+from marl_social.models.scene_prediction import ScenePrediction
 from marl_social.perception.tracking import Tracker, TrackSet
 from marl_social.sim.agent_spec import AgentSpec
 from marl_social.sim.observation import Measurements, ObservationLayout

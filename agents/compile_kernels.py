@@ -223,7 +223,7 @@ def _plan_once() -> None:
     """
     from marl_social.agents.robot.mpc import plan
     from marl_social.agents.robot.mpc_types import MpcConfig, PlanRequest
-    from marl_social.models.candidates import ScenePrediction
+    from marl_social.models.scene_prediction import ScenePrediction
     from marl_social.sim.agent_spec import VehicleParams
     from marl_social.sim.road_map import Route
 

@@ -55,13 +55,13 @@ import numpy as np
 
 from marl_social.agents.base import BoltzmannPolicy
 from marl_social.agents.params import DriverParams, parse_planner_params
-from marl_social.models.candidates import ScenePrediction
 from marl_social.models.driver import (
     DriverModel,
     RoadRules,
     driver_choice_features,
     driver_q_values,
 )
+from marl_social.models.scene_prediction import ScenePrediction
 from marl_social.models.steering import pure_pursuit
 from marl_social.models.yield_expectation import YieldExpectation
 from marl_social.sim.agent_spec import AgentSpec

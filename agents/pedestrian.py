@@ -22,8 +22,8 @@ import numpy as np
 
 from marl_social.agents.base import BoltzmannPolicy
 from marl_social.agents.params import PedestrianPlannerParams, parse_planner_params
-from marl_social.models.candidates import ScenePrediction
 from marl_social.models.pedestrian import PedestrianModel, pedestrian_q_values
+from marl_social.models.scene_prediction import ScenePrediction
 from marl_social.models.steering import walk_along
 from marl_social.perception.tracking import TrackSet
 from marl_social.sim.agent_spec import AgentSpec

@@ -18,7 +18,7 @@ to u at u_D. They are exact here:
 * speed, acceleration, jerk are quadratic in u (v = v0 + V u, jerk = D u - prev):
   g_k, H_k in closed form;
 * safety and crosswalk depend on u through the arc lengths s = s0 + ds0 + S u (linear, the
-  trapezoidal rule of models/candidates.rollout_speeds without the v >= 0 limit); their
+  trapezoidal rule of models/rollouts.rollout_speeds without the v >= 0 limit); their
   per-step derivatives d phi / d s_t and d^2 phi / d s_t^2 come from running the planners' own
   feature code on second-order jets (agents/irl/jets.py), so g = S^T phi', H = S^T diag(phi'') S;
 * tracking (squared lateral offset) is constant along the path and cannot be identified from

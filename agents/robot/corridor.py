@@ -19,7 +19,7 @@ from typing import NamedTuple
 
 import numpy as np
 
-from marl_social.models.candidates import ScenePrediction
+from marl_social.models.scene_prediction import ScenePrediction
 from marl_social.sim.kernel_cache import load_kernels, route_kernels
 from marl_social.sim.road_map import Route
 

@@ -24,7 +24,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from marl_social.models.candidates import ScenePrediction
+from marl_social.models.scene_prediction import ScenePrediction
 from marl_social.perception.belief.paths import LanePaths
 from marl_social.perception.belief.phase import SignalledCar, signalled_cars, stops_per_phase
 from marl_social.perception.tracking import TrackSet

@@ -16,7 +16,7 @@ from typing import Protocol
 import numpy as np
 
 from marl_social.agents.robot.corridor import PathObject
-from marl_social.models.candidates import ScenePrediction
+from marl_social.models.scene_prediction import ScenePrediction
 from marl_social.perception.tracking import TrackSet
 from marl_social.sim.observation import DecodedObservation
 

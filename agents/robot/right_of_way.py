@@ -55,7 +55,7 @@ from marl_social.agents.robot.corridor import (
     route_curvature,
 )
 from marl_social.agents.robot.mpc_types import MpcConfig
-from marl_social.models.candidates import ScenePrediction
+from marl_social.models.scene_prediction import ScenePrediction
 from marl_social.sim.agent_spec import VehicleParams
 from marl_social.sim.road_map import RoadMap, Route
 from marl_social.sim.route_rules import RouteConflict, on_lanes, priority_mask, route_conflicts

@@ -32,7 +32,7 @@ from marl_social.agents.robot.signal_stop import SignalStops
 from marl_social.agents.robot.stop import StopSigns, pull_up_target
 from marl_social.agents.robot.track_prediction import along_lane_paths
 from marl_social.agents.robot.variants import HypothesisWeighting, RobotVariant
-from marl_social.models.candidates import ScenePrediction
+from marl_social.models.scene_prediction import ScenePrediction
 from marl_social.perception.belief import PedestrianBelief
 from marl_social.perception.belief.phase import SignalPhaseBelief
 from marl_social.sim.agent_spec import AgentSpec

@@ -4,7 +4,7 @@ A tracked car in a lane (perception/belief/paths.LanePaths.route_of: the lane ne
 heading matches its track's, and the lane's unique continuations; never its name) is
 predicted along that path at its current speed along it (`path_prediction`: a left-turner
 through its turn, not straight across the junction); a pedestrian, or a car in no lane, at
-constant velocity (models/candidates.ScenePrediction.from_tracks). The signalled traffic's
+constant velocity (models/scene_prediction.ScenePrediction.from_tracks). The signalled traffic's
 phase branches (phase_branches.py) start from this prediction.
 
 Why not constant velocity for every car: the track's heading is noisy while a car is slow, and
@@ -21,7 +21,7 @@ import math
 
 import numpy as np
 
-from marl_social.models.candidates import ScenePrediction
+from marl_social.models.scene_prediction import ScenePrediction
 from marl_social.perception.belief.paths import LanePaths, route_heading
 from marl_social.perception.tracking import TrackSet
 

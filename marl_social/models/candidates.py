@@ -1,7 +1,8 @@
 """Candidate longitudinal plans along a route, evaluated against scene hypotheses.
 
 A candidate is a first acceleration u (held for the first segment) followed by a continuation c
-(held to the end of the horizon). All A x C candidates are rolled out at once (path-velocity
+(held to the end of the horizon; models/rollouts.py, the scene: models/scene_prediction.py).
+All A x C candidates are rolled out at once (path-velocity
 decomposition: position along the route, the route gives x, y, heading) and their per-step costs
 (sim/costs.py) computed against L scene hypotheses in one batch. The human drivers' Q*
 (models/driver.py) and the robot's contingency MPC (agents/robot/mpc.py) are both built on this.
@@ -16,12 +17,13 @@ from typing import NamedTuple
 
 import numpy as np
 
-from marl_social.models import kernel_loading
 from marl_social.models.circle_gaps import (
     circle_pair_gap,
     scene_circles,
     scene_crosswalk_occupancy,
 )
+from marl_social.models.rollouts import CandidateSet, _governed, _plan_constants, _rollout
+from marl_social.models.scene_prediction import ScenePrediction
 from marl_social.sim.agent_spec import VehicleParams
 from marl_social.sim.costs import (
     crosswalk_occupancy,
@@ -33,221 +35,6 @@ from marl_social.sim.dynamics import DT_S
 from marl_social.sim.footprint import circle_layout, covering_circles
 from marl_social.sim.road_map import Crosswalk, Route
 from marl_social.sim.route_rules import CurveSpeed
-
-
-@dataclass(frozen=True)
-class ScenePrediction:
-    """Predicted others for one or more hypotheses (L of them), M objects, T steps.
-
-    Attributes:
-        xy: (L, M, T, 2) positions after each planner step [m].
-        heading: (L, M, T) headings after each planner step [rad].
-        length_m: (L, M) footprint lengths [m].
-        width_m: (L, M) footprint widths [m].
-        radius_m: (L, M) footprint bounding radii [m].
-        is_pedestrian: (L, M) bool.
-        mask: (L, M) bool, object present in that hypothesis.
-    """
-
-    xy: np.ndarray
-    heading: np.ndarray
-    length_m: np.ndarray
-    width_m: np.ndarray
-    radius_m: np.ndarray
-    is_pedestrian: np.ndarray
-    mask: np.ndarray
-
-    @classmethod
-    def from_tracks(cls, tracks, times_s: np.ndarray, mask: np.ndarray | None = None,
-                    predicted_xy: np.ndarray | None = None) -> ScenePrediction:
-        """One hypothesis: every track of a TrackSet at constant velocity (or as predicted).
-
-        Footprints are at the tracks' headings (TrackSet.heading_rad, perception/tracking.py).
-
-        Args:
-            tracks: the TrackSet, M tracks.
-            times_s: (T,) prediction times [s].
-            mask: (1, M) bool, the tracks present in the scene (default: all).
-            predicted_xy: (M, T, 2) the tracks' positions at times_s [m] (default: constant
-                velocity, TrackSet.predict_xy).
-        """
-        if predicted_xy is None and _float_arrays(tracks.xy, tracks.velocity, tracks.heading_rad,
-                                                  times_s):
-            # predict_xy's arithmetic and the repeated headings in one compiled call
-            xy, heading = kernel_loading.load_all()[2].constant_velocity_scene(  # scene_kernels
-                tracks.xy, tracks.velocity, tracks.heading_rad, times_s)
-        else:
-            if predicted_xy is None:
-                predicted_xy = tracks.predict_xy(times_s)
-            xy = predicted_xy[None]  # (1, M, T, 2)
-            heading = tracks.heading_rad[None, :, None].repeat(xy.shape[2], axis=2)  # (1, M, T)
-        radius = 0.5 * np.hypot(tracks.length_m, tracks.width_m)
-        if mask is None:  # every track: a copy of a row of Trues (faster than np.ones)
-            m = len(tracks)
-            mask = (_ALL_PRESENT[:, :m] if m <= _ALL_PRESENT.shape[1]
-                    else np.ones((1, m), dtype=bool)).copy()
-        return cls(xy, heading, tracks.length_m[None], tracks.width_m[None], radius[None],
-                   tracks.is_pedestrian[None], mask)
-
-    def with_extra(self, xy, heading, length_m, width_m, is_pedestrian, mask) -> ScenePrediction:
-        """Append one object per hypothesis.
-
-        The L of self must be 1 (broadcast) or L.
-
-        Args:
-            xy: (L, T, 2) positions after each planner step [m].
-            heading: (L, T) headings after each planner step [rad].
-            length_m: (L,) footprint lengths [m].
-            width_m: (L,) footprint widths [m].
-            is_pedestrian: (L,) bool.
-            mask: (L,) bool, object present in that hypothesis.
-        """
-        n_hyp = len(mask)
-        radius = 0.5 * np.hypot(length_m, width_m)
-
-        def append(mine: np.ndarray, extra) -> np.ndarray:
-            """(n_hyp, M + 1, ...): mine (1 or n_hyp, M, ...) repeated, then extra (n_hyp, ...)."""
-            extra = np.asarray(extra)
-            out = np.empty((n_hyp, mine.shape[1] + 1) + mine.shape[2:],
-                           dtype=np.result_type(mine.dtype, extra.dtype))  # np.concatenate's
-            out[:, :-1] = mine
-            out[:, -1] = extra
-            return out
-
-        return ScenePrediction(
-            append(self.xy, xy), append(self.heading, heading),
-            append(self.length_m, length_m), append(self.width_m, width_m),
-            append(self.radius_m, radius), append(self.is_pedestrian, is_pedestrian),
-            append(self.mask, mask),
-        )
-
-
-_ALL_PRESENT = np.ones((1, 64), dtype=bool)
-_ALL_PRESENT.setflags(write=False)
-
-
-def _float_arrays(xy, velocity, heading, times_s) -> bool:
-    """Whether scene_kernels.constant_velocity_scene takes these arrays.
-
-    float64 xy (M, 2), velocity (M, 2), heading (M,) and times_s (T,).
-    """
-    return (type(xy) is type(velocity) is type(heading) is type(times_s) is np.ndarray
-            and xy.dtype == velocity.dtype == heading.dtype == times_s.dtype == np.float64
-            and times_s.ndim == 1 and xy.shape == velocity.shape == (len(heading), 2)
-            and heading.ndim == 1)
-
-
-@dataclass(frozen=True)
-class CandidateSet:
-    """The candidate plans.
-
-    Attributes:
-        first_actions_mps2: (A,) first accelerations [m/s^2].
-        continuations_mps2: (C,) accelerations after the first segment [m/s^2].
-        first_segment_s: how long the first action is held [s].
-        horizon_s: planning horizon [s].
-        plan_dt_s: rollout step [s]; per-step costs are scaled by plan_dt / DT_S so that sums
-            are in simulator-step units.
-    """
-
-    first_actions_mps2: tuple
-    continuations_mps2: tuple
-    first_segment_s: float
-    horizon_s: float
-    plan_dt_s: float = 0.25
-
-    def __post_init__(self):
-        if not self.horizon_s > self.first_segment_s >= self.plan_dt_s > 0:
-            raise ValueError("CandidateSet: need horizon_s > first_segment_s >= plan_dt_s > 0")
-        if not len(self.first_actions_mps2) or not len(self.continuations_mps2):
-            raise ValueError("CandidateSet: need at least one first action and one "
-                             "continuation")
-
-    @property
-    def n_steps(self) -> int:
-        return round(self.horizon_s / self.plan_dt_s)
-
-    @property
-    def n_first(self) -> int:
-        return round(self.first_segment_s / self.plan_dt_s)
-
-    @property
-    def plan_times_s(self) -> np.ndarray:
-        """(T,) times of the rollout's states after each planner step [s]."""
-        return (np.arange(self.n_steps) + 1) * self.plan_dt_s
-
-
-def rollout_speeds(v0: float, accel: np.ndarray, dt_s: float = DT_S) -> tuple[np.ndarray, ...]:
-    """Speeds and distances of acceleration profiles with the v >= 0 limit, without a time loop.
-
-    v_{k+1} = max(0, v_k + a_k dt) is a Lindley recursion: with S_k = v0 + sum_{i<k} a_i dt,
-    v_k = S_k - min(0, min_{j<=k} S_j).
-
-    Args:
-        v0: initial speed [m/s].
-        accel: (..., T) commanded accelerations [m/s^2].
-        dt_s: step length [s].
-
-    Returns:
-        v (..., T) speed after each step [m/s], ds (..., T) distance travelled up to each step
-        [m], a_eff (..., T) effective acceleration (dv / dt) [m/s^2].
-    """
-    return _rollout(v0, np.cumsum(accel * dt_s, axis=-1), dt_s)
-
-
-def _rollout(v0: float, increments: np.ndarray, dt_s: float) -> tuple[np.ndarray, ...]:
-    """rollout_speeds from increments (..., T) = cumsum(accel * dt_s) [m/s] (same arithmetic)."""
-    shape = increments.shape
-    s_full = np.empty(shape[:-1] + (shape[-1] + 1,))
-    s_full[..., 0] = v0
-    np.add(v0, increments, out=s_full[..., 1:])
-    v_full = s_full - np.minimum(0.0, np.minimum.accumulate(s_full, axis=-1))
-    v = v_full[..., 1:]
-    ds = np.cumsum(0.5 * (v + v_full[..., :-1]) * dt_s, axis=-1)
-    return v, ds, (v - v_full[..., :-1]) / dt_s
-
-
-@dataclass(frozen=True)
-class _PlanConstants:
-    """What a CandidateSet's rollouts share, computed once per set (read-only arrays).
-
-    Attributes:
-        continuations: (C,) continuation accelerations [m/s^2].
-        increments: (A, C, T) cumsum(accel * plan_dt) of the candidates' commands [m/s].
-    """
-
-    continuations: np.ndarray
-    increments: np.ndarray
-
-
-def cached_or_computed(cached, key):
-    """cached(key) for a hashable key; the wrapped function's result for an unhashable one.
-
-    Args:
-        cached: a functools.lru_cache-wrapped function of one argument.
-        key: its argument (e.g. a frozen dataclass with a field given as a list).
-    """
-    try:
-        return cached(key)
-    except TypeError:  # a field that cannot be hashed (e.g. accelerations given as a list)
-        return cached.__wrapped__(key)
-
-
-def _plan_constants(cands: CandidateSet) -> _PlanConstants:
-    """The set's _PlanConstants (cached for hashable sets, computed for the others)."""
-    return cached_or_computed(_cached_plan_constants, cands)
-
-
-@functools.lru_cache(maxsize=64)
-def _cached_plan_constants(cands: CandidateSet) -> _PlanConstants:
-    first = np.asarray(cands.first_actions_mps2, dtype=np.float64)
-    cont = np.asarray(cands.continuations_mps2, dtype=np.float64)
-    step = np.arange(cands.n_steps)
-    accel = np.where(step < cands.n_first, first[:, None, None], cont[None, :, None])  # (A,C,T)
-    out = _PlanConstants(cont, np.cumsum(accel * cands.plan_dt_s, axis=-1))
-    for array in (out.continuations, out.increments):
-        array.setflags(write=False)
-    return out
 
 
 @functools.lru_cache(maxsize=64)
@@ -357,40 +144,6 @@ def collision_free_totals(ev: CandidateEvaluation) -> np.ndarray:
     clearance = ev.vehicle_clearance_m  # (L, A, C)
     best = clearance >= clearance.max(axis=(-1, -2), keepdims=True)
     return np.where(np.where(hopeless, ~best, colliding), np.inf, total)
-
-
-def _governed(v: np.ndarray, ds: np.ndarray, v0: float, cont: np.ndarray, n_first: int,
-              dt_s: float, v_ceiling_mps: float) -> tuple[np.ndarray, ...]:
-    """Accelerating continuations stop accelerating at a speed ceiling (then hold it).
-
-    "Speed up to the curve speed, then keep it": without it, a driver in a bend could only
-    choose between holding its speed and accelerating past the curve speed, and would keep
-    putting the acceleration off. The continuation is monotone, so clamping it is exact.
-
-    Args:
-        v: (A, C, T) speeds of the plans [m/s].
-        ds: (A, C, T) their distances [m] (returned as they are for an infinite ceiling).
-        v0: initial speed [m/s].
-        cont: (C,) continuation accelerations [m/s^2].
-        n_first: steps of the first segment.
-        dt_s: step [s].
-        v_ceiling_mps: the ceiling [m/s] (inf: nothing changes).
-
-    Returns:
-        v, ds, a_eff as rollout_speeds returns them.
-    """
-    v_full = np.empty(v.shape[:-1] + (v.shape[-1] + 1,))
-    v_full[..., 0] = v0
-    if not np.isfinite(v_ceiling_mps):
-        v_full[..., 1:] = v
-        return v, ds, (v - v_full[..., :-1]) / dt_s
-    v1 = v[..., n_first - 1: n_first]  # (A, C, 1) speed at the end of the first segment
-    rising = (cont > 0)[None, :, None] & (np.arange(v.shape[-1]) >= n_first)
-    np.copyto(v_full[..., 1:], np.minimum(v, np.maximum(v1, v_ceiling_mps)), where=rising)
-    np.copyto(v_full[..., 1:], v, where=~rising)
-    v = v_full[..., 1:]
-    ds = np.cumsum(0.5 * (v + v_full[..., :-1]) * dt_s, axis=-1)
-    return v, ds, (v - v_full[..., :-1]) / dt_s
 
 
 class PlanningEgo(NamedTuple):

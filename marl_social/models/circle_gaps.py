@@ -97,7 +97,7 @@ def scene_circles(scene) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """The scene objects' covering circles (footprint.covering_circles), circle axis first.
 
     Args:
-        scene: models.candidates.ScenePrediction (L hypotheses, M objects, T steps).
+        scene: models.scene_prediction.ScenePrediction (L hypotheses, M objects, T steps).
 
     Returns:
         x (J, L, M, T) and y (J, L, M, T) of the centres [m] (J = 1 when every footprint is a
@@ -187,7 +187,7 @@ def scene_circle_inputs(scene) -> tuple[np.ndarray, ...]:
     Remembered for a scene of arrays nobody can write to, as scene_circles is.
 
     Args:
-        scene: models.candidates.ScenePrediction (L hypotheses, M objects, T steps).
+        scene: models.scene_prediction.ScenePrediction (L hypotheses, M objects, T steps).
 
     Returns:
         C-contiguous float arrays: xy (L, M, T, 2) [m], np.cos and np.sin of the headings
@@ -220,7 +220,7 @@ def scene_crosswalk_occupancy(scene, crosswalks: tuple) -> tuple[np.ndarray, ...
     write to (the hypothesised pedestrians the robot's model of a human reuses step after step).
 
     Args:
-        scene: models.candidates.ScenePrediction (L hypotheses, M objects, T steps).
+        scene: models.scene_prediction.ScenePrediction (L hypotheses, M objects, T steps).
         crosswalks: the map's crosswalks.
 
     Returns:

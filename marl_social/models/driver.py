@@ -22,14 +22,13 @@ import numpy as np
 from marl_social.models import kernel_loading
 from marl_social.models.candidates import (
     CandidateEvaluation,
-    CandidateSet,
     PlanningEgo,
-    ScenePrediction,
     Surroundings,
-    cached_or_computed,
     evaluate_candidates,
 )
 from marl_social.models.gap_evaluation import kernel_rule_totals
+from marl_social.models.rollouts import CandidateSet, cached_or_computed
+from marl_social.models.scene_prediction import ScenePrediction
 from marl_social.sim.agent_spec import VehicleParams
 from marl_social.sim.costs import CostWeights
 from marl_social.sim.road_map import Crosswalk, Route

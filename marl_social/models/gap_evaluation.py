@@ -31,16 +31,15 @@ import numpy as np
 from marl_social.models import kernel_loading
 from marl_social.models.candidates import (
     CandidateEvaluation,
-    CandidateSet,
     PlanningEgo,
-    ScenePrediction,
     Surroundings,
-    _plan_constants,
     _vehicle_circles,
     checked_initial_state,
 )
 from marl_social.models.circle_gaps import _scene_layout, scene_circle_inputs
 from marl_social.models.circle_gaps import crosswalk_rows as crosswalk_rows_of
+from marl_social.models.rollouts import CandidateSet, _plan_constants
+from marl_social.models.scene_prediction import ScenePrediction
 from marl_social.sim.agent_spec import VehicleParams
 from marl_social.sim.costs import OCCUPANCY_SOFTNESS_M, _polygon_edges, object_sum
 from marl_social.sim.dynamics import DT_S

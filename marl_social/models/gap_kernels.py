@@ -157,7 +157,7 @@ def plan_poses(increments, n_cont, v0, s0, dt_s, continuations, n_first, has_cur
         for p in range(n_plans):
             for t in range(n_t):
                 ceiling = _nan_min(ceiling, _curve_cap(s0 + ds[p, t], v_max, curve_step_m))
-        if math.isfinite(ceiling) or not v0 > 0.0:  # candidates._governed
+        if math.isfinite(ceiling) or not v0 > 0.0:  # rollouts._governed
             for p in range(n_plans):
                 rising = continuations[p % n_cont] > 0.0 and math.isfinite(ceiling)
                 bound = _nan_max(v[p, n_first - 1], ceiling)

@@ -11,11 +11,11 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from marl_social.models.candidates import ScenePrediction
 from marl_social.models.circle_gaps import (
     crosswalk_rows,
     scene_circle_inputs,
 )
+from marl_social.models.scene_prediction import ScenePrediction
 from marl_social.sim.costs import (
     OCCUPANCY_SOFTNESS_M,
     CostWeights,

@@ -51,7 +51,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from marl_social.models.candidates import ScenePrediction
+from marl_social.models.scene_prediction import ScenePrediction
 from marl_social.perception.belief.bayes import (
     TrafficSpeedBelief,
     joint_bayes_update,

@@ -17,14 +17,10 @@ from dataclasses import replace
 
 import numpy as np
 
-from marl_social.models.candidates import (
-    CandidateEvaluation,
-    PlanningEgo,
-    ScenePrediction,
-    Surroundings,
-)
+from marl_social.models.candidates import CandidateEvaluation, PlanningEgo, Surroundings
 from marl_social.models.driver import DriverModel, RoadRules, rule_abiding_totals
 from marl_social.models.gap_evaluation import vehicle_gap_evaluations
+from marl_social.models.scene_prediction import ScenePrediction
 from marl_social.models.yield_expectation import YieldExpectation
 from marl_social.perception.belief import compiled
 from marl_social.perception.belief.action_model import speed_nodes_mps

@@ -16,7 +16,7 @@ from dataclasses import fields
 
 import numpy as np
 
-from marl_social.models.candidates import ScenePrediction
+from marl_social.models.scene_prediction import ScenePrediction
 from marl_social.models.yield_expectation import YieldExpectation
 from marl_social.perception.belief import compiled
 from marl_social.perception.belief.config import BeliefConfig

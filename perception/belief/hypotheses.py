@@ -330,7 +330,7 @@ def hypothesis_objects(hypotheses: list[Hypothesis], times_s) -> tuple:
         times_s: (T,) prediction times [s].
 
     Returns:
-        The arguments of models.candidates.ScenePrediction.with_extra: xy (L, T, 2) [m],
+        The arguments of models.scene_prediction.ScenePrediction.with_extra: xy (L, T, 2) [m],
         heading (L, T) [rad], length (L,) [m], width (L,) [m], is_pedestrian (L,) bool (a
         hypothesised vehicle is a vehicle), mask (L,) bool (False for "none").
     """

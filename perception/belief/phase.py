@@ -35,9 +35,10 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
-from marl_social.models.candidates import PlanningEgo, ScenePrediction, Surroundings
+from marl_social.models.candidates import PlanningEgo, Surroundings
 from marl_social.models.driver import RoadRules, rule_abiding_totals
 from marl_social.models.gap_evaluation import vehicle_gap_evaluation
+from marl_social.models.scene_prediction import ScenePrediction
 from marl_social.perception.belief.action_model import (
     action_log_likelihood,
     bounded_log_likelihood,

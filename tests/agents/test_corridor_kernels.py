@@ -18,7 +18,7 @@ from marl_social.agents.robot.corridor import (
     objects_on_path,
     occupied_spans,
 )
-from marl_social.models.candidates import ScenePrediction
+from marl_social.models.scene_prediction import ScenePrediction
 from marl_social.sim.road_map import Route
 from tests.helpers import same_bits
 from tests.sim.test_route_kernels import _reference_footprint_extent, _route

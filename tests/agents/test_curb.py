@@ -8,7 +8,7 @@ import pytest
 from marl_social.agents.robot.curb import CurbConfig, CurbPedestrians
 from marl_social.agents.robot.mpc import plan
 from marl_social.agents.robot.mpc_types import MpcConfig, PlanRequest
-from marl_social.models.candidates import ScenePrediction
+from marl_social.models.scene_prediction import ScenePrediction
 from marl_social.perception.tracking import TrackSet
 from marl_social.sim.agent_spec import VehicleParams
 from marl_social.sim.dynamics import DT_S

@@ -10,8 +10,8 @@ import pytest
 
 import marl_social
 from marl_social.agents.human import STOP_REACH_M
-from marl_social.models.candidates import ScenePrediction
 from marl_social.models.driver import driver_q_values
+from marl_social.models.scene_prediction import ScenePrediction
 from marl_social.models.yield_expectation import YieldExpectation
 from marl_social.perception.tracking import TrackSet
 from marl_social.scenarios import SCENARIOS

@@ -55,7 +55,9 @@ def test_exact_gradient_and_hessian_match_finite_differences():
 
 def test_feature_totals_equal_the_planners_cost_module():
     """The IRL's cost of a control sequence is the planners' cost of the same rollout."""
-    from marl_social.models.candidates import CandidateSet, ScenePrediction, evaluate_candidates
+    from marl_social.models.candidates import evaluate_candidates
+    from marl_social.models.rollouts import CandidateSet
+    from marl_social.models.scene_prediction import ScenePrediction
     from marl_social.sim.agent_spec import VehicleParams
 
     demo = _busy_demo(1, controls=np.r_[np.full(10, -2.0), np.full(20, 1.0)])

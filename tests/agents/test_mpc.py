@@ -9,7 +9,7 @@ from marl_social.agents.robot import mpc as mpc_module
 from marl_social.agents.robot.corridor import Clearances, mode_bounds, objects_on_path
 from marl_social.agents.robot.mpc import ContingencyMpc, distinct_branches, plan
 from marl_social.agents.robot.mpc_types import MpcConfig, PlanRequest
-from marl_social.models.candidates import ScenePrediction
+from marl_social.models.scene_prediction import ScenePrediction
 from marl_social.sim.agent_spec import VehicleParams
 from marl_social.sim.dynamics import DT_S, bicycle_step
 from marl_social.sim.road_map import Route

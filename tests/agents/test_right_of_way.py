@@ -9,7 +9,7 @@ from marl_social.agents.robot.corridor import route_curvature
 from marl_social.agents.robot.mpc import ContingencyMpc
 from marl_social.agents.robot.mpc_types import MpcConfig, PlanRequest
 from marl_social.agents.robot.right_of_way import RightOfWay, RightOfWayConfig
-from marl_social.models.candidates import ScenePrediction
+from marl_social.models.scene_prediction import ScenePrediction
 from marl_social.scenarios import make_scenario
 from marl_social.sim.agent_spec import VehicleParams
 

@@ -22,7 +22,7 @@ from marl_social.agents.robot.stages import SightHoldStage
 from marl_social.agents.robot.stop import StopSignConfig
 from marl_social.evaluation.reproduce_intersection import randomized_overrides
 from marl_social.evaluation.run import run_episode
-from marl_social.models.candidates import ScenePrediction
+from marl_social.models.scene_prediction import ScenePrediction
 from marl_social.perception.tracking import TrackSet
 from marl_social.sim.agent_spec import VehicleParams
 from marl_social.sim.route_rules import route_conflicts

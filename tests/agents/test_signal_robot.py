@@ -85,7 +85,7 @@ def test_phase_branches_split_by_pattern_and_stop_the_cars_at_their_lines():
     splits into "stops" and "drives on" by the phase belief (weights multiply), the stopping
     car ends at its line, and the duplicate of the tracked car is left out."""
     from marl_social.agents.robot.phase_branches import PhaseBranches
-    from marl_social.models.candidates import ScenePrediction
+    from marl_social.models.scene_prediction import ScenePrediction
     from marl_social.perception.belief.paths import LanePaths
     from marl_social.perception.tracking import TrackSet
 

@@ -8,7 +8,7 @@ import pytest
 from marl_social.agents.robot.mpc import ContingencyMpc
 from marl_social.agents.robot.mpc_types import MpcConfig, PlanRequest
 from marl_social.agents.robot.track_prediction import along_lane_paths
-from marl_social.models.candidates import ScenePrediction
+from marl_social.models.scene_prediction import ScenePrediction
 from marl_social.perception.belief.paths import LanePaths
 from marl_social.perception.tracking import TrackSet
 from marl_social.scenarios import make_scenario

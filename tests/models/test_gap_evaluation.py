@@ -13,19 +13,15 @@ import pytest
 from hypothesis import example, given, settings
 from hypothesis import strategies as st
 
-from marl_social.models.candidates import (
-    CandidateSet,
-    PlanningEgo,
-    ScenePrediction,
-    Surroundings,
-    evaluate_candidates,
-)
+from marl_social.models.candidates import PlanningEgo, Surroundings, evaluate_candidates
 from marl_social.models.driver import DriverModel, RoadRules, rule_abiding_totals
 from marl_social.models.gap_evaluation import (
     kernel_rule_totals,
     vehicle_gap_evaluation,
     vehicle_gap_evaluations,
 )
+from marl_social.models.rollouts import CandidateSet
+from marl_social.models.scene_prediction import ScenePrediction
 from marl_social.sim.agent_spec import VehicleParams
 from marl_social.sim.road_map import Crosswalk, Route
 from marl_social.sim.route_rules import CurveSpeed

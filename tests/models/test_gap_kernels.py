@@ -13,18 +13,11 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from marl_social.models import gap_kernels
-from marl_social.models.candidates import (
-    CandidateSet,
-    PlanningEgo,
-    ScenePrediction,
-    Surroundings,
-    _governed,
-    _plan_constants,
-    _rollout,
-    evaluate_candidates,
-)
+from marl_social.models.candidates import PlanningEgo, Surroundings, evaluate_candidates
 from marl_social.models.circle_gaps import circle_pair_gap, scene_circle_inputs, scene_circles
 from marl_social.models.gap_evaluation import vehicle_gap_evaluation
+from marl_social.models.rollouts import CandidateSet, _governed, _plan_constants, _rollout
+from marl_social.models.scene_prediction import ScenePrediction
 from marl_social.sim import pairwise_sum
 from marl_social.sim.agent_spec import VehicleParams
 from marl_social.sim.road_map import Crosswalk, Route

@@ -10,9 +10,9 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from marl_social.agents.pedestrian import vehicles_expected_to_yield
-from marl_social.models.candidates import ScenePrediction
 from marl_social.models.circle_gaps import circle_pair_gap, scene_circles
 from marl_social.models.pedestrian import PedestrianModel, pedestrian_q_values
+from marl_social.models.scene_prediction import ScenePrediction
 from marl_social.perception.tracking import TrackSet
 from marl_social.sim.costs import CostWeights, step_cost
 from marl_social.sim.dynamics import DT_S

@@ -4,9 +4,9 @@ from __future__ import annotations
 
 import numpy as np
 
-from marl_social.models.candidates import ScenePrediction
 from marl_social.models.circle_gaps import circle_pair_gap, scene_circles
 from marl_social.models.pedestrian import PedestrianModel, _model_constants
+from marl_social.models.scene_prediction import ScenePrediction
 from marl_social.sim.costs import _crosswalk_conflict, crosswalk_occupancy, object_sum
 from marl_social.sim.dynamics import DT_S
 from marl_social.sim.road_map import Crosswalk, Route

@@ -11,7 +11,8 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from marl_social.models import candidates, circle_gaps
-from marl_social.models.candidates import ScenePrediction, circle_pair_gap, scene_circles
+from marl_social.models.candidates import circle_pair_gap, scene_circles
+from marl_social.models.scene_prediction import ScenePrediction
 from marl_social.sim.costs import (
     OCCUPANCY_SOFTNESS_M,
     circle_gap,
