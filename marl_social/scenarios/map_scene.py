@@ -26,18 +26,14 @@ import numpy as np
 
 from marl_social.maps import load_map
 from marl_social.maps.scenes import ScenarioNeeds, SceneError, crosswalk_plan, scene_listing
-from marl_social.scenarios.base import (
-    MAX_POS_NOISE_M,
-    MAX_SENSOR_RANGE_M,
-    MAX_VEHICLE_SPEED_MPS,
-    THETA_ROBOT,
-    Scenario,
-    ScenarioLayout,
-    ScenarioParams,
+from marl_social.scenarios.base import Scenario, ScenarioLayout
+from marl_social.scenarios.crosswalk_agents import (
+    CrosswalkParams,
+    human_spec,
+    pedestrian_spec,
+    robot_spec,
 )
-from marl_social.scenarios.occluded_crosswalk import PEDESTRIAN_VARIANTS, THETA_PEDESTRIAN
-from marl_social.sim.agent_spec import AgentSpec, PedestrianParams, SensorParams, VehicleParams
-from marl_social.sim.costs import CostWeights
+from marl_social.sim.agent_spec import AgentSpec
 from marl_social.sim.road_map import RoadMap, Route, StopLine
 from marl_social.sim.signals import SignalController
 
@@ -50,8 +46,8 @@ SIGNAL_GREEN_AHEAD_M = 250.0  # signals this close ahead of the robot's start st
 
 
 @dataclass(frozen=True)
-class MapSceneParams(ScenarioParams):
-    """Map scene parameters (SI units).
+class MapSceneParams(CrosswalkParams):
+    """Map scene parameters (SI units; the agents' in CrosswalkParams).
 
     Attributes:
         map: a built-in map's name ("karlsruhe") or the path of a Lanelet2 .osm file.
@@ -61,85 +57,29 @@ class MapSceneParams(ScenarioParams):
         occluder: what hides the pedestrian: "human" (a driver in the lane beside the
             robot's), "parked" (a car along the right curb) or "auto" (a human where a lane
             beside allows one, else a parked car).
-        pedestrian: "crossing", "waiting" or "none".
         approach_m: the robot's start before the crosswalk along its route [m].
-        robot_speed_mps, human_speed_mps: initial speeds [m/s].
-        robot_desired_speed_mps, human_desired_speed_mps: cruise speeds [m/s].
-        human_lead_m: how far the human car starts ahead of the robot [m].
-        pedestrian_speed_mps: walking speed when crossing [m/s].
-        pedestrian_start_delay_s: time at which a crossing pedestrian steps off the curb [s].
         pedestrian_curb_offset_m: how far past the crosswalk's end the pedestrian waits [m].
-        robot_sensor_range_m, human_sensor_range_m, pedestrian_sensor_range_m: [m].
-        robot_half_fov_deg, human_half_fov_deg, pedestrian_half_fov_deg: cone half-angles [deg].
-        robot_pos_noise_m, human_pos_noise_m: measurement noise stds [m].
-        human_beta, pedestrian_beta: rationality of the human driver / pedestrian planners
-            (higher = more rational, inf = always the best action, 0 = uniformly random).
-        human_theta: the human driver's cost weights (6 numbers or a mapping; empty = the
-            default CostWeights).
-        robot_theta_hat, robot_beta_hat: the robot's model of the humans' cost weights and
-            rationality (as in occluded_crosswalk).
-        robot_epsilon: the robot's tail threshold on beliefs (MPC and belief).
     """
 
     map: str = "karlsruhe"
     element: int = 0
     situation: str = "crosswalk"
     occluder: str = "auto"
-    pedestrian: str = "crossing"
     approach_m: float = 60.0
-    robot_speed_mps: float = 11.5
-    human_speed_mps: float = 11.5
-    robot_desired_speed_mps: float = 11.5
-    human_desired_speed_mps: float = 11.5
-    human_lead_m: float = 20.0
-    pedestrian_speed_mps: float = 1.3
-    pedestrian_start_delay_s: float = 1.0
     pedestrian_curb_offset_m: float = 1.0
-    robot_sensor_range_m: float = 40.0
-    human_sensor_range_m: float = 60.0
-    pedestrian_sensor_range_m: float = 60.0
-    robot_half_fov_deg: float = 60.0
-    human_half_fov_deg: float = 60.0
-    pedestrian_half_fov_deg: float = 100.0
-    robot_pos_noise_m: float = 0.05
-    human_pos_noise_m: float = 0.05
-    human_beta: float = 5.0
-    pedestrian_beta: float = 5.0
-    human_theta: tuple = ()
-    robot_theta_hat: tuple = ()
-    robot_beta_hat: float = 0.3
-    robot_epsilon: float = 0.02
 
     def __post_init__(self):
         super().__post_init__()
-        self._normalize_cost_weights("human_theta")
-        self._normalize_cost_weights("robot_theta_hat", fit_file=True)
-        for name in ("map", "situation", "occluder", "pedestrian"):
+        for name in ("map", "situation", "occluder"):
             self._check(isinstance(getattr(self, name), str), name, "must be a string")
         self._check(self.situation in SITUATIONS, "situation",
                     f"must be one of {SITUATIONS} (junction and signal scenes are not built yet)")
         self._check(self.occluder in OCCLUDERS, "occluder", f"must be one of {OCCLUDERS}")
-        self._check(self.pedestrian in PEDESTRIAN_VARIANTS, "pedestrian",
-                    f"must be one of {PEDESTRIAN_VARIANTS}")
         self._check(self.element >= 0, "element", "must be a Lanelet2 id (>= 0; 0: the first)")
-        self._check(self.robot_beta_hat >= 0.0, "robot_beta_hat", "must be >= 0 (inf allowed)")
-        self._check(0.0 <= self.robot_epsilon < 1.0, "robot_epsilon", "must be in [0, 1)")
-        for name in ("human_beta", "pedestrian_beta"):
-            self._check(getattr(self, name) >= 0.0, name, "must be >= 0 (inf allowed)")
         self._check_range("approach_m", 10.0, MAX_APPROACH_M, "m")
-        for name in ("robot_speed_mps", "human_speed_mps", "robot_desired_speed_mps",
-                     "human_desired_speed_mps"):
-            self._check_range(name, 0.0, MAX_VEHICLE_SPEED_MPS, "m/s")
-        self._check_range("pedestrian_speed_mps", 0.1, 2.0, "m/s")
         self._check_range("pedestrian_start_delay_s", 0.0, 3600.0, "s")
         self._check_range("human_lead_m", 5.0, self.approach_m, "m")
         self._check_range("pedestrian_curb_offset_m", 0.0, MAX_CURB_OFFSET_M, "m")
-        for name in ("robot_sensor_range_m", "human_sensor_range_m", "pedestrian_sensor_range_m"):
-            self._check_range(name, 0.0, MAX_SENSOR_RANGE_M, "m", low_open=True)
-        for name in ("robot_half_fov_deg", "human_half_fov_deg", "pedestrian_half_fov_deg"):
-            self._check_range(name, 0.0, 180.0, "deg", low_open=True)
-        for name in ("robot_pos_noise_m", "human_pos_noise_m"):
-            self._check_range(name, 0.0, MAX_POS_NOISE_M, "m")
 
 
 def _near(points: np.ndarray, box: tuple[float, float, float, float]) -> bool:
@@ -274,33 +214,17 @@ class MapScene(Scenario):
     def _robot(self) -> tuple[AgentSpec, Route]:
         p: MapSceneParams = self.params
         route = Route(self.plan.robot.points - self.origin, "robot_0")
-        robot_model = {"beta_hat": p.robot_beta_hat, "epsilon": p.robot_epsilon,
-                       "stage_settings": p.robot_stage_settings}
-        if p.robot_theta_hat:
-            robot_model["theta_hat"] = p.robot_theta_hat
-        spec = AgentSpec(
-            "robot_0", "vehicle", "robot",
-            self._start(route, self.plan.robot.crossing_m - p.approach_m, p.robot_speed_mps),
-            sensor=SensorParams(p.robot_sensor_range_m, math.radians(p.robot_half_fov_deg),
-                                pos_noise_m=p.robot_pos_noise_m),
-            vehicle=VehicleParams(), v_desired_mps=p.robot_desired_speed_mps,
-            cost_weights=THETA_ROBOT, planner=robot_model)
-        return spec, route
+        start = self._start(route, self.plan.robot.crossing_m - p.approach_m, p.robot_speed_mps)
+        return robot_spec(p, start), route
 
     def _human(self) -> list[tuple[AgentSpec, Route]]:
         p: MapSceneParams = self.params
         if self.plan.human is None:
             return []
         route = Route(self.plan.human.points - self.origin, "human_0")
-        theta = CostWeights.from_any(p.human_theta) if p.human_theta else CostWeights()
         start_m = self.plan.human.crossing_m - (p.approach_m - p.human_lead_m)
-        spec = AgentSpec(
-            "human_0", "vehicle", "human", self._start(route, start_m, p.human_speed_mps),
-            sensor=SensorParams(p.human_sensor_range_m, math.radians(p.human_half_fov_deg),
-                                pos_noise_m=p.human_pos_noise_m),
-            vehicle=VehicleParams(), v_desired_mps=p.human_desired_speed_mps,
-            cost_weights=theta, planner={"beta": p.human_beta})
-        return [(spec, route)]
+        return [(human_spec(p, "human_0", self._start(route, start_m, p.human_speed_mps)),
+                 route)]
 
     def _pedestrian(self) -> list[tuple[AgentSpec, Route]]:
         p: MapSceneParams = self.params
@@ -308,15 +232,5 @@ class MapScene(Scenario):
             return []
         start, end = self.plan.pedestrian_path - self.origin
         heading = math.atan2(end[1] - start[1], end[0] - start[0])
-        crossing = p.pedestrian == "crossing"
-        spec = AgentSpec(
-            "pedestrian_0", "pedestrian", "pedestrian",
-            np.array([start[0], start[1], heading, 0.0]),
-            sensor=SensorParams(p.pedestrian_sensor_range_m,
-                                math.radians(p.pedestrian_half_fov_deg)),
-            pedestrian=PedestrianParams(),
-            v_desired_mps=p.pedestrian_speed_mps if crossing else 0.0,
-            cost_weights=THETA_PEDESTRIAN,
-            planner={"crossing": crossing, "start_delay_s": p.pedestrian_start_delay_s,
-                     "beta": p.pedestrian_beta})
-        return [(spec, Route(self.plan.pedestrian_path - self.origin, "pedestrian_0"))]
+        return [(pedestrian_spec(p, start, heading),
+                 Route(self.plan.pedestrian_path - self.origin, "pedestrian_0"))]

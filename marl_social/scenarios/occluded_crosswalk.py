@@ -20,16 +20,12 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from marl_social.scenarios.base import (
-    MAX_POS_NOISE_M,
-    MAX_SENSOR_RANGE_M,
-    MAX_SPEED_LIMIT_MPS,
-    MAX_VEHICLE_SPEED_MPS,
-    THETA_ROBOT,
-    HiddenAgent,
-    Scenario,
-    ScenarioLayout,
-    ScenarioParams,
+from marl_social.scenarios.base import MAX_SPEED_LIMIT_MPS, HiddenAgent, Scenario, ScenarioLayout
+from marl_social.scenarios.crosswalk_agents import (
+    CrosswalkParams,
+    human_spec,
+    pedestrian_spec,
+    robot_spec,
 )
 from marl_social.scenarios.roads import (
     LANE_WIDTH_M,
@@ -37,8 +33,7 @@ from marl_social.scenarios.roads import (
     straight_lane,
     straight_route,
 )
-from marl_social.sim.agent_spec import AgentSpec, PedestrianParams, SensorParams, VehicleParams
-from marl_social.sim.costs import CostWeights
+from marl_social.sim.agent_spec import AgentSpec
 from marl_social.sim.road_map import Crosswalk, Lane, RoadMap, Route
 
 N_LANES = 2  # lanes in the +x direction: right (human) and left (robot)
@@ -53,10 +48,6 @@ EXTENT_MARGIN_M = 4.0  # drawn area beyond the houses' far walls [m]
 BLIND_HALF_LENGTH_M = 6.0  # a blind human cannot see x within this of the crosswalk centre [m]
 PEDESTRIAN_OVERSHOOT_M = 1.0  # the pedestrian's route ends this far past the far curb [m]
 CROSSING_HEADING_RAD = math.pi / 2  # pedestrians cross the road towards +y [rad]
-PEDESTRIAN_VARIANTS = ("crossing", "waiting", "none")
-# the pedestrian: keeps to its path and speed, and strongly prefers to stay on the crosswalk
-THETA_PEDESTRIAN = CostWeights(tracking=1.0, speed=1.0, accel=0.01, jerk=0.0, safety=5.0,
-                               crosswalk=1000.0)
 MAX_HUMANS = 4
 HUMAN_SPACING_M = 20.0  # gap between successive human cars' start positions [m]
 MAX_ROAD_END_X_M = 2000.0  # longest road (about 230 houses) [m]
@@ -65,102 +56,42 @@ MAX_START_DELAY_S = 3600.0  # latest time a crossing pedestrian steps off the cu
 
 
 @dataclass(frozen=True)
-class OccludedCrosswalkParams(ScenarioParams):
-    """Occluded-crosswalk parameters (SI units).
+class OccludedCrosswalkParams(CrosswalkParams):
+    """Occluded-crosswalk parameters (SI units; the agents' in CrosswalkParams).
 
     Attributes:
-        pedestrian: "crossing", "waiting" or "none".
         crosswalk_x_m: crosswalk centre, ahead of the robot's start at x = 0 [m].
         crosswalk_width_m: extent of the crosswalk along the road [m].
         road_end_x_m: where the vehicles' routes end [m].
-        robot_speed_mps, human_speed_mps: initial speeds [m/s].
-        robot_desired_speed_mps, human_desired_speed_mps: cruise speeds [m/s].
-        human_lead_m: how far the human car starts ahead of the robot [m].
-        pedestrian_speed_mps: walking speed when crossing [m/s].
-        pedestrian_start_delay_s: time at which a crossing pedestrian steps off the curb [s].
-        pedestrian_curb_offset_m: how far from the curb the pedestrian waits [m].
         speed_limit_mps: legal limit [m/s].
-        robot_sensor_range_m, human_sensor_range_m, pedestrian_sensor_range_m: [m].
-        robot_half_fov_deg, human_half_fov_deg, pedestrian_half_fov_deg: cone half-angles [deg].
-        robot_pos_noise_m, human_pos_noise_m: measurement noise stds [m].
-        human_beta, pedestrian_beta: rationality of the human driver / pedestrian planners
-            (higher = more rational, inf = always the best action, 0 = uniformly random).
-        human_theta: the human driver's cost weights (a mapping of feature names, or 6 numbers
-            in marl_social.sim.costs.FEATURE_NAMES order); empty = the default CostWeights.
         human_blind: the human cannot see the pedestrian's side of the crosswalk (its view of
             the right sidewalk around the crosswalk is blocked), so it cannot act as a sensor.
         n_humans: number of human drivers (0-4). human_0 leads by human_lead_m in the right
             lane; human_k (k >= 1) follows in the same lane HUMAN_SPACING_M * k behind it (so
             the second one drives beside the robot). With 0 the pedestrian is not hidden by a
             car (only the robot's range limits its view). Every human gets the human_* knobs.
-        robot_theta_hat, robot_beta_hat: the robot's model of the humans' cost weights (a
-            mapping, 6 numbers, or the path of a `marl-social irl fit` result: its learned
-            direction scaled to the default weights' norm, agents/irl.robot_model_from_fit;
-            empty = the default CostWeights) and rationality (the social planner's beta_hat).
-        robot_epsilon: the robot's tail threshold on beliefs (MPC and belief).
     """
 
-    pedestrian: str = "crossing"
     crosswalk_x_m: float = 60.0
     crosswalk_width_m: float = 4.0
     road_end_x_m: float = 150.0
-    robot_speed_mps: float = 11.5
-    human_speed_mps: float = 11.5
-    robot_desired_speed_mps: float = 11.5
-    human_desired_speed_mps: float = 11.5
-    human_lead_m: float = 20.0
-    pedestrian_speed_mps: float = 1.3
-    pedestrian_start_delay_s: float = 1.0
-    pedestrian_curb_offset_m: float = 2.0
     speed_limit_mps: float = 13.9
-    robot_sensor_range_m: float = 40.0
-    human_sensor_range_m: float = 60.0
-    pedestrian_sensor_range_m: float = 60.0
-    robot_half_fov_deg: float = 60.0
-    human_half_fov_deg: float = 60.0
-    pedestrian_half_fov_deg: float = 100.0
-    robot_pos_noise_m: float = 0.05
-    human_pos_noise_m: float = 0.05
-    human_beta: float = 5.0
-    pedestrian_beta: float = 5.0
-    human_theta: tuple = ()
     human_blind: bool = False
     n_humans: int = 1
-    robot_theta_hat: tuple = ()
-    robot_beta_hat: float = 0.3
-    robot_epsilon: float = 0.02
 
     def __post_init__(self):
         super().__post_init__()
-        self._normalize_cost_weights("human_theta")
-        self._normalize_cost_weights("robot_theta_hat", fit_file=True)  # or an irl fit file
         self._check(0 <= self.n_humans <= MAX_HUMANS, "n_humans", f"must be in [0, {MAX_HUMANS}]")
-        self._check(self.robot_beta_hat >= 0.0, "robot_beta_hat", "must be >= 0 (inf allowed)")
-        self._check(0.0 <= self.robot_epsilon < 1.0, "robot_epsilon", "must be in [0, 1)")
-        for name in ("human_beta", "pedestrian_beta"):
-            self._check(getattr(self, name) >= 0.0, name, "must be >= 0 (inf allowed)")
-        self._check(self.pedestrian in PEDESTRIAN_VARIANTS, "pedestrian",
-                    f"must be one of {PEDESTRIAN_VARIANTS}")
         self._check_range("crosswalk_x_m", 10.0, MAX_ROAD_END_X_M - 20.0, "m", low_open=True)
         self._check_range("crosswalk_width_m", 0.0, MAX_CROSSWALK_WIDTH_M, "m", low_open=True)
         self._check_range("road_end_x_m", 30.0, MAX_ROAD_END_X_M, "m", low_open=True)
         self._check(self.road_end_x_m > self.crosswalk_x_m + 20.0, "road_end_x_m",
                     "must be at least 20 m past the crosswalk")
-        for name in ("robot_speed_mps", "human_speed_mps", "robot_desired_speed_mps",
-                     "human_desired_speed_mps"):
-            self._check_range(name, 0.0, MAX_VEHICLE_SPEED_MPS, "m/s")
-        self._check_range("pedestrian_speed_mps", 0.1, 2.0, "m/s")
         self._check_range("pedestrian_start_delay_s", 0.0, MAX_START_DELAY_S, "s")
         self._check(self.human_lead_m >= 5.0, "human_lead_m",
                     "must be >= 5 m (the cars would overlap)")
         self._check_range("human_lead_m", 5.0, MAX_ROAD_END_X_M, "m")
         self._check_range("pedestrian_curb_offset_m", 0.0, SIDEWALK_WIDTH_M - 0.3, "m")
-        for name in ("robot_sensor_range_m", "human_sensor_range_m", "pedestrian_sensor_range_m"):
-            self._check_range(name, 0.0, MAX_SENSOR_RANGE_M, "m", low_open=True)
-        for name in ("robot_half_fov_deg", "human_half_fov_deg", "pedestrian_half_fov_deg"):
-            self._check_range(name, 0.0, 180.0, "deg", low_open=True)
-        for name in ("robot_pos_noise_m", "human_pos_noise_m"):
-            self._check_range(name, 0.0, MAX_POS_NOISE_M, "m")
         self._check_range("speed_limit_mps", 0.0, MAX_SPEED_LIMIT_MPS, "m/s", low_open=True)
 
 
@@ -225,38 +156,18 @@ class OccludedCrosswalk(Scenario):
     def _robot(self) -> tuple[AgentSpec, Route]:
         """The robot in the left lane at x = ROBOT_START_X_M, with its model of the humans."""
         p: OccludedCrosswalkParams = self.params
-        robot_model = {"beta_hat": p.robot_beta_hat, "epsilon": p.robot_epsilon,
-                       "stage_settings": p.robot_stage_settings}
-        if p.robot_theta_hat:
-            robot_model["theta_hat"] = p.robot_theta_hat
-        spec = AgentSpec(
-            "robot_0", "vehicle", "robot",
-            np.array([ROBOT_START_X_M, LEFT_LANE_Y_M, 0.0, p.robot_speed_mps]),
-            sensor=SensorParams(p.robot_sensor_range_m, math.radians(p.robot_half_fov_deg),
-                                pos_noise_m=p.robot_pos_noise_m),
-            vehicle=VehicleParams(), v_desired_mps=p.robot_desired_speed_mps,
-            cost_weights=THETA_ROBOT, planner=robot_model,
-        )
+        spec = robot_spec(p, [ROBOT_START_X_M, LEFT_LANE_Y_M, 0.0, p.robot_speed_mps])
         return spec, straight_route("robot_0", ROAD_START_X_M, p.road_end_x_m, LEFT_LANE_Y_M)
 
     def _humans(self) -> list[tuple[AgentSpec, Route]]:
         """n_humans cars in the right lane: human_0 human_lead_m ahead, then every HUMAN_SPACING_M."""
         p: OccludedCrosswalkParams = self.params
-        theta = CostWeights.from_any(p.human_theta) if p.human_theta else CostWeights()
+        blind = (self._blind_region(),) if p.human_blind else ()
         humans = []
         for k in range(p.n_humans):
             name = f"human_{k}"
             x = p.human_lead_m - HUMAN_SPACING_M * k
-            spec = AgentSpec(
-                name, "vehicle", "human",
-                np.array([x, RIGHT_LANE_Y_M, 0.0, p.human_speed_mps]),
-                sensor=SensorParams(p.human_sensor_range_m, math.radians(p.human_half_fov_deg),
-                                    pos_noise_m=p.human_pos_noise_m,
-                                    blind_regions=(self._blind_region(),) if p.human_blind
-                                    else ()),
-                vehicle=VehicleParams(), v_desired_mps=p.human_desired_speed_mps,
-                cost_weights=theta, planner={"beta": p.human_beta},
-            )
+            spec = human_spec(p, name, [x, RIGHT_LANE_Y_M, 0.0, p.human_speed_mps], blind)
             humans.append((spec, straight_route(name, ROAD_START_X_M, p.road_end_x_m,
                                                 RIGHT_LANE_Y_M)))
         return humans
@@ -268,23 +179,8 @@ class OccludedCrosswalk(Scenario):
             return []
         curb_y = -(HALF_ROAD_WIDTH_M + p.pedestrian_curb_offset_m)
         far_y = HALF_ROAD_WIDTH_M + PEDESTRIAN_OVERSHOOT_M
-        crossing = p.pedestrian == "crossing"
         route = Route([[p.crosswalk_x_m, curb_y], [p.crosswalk_x_m, far_y]], "pedestrian_0")
-        spec = AgentSpec(
-            "pedestrian_0", "pedestrian", "pedestrian",
-            np.array([p.crosswalk_x_m, curb_y, CROSSING_HEADING_RAD, 0.0]),
-            sensor=SensorParams(p.pedestrian_sensor_range_m,
-                                math.radians(p.pedestrian_half_fov_deg)),
-            pedestrian=PedestrianParams(),
-            v_desired_mps=p.pedestrian_speed_mps if crossing else 0.0,
-            cost_weights=THETA_PEDESTRIAN,
-            planner={
-                "crossing": crossing,
-                "start_delay_s": p.pedestrian_start_delay_s,
-                "beta": p.pedestrian_beta,
-            },
-        )
-        return [(spec, route)]
+        return [(pedestrian_spec(p, (p.crosswalk_x_m, curb_y), CROSSING_HEADING_RAD), route)]
 
     def _blind_region(self) -> np.ndarray:
         """(4, 2) the right sidewalk and right lane within BLIND_HALF_LENGTH_M of the crosswalk."""
