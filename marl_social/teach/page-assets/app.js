@@ -4,8 +4,7 @@
 "use strict";
 
 (function () {
-  const { Pane, Meter, el } = window.MarlRender;
-  const SPEEDS = [0.25, 0.5, 1, 2, 4];
+  const { Pane, Meter, el, byTestId: $, speedSelect } = window.MarlRender;
   const STATUS_TEXT = {
     compiling: "compiling the numba kernels (first start only: about 20-60 s; cached afterwards)…",
     building: "building the episode…",
@@ -17,7 +16,6 @@
     speed: 1, playing: false, state: "connecting", lastFrameAt: 0, meter: new Meter(),
     changeAt: null, changeEpisode: 0, latencyMs: null, error: "", planners: [],
   };
-  const $ = (id) => document.querySelector(`[data-testid="${id}"]`);
 
   function send(command) {
     if (app.ws && app.ws.readyState === WebSocket.OPEN) app.ws.send(JSON.stringify(command));
@@ -166,10 +164,7 @@
     });
     $("step").addEventListener("click", () => { app.playing = false; send({ type: "step" }); setStatus("paused"); });
     $("restart").addEventListener("click", () => send({ type: "restart" }));
-    const speed = $("speed");
-    SPEEDS.forEach((v) => el("option", { value: v, text: `${v}×` }, speed));
-    speed.value = "1";
-    speed.addEventListener("change", () => { app.speed = Number(speed.value); send({ type: "speed", value: app.speed }); });
+    speedSelect((value) => { app.speed = value; send({ type: "speed", value }); });
   }
 
   window.marlSocial = {

@@ -4,9 +4,7 @@
 "use strict";
 
 (function () {
-  const { Pane, Meter, el } = window.MarlRender;
-  const SPEEDS = [0.25, 0.5, 1, 2, 4];
-  const $ = (id) => document.querySelector(`[data-testid="${id}"]`);
+  const { Pane, Meter, el, byTestId: $, speedSelect } = window.MarlRender;
   const base = document.currentScript.dataset.episodes || "episodes/";
   const player = { episode: null, panes: [], k: 0, playing: false, speed: 1, lastStepAt: 0,
                    meter: new Meter(), id: 0 };
@@ -62,10 +60,7 @@
     });
     $("step").addEventListener("click", () => { setPlaying(false); if (player.k < last()) show(player.k + 1); });
     $("restart").addEventListener("click", () => show(0));
-    const speed = $("speed");
-    SPEEDS.forEach((v) => el("option", { value: v, text: `${v}×` }, speed));
-    speed.value = "1";
-    speed.addEventListener("change", () => { player.speed = Number(speed.value); });
+    speedSelect((value) => { player.speed = value; });
     await load(index[0].file);
     requestAnimationFrame(tick);
   }

@@ -318,5 +318,18 @@
     }
   }
 
-  global.MarlRender = { Pane, Meter, el };
+  const SPEEDS = [0.25, 0.5, 1, 2, 4];  // the playback speeds offered
+
+  // the element with data-testid=id (the page's stable hooks)
+  const byTestId = (id) => document.querySelector(`[data-testid="${id}"]`);
+
+  // fill the "speed" select with SPEEDS (1x chosen) and call onChange(speed) on a change
+  function speedSelect(onChange) {
+    const speed = byTestId("speed");
+    SPEEDS.forEach((v) => el("option", { value: v, text: `${v}×` }, speed));
+    speed.value = "1";
+    speed.addEventListener("change", () => onChange(Number(speed.value)));
+  }
+
+  global.MarlRender = { Pane, Meter, el, byTestId, speedSelect };
 })(window);
