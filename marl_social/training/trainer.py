@@ -36,7 +36,10 @@ from marl_social.training.scene import (
 
 RLLIB_HINT = 'RLlib training needs the [rllib] extra: pip install -e ".[rllib]"'
 LOG_COLUMNS = ("iteration", "env_steps", "episodes", "return_mean", "episode_len_mean",
-               *METRIC_KEYS, "iteration_s", "sample_steps_per_s")
+               *METRIC_KEYS, "iteration_s", "sample_steps_per_s", "env_runners_healthy",
+               "env_runner_restarts")
+INTEGER_COLUMNS = ("iteration", "env_steps", "episodes", "env_runners_healthy",
+                   "env_runner_restarts")
 SETTINGS_FILE = "train_settings.json"
 LOG_FILE = "progress.csv"
 
@@ -195,33 +198,42 @@ def build_config(settings: TrainSettings):
     return config
 
 
+def _number(source: dict, key: str) -> float:
+    """source[key] as a float; NaN where it is missing or not a number."""
+    try:
+        return float(source.get(key, math.nan))
+    except (TypeError, ValueError):
+        return math.nan
+
+
+def _count(source: dict, key: str) -> int:
+    """source[key] as an int; 0 where it is missing or not a number."""
+    number = _number(source, key)
+    return 0 if math.isnan(number) else int(number)
+
+
 def log_row(iteration: int, result: dict) -> dict:
-    """One CSV row from RLlib's result dict of an iteration (NaN where it has no value)."""
+    """One CSV row (LOG_COLUMNS) from RLlib's result dict of an iteration (NaN: no value).
+
+    The episode columns are means over the iteration's episodes (RLlib's smoothing window,
+    `metrics_num_episodes_for_smoothing`); env_steps and episodes count from the run's start.
+    """
     runners = result.get("env_runners", {})
-
-    def value(source: dict, key: str) -> float:
-        v = source.get(key, math.nan)
-        try:
-            return float(v)
-        except (TypeError, ValueError):
-            return math.nan
-
     throughput = runners.get("num_env_steps_sampled_lifetime_throughput", {})
+    tolerance = result.get("fault_tolerance", {})
     row = {
         "iteration": iteration,
-        "env_steps": int(value(result, "num_env_steps_sampled_lifetime")
-                         if "num_env_steps_sampled_lifetime" in result
-                         else value(runners, "num_env_steps_sampled_lifetime")),
-        "episodes": int(value(runners, "num_episodes_lifetime") or 0)
-        if not math.isnan(value(runners, "num_episodes_lifetime")) else 0,
-        "return_mean": value(runners, "episode_return_mean"),
-        "episode_len_mean": value(runners, "episode_len_mean"),
+        "env_steps": _count(result, "num_env_steps_sampled_lifetime"),
+        "episodes": _count(runners, "num_episodes_lifetime"),
+        "return_mean": _number(runners, "episode_return_mean"),
+        "episode_len_mean": _number(runners, "episode_len_mean"),
+        **{key: _number(runners, key) for key in METRIC_KEYS},
+        "iteration_s": _number(result, "time_this_iter_s"),
+        "sample_steps_per_s": (_number(throughput, "throughput_since_last_reduce")
+                               if isinstance(throughput, dict) else math.nan),
+        "env_runners_healthy": _count(tolerance, "num_healthy_workers"),
+        "env_runner_restarts": _count(tolerance, "num_remote_worker_restarts"),
     }
-    for key in METRIC_KEYS:
-        row[key] = value(runners, key)
-    row["iteration_s"] = value(result, "time_this_iter_s")
-    row["sample_steps_per_s"] = (value(throughput, "throughput_since_last_reduce")
-                                 if isinstance(throughput, dict) else math.nan)
     return row
 
 
@@ -237,7 +249,7 @@ def read_log(out: Path) -> list[dict]:
     if not path.exists():
         return []
     with path.open(newline="") as f:
-        return [{k: (int(v) if k in ("iteration", "env_steps", "episodes") else float(v))
+        return [{k: (int(v) if k in INTEGER_COLUMNS else float(v))
                  for k, v in row.items()} for row in csv.DictReader(f)]
 
 
