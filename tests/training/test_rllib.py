@@ -66,6 +66,16 @@ def test_resume_continues_from_the_newest_checkpoint(short_run):
         train(replace(settings, ppo=replace(TINY_PPO, lr=1e-3), iterations=4, resume=True))
 
 
+def test_a_seeded_run_without_remote_runners_repeats_its_numbers(ray_session, tmp_path):
+    settings = TrainSettings(scene=TINY_SCENE, ppo=TINY_PPO, iterations=2, env_runners=0,
+                             out=str(tmp_path / "a"), seed=7, progress=False)
+    timing = ("iteration_s", "sample_steps_per_s")
+    runs = [train(replace(settings, out=str(tmp_path / name))).rows for name in "ab"]
+    first, second = ([{k: v for k, v in r.items() if k not in timing} for r in rows]
+                     for rows in runs)
+    np.testing.assert_equal(first, second)
+
+
 def test_the_learned_robot_plans_from_its_own_observation(short_run):
     from marl_social.training.learned import LearnedPlanner, learned_episode
 
