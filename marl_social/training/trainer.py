@@ -284,15 +284,26 @@ def _start(settings: TrainSettings, out: Path):
         rows = [r for r in read_log(out) if r["iteration"] <= done]
         _write_log(out, rows)
         return algo, done, rows
-    if settings.resume:
-        raise TrainingError(f"--resume: no checkpoint in {out / 'checkpoints'} to resume from")
-    if saved or (out / LOG_FILE).exists():
-        raise TrainingError(f"{out} already holds a run: pass --resume to continue it or "
-                            "another --out")
     out.mkdir(parents=True, exist_ok=True)
     (out / SETTINGS_FILE).write_text(json.dumps(settings.to_json(), indent=2))
     _write_log(out, [])
     return build_config(settings).build_algo(), 0, []
+
+
+def _check_out(settings: TrainSettings, out: Path) -> None:
+    """A TrainingError unless `out` is new, or holds a run to resume with these settings."""
+    if not settings.resume:
+        if checkpoints(out) or (out / LOG_FILE).exists():
+            raise TrainingError(f"{out} already holds a run: pass --resume to continue it or "
+                                "another --out")
+        return
+    if not checkpoints(out):
+        raise TrainingError(f"--resume: no checkpoint in {out / 'checkpoints'} to resume from")
+    if (out / SETTINGS_FILE).exists():
+        saved = TrainSettings.from_json(json.loads((out / SETTINGS_FILE).read_text()))
+        if saved.scene != settings.scene or saved.ppo != settings.ppo:
+            raise TrainingError(f"--resume: {out} was trained on other scene or PPO settings "
+                                f"({out / SETTINGS_FILE})")
 
 
 def train(settings: TrainSettings) -> TrainResult:
@@ -308,11 +319,7 @@ def train(settings: TrainSettings) -> TrainResult:
     from marl_social.studies.ray_backend import RayConnectionError, connect
 
     out = Path(settings.out)
-    if settings.resume and (out / SETTINGS_FILE).exists():
-        saved = TrainSettings.from_json(json.loads((out / SETTINGS_FILE).read_text()))
-        if saved.scene != settings.scene or saved.ppo != settings.ppo:
-            raise TrainingError(f"--resume: {out} was trained on other scene or PPO settings "
-                                f"({out / SETTINGS_FILE})")
+    _check_out(settings, out)
     cpus = settings.cpus or settings.env_runners + 1
     try:
         started = connect(ray, settings.address, cpus)

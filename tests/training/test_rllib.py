@@ -6,8 +6,6 @@ planner in the reproduce table, one-line errors. (A killed env runner restarted:
 from __future__ import annotations
 
 import csv
-import os
-import subprocess
 import sys
 from dataclasses import replace
 
@@ -66,13 +64,12 @@ def test_resume_continues_from_the_newest_checkpoint(short_run):
         train(replace(settings, ppo=replace(TINY_PPO, lr=1e-3), iterations=4, resume=True))
 
 
-def test_a_seeded_run_without_remote_runners_repeats_its_numbers(ray_session, tmp_path):
-    settings = TrainSettings(scene=TINY_SCENE, ppo=TINY_PPO, iterations=2, env_runners=0,
-                             out=str(tmp_path / "a"), seed=7, progress=False)
+def test_a_seeded_run_without_remote_runners_repeats_its_numbers(short_run, tmp_path):
+    settings, result = short_run
+    again = train(replace(settings, out=str(tmp_path / "again")))
     timing = ("iteration_s", "sample_steps_per_s")
-    runs = [train(replace(settings, out=str(tmp_path / name))).rows for name in "ab"]
     first, second = ([{k: v for k, v in r.items() if k not in timing} for r in rows]
-                     for rows in runs)
+                     for rows in (result.rows, again.rows))
     np.testing.assert_equal(first, second)
 
 
@@ -101,15 +98,14 @@ def test_without_rllib_the_error_names_the_extra(monkeypatch, tmp_path):
     assert "[rllib]" in RLLIB_HINT
 
 
-def test_cli_errors_are_one_line(tmp_path):
+def test_cli_errors_are_one_line(tmp_path, capsys):
     from marl_social.cli import main
 
     missing = tmp_path / "nothing" / "checkpoints" / "iter_000001"
-    code = subprocess.run([sys.executable, "-m", "marl_social", "train", "eval", str(missing)],
-                          capture_output=True, text=True, check=False,
-                          env={**os.environ, "PYTHONPATH": os.getcwd()})
-    assert code.returncode == 2, code.stderr
-    lines = [line for line in code.stderr.splitlines() if line.strip()]
-    assert len(lines) == 1 and "does not exist" in lines[0], code.stderr
+    assert main(["train", "eval", str(missing)]) == 2
+    lines = [line for line in capsys.readouterr().err.splitlines() if line.strip()]
+    assert lines == [f"marl-social train: error: checkpoint {missing} does not exist"]
     assert main(["train", "--out", str(tmp_path / "r"), "--resume"]) == 2
+    assert "no checkpoint" in capsys.readouterr().err
     assert main(["train", "--learn", "humans", "--observation", "ego+belief"]) == 2
+    assert "ego+belief" in capsys.readouterr().err
