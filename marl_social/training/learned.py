@@ -131,6 +131,15 @@ class LearnedPlanner:
     def __call__(self, obs: np.ndarray) -> np.ndarray:
         """The (2,) float32 [a m/s^2, delta rad] for the robot's own observation."""
         full = obs if self.features is None else np.concatenate([obs, self.features(obs)])
+        return self.act_on(full, obs)
+
+    def act_on(self, full: np.ndarray, obs: np.ndarray) -> np.ndarray:
+        """The (2,) float32 action for a full observation (with the belief features, if any).
+
+        Args:
+            full: what the policy reads: `obs` and, for "ego+belief", the belief features.
+            obs: the robot's own observation (the pose the steering follows).
+        """
         batch = {"obs": self._torch.from_numpy(self.scaler(full)[None])}
         with self._torch.no_grad():
             logits = self.module.forward_inference(batch)["action_dist_inputs"]
@@ -147,12 +156,36 @@ def _robot_scaler(settings: SceneSettings) -> ObservationScaler:
     return scaler
 
 
+def learned_scene(checkpoint, variant: str, seed: int, max_cycles: int = 200):
+    """(env, policies) of a randomized crosswalk episode with the learned robot.
+
+    The env and every other agent's built-in planner as `run_episode` builds them for a
+    built-in robot planner (the scene's overrides, the "wide" randomization of `seed`, the
+    pedestrian `variant`), the robot's planner swapped for the checkpoint's LearnedPlanner.
+
+    Args:
+        checkpoint: <out>/checkpoints/iter_<n> of a run that trained the robot.
+        variant: the pedestrian variant.
+        seed: the episode's seed (its randomization too).
+        max_cycles: the episode's step limit.
+    """
+    scene = run_settings(Path(checkpoint)).scene
+    env = parallel_env(scenario=scene.scenario, max_cycles=max_cycles,
+                       **{**scene.overrides, **randomized_overrides(seed, "wide"),
+                          "pedestrian": variant})
+    pols = policies(env)
+    pols[ROBOT] = LearnedPlanner.from_checkpoint(checkpoint, env.agent_specs[ROBOT],
+                                                 env.obs_layout, env.road_map,
+                                                 env.possible_agents)
+    return env, pols
+
+
 def learned_episode(job: tuple) -> tuple:
     """One randomized crosswalk episode of the learned robot: the reproduce table's tuple.
 
-    Every other agent runs its built-in planner; the episode, its trace and its metrics are
-    those `run_episode` builds for a built-in robot planner (the same env, seeds, policies,
-    `record_episode` and `episode_metrics`), with the robot's planner swapped.
+    The episode, its trace and its metrics are those `run_episode` gives a built-in robot
+    planner (the same env, seeds, policies, `record_episode` and `episode_metrics`), with the
+    robot's planner swapped (`learned_scene`).
 
     Args:
         job: (checkpoint, variant, seed, max_cycles).
@@ -162,14 +195,7 @@ def learned_episode(job: tuple) -> tuple:
     """
     checkpoint, variant, seed, max_cycles = job
     try:
-        scene = run_settings(Path(checkpoint)).scene
-        env = parallel_env(scenario=scene.scenario, max_cycles=max_cycles,
-                           **{**scene.overrides, **randomized_overrides(seed, "wide"),
-                              "pedestrian": variant})
-        pols = policies(env)
-        spec = env.agent_specs[ROBOT]
-        pols[ROBOT] = LearnedPlanner.from_checkpoint(checkpoint, spec, env.obs_layout,
-                                                     env.road_map, env.possible_agents)
+        env, pols = learned_scene(checkpoint, variant, seed, max_cycles)
         trace = record_episode(env, pols, seed=seed)
         metrics = episode_metrics(trace, env.road_map)
         env.close()

@@ -10,7 +10,8 @@ each. Every final checkpoint is then evaluated on fresh seeds of each variant
 (learned.evaluate_checkpoint), next to the social planner and the oracle on the same episodes.
 
 Writes to `out`: runs/<observation>_seed<k>/ (each run's log and checkpoints), study.json (the
-settings, every run's log and every table row, the wall and CPU time), table.md and
+settings, every run's log and every table row, how much each "ego+belief" robot's acceleration
+depends on its belief (`belief_sensitivity`), the wall and CPU time), table.md and
 return_vs_steps.png (the mean episode return against env steps, every run and each
 observation's mean).
 """
@@ -26,7 +27,7 @@ from pathlib import Path
 
 import numpy as np
 
-from marl_social.training.scene import SceneSettings
+from marl_social.training.scene import ROBOT, SceneSettings
 from marl_social.training.trainer import PPOSettings, TrainSettings, checkpoints, read_log
 
 OBSERVATIONS = ("ego", "ego+belief")
@@ -105,9 +106,12 @@ def run_study(study: StudySettings) -> dict:
         run_episodes([(p, v, s) for p in study.baselines for v in VARIANTS for s in seeds],
                      study.workers),
         study.baselines, VARIANTS, summarize) if study.baselines else []
+    sensitivity = {str(r.seed): belief_sensitivity(c) for r, c in zip(runs, finals)
+                   if r.scene.observation == "ego+belief"}
     result = {
         "settings": {**study.__dict__, "seeds": list(study.seeds),
                      "baselines": list(study.baselines)},
+        "belief_sensitivity": sensitivity,
         "runs": [{"observation": r.scene.observation, "seed": r.seed, "checkpoint": c,
                   "log": read_log(Path(r.out)), "table": rows}
                  for r, c, rows in zip(runs, finals, learned_rows)],
@@ -120,6 +124,73 @@ def run_study(study: StudySettings) -> dict:
     (out / "table.md").write_text(study_table(result))
     plot_returns(result, out / "return_vs_steps.png")
     return result
+
+
+def belief_sensitivity(checkpoint: str, n_seeds: int = 5) -> dict:
+    """How much an "ego+belief" robot's acceleration depends on its belief features.
+
+    Replays the robot's observations of crossing-pedestrian episodes (seeds EVAL_SEED0, ...,
+    the learned robot driving) through its policy three times: with the belief it held, with
+    "no hidden agent" (all mass on "none", arrival ARRIVAL_HORIZON_S) and with "a pedestrian
+    about to step in" (all mass on the present hypothesis that arrives first, at its arrival
+    time). Returns the mean acceleration [m/s^2] of each, the mean absolute difference between
+    the last two and the number of observations.
+
+    Args:
+        checkpoint: a checkpoint of a run trained with observation="ego+belief".
+        n_seeds: episodes.
+    """
+    from marl_social.envs.belief_observation import ARRIVAL_HORIZON_S
+    from marl_social.evaluation.rollout import record_episode
+    from marl_social.training.learned import EVAL_SEED0, learned_scene
+
+    recorded: list[np.ndarray] = []
+    for seed in range(EVAL_SEED0, EVAL_SEED0 + n_seeds):
+        env, pols = learned_scene(checkpoint, "crossing", seed)
+        planner = pols[ROBOT]
+        if planner.features is None:
+            raise ValueError(f"{checkpoint}: not a run with observation='ego+belief'")
+        pols[ROBOT] = _Recording(planner, recorded)
+        record_episode(env, pols, seed=seed)
+        env.close()
+    features = planner.features
+    size = features.layout.size
+    arrival_s, _ = features._arrivals()
+    present = np.array([h.present for h in features.belief.hypotheses])
+    first = int(np.flatnonzero(present)[np.argmin(arrival_s[present])])
+    clear = np.zeros(features.size, np.float32)
+    clear[0], clear[-1] = 1.0, ARRIVAL_HORIZON_S
+    coming = np.zeros(features.size, np.float32)
+    coming[first], coming[-1] = 1.0, arrival_s[first]
+    accel: dict[str, list[float]] = {"as_held": [], "no_hidden_agent": [],
+                                     "pedestrian_coming": []}
+    for full in recorded:
+        ego = full[:size]
+        for key, belief in (("as_held", full[size:]), ("no_hidden_agent", clear),
+                            ("pedestrian_coming", coming)):
+            accel[key].append(float(planner.act_on(np.concatenate([ego, belief]), ego)[0]))
+    out = {f"mean_accel_{k}_mps2": float(np.mean(v)) for k, v in accel.items()}
+    out["mean_abs_change_mps2"] = float(np.mean(np.abs(np.subtract(
+        accel["pedestrian_coming"], accel["no_hidden_agent"]))))
+    out["observations"] = len(recorded)
+    return out
+
+
+class _Recording:
+    """A LearnedPlanner that keeps every full observation (ego + belief) it acts on."""
+
+    needs_truth = False
+
+    def __init__(self, planner, recorded: list):
+        self.planner, self.recorded = planner, recorded
+
+    def reset(self, seed=None):
+        self.planner.reset(seed)
+
+    def __call__(self, obs):
+        full = np.concatenate([obs, self.planner.features(obs)])
+        self.recorded.append(full)
+        return self.planner.act_on(full, obs)
 
 
 def _cpu_s() -> float:
