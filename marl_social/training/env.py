@@ -124,11 +124,20 @@ class SceneEnv(_multi_agent_env_class()):
         return {a: self.scalers[a](o) for a, o in obs.items()}
 
     def _check_spaces(self) -> None:
-        for a in self.possible_agents:
-            if a not in self.env.possible_agents or (
-                    self.env.observation_space(a).shape != self.observation_spaces[a].shape):
-                raise ValueError(f"episode's scene differs in agent {a!r} from the first "
-                                 "episode's (agents or observation size)")
+        """This episode's learners must be among the declared ones, with the declared sizes.
+
+        A declared learner may be absent from an episode (RLlib's possible_agents); one that
+        was not declared cannot appear (e.g. a randomized number of humans beyond the first
+        episode's: fix it with an override).
+        """
+        new = [a for a in self.env.possible_agents if a not in self.observation_spaces]
+        if new:
+            raise ValueError(f"an episode has learners {new} that the first episode did not "
+                             f"have ({self.possible_agents}): fix their number with an override")
+        for a in self.env.possible_agents:
+            if self.env.observation_space(a).shape != self.observation_spaces[a].shape:
+                raise ValueError(f"agent {a!r}: this episode's observation size differs from "
+                                 "the first episode's")
 
     def render(self):
         """The base env's frame (build the scene with overrides={"render_mode": "rgb_array"})."""
