@@ -24,6 +24,7 @@ from marl_social.cli.overrides import (
     unknown_name,
     variant_names,
 )
+from marl_social.cli.train import add_train
 from marl_social.scenarios import SCENARIOS
 from marl_social.sim.seeds import seed_argument
 
@@ -295,6 +296,7 @@ def build_parser() -> argparse.ArgumentParser:
     for add in (_add_demo, _add_reproduce, _add_record, _add_irl, _add_study, _add_bench,
                 _add_params, _add_maps, _add_scenes, _add_teach):
         add(sub)
+    add_train(sub, FORMATTER, SET_HELP)
     return parser
 
 

@@ -74,7 +74,7 @@ class HomogeneousSpacesEnv(BaseParallelWrapper):
             (2,) float64 action: [a m/s^2, delta rad] or pedestrian [vx, vy] m/s.
         """
         a = self.env.unwrapped.check_action(agent, action)
-        return np.where(a >= 0.0, a * self._high[agent], -a * self._low[agent])
+        return from_normalized(a, self._low[agent], self._high[agent])
 
     def check_action(self, agent: str, action) -> np.ndarray:
         """The wrapped env's check of a normalized action (for the AEC conversion)."""
@@ -129,6 +129,19 @@ class HomogeneousSpacesEnv(BaseParallelWrapper):
     def state(self) -> np.ndarray:
         """The wrapped env's global state (marl_social/envs/spaces.py)."""
         return self.env.state()
+
+
+def from_normalized(action: np.ndarray, low: np.ndarray, high: np.ndarray) -> np.ndarray:
+    """A normalized (2,) action in [-1, 1] in an agent's own units, keeping 0 at 0.
+
+    a >= 0 -> a * high, a < 0 -> a * |low| (see the module docstring).
+
+    Args:
+        action: (2,) float64 normalized action.
+        low: (2,) the agent's action space's lower bounds (<= 0).
+        high: (2,) its upper bounds (>= 0).
+    """
+    return np.where(action >= 0.0, action * high, -action * low)
 
 
 def homogeneous_spaces(env) -> HomogeneousSpacesEnv:

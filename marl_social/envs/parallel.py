@@ -339,7 +339,8 @@ def _action_space(spec) -> spaces.Box:
 
 
 def parallel_env(scenario: str = "occluded_crosswalk", render_mode: str | None = None,
-                 max_cycles: int = 200, homogeneous_spaces: bool = False, **overrides):
+                 max_cycles: int = 200, homogeneous_spaces: bool = False,
+                 observation: str = "ego", **overrides):
     """The PettingZoo ParallelEnv (see SocialDrivingEnv).
 
     Args:
@@ -349,12 +350,23 @@ def parallel_env(scenario: str = "occluded_crosswalk", render_mode: str | None =
         homogeneous_spaces: one Box(-1, 1, (2,)) action space for every agent and zero padding
             for agents that finish early, for SuperSuit's vector envs
             (marl_social/envs/homogeneous.py).
+        observation: "ego" (the shared layout for every agent) or "ego+belief" (the robot's
+            also holds its social belief: marl_social/envs/belief_observation.py).
         **overrides: scenario parameters and SocialDrivingEnv's other options.
     """
     env = SocialDrivingEnv(scenario=scenario, render_mode=render_mode, max_cycles=max_cycles,
                            **overrides)
     if not isinstance(homogeneous_spaces, (bool, np.bool_)):
         raise TypeError(f"homogeneous_spaces must be a bool, got {_short(homogeneous_spaces)}")
+    if observation not in ("ego", "ego+belief"):
+        raise ValueError(f"observation must be 'ego' or 'ego+belief', got {_short(observation)}")
+    if observation == "ego+belief":
+        if homogeneous_spaces:
+            raise ValueError("observation='ego+belief' and homogeneous_spaces=True: the robot's "
+                             "observation would differ from the others' (wrap it yourself)")
+        from marl_social.envs.belief_observation import belief_observation
+
+        return belief_observation(env)
     if homogeneous_spaces:
         from marl_social.envs.homogeneous import HomogeneousSpacesEnv
 

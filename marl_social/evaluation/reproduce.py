@@ -74,17 +74,18 @@ def run_table(n_seeds: int, workers: int = 2, planners=PAPER_PLANNERS, variants=
     """
     jobs = [(p, v, s, overrides or {}) for p in planners for v in variants for s in range(n_seeds)]
     results = run_episodes(jobs, workers, progress=progress)
-
-    def summarize(runs: list[dict]) -> dict:
-        return {
-            "collision_rate": float(np.mean([m["robot_collision"] for m in runs])),
-            "yield_rate": float(np.mean([m["yielded"] for m in runs])),
-            "hard_brake_rate": float(np.mean([m["hard_brake"] for m in runs])),
-            "time_to_pass_s": float(np.nanmean([m["time_to_pass_s"] for m in runs])),
-            "mean_speed_mps": float(np.mean([m["mean_speed_mps"] for m in runs])),
-        }
-
     return table_rows(results, planners, variants, summarize)
+
+
+def summarize(runs: list[dict]) -> dict:
+    """The table's values of one row's episodes (their `episode_metrics`, >= 1)."""
+    return {
+        "collision_rate": float(np.mean([m["robot_collision"] for m in runs])),
+        "yield_rate": float(np.mean([m["yielded"] for m in runs])),
+        "hard_brake_rate": float(np.mean([m["hard_brake"] for m in runs])),
+        "time_to_pass_s": float(np.nanmean([m["time_to_pass_s"] for m in runs])),
+        "mean_speed_mps": float(np.mean([m["mean_speed_mps"] for m in runs])),
+    }
 
 
 def table_rows(results: list[tuple], planners, variants, summarize) -> list[dict]:

@@ -29,28 +29,57 @@ def record_episode(env, policies: dict, seed: int | None = None, render: bool = 
     for name, policy in policies.items():
         policy.reset(None if seed is None else seed + base.possible_agents.index(name))
     obs, infos = env.reset(seed=seed)
-    names = list(base.possible_agents)
-    trace = Trace(names, [base.agent_specs[a].role for a in names],
-                  base.world.bounding_radius_m.copy())
-
-    def snapshot():
-        world = base.world
-        trace.times_s.append(world.time_s)
-        trace.states.append(world.state.copy())
-        trace.active.append(world.active.copy())
-        trace.visible.append(base.last_fov.visible.copy())
-        trace.signal_states.append(world.signal_states())
-        if render and (len(trace.times_s) - 1) % render_every == 0:
-            trace.frames.append(env.render())
-
-    snapshot()
-    n = len(names)
+    recorder = TraceRecorder(env, render, render_every)
     while env.agents:
         actions = {a: policies[a](obs[a]) for a in env.agents}
         obs, rewards, _, _, infos = env.step(actions)
-        world = base.world
-        reward_row = np.zeros(n)
-        collided_row = np.zeros(n, dtype=bool)
+        recorder.record_step(rewards, infos)
+        if until is not None and until(env):
+            break
+    return recorder.trace.finalize()
+
+
+class TraceRecorder:
+    """Records a SocialDrivingEnv's episode into a Trace, one call per step.
+
+    Build it right after `env.reset()` (it records the reset state), then call `record_step`
+    after every `env.step()`; `trace.finalize()` once the episode is over.
+
+    Args:
+        env: the SocialDrivingEnv (or a wrapper of it), just reset.
+        render: also collect env.render() frames (env must have render_mode="rgb_array").
+        render_every: keep one frame every this many steps.
+    """
+
+    def __init__(self, env, render: bool = False, render_every: int = 1):
+        self.env, self.render, self.render_every = env, render, render_every
+        self.base = base = getattr(env, "unwrapped", env)
+        self.names = list(base.possible_agents)
+        self.trace = Trace(self.names, [base.agent_specs[a].role for a in self.names],
+                           base.world.bounding_radius_m.copy())
+        self.snapshot()
+
+    def snapshot(self) -> None:
+        """Append the current state (time, states, activity, visibility, signals[, frame])."""
+        world, trace = self.base.world, self.trace
+        trace.times_s.append(world.time_s)
+        trace.states.append(world.state.copy())
+        trace.active.append(world.active.copy())
+        trace.visible.append(self.base.last_fov.visible.copy())
+        trace.signal_states.append(world.signal_states())
+        if self.render and (len(trace.times_s) - 1) % self.render_every == 0:
+            trace.frames.append(self.env.render())
+
+    def record_step(self, rewards: dict, infos: dict) -> None:
+        """Append one step: its actions, accelerations, rewards, collisions, then the state.
+
+        Args:
+            rewards: {agent: reward} of the step (agents absent: 0).
+            infos: {agent: info} of the step (each with "collision").
+        """
+        world, trace, names = self.base.world, self.trace, self.names
+        reward_row = np.zeros(len(names))
+        collided_row = np.zeros(len(names), dtype=bool)
         for a, r in rewards.items():
             reward_row[names.index(a)] = r
             collided_row[names.index(a)] = infos[a]["collision"]
@@ -58,7 +87,4 @@ def record_episode(env, policies: dict, seed: int | None = None, render: bool = 
         trace.accel_mps2.append(world.accel_mps2.copy())
         trace.rewards.append(reward_row)
         trace.collided.append(collided_row)
-        snapshot()
-        if until is not None and until(env):
-            break
-    return trace.finalize()
+        self.snapshot()
