@@ -1,8 +1,9 @@
 """The noisily-rational action model: how likely a human's observed acceleration is (eq. 9-10).
 
 The robot predicts a human's action distribution from its Q-values (Boltzmann, rationality
-beta) and weighs the acceleration it observed, blurred by the observation noise, plus an
-outlier term; `bounded_log_likelihood` caps what one observation can do to a belief.
+beta) and weighs the acceleration it observed with a heavy-tailed (Student-t) kernel of the
+observation noise about each action; `bounded_log_likelihood` caps what one observation can do
+to a belief.
 `perception/belief/social.py` (hidden agents, traffic speed) and `phase.py` (signal phases)
 both score humans with it.
 """
@@ -24,52 +25,76 @@ LOG_SPEED_NODE_WEIGHTS = np.log(np.array([1.0, 4.0, 1.0]) / 6.0)
 for _constant in (SPEED_NODES_SIGMA, LOG_SPEED_NODE_WEIGHTS):
     _constant.setflags(write=False)
 SIGMA_MIN_MPS2 = 1e-3  # the observation noise on a_obs is at least this [m/s^2]
-OUTLIER_PROB_MAX = 1.0 - 1e-12  # rho stays below 1 (some weight on the model)
-OUTLIER_MARGIN_SIGMAS = 3.0  # the outlier density spans the actions' range +- this many sigma
 
 
 def action_log_likelihood(q_values: np.ndarray, beta: float, a_obs: float,
                           actions_mps2: np.ndarray, sigma_mps2: float,
-                          outlier_prob: float = 0.0) -> np.ndarray:
+                          tail_dof: float = math.inf) -> np.ndarray:
     """Log P(a_obs | x) of one observed acceleration under several hypotheses x (eq. 9-10).
 
-        P(a_obs | x) = (1 - rho) sum_u softmax(-beta Q*(x, .))[u] N(a_obs; u, sigma^2)
-                       + rho U(a_obs)
+        P(a_obs | x) = sum_u softmax(-beta Q*(x, .))[u] t_nu(a_obs - u; sigma)
 
-    rho = outlier_prob (0 gives eq. 10 exactly): a uniform density U over the actions' range
-    widened by 3 sigma on each side, for observations no candidate explains (a tracking glitch,
-    a model mismatch); it bounds what one step can do to the belief.
+    with t_nu the Student-t density of nu = tail_dof degrees of freedom and scale sigma
+    (`observation_log_kernel`; nu = inf is the normal density of eq. 10). Its tails are heavy:
+    an observation far from every candidate (a tracking glitch, an emergency stop the model
+    does not predict) still favours the hypotheses whose actions lie nearest to it, by a
+    bounded factor, instead of counting for nothing or for everything.
 
     Args:
         q_values: (..., A) Q*_H(x, u) of the A candidate actions (eq. 11) per hypothesis.
         beta: rationality of the model (inf = argmin).
         a_obs: observed acceleration [m/s^2]; non-finite values give zeros (uninformative).
         actions_mps2: (A,) accelerations the candidate actions execute as [m/s^2].
-        sigma_mps2: std of the observation noise on a_obs [m/s^2].
-        outlier_prob: rho in [0, 1).
+        sigma_mps2: scale of the observation noise on a_obs [m/s^2].
+        tail_dof: nu > 0 (inf: normal).
 
     Returns:
         (...) log-likelihoods.
     """
     q = np.asarray(q_values, dtype=np.float64)
-    sigma = max(float(sigma_mps2), SIGMA_MIN_MPS2)
     actions = np.asarray(actions_mps2, dtype=np.float64)
-    log_gauss_norm = math.log(sigma * math.sqrt(2 * math.pi))
     if q.shape[-1] == 0:
         raise ValueError("action_log_likelihood: no candidate actions (q_values' last axis is "
                          "empty)")
-    if math.isinf(beta):
-        log_model = _argmin_log_model(q, a_obs, actions, sigma, log_gauss_norm)
-    else:  # numpy's np.exp and np.log, the steps between them compiled
-        log_model = _compiled_log_model(q, beta, a_obs, actions, sigma, log_gauss_norm)
-    if log_model is None:
+    if not math.isfinite(a_obs) or (math.isinf(beta) and not np.all(np.isfinite(q))):
         return np.zeros(q.shape[:-1])
-    rho = min(max(float(outlier_prob), 0.0), OUTLIER_PROB_MAX)  # np.clip's value, no call
-    if rho == 0.0:
-        return log_model
-    width = actions.max() - actions.min() + 2.0 * OUTLIER_MARGIN_SIGMAS * sigma
-    log_outlier = math.log(rho / width)
-    return np.logaddexp(math.log1p(-rho) + log_model, log_outlier)
+    log_kernel = observation_log_kernel(a_obs, actions, sigma_mps2, tail_dof)
+    if math.isinf(beta):
+        with np.errstate(divide="ignore"):
+            log_p = np.log(boltzmann(q, math.inf))
+        return logsumexp(log_p + log_kernel, axis=-1)
+    # numpy's np.exp and np.log, the steps between them compiled
+    log_model = _compiled_log_model(q, beta, log_kernel)
+    return np.zeros(q.shape[:-1]) if log_model is None else log_model
+
+
+def observation_log_kernel(a_obs: float, actions_mps2: np.ndarray, sigma_mps2: float,
+                           tail_dof: float = math.inf) -> np.ndarray:
+    """(A,) log t_nu(a_obs - u; sigma) of each candidate action u (nu = inf: normal).
+
+        log t_nu(d; sigma) = lgamma((nu + 1) / 2) - lgamma(nu / 2) - log(sqrt(nu pi) sigma)
+                             - (nu + 1) / 2 log(1 + (d / sigma)^2 / nu)
+
+    sigma is at least SIGMA_MIN_MPS2. An absurd a_obs gives -inf everywhere (uninformative
+    downstream).
+
+    Args:
+        a_obs: observed acceleration [m/s^2].
+        actions_mps2: (A,) candidate accelerations [m/s^2].
+        sigma_mps2: scale [m/s^2].
+        tail_dof: degrees of freedom nu > 0.
+    """
+    sigma = max(float(sigma_mps2), SIGMA_MIN_MPS2)
+    nu = float(tail_dof)
+    if not nu > 0:
+        raise ValueError(f"observation_log_kernel: tail_dof must be > 0, got {tail_dof!r}")
+    with np.errstate(over="ignore"):
+        d2 = ((a_obs - np.asarray(actions_mps2, dtype=np.float64)) / sigma) ** 2
+    if math.isinf(nu):
+        return -0.5 * d2 - math.log(sigma * math.sqrt(2 * math.pi))
+    norm = (math.lgamma(0.5 * (nu + 1.0)) - math.lgamma(0.5 * nu)
+            - math.log(math.sqrt(nu * math.pi) * sigma))
+    return norm - 0.5 * (nu + 1.0) * np.log1p(d2 / nu)
 
 
 def speed_nodes_mps(v_mps: float, std_mps: float) -> np.ndarray:
@@ -83,7 +108,7 @@ def speed_nodes_mps(v_mps: float, std_mps: float) -> np.ndarray:
 
 def speed_averaged_log_likelihood(q_nodes: np.ndarray, beta: float, a_obs: float,
                                   actions_mps2: np.ndarray, sigma_mps2: float,
-                                  outlier_prob: float = 0.0) -> np.ndarray:
+                                  tail_dof: float = math.inf) -> np.ndarray:
     """`action_log_likelihood` averaged over the robot's uncertainty about the human's speed.
 
         P(a_obs | x) = sum_s w_s P(a_obs | x, v_s)
@@ -100,48 +125,40 @@ def speed_averaged_log_likelihood(q_nodes: np.ndarray, beta: float, a_obs: float
         a_obs: observed acceleration [m/s^2].
         actions_mps2: (A,) accelerations the candidate actions execute as [m/s^2].
         sigma_mps2: std of the observation noise on a_obs [m/s^2].
-        outlier_prob: rho in [0, 1) (action_log_likelihood).
+        tail_dof: the kernel's degrees of freedom (action_log_likelihood).
 
     Returns:
         (...) log-likelihoods; zeros (uninformative) where any is not finite.
     """
-    ll = action_log_likelihood(q_nodes, beta, a_obs, actions_mps2, sigma_mps2, outlier_prob)
+    ll = action_log_likelihood(q_nodes, beta, a_obs, actions_mps2, sigma_mps2, tail_dof)
     if not np.all(np.isfinite(ll)):
         return np.zeros(ll.shape[1:])
     weights = LOG_SPEED_NODE_WEIGHTS.reshape((-1,) + (1,) * (ll.ndim - 1))
     return logsumexp(ll + weights, axis=0)
 
 
-def _argmin_log_model(q: np.ndarray, a_obs: float, actions: np.ndarray, sigma: float,
-                      log_gauss_norm: float) -> np.ndarray | None:
-    """Log sum_u argmin(q)[u] N(a_obs; u, sigma^2) (...): beta = inf; None if not finite."""
-    if not math.isfinite(a_obs) or not np.all(np.isfinite(q)):
-        return None
-    with np.errstate(divide="ignore"):
-        log_p = np.log(boltzmann(q, math.inf))
-    with np.errstate(over="ignore"):  # an absurd a_obs gives -inf everywhere: uninformative
-        log_gauss = -0.5 * ((a_obs - actions) / sigma) ** 2 - log_gauss_norm
-    return logsumexp(log_p + log_gauss, axis=-1)
-
-
-def _compiled_log_model(q: np.ndarray, beta: float, a_obs: float, actions: np.ndarray,
-                        sigma: float, log_gauss_norm: float) -> np.ndarray | None:
-    """Log sum_u softmax(-beta q)[u] N(a_obs; u, sigma^2) (...), finite beta; None if not finite.
+def _compiled_log_model(q: np.ndarray, beta: float, log_kernel: np.ndarray
+                        ) -> np.ndarray | None:
+    """Log sum_u softmax(-beta q)[u] exp(log_kernel[u]) (...), finite beta; None if not finite.
 
     numpy's np.exp and np.log; belief_kernels.boltzmann_exponents, row_sums and
     shifted_log_model_terms do the rest in the order of the numpy formulation they replaced
     (tests/perception/test_belief_kernels.py compares them bit for bit, any row length).
+
+    Args:
+        q: (..., A) Q-values.
+        beta: rationality (finite).
+        log_kernel: (A,) log density of the observation under each action
+            (`observation_log_kernel`).
     """
-    if not math.isfinite(a_obs):
-        return None
     kernels = compiled.kernels()
     rows = np.ascontiguousarray(q).reshape(-1, q.shape[-1])
     z = kernels.boltzmann_exponents(rows, float(beta))
     if not len(z) and len(rows):  # a Q-value is not finite
         return None
     log_norm = np.log(kernels.row_sums(np.exp(z)))  # each sum >= exp(0) = 1
-    shifted, top = kernels.shifted_log_model_terms(
-        z, log_norm, float(a_obs), np.ascontiguousarray(actions), sigma, log_gauss_norm)
+    shifted, top = kernels.shifted_log_model_terms(z, log_norm,
+                                                   np.ascontiguousarray(log_kernel))
     with np.errstate(divide="ignore"):
         log_sum = np.log(kernels.row_sums(np.exp(shifted)))
     return (log_sum + top).reshape(q.shape[:-1])

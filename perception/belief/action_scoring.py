@@ -1,7 +1,7 @@
 """Scoring a human's observed action against the robot's prediction of it (eq. 9-10).
 
-P(a_obs | x_l, v) = (1 - rho) sum_u softmax(-beta Q*_H(x_l, v, .))[u] N(a_obs; u, sigma^2)
-+ rho U(a_obs) (action_model.action_log_likelihood; averaged over the robot's estimate of the
+P(a_obs | x_l, v) = sum_u softmax(-beta Q*_H(x_l, v, .))[u] t_nu(a_obs - u; sigma)
+(action_model.action_log_likelihood; averaged over the robot's estimate of the
 human's speed where the Q-values come from three speeds, speed_averaged_log_likelihood), with
 sigma from the human's own execution noise and the robot's track of it. The Q-values come from
 human_prediction.HumanPrediction; the rationality beta from rationality.RationalityBelief.
@@ -26,7 +26,7 @@ class ActionScoring:
     """The likelihood of a human's observed acceleration under each hypothesis and speed.
 
     Args:
-        config: BeliefConfig (accel_noise_mps2, outlier_prob, marginalize_speed).
+        config: BeliefConfig (accel_noise_mps2, tail_dof, marginalize_speed).
     """
 
     def __init__(self, config: BeliefConfig):
@@ -45,7 +45,7 @@ class ActionScoring:
         """
         score = (action_log_likelihood if q_values.ndim == 3
                  else speed_averaged_log_likelihood)
-        return score(q_values, beta, a_est, actions_mps2, sigma_mps2, self.config.outlier_prob)
+        return score(q_values, beta, a_est, actions_mps2, sigma_mps2, self.config.tail_dof)
 
     def observation_sigma_mps2(self, tracks: TrackSet, k: int, heading_rad: float) -> float:
         """Std of a human's acceleration read off the robot's track about its action [m/s^2].
@@ -65,22 +65,18 @@ class ActionScoring:
         var_track = variance_along(tracks.velocity_change_cov[k], heading_rad) / DT_S ** 2
         return math.sqrt(base * base + max(var_track, 0.0))
 
-    def speed_std_mps(self, tracks: TrackSet, k: int, heading_rad: float,
-                      curved: bool) -> float | None:
-        """Std of the robot's estimate of a human's speed along its route [m/s], where it counts.
+    def speed_std_mps(self, tracks: TrackSet, k: int, heading_rad: float) -> float | None:
+        """Std of the robot's estimate of a human's speed along its route [m/s].
 
         From the track's velocity covariance (TrackSet.velocity_cov). None (the model at the
-        estimate alone) without it, with BeliefConfig.marginalize_speed off, or on a route
-        without a bend: there the measured gain did not pay for three evaluations
-        (BeliefConfig.marginalize_speed).
+        estimate alone) without it or with BeliefConfig.marginalize_speed off.
 
         Args:
             tracks: the robot's current tracks.
             k: the human's row in tracks.
             heading_rad: its route heading [rad].
-            curved: its route has a curve speed (HumanPrediction.curve_speed).
         """
-        if not self.config.marginalize_speed or tracks.velocity_cov is None or not curved:
+        if not self.config.marginalize_speed or tracks.velocity_cov is None:
             return None
         return math.sqrt(max(variance_along(tracks.velocity_cov[k], heading_rad), 0.0))
 

@@ -125,24 +125,20 @@ def row_sums(values):
     return out
 
 
-@numba.njit((_array(2), _array(1), _F8, _array(1), _F8, _F8), **_JIT)
-def shifted_log_model_terms(z, log_norm, a_obs, actions, sigma, log_gauss_norm):
-    """The shifted terms of logsumexp(log_p + log_gauss) and its shift per row.
+@numba.njit((_array(2), _array(1), _array(1)), **_JIT)
+def shifted_log_model_terms(z, log_norm, log_kernel):
+    """The shifted terms of logsumexp(log_p + log_kernel) and its shift per row.
 
     With log_p = z - log_norm[r] (the Boltzmann log-probabilities of the R rows (R, A)) and
-    log_gauss = -0.5 ((a_obs - actions) / sigma)^2 - log_gauss_norm (A,): x = log_p +
-    log_gauss, top = x.max(axis=-1) (0 where not finite); returns x - top (R, A) and top (R,).
+    log_kernel (A,) the observation's log density under each action: x = log_p + log_kernel,
+    top = x.max(axis=-1) (0 where not finite); returns x - top (R, A) and top (R,).
     """
     n_rows, n_act = z.shape
-    log_gauss = np.empty(n_act)
-    for a in range(n_act):
-        d = (a_obs - actions[a]) / sigma
-        log_gauss[a] = -0.5 * (d * d) - log_gauss_norm
     x = np.empty((n_rows, n_act))
     top = np.empty(n_rows)
     for r in range(n_rows):
         for a in range(n_act):
-            x[r, a] = (z[r, a] - log_norm[r]) + log_gauss[a]
+            x[r, a] = (z[r, a] - log_norm[r]) + log_kernel[a]
         t = _nan_max(x[r], np.int64(0), n_act)
         if not math.isfinite(t):
             t = 0.0

@@ -38,8 +38,7 @@ class BeliefConfig:
             sigma of N(a_obs; u, sigma^2) is this and the robot's track error in quadrature
             (social.py).
         hazard_per_s: rate at which hidden pedestrians arrive at a crosswalk end, and at which
-            hypothesised ones vanish [1/s] (hypotheses.motion_transition); also the traffic
-            speed's rate of change.
+            hypothesised ones vanish [1/s] (hypotheses.motion_transition).
         floor: beliefs never drop below this before normalization.
         epsilon: the paper's tail threshold (for the planner; see `PedestrianBelief.live`).
         beta_hat: the robot's model of the humans' rationality.
@@ -65,19 +64,29 @@ class BeliefConfig:
             expects_yield); False (the default): at constant velocity.
         walking_speed_min_mps: a seen pedestrian moving at least this fast along a hypothesis'
             walking direction is stepping onto the crosswalk [m/s].
-        outlier_prob: weight rho of a uniform outlier component in P(a_obs | x)
-            (`action_log_likelihood`; 0 = eq. 10 exactly).
+        tail_dof: degrees of freedom nu of the Student-t kernel t_nu(a_obs - u; sigma) that
+            scores an observed acceleration against each candidate action u
+            (action_model.action_log_likelihood; inf: the normal kernel of eq. 10). Heavy tails:
+            an acceleration the model does not predict (an emergency stop, a tracking glitch)
+            favours the hypotheses whose actions lie nearest to it by a bounded factor.
         max_log_likelihood_ratio: bound on how far one observed action moves the log-odds
             between any two sets of hypotheses [nats] (social.bounded_log_likelihood).
-        marginalize_speed: on a route with a bend, the robot's model of a human is averaged
-            over the robot's estimate of the human's speed (three Gauss-Hermite nodes of the
-            track's velocity std along its route; action_model.speed_averaged_log_likelihood,
-            SocialLikelihood.speed_std_mps): a best action that changes across ~0.1 m/s
-            (whether it can still make its curve speed) is not predicted with confidence on
-            the wrong side of that change. Not on straight routes: on the crosswalk it moved
-            the belief's claim from 81 to 82 of 95 fresh seeds and made the robot's decision
-            1.67 times slower; on the T-intersection the social robot's time
-            without a hidden car went from 1.034 to 1.009 of the oracle's.
+        traffic_hazard_per_s: rate at which the traffic speed v_traffic changes [1/s] (the
+            traffic-speed belief's Markov transition). 0 (the default): the flow's speed is one
+            unknown of the episode; a human braking now is not read as the flow having just
+            slowed down.
+        cruise_speed_std_mps: spread of the humans' cruising speeds about the flow speed [m/s]:
+            a tracked human's speed when its track first counts (min_track_steps) is evidence
+            N(v_i; v_traffic, cruise_speed_std_mps^2) about the traffic speed, once per human
+            (social.SocialLikelihood). A driver seen at 11 m/s is unlikely to want 7.6.
+        marginalize_speed: the robot's model of a human is averaged over the robot's estimate
+            of the human's speed (three Gauss-Hermite nodes of the track's velocity std along
+            its route; action_model.speed_averaged_log_likelihood, ActionScoring.speed_std_mps):
+            a best action that changes across ~0.1 m/s (whether it can still make its curve
+            speed, or stop comfortably before a crosswalk) is not predicted with confidence on
+            the wrong side of that change. On the crosswalk it keeps the belief from dithering
+            about 0.5 while a human brakes with a pause (the claim "crosses 0.5 at most once");
+            it makes the robot's decision about 1.4 times slower.
         min_track_steps: a human's acceleration is used once its track has been measured this
             many consecutive steps (a new Kalman track's velocity is still settling; with 3,
             a 1 m position noise gave false beliefs up to 0.54 in the first 0.6 s).
@@ -119,8 +128,10 @@ class BeliefConfig:
     human_half_fov_rad: float = math.radians(70.0)
     human_expects_yield: bool = False
     walking_speed_min_mps: float = 0.5
-    outlier_prob: float = 0.05
-    max_log_likelihood_ratio: float = 2.5
+    tail_dof: float = 8.0
+    max_log_likelihood_ratio: float = 4.0
+    traffic_hazard_per_s: float = 0.0
+    cruise_speed_std_mps: float = 1.5
     marginalize_speed: bool = True
     min_track_steps: int = 6
     track_accel_noise_mps2: float = 1.5
@@ -143,9 +154,11 @@ class BeliefConfig:
             raise ValueError(f"BeliefConfig.beta_grid_hat must be a sequence of betas >= 0, "
                              f"got {self.beta_grid_hat!r}")
         if not (self.accel_noise_mps2 > 0 and self.hazard_per_s >= 0 and self.floor > 0
-                and self.max_log_likelihood_ratio > 0):
+                and self.max_log_likelihood_ratio > 0 and self.tail_dof > 0
+                and self.traffic_hazard_per_s >= 0 and self.cruise_speed_std_mps > 0):
             raise ValueError("BeliefConfig: need accel_noise_mps2 > 0, hazard_per_s >= 0, "
-                             "floor > 0, max_log_likelihood_ratio > 0")
+                             "floor > 0, max_log_likelihood_ratio > 0, tail_dof > 0, "
+                             "traffic_hazard_per_s >= 0, cruise_speed_std_mps > 0")
         fractions = np.asarray(self.vehicle_speed_fractions, dtype=np.float64)
         if fractions.ndim != 1 or len(fractions) == 0 or not np.all(fractions > 0):
             raise ValueError("BeliefConfig.vehicle_speed_fractions must be a non-empty sequence "

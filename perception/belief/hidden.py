@@ -141,7 +141,7 @@ class HiddenAgentBelief:
                                           vel_noise_mps=config.track_vel_noise_mps,
                                           accel_noise_mps2=config.track_accel_noise_mps2)
         self.traffic = TrafficSpeedBelief(config.traffic_grid_mps(road_map.speed_limit_mps),
-                                          config.hazard_per_s * DT_S,
+                                          config.traffic_hazard_per_s * DT_S,
                                           config.floor)
         self._joint_transition = np.kron(self.transition, self.traffic.transition)
         n_v = len(self.traffic.grid_mps)

@@ -14,7 +14,7 @@ controller is. Its belief over the P phases is a hidden Markov model (Algorithm 
   model as the hidden-agent belief) on each phase hypothesis: in phase p its head shows
   state_p, and it stops at its line if `must_stop(state_p, v, d)` (a stop-line constraint in
   its Q*, models/driver.RoadRules), else it drives on. The acceleration observed one step later
-  is scored with `action_log_likelihood` (outlier term, clipped by max_log_likelihood_ratio);
+  is scored with `action_log_likelihood` (heavy-tailed kernel, clipped by max_log_likelihood_ratio);
   humans multiply (eq. 12).
 
 A human the robot cannot expect to read its head (outside the view the robot assumes a human
@@ -202,7 +202,7 @@ class SignalPhaseBelief:
         robot_name: the robot's agent name (its route: the heads it obeys).
         social: the hidden-agent belief's SocialLikelihood (the robot's model of a human, the
             scene it assumes a human reacts to, the noise of its acceleration estimates).
-        config: BeliefConfig (floor, beta_hat, outlier_prob, max_log_likelihood_ratio, the
+        config: BeliefConfig (floor, beta_hat, tail_dof, max_log_likelihood_ratio, the
             view it assumes a human has).
         use_social: fold in the humans' behaviour (else only its own head).
 
@@ -295,7 +295,7 @@ class SignalPhaseBelief:
                     sigma = self.social.scoring.observation_sigma_mps2(tracks, car.row,
                                                                        float(heading))
                     ll = action_log_likelihood(prev.q_values, cfg.beta_hat, a_est,
-                                               prev.actions_mps2, sigma, cfg.outlier_prob)
+                                               prev.actions_mps2, sigma, cfg.tail_dof)
                     out.append(bounded_log_likelihood(ll, cfg.max_log_likelihood_ratio))
             q = None  # the next step scores it only if it reads its head now and then, and
             if n_seen >= PHASE_MIN_TRACK_STEPS and sees:  # from PHASE_MIN_TRACK_STEPS + 1 on

@@ -10,22 +10,28 @@ Each human driver the robot tracks is a sensor. The robot predicts the human's a
 distribution under every (hidden-agent hypothesis l, traffic speed v) with its model of the human
 (theta_hat, beta_hat; eq. 8 and 11) and, one step later, weighs the acceleration it observed:
 
-    P(a_obs | x_l, v) = (1 - rho) sum_u softmax(-beta_hat Q*_H(x_l, v, .))[u] N(a_obs; u, sigma^2)
-                        + rho U(a_obs)
+    P(a_obs | x_l, v) = sum_u softmax(-beta_hat Q*_H(x_l, v, .))[u] t_nu(a_obs - u; sigma)
 
-(`action_log_likelihood`; rho = 0 is the paper's eq. 10); humans multiply (eq. 12). Robust, so
-that one noisy sample cannot flip the belief:
+(`action_log_likelihood`; the normal kernel, nu = inf, is the paper's eq. 10); humans multiply
+(eq. 12). Robust, so that one noisy sample cannot flip the belief:
 
 * sigma^2 = accel_noise_mps2^2 (the human's own execution noise) + the variance of the robot's
   own estimate of the human's acceleration, from its Kalman filter
   (`TrackSet.velocity_change_cov` / dt^2; `ActionScoring.observation_sigma_mps2`): a robot
   with a noisier sensor trusts each sample less;
-* the outlier term rho U (BeliefConfig.outlier_prob) explains what the model cannot;
+* the kernel t_nu is heavy-tailed (BeliefConfig.tail_dof): what the model does not predict
+  (an emergency stop, a glitch) still points, by a bounded factor, at the hypotheses whose
+  actions lie nearest to it;
 * each observation's log-likelihood is clipped to max_log_likelihood_ratio below its maximum
   (`bounded_log_likelihood`): one observation moves the log-odds between any two sets of
-  hypotheses by at most BeliefConfig.max_log_likelihood_ratio nats (2.5 by default: a factor
-  12; a 0.995 belief falls to at most 0.94 from one contrary sample, and two consistent
-  samples take a 0.5 belief above 0.99).
+  hypotheses by at most BeliefConfig.max_log_likelihood_ratio nats (4 by default: a factor
+  55).
+
+The traffic speed v_traffic is one unknown of the episode (BeliefConfig.traffic_hazard_per_s,
+0 by default), and each human's speed when its track first counts is evidence about it
+(N(v_i; v_traffic, cruise_speed_std_mps^2), `cruise_log_likelihood`): a human who brakes hard
+is then not explained by a flow that has just slowed down or by one far below the speed it was
+seen driving at.
 
 Modelling choices of `SocialLikelihood`:
 
@@ -39,14 +45,14 @@ Modelling choices of `SocialLikelihood`:
 * a_obs is estimated from the robot's own Kalman track (along-route speed difference over one
   step); candidate accelerations are compared with a_obs after the vehicle's limits (no
   reversing: an action u at speed v executes as max(u, -v/dt)).
-* The robot knows the human's speed only as well as its track does: on a route with a bend the
-  model is averaged over that estimate, Q*_H from three speeds (Gauss-Hermite nodes of the
-  track's velocity std along the route, `speed_std_mps`; BeliefConfig.marginalize_speed) with
-  the scene and its hypotheses built once (models/gap_evaluation.vehicle_gap_evaluations), the
+* The robot knows the human's speed only as well as its track does: the model is averaged
+  over that estimate, Q*_H from three speeds (Gauss-Hermite nodes of the track's velocity std
+  along the route, `ActionScoring.speed_std_mps`; BeliefConfig.marginalize_speed) with the
+  scene and its hypotheses built once (models/gap_evaluation.vehicle_gap_evaluations), the
   action probabilities averaged (action_model.speed_averaged_log_likelihood). A human's best
-  action can change across ~0.1 m/s (whether it can still make its curve speed): evaluated at
-  the estimate alone, a left-turner braking for its curve read one step as the full bound's
-  evidence for a hidden car. On straight routes it did not pay for its cost (`speed_std_mps`).
+  action can change across ~0.1 m/s (whether it can still make its curve speed, or stop
+  before a crosswalk): evaluated at the estimate alone, a left-turner braking for its curve
+  read one step as the full bound's evidence for a hidden car.
 * Q*_H is computed once per human and step for all L hypotheses with one batched candidate
   evaluation (`models.candidates.evaluate_candidates`, the function `driver_q_values` wraps)
   without the speed feature; the speed feature theta_speed (v - v_ref)^2 (per planner step, in
@@ -80,7 +86,7 @@ from marl_social.perception.belief.rationality import RationalityBelief
 from marl_social.perception.tracking import TrackSet
 from marl_social.sim.dynamics import DT_S
 from marl_social.sim.observation import DecodedObservation
-from marl_social.sim.road_map import RoadMap, Route
+from marl_social.sim.road_map import RoadMap
 
 
 @dataclass
@@ -151,15 +157,6 @@ class SocialLikelihood:
         """Forget every tracked human (call at every episode start)."""
         self._humans: dict[int, _HumanState] = {}
 
-    def speed_std_mps(self, tracks: TrackSet, k: int, heading_rad: float,
-                      route: Route) -> float | None:
-        """Std of the robot's estimate of a human's speed on `route` [m/s], where it counts.
-
-        ActionScoring.speed_std_mps; None on a route without a bend (no curve speed).
-        """
-        curved = self.prediction.curve_speed(route) is not None
-        return self.scoring.speed_std_mps(tracks, k, heading_rad, curved)
-
     def beta_beliefs(self) -> dict:
         """{human name: (B,) belief over its rationality on config.beta_grid_hat}.
 
@@ -188,7 +185,10 @@ class SocialLikelihood:
             predicted: (L, V) predicted joint belief b(l, v) (updates the rationality beliefs).
 
         Returns:
-            (H, L, V) log P(a_obs,i | x_l, v) and {human name: a_obs [m/s^2]}.
+            (S, L, V) log-likelihoods of S independent sources -- log P(a_obs,i | x_l, v) of each
+            human whose action was scored, and the cruising-speed evidence of each human whose
+            track counts for the first time (`cruise_log_likelihood`, the same for every l) --
+            and {human name: a_obs [m/s^2]}.
         """
         cfg = self.config
         out, a_obs_all = [], {}
@@ -225,6 +225,9 @@ class SocialLikelihood:
                     ll, beta_belief = self.rationality.log_likelihood(score, prev.beta_belief,
                                                                       predicted)
                     out.append(ll)
+            if n_seen == cfg.min_track_steps:  # once per human: its cruising speed
+                out.append(np.broadcast_to(self.cruise_log_likelihood(v),
+                                           (len(self.hypotheses), len(self.traffic_grid_mps))))
             v0 = max(v, 0.0)
             q = None  # the next step scores this prediction only from min_track_steps + 1 on
             if n_seen >= cfg.min_track_steps:
@@ -234,11 +237,19 @@ class SocialLikelihood:
                 viewer = ((np.array([route_x, route_y]), heading) if prediction.has_vehicles
                           else None)
                 q = prediction.q_values(route, s0, v0, a_est, others, negligible, viewer,
-                                        self.speed_std_mps(tracks, k, heading, route))
+                                        self.scoring.speed_std_mps(tracks, k, heading))
             current[oid] = _HumanState(v, q, self.prediction.executed(v0), n_seen, beta_belief)
         self._humans = current  # a human not seen this step starts afresh when seen again
         n, n_v = len(self.hypotheses), len(self.traffic_grid_mps)
         return np.array(out).reshape(-1, n, n_v), a_obs_all
+
+    def cruise_log_likelihood(self, v_mps: float) -> np.ndarray:
+        """(V,) log N(v_mps; v_traffic, cruise_speed_std_mps^2) up to a constant, per grid speed.
+
+        A human's speed [m/s] when its track first counts, as evidence about the flow speed.
+        """
+        z = (float(v_mps) - self.traffic_grid_mps) / self.config.cruise_speed_std_mps
+        return -0.5 * z * z
 
     def _score(self, prev: _HumanState, beta: float, a_est: float,
                sigma_mps2: float) -> np.ndarray:

@@ -38,8 +38,8 @@ def _same(a, b) -> bool:
     return same_bits(np.asarray(a, dtype=np.float64), np.asarray(b, dtype=np.float64))
 
 
-def _reference_action_log_likelihood(q, beta, a_obs, actions, sigma_mps2, outlier_prob):
-    """action_model.action_log_likelihood as it stood in numpy (finite beta)."""
+def _reference_action_log_likelihood(q, beta, a_obs, actions, sigma_mps2, tail_dof):
+    """action_model.action_log_likelihood in plain numpy (finite beta)."""
     q = np.asarray(q, dtype=np.float64)
     if not math.isfinite(a_obs) or not np.all(np.isfinite(q)):
         return np.zeros(q.shape[:-1])
@@ -47,46 +47,47 @@ def _reference_action_log_likelihood(q, beta, a_obs, actions, sigma_mps2, outlie
     z = -beta * (q - q.min(axis=-1, keepdims=True))
     log_p = z - np.log(np.exp(z).sum(axis=-1, keepdims=True))
     with np.errstate(over="ignore"):
-        log_gauss = (-0.5 * ((a_obs - actions) / sigma) ** 2
-                     - math.log(sigma * math.sqrt(2 * math.pi)))
-    log_model = logsumexp(log_p + log_gauss, axis=-1)
-    rho = min(max(float(outlier_prob), 0.0), 1.0 - 1e-12)
-    if rho == 0.0:
-        return log_model
-    width = actions.max() - actions.min() + 2.0 * 3.0 * sigma
-    return np.logaddexp(math.log1p(-rho) + log_model, math.log(rho / width))
+        d2 = ((a_obs - actions) / sigma) ** 2
+    if math.isinf(tail_dof):
+        log_kernel = -0.5 * d2 - math.log(sigma * math.sqrt(2 * math.pi))
+    else:
+        nu = tail_dof
+        log_kernel = (math.lgamma(0.5 * (nu + 1)) - math.lgamma(0.5 * nu)
+                      - math.log(math.sqrt(nu * math.pi) * sigma)
+                      - 0.5 * (nu + 1) * np.log1p(d2 / nu))
+    return logsumexp(log_p + log_kernel, axis=-1)
 
 
 @settings(max_examples=300, deadline=None)
 @given(seed=SEEDS, n_rows=st.integers(0, 9),
        n_actions=st.one_of(st.integers(1, 40), st.integers(120, 300)),
-       beta=st.sampled_from([0.0, 1e-3, 0.3, 5.0, 1e4]), outlier=st.sampled_from([0.0, 0.05]))
-def test_action_log_likelihood_is_numpys(seed, n_rows, n_actions, beta, outlier):
+       beta=st.sampled_from([0.0, 1e-3, 0.3, 5.0, 1e4]), dof=st.sampled_from([math.inf, 8.0, 1.0]))
+def test_action_log_likelihood_is_numpys(seed, n_rows, n_actions, beta, dof):
     rng = np.random.default_rng(seed)
     scale = 10.0 ** rng.uniform(-3, 6)
     q = rng.normal(size=(n_rows, 2, n_actions)) * scale
     actions = np.sort(rng.uniform(-8, 3, n_actions))
     a_obs = float(rng.choice([rng.normal() * 3, 1e160, -2.0]))
     sigma = float(10.0 ** rng.uniform(-4, 1))
-    got = action_log_likelihood(q, beta, a_obs, actions, sigma, outlier)
+    got = action_log_likelihood(q, beta, a_obs, actions, sigma, dof)
     with np.errstate(divide="ignore", over="ignore", invalid="ignore"):
-        want = _reference_action_log_likelihood(q, beta, a_obs, actions, sigma, outlier)
+        want = _reference_action_log_likelihood(q, beta, a_obs, actions, sigma, dof)
     assert _same(got, want)
 
 
 def test_action_log_likelihood_non_finite_inputs_give_zeros():
     q = np.zeros((3, 4, 5))
     q[1, 2, 3] = np.inf
-    assert _same(action_log_likelihood(q, 0.3, 0.5, np.arange(5.0), 0.5, 0.05), np.zeros((3, 4)))
+    assert _same(action_log_likelihood(q, 0.3, 0.5, np.arange(5.0), 0.5, 8.0), np.zeros((3, 4)))
     assert _same(action_log_likelihood(np.zeros((3, 5)), 0.3, np.nan, np.arange(5.0), 0.5),
                  np.zeros(3))
     # rows longer than numpy's pairwise block (128) too
     q = np.random.default_rng(1).normal(size=(3, 200))
     actions = np.linspace(-8, 3, 200)
-    assert _same(action_log_likelihood(q, 0.3, 0.1, actions, 0.5, 0.05),
-                 _reference_action_log_likelihood(q, 0.3, 0.1, actions, 0.5, 0.05))
-    assert _same(action_log_likelihood(q, 0.3, 0.1, actions, 0.5, 0.0),
-                 _reference_action_log_likelihood(q, 0.3, 0.1, actions, 0.5, 0.0))
+    assert _same(action_log_likelihood(q, 0.3, 0.1, actions, 0.5, 8.0),
+                 _reference_action_log_likelihood(q, 0.3, 0.1, actions, 0.5, 8.0))
+    assert _same(action_log_likelihood(q, 0.3, 0.1, actions, 0.5, math.inf),
+                 _reference_action_log_likelihood(q, 0.3, 0.1, actions, 0.5, math.inf))
 
 
 @settings(max_examples=200, deadline=None)

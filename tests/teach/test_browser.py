@@ -100,7 +100,9 @@ def test_the_page_shows_scene_belief_and_hooks(page):
 
 
 def test_moving_the_beta_slider_restarts_and_changes_the_drawing(page):
-    """β = 0 (erratic): the human's random braking looks like braking for a pedestrian."""
+    """β = 0 (erratic): with no pedestrian, the human's random braking looks like braking for
+    one (with the default crossing pedestrian the human really warns by step 15)."""
+    change_control(page, "pedestrian", "none")
     default = step_to(page, 15)
     drawn = scene_digest(page)
     changed = change_control(page, "human.beta", 0)

@@ -22,9 +22,8 @@ from marl_social.perception.belief.action_model import (
 from marl_social.perception.belief.paths import LanePaths
 from marl_social.perception.tracking import Tracker
 from marl_social.sim.observation import ObservationLayout
-from marl_social.sim.road_map import Route
 from tests.helpers import slot_observation
-from tests.perception.belief.crossing_world import LANE_POINTS, turning_map
+from tests.perception.belief.crossing_world import turning_map
 
 TRACK_SPEED_STD_MPS = 0.09  # the tracker's steady velocity std along a car's path (measured)
 SIGMA_MPS2 = 1.2  # std of an acceleration read off the track (execution and track noise)
@@ -77,9 +76,9 @@ def test_a_human_braking_for_its_curve_stays_explained_at_a_speed_the_robot_read
         q_nodes = belief.human_q_values(route, s0, v_est, 0.0,
                                         speed_std_mps=TRACK_SPEED_STD_MPS)[:, none, -1]
         point = np.array([action_log_likelihood(q_point, cfg.beta_hat, u, actions, SIGMA_MPS2,
-                                                cfg.outlier_prob) for u in actions])
+                                                cfg.tail_dof) for u in actions])
         averaged = np.array([speed_averaged_log_likelihood(
-            q_nodes[:, None], cfg.beta_hat, u, actions, SIGMA_MPS2, cfg.outlier_prob)[0]
+            q_nodes[:, None], cfg.beta_hat, u, actions, SIGMA_MPS2, cfg.tail_dof)[0]
             for u in actions])
         k = int(np.flatnonzero(actions == a)[0])
         point_gap.append(point.max() - point[k])
@@ -121,20 +120,17 @@ def test_the_tracks_velocity_covariance_matches_its_velocity_error():
 
 
 
-def test_the_model_is_averaged_over_the_speed_only_on_a_route_with_a_bend():
-    """SocialLikelihood.speed_std_mps: the track's speed std along the route on the
-    left-turner's path (a curve speed), None on a straight lane (the model at the estimate)
-    and with BeliefConfig.marginalize_speed off."""
-    belief, route = _left_turner()
+def test_the_model_is_averaged_over_the_speed_the_track_knows():
+    """ActionScoring.speed_std_mps: the track's speed std along the human's route, on any
+    route, and None with BeliefConfig.marginalize_speed off."""
+    belief, _ = _left_turner()
     tracker = Tracker()
     for k in range(10):
         tracks = tracker.update(slot_observation(LAYOUT, [(1, 54.0, -4.0 - 0.6 * k, 0.0, -6.0)]))
     heading = -0.5 * math.pi
-    std = belief.social.speed_std_mps(tracks, 0, heading, route)
+    std = belief.social.scoring.speed_std_mps(tracks, 0, heading)
     assert std is not None and std == pytest.approx(math.sqrt(tracks.velocity_cov[0, 1, 1]))
     assert 0.0 < std < 0.3
-    straight = Route(np.array(LANE_POINTS["north"])[::-1])  # southbound, no bend
-    assert belief.social.speed_std_mps(tracks, 0, heading, straight) is None
     off = HiddenAgentBelief(turning_map(), ObservationLayout(4, 8), "robot_0", ["robot_0"],
                             config=BeliefConfig(marginalize_speed=False))
-    assert off.social.speed_std_mps(tracks, 0, heading, route) is None
+    assert off.social.scoring.speed_std_mps(tracks, 0, heading) is None
