@@ -90,10 +90,13 @@ def _near(points: np.ndarray, box: tuple[float, float, float, float]) -> bool:
 
 
 def scene_road_map(full: RoadMap, box: tuple[float, float, float, float],
-                   origin: np.ndarray, extra_polygons: tuple[np.ndarray, ...] = ()) -> RoadMap:
+                   origin: np.ndarray, extra_polygons: tuple[np.ndarray, ...] = (),
+                   first_crosswalk: int = -1) -> RoadMap:
     """The part of a map within box (xmin, xmax, ymin, ymax) [m], in a frame about origin.
 
-    Lanes, crosswalks, occluders and conflict zones with a point in the box; stop lines on
+    Lanes, crosswalks (full.crosswalks[first_crosswalk] first, the scene's crosswalk: the
+    metrics' and the episode's stopping rules' "first crosswalk"; -1: the map's order),
+    occluders and conflict zones with a point in the box; stop lines on
     the kept lanes (a lane-less one within the box); the signal heads of the kept stop lines
     with the map's plan; indices renumbered, every point moved by -origin (2,) [m] (the
     observation spaces hold the padding of empty slots, 0, only where the scene is about the
@@ -112,12 +115,16 @@ def scene_road_map(full: RoadMap, box: tuple[float, float, float, float],
     zones = tuple(dataclasses.replace(z, polygon=z.polygon - origin, priority_lanes=tuple(
         new_lane[i] for i in z.priority_lanes if i in new_lane))
         for z in full.conflict_zones if _near(z.polygon, box))
+    crosswalk_ids = [i for i, c in enumerate(full.crosswalks)
+                     if i != first_crosswalk and _near(c.polygon(), box)]
+    if first_crosswalk >= 0:
+        crosswalk_ids.insert(0, first_crosswalk)
     x0, x1, y0, y1 = box
     return RoadMap(
         lanes=tuple(dataclasses.replace(full.lanes[i], centerline=full.lanes[i].centerline
                                         - origin) for i in lane_ids),
-        crosswalks=tuple(dataclasses.replace(c, center=c.center - origin)
-                         for c in full.crosswalks if _near(c.polygon(), box)),
+        crosswalks=tuple(dataclasses.replace(full.crosswalks[i], center=full.crosswalks[i].center
+                                             - origin) for i in crosswalk_ids),
         static_polygons=tuple(p - origin for p in full.static_polygons if _near(p, box))
         + tuple(p - origin for p in extra_polygons),
         speed_limit_mps=full.speed_limit_mps,
@@ -159,7 +166,8 @@ class MapScene(Scenario):
                               curb_offset_m=p.pedestrian_curb_offset_m)
         self.element_id = element
         self.plan = crosswalk_plan(loaded, element, needs, p.occluder)
-        crosswalk = loaded.road_map.crosswalks[loaded.elements.crosswalks[element].index]
+        self.crosswalk_index = loaded.elements.crosswalks[element].index
+        crosswalk = loaded.road_map.crosswalks[self.crosswalk_index]
         self.origin = np.round(crosswalk.center)  # the scene's frame: about the crosswalk [m]
         self.road_map = self._scene_map(loaded.road_map)
 
@@ -172,7 +180,7 @@ class MapScene(Scenario):
         lo, hi = everything.min(axis=0) - SCENE_MARGIN_M, everything.max(axis=0) + SCENE_MARGIN_M
         extra = () if plan.parked_car is None else (plan.parked_car,)
         return scene_road_map(full, (float(lo[0]), float(hi[0]), float(lo[1]), float(hi[1])),
-                              self.origin, extra)
+                              self.origin, extra, self.crosswalk_index)
 
     def build(self, rng: np.random.Generator) -> ScenarioLayout:
         """Robot, human (or none: a parked car) and pedestrian on the scene's map (no rng)."""
