@@ -6,7 +6,7 @@ lane beside it in the same direction, human_lead_m ahead, hiding a pedestrian at
 crosswalk's end on the human's side (a parked car along the right curb where no such lane
 exists), the map's occluders. The robot starts approach_m before the crosswalk. The scene's map
 holds the map's lanes, crosswalks, stop lines, conflict zones, signals and occluders within
-SCENE_MARGIN_M of the routes, in a frame about the crosswalk's centre (rounded to the metre);
+SCENE_MARGIN_M of the routes, in the map's own frame;
 the robot's stages come from them as on any map. Where a
 signal stands on the robot's approach, the map's cycle starts with its green (the situation is
 the hidden pedestrian, not the light).
@@ -26,7 +26,7 @@ import numpy as np
 
 from marl_social.maps import load_map
 from marl_social.maps.scenes import ScenarioNeeds, SceneError, crosswalk_plan, scene_listing
-from marl_social.scenarios.base import Scenario, ScenarioLayout
+from marl_social.scenarios.base import HiddenAgent, Scenario, ScenarioLayout
 from marl_social.scenarios.crosswalk_agents import (
     CrosswalkParams,
     human_spec,
@@ -90,17 +90,16 @@ def _near(points: np.ndarray, box: tuple[float, float, float, float]) -> bool:
 
 
 def scene_road_map(full: RoadMap, box: tuple[float, float, float, float],
-                   origin: np.ndarray, extra_polygons: tuple[np.ndarray, ...] = (),
+                   extra_polygons: tuple[np.ndarray, ...] = (),
                    first_crosswalk: int = -1) -> RoadMap:
-    """The part of a map within box (xmin, xmax, ymin, ymax) [m], in a frame about origin.
+    """The part of a map within box (xmin, xmax, ymin, ymax) [m], in the map's frame.
 
     Lanes, crosswalks (full.crosswalks[first_crosswalk] first, the scene's crosswalk: the
     metrics' and the episode's stopping rules' "first crosswalk"; -1: the map's order),
     occluders and conflict zones with a point in the box; stop lines on
     the kept lanes (a lane-less one within the box); the signal heads of the kept stop lines
-    with the map's plan; indices renumbered, every point moved by -origin (2,) [m] (the
-    observation spaces hold the padding of empty slots, 0, only where the scene is about the
-    origin). extra_polygons are in the map's frame. No routes.
+    with the map's plan; indices renumbered; extra_polygons added to the occluders. No
+    routes.
     """
     lane_ids = [i for i, lane in enumerate(full.lanes) if _near(lane.centerline, box)]
     new_lane = {old: new for new, old in enumerate(lane_ids)}
@@ -108,27 +107,23 @@ def scene_road_map(full: RoadMap, box: tuple[float, float, float, float],
     for i, line in enumerate(full.stop_lines):
         if line.lane in new_lane or (line.lane == -1 and _near(line.segment, box)):
             new_line[i] = len(lines)
-            lines.append(StopLine(line.segment - origin, line.kind, new_lane.get(line.lane, -1)))
-    heads = tuple(dataclasses.replace(h, stop_line=new_line[h.stop_line],
-                                      position=h.position - origin)
+            lines.append(StopLine(line.segment, line.kind, new_lane.get(line.lane, -1)))
+    heads = tuple(dataclasses.replace(h, stop_line=new_line[h.stop_line])
                   for h in full.signal_heads if h.stop_line in new_line)
-    zones = tuple(dataclasses.replace(z, polygon=z.polygon - origin, priority_lanes=tuple(
+    zones = tuple(dataclasses.replace(z, priority_lanes=tuple(
         new_lane[i] for i in z.priority_lanes if i in new_lane))
         for z in full.conflict_zones if _near(z.polygon, box))
     crosswalk_ids = [i for i, c in enumerate(full.crosswalks)
                      if i != first_crosswalk and _near(c.polygon(), box)]
     if first_crosswalk >= 0:
         crosswalk_ids.insert(0, first_crosswalk)
-    x0, x1, y0, y1 = box
     return RoadMap(
-        lanes=tuple(dataclasses.replace(full.lanes[i], centerline=full.lanes[i].centerline
-                                        - origin) for i in lane_ids),
-        crosswalks=tuple(dataclasses.replace(full.crosswalks[i], center=full.crosswalks[i].center
-                                             - origin) for i in crosswalk_ids),
-        static_polygons=tuple(p - origin for p in full.static_polygons if _near(p, box))
-        + tuple(p - origin for p in extra_polygons),
+        lanes=tuple(full.lanes[i] for i in lane_ids),
+        crosswalks=tuple(full.crosswalks[i] for i in crosswalk_ids),
+        static_polygons=tuple(p for p in full.static_polygons if _near(p, box))
+        + tuple(extra_polygons),
         speed_limit_mps=full.speed_limit_mps,
-        extent=(x0 - origin[0], x1 - origin[0], y0 - origin[1], y1 - origin[1]),
+        extent=box,
         stop_lines=tuple(lines),
         conflict_zones=zones, signal_heads=heads,
         signal_plan=full.signal_plan if heads else None)
@@ -167,8 +162,6 @@ class MapScene(Scenario):
         self.element_id = element
         self.plan = crosswalk_plan(loaded, element, needs, p.occluder)
         self.crosswalk_index = loaded.elements.crosswalks[element].index
-        crosswalk = loaded.road_map.crosswalks[self.crosswalk_index]
-        self.origin = np.round(crosswalk.center)  # the scene's frame: about the crosswalk [m]
         self.road_map = self._scene_map(loaded.road_map)
 
     def _scene_map(self, full: RoadMap) -> RoadMap:
@@ -180,7 +173,13 @@ class MapScene(Scenario):
         lo, hi = everything.min(axis=0) - SCENE_MARGIN_M, everything.max(axis=0) + SCENE_MARGIN_M
         extra = () if plan.parked_car is None else (plan.parked_car,)
         return scene_road_map(full, (float(lo[0]), float(hi[0]), float(lo[1]), float(hi[1])),
-                              self.origin, extra, self.crosswalk_index)
+                              extra, self.crosswalk_index)
+
+    def hidden_agent(self) -> HiddenAgent | None:
+        """The pedestrian, hidden by the human's (or the parked) car (removed: "none")."""
+        if self.params.pedestrian == "none":
+            return None
+        return HiddenAgent(("pedestrian_0",), {"pedestrian": "none"}, "p_pedestrian")
 
     def build(self, rng: np.random.Generator) -> ScenarioLayout:
         """Robot, human (or none: a parked car) and pedestrian on the scene's map (no rng)."""
@@ -221,7 +220,7 @@ class MapScene(Scenario):
 
     def _robot(self) -> tuple[AgentSpec, Route]:
         p: MapSceneParams = self.params
-        route = Route(self.plan.robot.points - self.origin, "robot_0")
+        route = Route(self.plan.robot.points, "robot_0")
         start = self._start(route, self.plan.robot.crossing_m - p.approach_m, p.robot_speed_mps)
         return robot_spec(p, start), route
 
@@ -229,7 +228,7 @@ class MapScene(Scenario):
         p: MapSceneParams = self.params
         if self.plan.human is None:
             return []
-        route = Route(self.plan.human.points - self.origin, "human_0")
+        route = Route(self.plan.human.points, "human_0")
         start_m = self.plan.human.crossing_m - (p.approach_m - p.human_lead_m)
         return [(human_spec(p, "human_0", self._start(route, start_m, p.human_speed_mps)),
                  route)]
@@ -238,7 +237,7 @@ class MapScene(Scenario):
         p: MapSceneParams = self.params
         if p.pedestrian == "none":
             return []
-        start, end = self.plan.pedestrian_path - self.origin
+        start, end = self.plan.pedestrian_path
         heading = math.atan2(end[1] - start[1], end[0] - start[0])
         return [(pedestrian_spec(p, start, heading),
-                 Route(self.plan.pedestrian_path - self.origin, "pedestrian_0"))]
+                 Route(self.plan.pedestrian_path, "pedestrian_0"))]
