@@ -423,8 +423,14 @@ def scene_listing(loaded) -> list[SceneEntry]:
             entries.append(SceneEntry(crosswalk_id, "crosswalk", ""))
         except SceneError as err:
             entries.append(SceneEntry(crosswalk_id, "crosswalk", str(err)))
-    entries += [SceneEntry(j, "junction", "junction scenes are not built yet")
-                for j in sorted(elements.junctions)]
+    from marl_social.maps.junction_scenes import junction_plan  # it builds on this module
+
+    for junction_id in sorted(elements.junctions):
+        try:
+            junction_plan(loaded, junction_id)
+            entries.append(SceneEntry(junction_id, "junction", ""))
+        except SceneError as err:
+            entries.append(SceneEntry(junction_id, "junction", str(err)))
     entries += [SceneEntry(s, "signal", "signal scenes are not built yet")
                 for s in sorted(elements.signals)]
     return entries

@@ -25,8 +25,15 @@ from dataclasses import dataclass
 import numpy as np
 
 from marl_social.maps import load_map
+from marl_social.maps.junction_scenes import JunctionNeeds, junction_plan
 from marl_social.maps.scenes import ScenarioNeeds, SceneError, crosswalk_plan, scene_listing
-from marl_social.scenarios.base import HiddenAgent, Scenario, ScenarioLayout
+from marl_social.scenarios.base import (
+    MAX_SENSOR_RANGE_M,
+    MAX_VEHICLE_SPEED_MPS,
+    HiddenAgent,
+    Scenario,
+    ScenarioLayout,
+)
 from marl_social.scenarios.crosswalk_agents import (
     CrosswalkParams,
     human_spec,
@@ -37,7 +44,8 @@ from marl_social.sim.agent_spec import AgentSpec
 from marl_social.sim.road_map import RoadMap, Route, StopLine
 from marl_social.sim.signals import SignalController
 
-SITUATIONS = ("crosswalk",)  # built so far (maps/scenes.SITUATIONS lists the others)
+SITUATIONS = ("crosswalk", "junction")  # built so far (maps/scenes.SITUATIONS: all)
+HIDDEN_VARIANTS = ("near", "none")  # the junction's hidden car
 OCCLUDERS = ("auto", "human", "parked")
 SCENE_MARGIN_M = 30.0  # the scene's map: what lies within this of its routes [m]
 MAX_APPROACH_M = 200.0  # the robot's farthest start before the crosswalk [m]
@@ -59,6 +67,19 @@ class MapSceneParams(CrosswalkParams):
             beside allows one, else a parked car).
         approach_m: the robot's start before the crosswalk along its route [m].
         pedestrian_curb_offset_m: how far past the crosswalk's end the pedestrian waits [m].
+        hidden_vehicle: the junction's hidden car on the major road: "near" or "none".
+        hidden_m: its start before the conflict point [m].
+        hidden_speed_mps: its initial and desired speed [m/s].
+        junction_approach_m: the robot's start before its conflict point at a junction [m].
+        junction_robot_speed_mps: its initial speed there [m/s].
+        human_start_m: each human sensor's start before its conflict point [m].
+        sensor_speed_mps: the human sensors' initial speed [m/s] (their desired speed:
+            human_desired_speed_mps, at most the lane's limit).
+        junction_robot_half_fov_deg, junction_robot_sensor_range_m, junction_robot_epsilon:
+            the robot's view and tail threshold at a junction (the T-intersection's: it looks
+            sideways along the major road; with the crosswalk's 0.02 it would wait for ever
+            for cars that nothing can tell it about), in place of robot_half_fov_deg,
+            robot_sensor_range_m and robot_epsilon.
     """
 
     map: str = "karlsruhe"
@@ -67,6 +88,16 @@ class MapSceneParams(CrosswalkParams):
     occluder: str = "auto"
     approach_m: float = 60.0
     pedestrian_curb_offset_m: float = 1.0
+    hidden_vehicle: str = "near"
+    hidden_m: float = 40.0
+    hidden_speed_mps: float = 8.0
+    junction_approach_m: float = 25.0
+    junction_robot_speed_mps: float = 5.0
+    human_start_m: float = 15.0
+    sensor_speed_mps: float = 5.0
+    junction_robot_half_fov_deg: float = 110.0
+    junction_robot_sensor_range_m: float = 60.0
+    junction_robot_epsilon: float = 0.05
 
     def __post_init__(self):
         super().__post_init__()
@@ -75,6 +106,18 @@ class MapSceneParams(CrosswalkParams):
         self._check(self.situation in SITUATIONS, "situation",
                     f"must be one of {SITUATIONS} (junction and signal scenes are not built yet)")
         self._check(self.occluder in OCCLUDERS, "occluder", f"must be one of {OCCLUDERS}")
+        self._check(self.hidden_vehicle in HIDDEN_VARIANTS, "hidden_vehicle",
+                    f"must be one of {HIDDEN_VARIANTS}")
+        self._check_range("hidden_m", 10.0, MAX_APPROACH_M, "m")
+        self._check_range("junction_approach_m", 5.0, MAX_APPROACH_M, "m")
+        self._check_range("human_start_m", 2.0, MAX_APPROACH_M, "m")
+        for name in ("hidden_speed_mps", "junction_robot_speed_mps", "sensor_speed_mps"):
+            self._check_range(name, 0.0, MAX_VEHICLE_SPEED_MPS, "m/s")
+        self._check_range("junction_robot_half_fov_deg", 0.0, 180.0, "deg", low_open=True)
+        self._check_range("junction_robot_sensor_range_m", 0.0, MAX_SENSOR_RANGE_M, "m",
+                          low_open=True)
+        self._check(0.0 <= self.junction_robot_epsilon < 1.0, "junction_robot_epsilon",
+                    "must be in [0, 1)")
         self._check(self.element >= 0, "element", "must be a Lanelet2 id (>= 0; 0: the first)")
         self._check_range("approach_m", 10.0, MAX_APPROACH_M, "m")
         self._check_range("pedestrian_start_delay_s", 0.0, 3600.0, "s")
@@ -148,6 +191,14 @@ class MapScene(Scenario):
                 raise SceneError(f"map {p.map}: no element where a {p.situation} scene can be "
                                  "built (`marl-social scenes` says why)")
             element = buildable[0]
+        self.element_id = element
+        if p.situation == "junction":
+            self.plan = junction_plan(loaded, element, JunctionNeeds(
+                approach_m=p.junction_approach_m, hidden_m=p.hidden_m,
+                human_start_m=p.human_start_m))
+            self.crosswalk_index = -1
+            self.road_map = self._junction_map(loaded.road_map)
+            return
         if element not in loaded.elements.crosswalks:
             known = any(element in table for table in (
                 loaded.elements.junctions, loaded.elements.signals, loaded.elements.stop_lines,
@@ -159,7 +210,6 @@ class MapScene(Scenario):
                                 or "none") + ")")
         needs = ScenarioNeeds(approach_m=p.approach_m, human_lead_m=p.human_lead_m,
                               curb_offset_m=p.pedestrian_curb_offset_m)
-        self.element_id = element
         self.plan = crosswalk_plan(loaded, element, needs, p.occluder)
         self.crosswalk_index = loaded.elements.crosswalks[element].index
         self.road_map = self._scene_map(loaded.road_map)
@@ -175,9 +225,27 @@ class MapScene(Scenario):
         return scene_road_map(full, (float(lo[0]), float(hi[0]), float(lo[1]), float(hi[1])),
                               extra, self.crosswalk_index)
 
+    def _junction_map(self, full: RoadMap) -> RoadMap:
+        plan = self.plan
+        everything = np.concatenate([plan.robot.points, plan.hidden.points,
+                                     *(path.points for path in plan.sensors)])
+        lo, hi = everything.min(axis=0) - SCENE_MARGIN_M, everything.max(axis=0) + SCENE_MARGIN_M
+        return scene_road_map(full, (float(lo[0]), float(hi[0]), float(lo[1]), float(hi[1])),
+                              plan.parked_cars)
+
     def hidden_agent(self) -> HiddenAgent | None:
-        """The pedestrian, hidden by the human's (or the parked) car (removed: "none")."""
-        if self.params.pedestrian == "none":
+        """What the scene hides (removed in the counterfactual).
+
+        The pedestrian, behind the human's (or the parked) car (pedestrian="none"); at a
+        junction, the car on the major road (hidden_vehicle="none").
+        """
+        p: MapSceneParams = self.params
+        if p.situation == "junction":
+            if p.hidden_vehicle == "none":
+                return None
+            return HiddenAgent((f"human_{len(self.plan.sensors)}",), {"hidden_vehicle": "none"},
+                               "p_vehicle")
+        if p.pedestrian == "none":
             return None
         return HiddenAgent(("pedestrian_0",), {"pedestrian": "none"}, "p_pedestrian")
 
@@ -185,7 +253,10 @@ class MapScene(Scenario):
         """Robot, human (or none: a parked car) and pedestrian on the scene's map (no rng)."""
         p: MapSceneParams = self.params
         specs, routes = [], {}
-        for spec, route in [self._robot(), *self._human(), *self._pedestrian()]:
+        agents = ([self._junction_robot(), *self._sensors(), *self._hidden_car()]
+                  if p.situation == "junction"
+                  else [self._robot(), *self._human(), *self._pedestrian()])
+        for spec, route in agents:
             specs.append(spec)
             routes[spec.name] = route
         base = self.road_map
@@ -205,7 +276,9 @@ class MapScene(Scenario):
         plan = self.road_map.signal_plan
         if plan is None:
             return None
-        start_m = self.plan.robot.crossing_m - self.params.approach_m
+        p: MapSceneParams = self.params
+        start_m = self.plan.robot.crossing_m - (p.junction_approach_m if p.situation == "junction"
+                                                else p.approach_m)
         lines = {i for i, line in enumerate(self.road_map.stop_lines)
                  if any(0.0 <= s - start_m <= SIGNAL_GREEN_AHEAD_M
                         for s in robot_route.segment_crossings(line.segment))}
@@ -223,6 +296,39 @@ class MapScene(Scenario):
         route = Route(self.plan.robot.points, "robot_0")
         start = self._start(route, self.plan.robot.crossing_m - p.approach_m, p.robot_speed_mps)
         return robot_spec(p, start), route
+
+    def _junction_robot(self) -> tuple[AgentSpec, Route]:
+        p: MapSceneParams = self.params
+        route = Route(self.plan.robot.points, "robot_0")
+        start = self._start(route, self.plan.robot.crossing_m - p.junction_approach_m,
+                            min(p.junction_robot_speed_mps, self.plan.speed_limit_mps))
+        junction = dataclasses.replace(p, robot_half_fov_deg=p.junction_robot_half_fov_deg,
+                                       robot_sensor_range_m=p.junction_robot_sensor_range_m,
+                                       robot_epsilon=p.junction_robot_epsilon)
+        return robot_spec(junction, start), route
+
+    def _sensors(self) -> list[tuple[AgentSpec, Route]]:
+        """The human sensors, human_start_m before their conflict points (human_0, ...)."""
+        p: MapSceneParams = self.params
+        out = []
+        for k, path in enumerate(self.plan.sensors):
+            route = Route(path.points, f"human_{k}")
+            start = self._start(route, path.crossing_m - p.human_start_m, p.sensor_speed_mps)
+            spec = human_spec(p, route.name, start)
+            out.append((dataclasses.replace(spec, v_desired_mps=min(
+                p.human_desired_speed_mps, self.plan.speed_limit_mps)), route))
+        return out
+
+    def _hidden_car(self) -> list[tuple[AgentSpec, Route]]:
+        """The car on the major road, hidden_m before the conflict point (last; none: [])."""
+        p: MapSceneParams = self.params
+        if p.hidden_vehicle == "none":
+            return []
+        name = f"human_{len(self.plan.sensors)}"
+        route = Route(self.plan.hidden.points, name)
+        start = self._start(route, self.plan.hidden.crossing_m - p.hidden_m, p.hidden_speed_mps)
+        spec = human_spec(p, name, start)
+        return [(dataclasses.replace(spec, v_desired_mps=p.hidden_speed_mps), route)]
 
     def _human(self) -> list[tuple[AgentSpec, Route]]:
         p: MapSceneParams = self.params
