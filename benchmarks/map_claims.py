@@ -116,7 +116,7 @@ def main() -> None:
     args = parser.parse_args()
     warnings.simplefilter("ignore")
     from marl_social.maps import load_map
-    from marl_social.maps.scenes import scene_listing
+    from marl_social.maps.listing import scene_listing
 
     elements = [e.element for e in scene_listing(load_map(args.map))
                 if e.situation == args.situation and not e.reason]

@@ -335,7 +335,7 @@ def scenes(args) -> int:
     import warnings
 
     from marl_social.maps import MapConversionWarning, load_map
-    from marl_social.maps.scenes import scene_listing
+    from marl_social.maps.listing import scene_listing
 
     with warnings.catch_warnings():  # `maps show` lists what was not mapped
         warnings.simplefilter("ignore", MapConversionWarning)

@@ -26,7 +26,8 @@ import numpy as np
 
 from marl_social.maps import load_map
 from marl_social.maps.junction_scenes import JunctionNeeds, junction_plan
-from marl_social.maps.scenes import ScenarioNeeds, SceneError, crosswalk_plan, scene_listing
+from marl_social.maps.listing import scene_listing
+from marl_social.maps.scenes import ScenarioNeeds, SceneError, crosswalk_plan
 from marl_social.scenarios.base import (
     MAX_SENSOR_RANGE_M,
     MAX_VEHICLE_SPEED_MPS,

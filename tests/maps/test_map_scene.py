@@ -9,7 +9,7 @@ pytest.importorskip("lanelet2")
 
 import marl_social
 from marl_social.maps import MapError, load_map
-from marl_social.maps.scenes import scene_listing
+from marl_social.maps.listing import scene_listing
 from marl_social.scenarios import make_scenario
 
 pytestmark = pytest.mark.filterwarnings("ignore::marl_social.maps.MapConversionWarning")
