@@ -4,6 +4,7 @@ from __future__ import annotations
 
 from marl_social.scenarios.base import Scenario, ScenarioLayout, ScenarioParams, make_params
 from marl_social.scenarios.long_road import LongRoad
+from marl_social.scenarios.map_replay import MapReplay
 from marl_social.scenarios.map_scene import MapScene
 from marl_social.scenarios.occluded_crosswalk import OccludedCrosswalk
 from marl_social.scenarios.signalized_intersection import SignalizedIntersection
@@ -15,6 +16,7 @@ SCENARIOS: dict[str, type[Scenario]] = {
     TIntersection.name: TIntersection,
     SignalizedIntersection.name: SignalizedIntersection,
     MapScene.name: MapScene,
+    MapReplay.name: MapReplay,
 }
 
 
