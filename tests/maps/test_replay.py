@@ -89,3 +89,11 @@ def test_unknown_map_is_a_one_line_error(recording, capsys):
     err = capsys.readouterr().err.strip()
     assert code == EXIT_BAD_INPUT
     assert "unknown map" in err and len(err.splitlines()) == 1
+
+
+def test_parallel_api(recording):
+    from pettingzoo.test import parallel_api_test
+
+    env = parallel_env(scenario="map_replay", map=str(recording / "map.osm"),
+                       tracks=str(recording / "vehicle_tracks_000.csv"), max_cycles=30)
+    parallel_api_test(env, num_cycles=30)
