@@ -14,11 +14,11 @@ from __future__ import annotations
 
 import dataclasses
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from marl_social.agents.log_replay import RecordedMotion
-from marl_social.data.interaction import Track, read_interaction_csv
 from marl_social.maps import load_map
 from marl_social.maps.errors import MapError
 from marl_social.scenarios.base import MAX_VEHICLE_SPEED_MPS
@@ -26,6 +26,9 @@ from marl_social.scenarios.crosswalk_agents import human_spec
 from marl_social.scenarios.map_scene import SCENE_MARGIN_M, MapScene, MapSceneParams, scene_road_map
 from marl_social.sim.agent_spec import AgentSpec, VehicleParams
 from marl_social.sim.road_map import RoadMap, Route
+
+if TYPE_CHECKING:
+    from marl_social.data.interaction import Track
 
 PATH_POINT_SPACING_M = 0.2  # recorded positions closer than this to the last kept one are dropped
 WHEELBASE_FRACTION = 0.6  # a replayed car's wheelbase: this fraction of its length
@@ -83,6 +86,10 @@ class MapReplay(MapScene):
     def __init__(self, **overrides):
         super().__init__(**overrides)
         p: MapReplayParams = self.params
+        # the track loader's smoothers (scipy.sparse) come with the first replay, not with
+        # `import marl_social`
+        from marl_social.data.interaction import read_interaction_csv
+
         try:
             tracks = read_interaction_csv(p.tracks)
         except (OSError, ValueError) as err:
