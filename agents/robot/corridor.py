@@ -167,15 +167,32 @@ def objects_on_path(route: Route, scene: ScenePrediction, s0: float, robot_lengt
     return out
 
 
+def static_outlines(polygons) -> np.ndarray:
+    """(S, P, 2) the outline points of S static polygons: vertices and edge midpoints [m].
+
+    Each polygon (V, 2) gives its V vertices and V edge midpoints; shorter outlines are
+    padded with their first vertex (P = 2 max V). (0, 0, 2) without polygons.
+    """
+    outlines = []
+    for poly in polygons:
+        poly = np.asarray(poly, dtype=np.float64)
+        outlines.append(np.concatenate([poly, 0.5 * (poly + np.roll(poly, -1, axis=0))]))
+    if not outlines:
+        return np.zeros((0, 0, 2))
+    width = max(len(o) for o in outlines)
+    return np.stack([np.concatenate([o, np.repeat(o[:1], width - len(o), axis=0)])
+                     for o in outlines])
+
+
 @dataclass(frozen=True)
-class StaticBoxes:
-    """Static boxes projected on a route once (they do not move): `static_limit` per step.
+class StaticObstacles:
+    """Static polygons projected on a route once (they do not move): `limit` per step.
 
     Attributes:
-        s_min: (S,) smallest arc length of each box's outline points [m].
+        s_min: (S,) smallest arc length of each polygon's outline points [m].
         s_max: (S,) largest [m].
-        in_corridor: (S,) bool, the box reaches into the corridor laterally (and lies along
-            the route, not beyond its ends).
+        in_corridor: (S,) bool, the polygon reaches into the corridor laterally (and lies
+            along the route, not beyond its ends).
     """
 
     s_min: np.ndarray
@@ -183,25 +200,24 @@ class StaticBoxes:
     in_corridor: np.ndarray
 
     @classmethod
-    def project(cls, route: Route, boxes: np.ndarray | None, robot_width_m: float,
-                lateral_margin_m: float) -> StaticBoxes:
-        """Project (S, 4) boxes (xmin, ymin, xmax, ymax) [m] (or None) onto `route`.
+    def project(cls, route: Route, outlines: np.ndarray | None, robot_width_m: float,
+                lateral_margin_m: float) -> StaticObstacles:
+        """Project (S, P, 2) outline points (static_outlines) [m] (or None) onto `route`.
+
+        A polygon is in the corridor when its outline points' lateral offsets reach
+        [-(w/2 + margin), w/2 + margin] (w the robot's width): the polygon's own points, not
+        its bounding box, whose corners lie off a polygon not aligned with the axes (a
+        building beside a diagonal street).
 
         Args:
             route: the robot's route.
-            boxes: (S, 4) the static polygons' bounding boxes [m], or None.
+            outlines: (S, P, 2) the static polygons' outline points [m], or None.
             robot_width_m: the robot's width [m].
             lateral_margin_m: clearance added to each side of the robot's width [m].
         """
-        if boxes is None or len(boxes) == 0:
+        if outlines is None or len(outlines) == 0:
             return cls(np.zeros(0), np.zeros(0), np.zeros(0, bool))
-        x0, y0, x1, y1 = (boxes[:, i] for i in range(4))
-        xm, ym = 0.5 * (x0 + x1), 0.5 * (y0 + y1)
-        pts = np.stack([np.stack([x0, y0], -1), np.stack([x1, y0], -1),
-                        np.stack([x1, y1], -1), np.stack([x0, y1], -1),
-                        np.stack([xm, y0], -1), np.stack([xm, y1], -1),
-                        np.stack([x0, ym], -1), np.stack([x1, ym], -1)], axis=1)  # (S, 8, 2)
-        s, lateral, _ = route.project(pts)
+        s, lateral, _ = route.project(outlines)
         half = 0.5 * robot_width_m + lateral_margin_m
         s_min, s_max = s.min(axis=-1), s.max(axis=-1)
         inside = ((lateral.min(axis=-1) <= half) & (lateral.max(axis=-1) >= -half)
@@ -209,24 +225,24 @@ class StaticBoxes:
         return cls(s_min, s_max, inside)
 
     def limit(self, s0: float, robot_length_m: float) -> float:
-        """Arc length of the nearest box ahead of the robot at s0 [m] in its corridor (inf)."""
+        """Arc length of the nearest polygon ahead of the robot at s0 [m] in its corridor (inf)."""
         ahead = self.in_corridor & (self.s_max >= s0 - 0.5 * robot_length_m)
         return float(self.s_min[ahead].min()) if ahead.any() else np.inf
 
 
-def static_limit(route: Route, boxes: np.ndarray | None, s0: float, robot_length_m: float,
+def static_limit(route: Route, outlines: np.ndarray | None, s0: float, robot_length_m: float,
                  robot_width_m: float, lateral_margin_m: float) -> float:
-    """Arc length of the nearest static box ahead that reaches into the corridor (inf: none) [m].
+    """Arc length of the nearest static polygon ahead that reaches into the corridor (inf) [m].
 
     Args:
         route: the robot's route.
-        boxes: (S, 4) [xmin, ymin, xmax, ymax] of the static polygons [m], or None.
+        outlines: (S, P, 2) the static polygons' outline points (static_outlines) [m], or None.
         s0: the robot's arc length [m].
         robot_length_m: the robot's length [m].
         robot_width_m: the robot's width [m].
         lateral_margin_m: clearance added to each side of the robot's width [m].
     """
-    return StaticBoxes.project(route, boxes, robot_width_m, lateral_margin_m).limit(
+    return StaticObstacles.project(route, outlines, robot_width_m, lateral_margin_m).limit(
         s0, robot_length_m)
 
 

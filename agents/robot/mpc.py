@@ -57,7 +57,7 @@ from marl_social.agents.robot.corridor import (
     PAST,
     Clearances,
     PathObject,
-    StaticBoxes,
+    StaticObstacles,
     corridor_kernels,
     curvature_speed_bound,
     full_acceleration_progress,
@@ -95,7 +95,7 @@ class ContingencyMpc:
         self._mode_qp: ContingencyQp | None = None
         self._curvature: tuple[Route, tuple[np.ndarray, np.ndarray]] | None = None
         # the static boxes projected on the route, per (route, boxes array): they do not move
-        self._static: tuple[Route, np.ndarray | None, StaticBoxes] | None = None
+        self._static: tuple[Route, np.ndarray | None, StaticObstacles] | None = None
         self._headway = config.headway_s()
         self._plan_times = config.plan_times_s
         # (N,) the speed braking at half the limit loses by the end of each step [m/s]
@@ -166,7 +166,7 @@ class ContingencyMpc:
         r = request
         s0, v0, prev_accel, scene = r.s0, r.v0, r.prev_accel, r.scene
         v_ref_mps, speed_limit_mps, beliefs = r.v_ref_mps, r.speed_limit_mps, r.beliefs
-        static_boxes, stop_at_m, contingent = r.static_boxes, r.stop_at_m, r.contingent
+        static_outlines, stop_at_m, contingent = r.static_outlines, r.stop_at_m, r.contingent
         extra_objects, pull_up_to_m = r.extra_objects, r.pull_up_to_m
         c, veh = self.config, self.vehicle
         self._goal = ((c.w_pull_up, pull_up_to_m - s0) if np.isfinite(pull_up_to_m)
@@ -185,9 +185,9 @@ class ContingencyMpc:
         # a braking command larger than the speed left is realized only in part (v >= 0)
         prev_accel = max(prev_accel, -v0 / DT_S)
         if (self._static is None or self._static[0] is not route
-                or self._static[1] is not static_boxes):
-            self._static = (route, static_boxes, StaticBoxes.project(
-                route, static_boxes, veh.width_m, c.lateral_margin_m))
+                or self._static[1] is not static_outlines):
+            self._static = (route, static_outlines, StaticObstacles.project(
+                route, static_outlines, veh.width_m, c.lateral_margin_m))
         wall = (self._static[2].limit(s0, veh.length_m) - c.min_gap_m - 0.5 * veh.length_m
                 - s0)
         wall = min(wall, stop_at_m - s0)

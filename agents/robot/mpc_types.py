@@ -141,7 +141,8 @@ class PlanRequest:
         speed_limit_mps: hard speed limit [m/s].
         scene: L hypotheses of the others at config.plan_times_s.
         beliefs: (L,) probability of each hypothesis.
-        static_boxes: (S, 4) bounding boxes [xmin, ymin, xmax, ymax] of static polygons [m].
+        static_outlines: (S, P, 2) the static polygons' outline points (corridor.
+            static_outlines) [m].
         stop_at_m: the arc length the robot's centre must stay behind (a stop line not yet
             stopped at, agents/robot/stop.py; inf: none) [m].
         contingent: (L,) bool or factor in [0, 1] of the comfort weight: the hypotheses
@@ -165,7 +166,7 @@ class PlanRequest:
     speed_limit_mps: float
     scene: ScenePrediction
     beliefs: np.ndarray
-    static_boxes: np.ndarray | None = None
+    static_outlines: np.ndarray | None = None
     stop_at_m: float = np.inf
     contingent: np.ndarray | None = None
     extra_objects: list | None = None

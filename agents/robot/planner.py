@@ -52,6 +52,7 @@ import math
 
 import numpy as np
 
+from marl_social.agents.robot.corridor import static_outlines
 from marl_social.agents.robot.mpc import ContingencyMpc
 from marl_social.agents.robot.mpc_types import MpcResult, PlanRequest
 from marl_social.agents.robot.pipeline import PlanningRecord, Stage, Truth
@@ -113,8 +114,7 @@ class RobotPlanner:
         signals = self.stage(SignalBranches)
         # the belief over the signal phase (None: no signal plan), recorded by run_episode
         self.phase_belief = signals.phase_belief if signals is not None else None
-        self._static_boxes = np.array(
-            [[*p.min(axis=0), *p.max(axis=0)] for p in road_map.static_polygons]).reshape(-1, 4)
+        self._static_outlines = static_outlines(road_map.static_polygons)
         self._truth: Truth | None = None
         self.reset()
 
@@ -166,7 +166,7 @@ class RobotPlanner:
         self.last_record = record
         result = self.solver.plan(self.route, PlanRequest(
             s0, v, self.prev_accel, record.v_ref_mps, self.road_map.speed_limit_mps,
-            record.scene, record.weights, self._static_boxes, record.stop_at_m,
+            record.scene, record.weights, self._static_outlines, record.stop_at_m,
             record.contingent, record.claims, record.pull_up_to_m))
         self.last_result = result
         self.prev_accel = result.accel_mps2

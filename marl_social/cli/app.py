@@ -215,6 +215,27 @@ def _add_scenes(sub) -> None:
     scenes.set_defaults(func=commands.scenes)
 
 
+def _add_replay(sub) -> None:
+    rep = sub.add_parser("replay", formatter_class=FORMATTER,
+                         help="an INTERACTION recording's vehicles replayed on their map, the "
+                              "robot planning among them",
+                         description="Replay the vehicles of a vehicle_tracks_*.csv on its "
+                                     "Lanelet2 map (log replay, their own fields of view) with "
+                                     "the robot on a route through one of the map's crosswalks.")
+    rep.add_argument("map", help="the recording's Lanelet2 .osm map (or a built-in map's name)")
+    rep.add_argument("tracks", help="the recording's vehicle_tracks_*.csv")
+    rep.add_argument("--element", type=int, default=0,
+                     help="the crosswalk the robot's route goes through (0: the first "
+                          "buildable; `marl-social scenes MAP`)")
+    rep.add_argument("--start-frame", type=int, default=0,
+                     help="the replay's first frame (0: the recording's first)")
+    rep.add_argument("--steps", type=int, default=600, help="step limit (10 Hz)")
+    rep.add_argument("--planner", default="social", help="the robot's planner")
+    rep.add_argument("--seed", type=int, default=0, help="the env's and the robot's seed")
+    rep.add_argument("--out", help="also draw the episode (PNG)")
+    rep.set_defaults(func=commands.replay)
+
+
 def _add_params(sub) -> None:
     params = sub.add_parser("params", formatter_class=FORMATTER,
                             help="list a scenario's settings (for --set)",
@@ -294,7 +315,7 @@ def build_parser() -> argparse.ArgumentParser:
     sub = parser.add_subparsers(dest="command", required=True, metavar="SUBCOMMAND",
                                 title="subcommands")
     for add in (_add_demo, _add_reproduce, _add_record, _add_irl, _add_study, _add_bench,
-                _add_params, _add_maps, _add_scenes, _add_teach):
+                _add_params, _add_maps, _add_scenes, _add_replay, _add_teach):
         add(sub)
     add_train(sub, FORMATTER, SET_HELP)
     return parser

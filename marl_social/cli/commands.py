@@ -1,4 +1,4 @@
-"""The subcommands of `marl-social`: demo, bench, reproduce, record, irl fit, maps, scenes."""
+"""The subcommands of `marl-social`: demo, bench, reproduce, record, irl fit, maps, scenes, replay."""
 
 from __future__ import annotations
 
@@ -335,7 +335,7 @@ def scenes(args) -> int:
     import warnings
 
     from marl_social.maps import MapConversionWarning, load_map
-    from marl_social.maps.scenes import scene_listing
+    from marl_social.maps.listing import scene_listing
 
     with warnings.catch_warnings():  # `maps show` lists what was not mapped
         warnings.simplefilter("ignore", MapConversionWarning)
@@ -355,4 +355,32 @@ def scenes(args) -> int:
             continue
         for e in refused:
             print(f"  not {e.element}: {e.reason}")
+    return 0
+
+
+def replay(args) -> int:
+    """`marl-social replay MAP TRACKS`: a recording's vehicles replayed, the robot planning."""
+    import warnings
+
+    from marl_social.evaluation.map_replay import ReplayRun, replay_summary, run_replay
+    from marl_social.maps import MapConversionWarning
+
+    if args.out:
+        _check_output_file(args.out, "--out")
+    overrides = {"element": args.element, "start_frame": args.start_frame,
+                 "robot_planner": args.planner}
+    run = ReplayRun(args.map, args.tracks, max_steps=args.steps, seed=args.seed,
+                    overrides=overrides)
+    with warnings.catch_warnings():  # `maps show` lists what was not mapped
+        warnings.simplefilter("ignore", MapConversionWarning)
+        result = run_replay(run)
+    print(replay_summary(run, result))
+    if args.out:
+        from marl_social.viz.figures import EpisodeArrays, plot_episode
+
+        beliefs = ({"P(pedestrian) (robot belief)": result.trace.extras["p_pedestrian"]}
+                   if "p_pedestrian" in result.trace.extras else None)
+        path = plot_episode(result.road_map, EpisodeArrays.from_trace(result.trace), args.out,
+                            title=f"replay {Path(args.tracks).name}", beliefs=beliefs)
+        print(f"figure: {path}")
     return 0

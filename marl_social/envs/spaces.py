@@ -19,7 +19,7 @@ import numpy as np
 from gymnasium import spaces
 
 from marl_social.sim.dynamics import DT_S
-from marl_social.sim.observation import OBS_BOUND, ObservationLimits
+from marl_social.sim.observation import OBS_BOUND, ObservationLimits, position_bounds
 
 STATE_FIELDS = ("x", "y", "cos_psi", "sin_psi", "v", "active")
 STATE_DIM = len(STATE_FIELDS)
@@ -63,15 +63,15 @@ def state_space(limits: ObservationLimits, specs, n_signals: int = 0) -> spaces.
     """The (n_agents * STATE_DIM + n_signals * SIGNAL_STATE_DIM,) float32 Box of the state.
 
     Args:
-        limits: the env's limits (positions: the map's extent grown by the agents' reach).
+        limits: the env's limits (positions: the map's extent grown by the agents' reach, and
+            0).
         specs: the agents' specs in `possible_agents` order (each row's speed bound is its own
             agent's top speed).
         n_signals: the map's signal heads (each adds a one-hot block in [0, 1]).
     """
-    x0, x1, y0, y1 = limits.extent_m
-    grow = limits.reach_m
-    low = np.array([max(x0 - grow, -OBS_BOUND), max(y0 - grow, -OBS_BOUND), -1.0, -1.0, 0.0, 0.0])
-    high = np.array([min(x1 + grow, OBS_BOUND), min(y1 + grow, OBS_BOUND), 1.0, 1.0, 0.0, 1.0])
+    x, y = position_bounds(limits.extent_m, limits.reach_m)  # with 0: the row of one gone
+    low = np.array([x[0], y[0], -1.0, -1.0, 0.0, 0.0])
+    high = np.array([x[1], y[1], 1.0, 1.0, 0.0, 1.0])
     lows = np.tile(low, (len(specs), 1))  # (n, STATE_DIM)
     highs = np.tile(high, (len(specs), 1))
     highs[:, STATE_INDEX["v"]] = [_speed_max_mps(s) for s in specs]

@@ -8,7 +8,7 @@ lane a car may not change to) hides a pedestrian waiting at the crosswalk's end 
 side; without such a lane, a parked car along the right curb hides the pedestrian.
 
 `crosswalk_plan(loaded, crosswalk_id, needs)` gives the scene's geometry (CrosswalkPlan) or a
-SceneError naming why it cannot be built there; `scene_listing(loaded)` says it for every
+SceneError naming why it cannot be built there; `listing.scene_listing(loaded)` says it for every
 element of a map (`marl-social scenes`).
 """
 
@@ -400,31 +400,3 @@ def _pedestrian_path(crosswalk, robot: LanePath, side: int, curb_offset_m: float
         axis = axis[::-1]
     out = (axis[0] - axis[1]) / np.linalg.norm(axis[0] - axis[1])
     return np.array([axis[0] + curb_offset_m * out, axis[1] - 1.0 * out])
-
-
-class SceneEntry(NamedTuple):
-    """One line of a map's scene listing: an element, a situation, and why not (or "")."""
-
-    element: int
-    situation: str
-    reason: str
-
-
-def scene_listing(loaded) -> list[SceneEntry]:
-    """Every crosswalk, junction and signal of a map with whether its situation can be built.
-
-    The reason is "" where it can (with the default needs), else why not.
-    """
-    _, elements = loaded
-    entries = []
-    for crosswalk_id in sorted(elements.crosswalks):
-        try:
-            crosswalk_plan(loaded, crosswalk_id)
-            entries.append(SceneEntry(crosswalk_id, "crosswalk", ""))
-        except SceneError as err:
-            entries.append(SceneEntry(crosswalk_id, "crosswalk", str(err)))
-    entries += [SceneEntry(j, "junction", "junction scenes are not built yet")
-                for j in sorted(elements.junctions)]
-    entries += [SceneEntry(s, "signal", "signal scenes are not built yet")
-                for s in sorted(elements.signals)]
-    return entries

@@ -57,6 +57,54 @@ def agent_occupancy(trace: Trace, agent: int, road_map: RoadMap) -> np.ndarray:
                                road_map.crosswalks[0])
 
 
+def _walk_coordinate(xy: np.ndarray, crosswalk) -> np.ndarray:
+    """(...) position along a crosswalk's walking direction from its centre of points (..., 2) [m]."""
+    rel = np.asarray(xy, dtype=np.float64) - crosswalk.center
+    return rel[..., 0] * np.cos(crosswalk.walk_heading_rad) + rel[..., 1] * np.sin(
+        crosswalk.walk_heading_rad)
+
+
+def pedestrian_before_robot_lane(trace: Trace, road_map: RoadMap, robot: str,
+                                 pedestrian: int) -> np.ndarray:
+    """(T+1,) bool: the pedestrian has not yet walked past the robot's lane on the crosswalk.
+
+    Along the first crosswalk's walking direction, in the direction the pedestrian's route
+    walks: its centre short of the far edge of the lane the robot's route crosses it in (the
+    map's lane nearest the crossing; its half width). All True where that cannot be told (no
+    route crossing the walk, no lanes): then only the crosswalk counts. Where the crosswalk
+    spans just the robot's lane and the one it starts from (curb to curb), in the crosswalk is
+    short of that edge; on a wider one (a real street's), a pedestrian past it walks away
+    from the robot's path, behind it.
+
+    Args:
+        trace: the episode's trace.
+        road_map: the map (routes, lanes, the first crosswalk).
+        robot: the robot's name.
+        pedestrian: the pedestrian's trace index.
+    """
+    everywhere = np.ones(len(trace.times_s), dtype=bool)
+    crosswalk = road_map.crosswalks[0]
+    route = road_map.routes.get(robot)
+    walk_route = road_map.routes.get(trace.names[pedestrian])
+    if route is None or walk_route is None or not road_map.lanes:
+        return everywhere
+    heading = np.array([np.cos(crosswalk.walk_heading_rad), np.sin(crosswalk.walk_heading_rad)])
+    half = 0.5 * crosswalk.length_m + 1.0
+    crossings = route.segment_crossings(
+        np.array([crosswalk.center - half * heading, crosswalk.center + half * heading]))
+    if not len(crossings):
+        return everywhere
+    crossing_xy = route.point_at(float(crossings[0]))[0]
+    lateral = [abs(float(Route(lane.centerline).project(crossing_xy[None])[1][0]))
+               for lane in road_map.lanes]
+    half_lane = 0.5 * road_map.lanes[int(np.argmin(lateral))].width_m
+    ends = _walk_coordinate(walk_route.points[[0, -1]], crosswalk)
+    direction = 1.0 if ends[1] >= ends[0] else -1.0
+    ahead = direction * (_walk_coordinate(trace.states[:, pedestrian, :2], crosswalk)
+                         - _walk_coordinate(crossing_xy, crosswalk))
+    return ahead <= half_lane
+
+
 def robot_conflicts(trace: Trace, road_map: RoadMap, robot: str) -> tuple[RouteConflict, ...]:
     """The conflict zones on the robot's route (empty if the map has no route for it)."""
     route = road_map.routes.get(robot)
@@ -169,7 +217,9 @@ def yielded(trace: Trace, road_map: RoadMap, robot: str) -> bool:
     """The robot gave way: in no crosswalk with the pedestrian, in no zone in another's way.
 
     Crosswalk: the robot was never in the first crosswalk while the first pedestrian was in
-    it. Conflict zones (those on its route where it yields): the robot was never in one while
+    it and had not yet walked past the robot's lane (pedestrian_before_robot_lane: on a
+    crosswalk from curb to curb of the robot's and the next lane, while it was in it at
+    all). Conflict zones (those on its route where it yields): the robot was never in one while
     an agent with the right of way there reached it within YIELD_WINDOW_S, or was in it behind
     the robot along its own route (the robot in its way; merging behind it is giving way).
     True without either.
@@ -180,6 +230,7 @@ def yielded(trace: Trace, road_map: RoadMap, robot: str) -> bool:
         p = peds[0]
         robot_in = (agent_occupancy(trace, r, road_map) > OCCUPIED_FRACTION) & trace.active[:, r]
         ped_in = agent_occupancy(trace, p, road_map) > OCCUPIED_FRACTION
+        ped_in &= pedestrian_before_robot_lane(trace, road_map, robot, p)
         if np.any(robot_in & ped_in & trace.active[:, p]):
             return False
     window = round(YIELD_WINDOW_S / DT_S)

@@ -6,7 +6,7 @@ lane beside it in the same direction, human_lead_m ahead, hiding a pedestrian at
 crosswalk's end on the human's side (a parked car along the right curb where no such lane
 exists), the map's occluders. The robot starts approach_m before the crosswalk. The scene's map
 holds the map's lanes, crosswalks, stop lines, conflict zones, signals and occluders within
-SCENE_MARGIN_M of the routes, in a frame about the crosswalk's centre (rounded to the metre);
+SCENE_MARGIN_M of the routes, in the map's own frame;
 the robot's stages come from them as on any map. Where a
 signal stands on the robot's approach, the map's cycle starts with its green (the situation is
 the hidden pedestrian, not the light).
@@ -25,8 +25,16 @@ from dataclasses import dataclass
 import numpy as np
 
 from marl_social.maps import load_map
-from marl_social.maps.scenes import ScenarioNeeds, SceneError, crosswalk_plan, scene_listing
-from marl_social.scenarios.base import Scenario, ScenarioLayout
+from marl_social.maps.junction_scenes import JunctionNeeds, junction_plan
+from marl_social.maps.listing import scene_listing
+from marl_social.maps.scenes import ScenarioNeeds, SceneError, crosswalk_plan
+from marl_social.scenarios.base import (
+    MAX_SENSOR_RANGE_M,
+    MAX_VEHICLE_SPEED_MPS,
+    HiddenAgent,
+    Scenario,
+    ScenarioLayout,
+)
 from marl_social.scenarios.crosswalk_agents import (
     CrosswalkParams,
     human_spec,
@@ -37,7 +45,8 @@ from marl_social.sim.agent_spec import AgentSpec
 from marl_social.sim.road_map import RoadMap, Route, StopLine
 from marl_social.sim.signals import SignalController
 
-SITUATIONS = ("crosswalk",)  # built so far (maps/scenes.SITUATIONS lists the others)
+SITUATIONS = ("crosswalk", "junction")  # built so far (maps/scenes.SITUATIONS: all)
+HIDDEN_VARIANTS = ("near", "none")  # the junction's hidden car
 OCCLUDERS = ("auto", "human", "parked")
 SCENE_MARGIN_M = 30.0  # the scene's map: what lies within this of its routes [m]
 MAX_APPROACH_M = 200.0  # the robot's farthest start before the crosswalk [m]
@@ -59,6 +68,19 @@ class MapSceneParams(CrosswalkParams):
             beside allows one, else a parked car).
         approach_m: the robot's start before the crosswalk along its route [m].
         pedestrian_curb_offset_m: how far past the crosswalk's end the pedestrian waits [m].
+        hidden_vehicle: the junction's hidden car on the major road: "near" or "none".
+        hidden_m: its start before the conflict point [m].
+        hidden_speed_mps: its initial and desired speed [m/s].
+        junction_approach_m: the robot's start before its conflict point at a junction [m].
+        junction_robot_speed_mps: its initial speed there [m/s].
+        human_start_m: each human sensor's start before its conflict point [m].
+        sensor_speed_mps: the human sensors' initial speed [m/s] (their desired speed:
+            human_desired_speed_mps, at most the lane's limit).
+        junction_robot_half_fov_deg, junction_robot_sensor_range_m, junction_robot_epsilon:
+            the robot's view and tail threshold at a junction (the T-intersection's: it looks
+            sideways along the major road; with the crosswalk's 0.02 it would wait for ever
+            for cars that nothing can tell it about), in place of robot_half_fov_deg,
+            robot_sensor_range_m and robot_epsilon.
     """
 
     map: str = "karlsruhe"
@@ -67,6 +89,16 @@ class MapSceneParams(CrosswalkParams):
     occluder: str = "auto"
     approach_m: float = 60.0
     pedestrian_curb_offset_m: float = 1.0
+    hidden_vehicle: str = "near"
+    hidden_m: float = 40.0
+    hidden_speed_mps: float = 8.0
+    junction_approach_m: float = 25.0
+    junction_robot_speed_mps: float = 5.0
+    human_start_m: float = 15.0
+    sensor_speed_mps: float = 5.0
+    junction_robot_half_fov_deg: float = 110.0
+    junction_robot_sensor_range_m: float = 60.0
+    junction_robot_epsilon: float = 0.05
 
     def __post_init__(self):
         super().__post_init__()
@@ -75,6 +107,18 @@ class MapSceneParams(CrosswalkParams):
         self._check(self.situation in SITUATIONS, "situation",
                     f"must be one of {SITUATIONS} (junction and signal scenes are not built yet)")
         self._check(self.occluder in OCCLUDERS, "occluder", f"must be one of {OCCLUDERS}")
+        self._check(self.hidden_vehicle in HIDDEN_VARIANTS, "hidden_vehicle",
+                    f"must be one of {HIDDEN_VARIANTS}")
+        self._check_range("hidden_m", 10.0, MAX_APPROACH_M, "m")
+        self._check_range("junction_approach_m", 5.0, MAX_APPROACH_M, "m")
+        self._check_range("human_start_m", 2.0, MAX_APPROACH_M, "m")
+        for name in ("hidden_speed_mps", "junction_robot_speed_mps", "sensor_speed_mps"):
+            self._check_range(name, 0.0, MAX_VEHICLE_SPEED_MPS, "m/s")
+        self._check_range("junction_robot_half_fov_deg", 0.0, 180.0, "deg", low_open=True)
+        self._check_range("junction_robot_sensor_range_m", 0.0, MAX_SENSOR_RANGE_M, "m",
+                          low_open=True)
+        self._check(0.0 <= self.junction_robot_epsilon < 1.0, "junction_robot_epsilon",
+                    "must be in [0, 1)")
         self._check(self.element >= 0, "element", "must be a Lanelet2 id (>= 0; 0: the first)")
         self._check_range("approach_m", 10.0, MAX_APPROACH_M, "m")
         self._check_range("pedestrian_start_delay_s", 0.0, 3600.0, "s")
@@ -90,14 +134,16 @@ def _near(points: np.ndarray, box: tuple[float, float, float, float]) -> bool:
 
 
 def scene_road_map(full: RoadMap, box: tuple[float, float, float, float],
-                   origin: np.ndarray, extra_polygons: tuple[np.ndarray, ...] = ()) -> RoadMap:
-    """The part of a map within box (xmin, xmax, ymin, ymax) [m], in a frame about origin.
+                   extra_polygons: tuple[np.ndarray, ...] = (),
+                   first_crosswalk: int = -1) -> RoadMap:
+    """The part of a map within box (xmin, xmax, ymin, ymax) [m], in the map's frame.
 
-    Lanes, crosswalks, occluders and conflict zones with a point in the box; stop lines on
+    Lanes, crosswalks (full.crosswalks[first_crosswalk] first, the scene's crosswalk: the
+    metrics' and the episode's stopping rules' "first crosswalk"; -1: the map's order),
+    occluders and conflict zones with a point in the box; stop lines on
     the kept lanes (a lane-less one within the box); the signal heads of the kept stop lines
-    with the map's plan; indices renumbered, every point moved by -origin (2,) [m] (the
-    observation spaces hold the padding of empty slots, 0, only where the scene is about the
-    origin). extra_polygons are in the map's frame. No routes.
+    with the map's plan; indices renumbered; extra_polygons added to the occluders. No
+    routes.
     """
     lane_ids = [i for i, lane in enumerate(full.lanes) if _near(lane.centerline, box)]
     new_lane = {old: new for new, old in enumerate(lane_ids)}
@@ -105,23 +151,23 @@ def scene_road_map(full: RoadMap, box: tuple[float, float, float, float],
     for i, line in enumerate(full.stop_lines):
         if line.lane in new_lane or (line.lane == -1 and _near(line.segment, box)):
             new_line[i] = len(lines)
-            lines.append(StopLine(line.segment - origin, line.kind, new_lane.get(line.lane, -1)))
-    heads = tuple(dataclasses.replace(h, stop_line=new_line[h.stop_line],
-                                      position=h.position - origin)
+            lines.append(StopLine(line.segment, line.kind, new_lane.get(line.lane, -1)))
+    heads = tuple(dataclasses.replace(h, stop_line=new_line[h.stop_line])
                   for h in full.signal_heads if h.stop_line in new_line)
-    zones = tuple(dataclasses.replace(z, polygon=z.polygon - origin, priority_lanes=tuple(
+    zones = tuple(dataclasses.replace(z, priority_lanes=tuple(
         new_lane[i] for i in z.priority_lanes if i in new_lane))
         for z in full.conflict_zones if _near(z.polygon, box))
-    x0, x1, y0, y1 = box
+    crosswalk_ids = [i for i, c in enumerate(full.crosswalks)
+                     if i != first_crosswalk and _near(c.polygon(), box)]
+    if first_crosswalk >= 0:
+        crosswalk_ids.insert(0, first_crosswalk)
     return RoadMap(
-        lanes=tuple(dataclasses.replace(full.lanes[i], centerline=full.lanes[i].centerline
-                                        - origin) for i in lane_ids),
-        crosswalks=tuple(dataclasses.replace(c, center=c.center - origin)
-                         for c in full.crosswalks if _near(c.polygon(), box)),
-        static_polygons=tuple(p - origin for p in full.static_polygons if _near(p, box))
-        + tuple(p - origin for p in extra_polygons),
+        lanes=tuple(full.lanes[i] for i in lane_ids),
+        crosswalks=tuple(full.crosswalks[i] for i in crosswalk_ids),
+        static_polygons=tuple(p for p in full.static_polygons if _near(p, box))
+        + tuple(extra_polygons),
         speed_limit_mps=full.speed_limit_mps,
-        extent=(x0 - origin[0], x1 - origin[0], y0 - origin[1], y1 - origin[1]),
+        extent=box,
         stop_lines=tuple(lines),
         conflict_zones=zones, signal_heads=heads,
         signal_plan=full.signal_plan if heads else None)
@@ -146,6 +192,14 @@ class MapScene(Scenario):
                 raise SceneError(f"map {p.map}: no element where a {p.situation} scene can be "
                                  "built (`marl-social scenes` says why)")
             element = buildable[0]
+        self.element_id = element
+        if p.situation == "junction":
+            self.plan = junction_plan(loaded, element, JunctionNeeds(
+                approach_m=p.junction_approach_m, hidden_m=p.hidden_m,
+                human_start_m=p.human_start_m))
+            self.crosswalk_index = -1
+            self.road_map = self._junction_map(loaded.road_map)
+            return
         if element not in loaded.elements.crosswalks:
             known = any(element in table for table in (
                 loaded.elements.junctions, loaded.elements.signals, loaded.elements.stop_lines,
@@ -157,10 +211,8 @@ class MapScene(Scenario):
                                 or "none") + ")")
         needs = ScenarioNeeds(approach_m=p.approach_m, human_lead_m=p.human_lead_m,
                               curb_offset_m=p.pedestrian_curb_offset_m)
-        self.element_id = element
         self.plan = crosswalk_plan(loaded, element, needs, p.occluder)
-        crosswalk = loaded.road_map.crosswalks[loaded.elements.crosswalks[element].index]
-        self.origin = np.round(crosswalk.center)  # the scene's frame: about the crosswalk [m]
+        self.crosswalk_index = loaded.elements.crosswalks[element].index
         self.road_map = self._scene_map(loaded.road_map)
 
     def _scene_map(self, full: RoadMap) -> RoadMap:
@@ -172,13 +224,40 @@ class MapScene(Scenario):
         lo, hi = everything.min(axis=0) - SCENE_MARGIN_M, everything.max(axis=0) + SCENE_MARGIN_M
         extra = () if plan.parked_car is None else (plan.parked_car,)
         return scene_road_map(full, (float(lo[0]), float(hi[0]), float(lo[1]), float(hi[1])),
-                              self.origin, extra)
+                              extra, self.crosswalk_index)
+
+    def _junction_map(self, full: RoadMap) -> RoadMap:
+        plan = self.plan
+        everything = np.concatenate([plan.robot.points, plan.hidden.points,
+                                     *(path.points for path in plan.sensors)])
+        lo, hi = everything.min(axis=0) - SCENE_MARGIN_M, everything.max(axis=0) + SCENE_MARGIN_M
+        return scene_road_map(full, (float(lo[0]), float(hi[0]), float(lo[1]), float(hi[1])),
+                              plan.parked_cars)
+
+    def hidden_agent(self) -> HiddenAgent | None:
+        """What the scene hides (removed in the counterfactual).
+
+        The pedestrian, behind the human's (or the parked) car (pedestrian="none"); at a
+        junction, the car on the major road (hidden_vehicle="none").
+        """
+        p: MapSceneParams = self.params
+        if p.situation == "junction":
+            if p.hidden_vehicle == "none":
+                return None
+            return HiddenAgent((f"human_{len(self.plan.sensors)}",), {"hidden_vehicle": "none"},
+                               "p_vehicle")
+        if p.pedestrian == "none":
+            return None
+        return HiddenAgent(("pedestrian_0",), {"pedestrian": "none"}, "p_pedestrian")
 
     def build(self, rng: np.random.Generator) -> ScenarioLayout:
         """Robot, human (or none: a parked car) and pedestrian on the scene's map (no rng)."""
         p: MapSceneParams = self.params
         specs, routes = [], {}
-        for spec, route in [self._robot(), *self._human(), *self._pedestrian()]:
+        agents = ([self._junction_robot(), *self._sensors(), *self._hidden_car()]
+                  if p.situation == "junction"
+                  else [self._robot(), *self._human(), *self._pedestrian()])
+        for spec, route in agents:
             specs.append(spec)
             routes[spec.name] = route
         base = self.road_map
@@ -198,7 +277,9 @@ class MapScene(Scenario):
         plan = self.road_map.signal_plan
         if plan is None:
             return None
-        start_m = self.plan.robot.crossing_m - self.params.approach_m
+        p: MapSceneParams = self.params
+        start_m = self.plan.robot.crossing_m - (p.junction_approach_m if p.situation == "junction"
+                                                else p.approach_m)
         lines = {i for i, line in enumerate(self.road_map.stop_lines)
                  if any(0.0 <= s - start_m <= SIGNAL_GREEN_AHEAD_M
                         for s in robot_route.segment_crossings(line.segment))}
@@ -213,15 +294,48 @@ class MapScene(Scenario):
 
     def _robot(self) -> tuple[AgentSpec, Route]:
         p: MapSceneParams = self.params
-        route = Route(self.plan.robot.points - self.origin, "robot_0")
+        route = Route(self.plan.robot.points, "robot_0")
         start = self._start(route, self.plan.robot.crossing_m - p.approach_m, p.robot_speed_mps)
         return robot_spec(p, start), route
+
+    def _junction_robot(self) -> tuple[AgentSpec, Route]:
+        p: MapSceneParams = self.params
+        route = Route(self.plan.robot.points, "robot_0")
+        start = self._start(route, self.plan.robot.crossing_m - p.junction_approach_m,
+                            min(p.junction_robot_speed_mps, self.plan.speed_limit_mps))
+        junction = dataclasses.replace(p, robot_half_fov_deg=p.junction_robot_half_fov_deg,
+                                       robot_sensor_range_m=p.junction_robot_sensor_range_m,
+                                       robot_epsilon=p.junction_robot_epsilon)
+        return robot_spec(junction, start), route
+
+    def _sensors(self) -> list[tuple[AgentSpec, Route]]:
+        """The human sensors, human_start_m before their conflict points (human_0, ...)."""
+        p: MapSceneParams = self.params
+        out = []
+        for k, path in enumerate(self.plan.sensors):
+            route = Route(path.points, f"human_{k}")
+            start = self._start(route, path.crossing_m - p.human_start_m, p.sensor_speed_mps)
+            spec = human_spec(p, route.name, start)
+            out.append((dataclasses.replace(spec, v_desired_mps=min(
+                p.human_desired_speed_mps, self.plan.speed_limit_mps)), route))
+        return out
+
+    def _hidden_car(self) -> list[tuple[AgentSpec, Route]]:
+        """The car on the major road, hidden_m before the conflict point (last; none: [])."""
+        p: MapSceneParams = self.params
+        if p.hidden_vehicle == "none":
+            return []
+        name = f"human_{len(self.plan.sensors)}"
+        route = Route(self.plan.hidden.points, name)
+        start = self._start(route, self.plan.hidden.crossing_m - p.hidden_m, p.hidden_speed_mps)
+        spec = human_spec(p, name, start)
+        return [(dataclasses.replace(spec, v_desired_mps=p.hidden_speed_mps), route)]
 
     def _human(self) -> list[tuple[AgentSpec, Route]]:
         p: MapSceneParams = self.params
         if self.plan.human is None:
             return []
-        route = Route(self.plan.human.points - self.origin, "human_0")
+        route = Route(self.plan.human.points, "human_0")
         start_m = self.plan.human.crossing_m - (p.approach_m - p.human_lead_m)
         return [(human_spec(p, "human_0", self._start(route, start_m, p.human_speed_mps)),
                  route)]
@@ -230,7 +344,7 @@ class MapScene(Scenario):
         p: MapSceneParams = self.params
         if p.pedestrian == "none":
             return []
-        start, end = self.plan.pedestrian_path - self.origin
+        start, end = self.plan.pedestrian_path
         heading = math.atan2(end[1] - start[1], end[0] - start[0])
         return [(pedestrian_spec(p, start, heading),
-                 Route(self.plan.pedestrian_path - self.origin, "pedestrian_0"))]
+                 Route(self.plan.pedestrian_path, "pedestrian_0"))]

@@ -50,6 +50,22 @@ SLOT_DIM = len(SLOT_FIELDS)
 NOISE_SIGMAS = 10.0  # measurement noise margin of the bounds [standard deviations]; P < 1e-20
 
 
+def position_bounds(extent_m: tuple[float, float, float, float], grow_m: float
+                    ) -> tuple[tuple[float, float], tuple[float, float]]:
+    """((x low, x high), (y low, y high)) of a position [m] on a map: its extent grown by grow_m.
+
+    Each range also holds 0, the value of an empty slot or a row of an agent that has left
+    (a map far from its origin, a real city's, still has it in its bounds); within +-OBS_BOUND.
+
+    Args:
+        extent_m: (xmin, xmax, ymin, ymax) of the map [m].
+        grow_m: how far beyond it a position may lie [m].
+    """
+    x0, x1, y0, y1 = extent_m
+    return ((max(min(x0 - grow_m, 0.0), -OBS_BOUND), min(max(x1 + grow_m, 0.0), OBS_BOUND)),
+            (max(min(y0 - grow_m, 0.0), -OBS_BOUND), min(max(y1 + grow_m, 0.0), OBS_BOUND)))
+
+
 @dataclass(frozen=True)
 class ObservationLimits:
     """The physical limits of every agent in an env, from which the observation bounds follow.
@@ -79,10 +95,8 @@ class ObservationLimits:
 
     def field_bounds(self) -> tuple[dict, dict]:
         """({ego field: (low, high)}, {slot field: (low, high)}) in the fields' units."""
-        x0, x1, y0, y1 = self.extent_m
-        grow = self.reach_m + NOISE_SIGMAS * self.pos_noise_max_m
-        x = (max(x0 - grow, -OBS_BOUND), min(x1 + grow, OBS_BOUND))
-        y = (max(y0 - grow, -OBS_BOUND), min(y1 + grow, OBS_BOUND))
+        x, y = position_bounds(self.extent_m,
+                               self.reach_m + NOISE_SIGMAS * self.pos_noise_max_m)
         unit, flag = (-1.0, 1.0), (0.0, 1.0)
         v_meas = self.speed_max_mps + NOISE_SIGMAS * self.vel_noise_max_mps
         ego = {"x": x, "y": y, "cos_psi": unit, "sin_psi": unit, "v": (0.0, self.speed_max_mps),

@@ -6,7 +6,13 @@ import numpy as np
 import pytest
 
 from marl_social.agents.robot import mpc as mpc_module
-from marl_social.agents.robot.corridor import Clearances, mode_bounds, objects_on_path
+from marl_social.agents.robot.corridor import (
+    Clearances,
+    StaticObstacles,
+    mode_bounds,
+    objects_on_path,
+    static_outlines,
+)
 from marl_social.agents.robot.mpc import ContingencyMpc, distinct_branches, plan
 from marl_social.agents.robot.mpc_types import MpcConfig, PlanRequest
 from marl_social.models.scene_prediction import ScenePrediction
@@ -123,7 +129,7 @@ def test_stop_line_gives_a_gentle_deceleration_close_to_v2_over_2d(v0, distance_
     s0 = 100.0
     x_front = s0 - 50.0 + 0.5 * VEHICLE.length_m
     wall_x = x_front + distance_m + CONFIG.min_gap_m
-    boxes = np.array([[wall_x, 0.0, wall_x + 2.0, 3.5]])
+    boxes = _outlines(np.array([[wall_x, 0.0, wall_x + 2.0, 3.5]]))
     res = plan(CONFIG, VEHICLE, ROUTE, PlanRequest(
         s0, v0, 0.0, 11.5, 13.9, _empty(), np.array([1.0]),
                boxes))
@@ -206,17 +212,52 @@ def test_no_feasible_plan_brakes_as_hard_as_possible():
     assert res.accel_mps2 == -VEHICLE.brake_max_mps2
 
 
+def _outlines(boxes: np.ndarray) -> np.ndarray:
+    """(S, 8, 2) the outline points of (S, 4) axis-aligned boxes [xmin, ymin, xmax, ymax]."""
+    return static_outlines([np.array([[x0, y0], [x1, y0], [x1, y1], [x0, y1]])
+                            for x0, y0, x1, y1 in boxes])
+
+
 def test_static_polygon_ahead_is_a_constraint():
-    boxes = np.array([[110.0, 0.0, 118.0, 3.5]])  # robot at s0 = 130: x = 80
+    boxes = _outlines(np.array([[110.0, 0.0, 118.0, 3.5]]))  # robot at s0 = 130: x = 80
     free = plan(CONFIG, VEHICLE, ROUTE, PlanRequest(
         130.0, 11.5, 0.0, 11.5, 13.9, _empty(), np.array([1.0])))
     blocked = plan(CONFIG, VEHICLE, ROUTE, PlanRequest(130.0, 11.5, 0.0, 11.5, 13.9, _empty(),
                    np.array([1.0]), boxes))
     beside = plan(CONFIG, VEHICLE, ROUTE, PlanRequest(130.0, 11.5, 0.0, 11.5, 13.9, _empty(),
-                  np.array([1.0]), np.array([[110.0, 4.5, 118.0, 8.0]])))
+                  np.array([1.0]), _outlines(np.array([[110.0, 4.5, 118.0, 8.0]]))))
     assert free.accel_mps2 == pytest.approx(0.0, abs=1e-3)
     assert beside.accel_mps2 == pytest.approx(0.0, abs=1e-3)
     assert blocked.feasible and blocked.accel_mps2 < 0.0
+
+
+def test_a_diagonal_building_beside_a_diagonal_street_is_no_wall():
+    """A polygon along a 45-degree route, 6 m to its side: its bounding box covers the route,
+    the polygon does not; one across the route is a wall."""
+    route = Route(np.array([[0.0, 0.0], [100.0, 100.0]]))
+    along, normal = np.array([1.0, 1.0]) / np.sqrt(2.0), np.array([-1.0, 1.0]) / np.sqrt(2.0)
+
+    def box(s_m: float, lateral_m: float, half_length_m: float, half_width_m: float):
+        c = s_m * along + lateral_m * normal
+        a, w = half_length_m * along, half_width_m * normal
+        return np.array([c - a - w, c + a - w, c + a + w, c - a + w])
+
+    beside = StaticObstacles.project(route, static_outlines([box(60.0, 6.0, 10.0, 2.0)]),
+                                     VEHICLE.width_m, CONFIG.lateral_margin_m)
+    across = StaticObstacles.project(route, static_outlines([box(60.0, 0.0, 1.0, 5.0)]),
+                                     VEHICLE.width_m, CONFIG.lateral_margin_m)
+    assert not beside.in_corridor[0] and beside.limit(10.0, VEHICLE.length_m) == np.inf
+    assert across.limit(10.0, VEHICLE.length_m) == pytest.approx(59.0)
+
+
+def test_static_outlines_pad_short_polygons_with_a_vertex():
+    triangle = np.array([[0.0, 0.0], [2.0, 0.0], [0.0, 2.0]])
+    square = np.array([[0.0, 0.0], [1.0, 0.0], [1.0, 1.0], [0.0, 1.0]])
+    outlines = static_outlines([triangle, square])
+    assert outlines.shape == (2, 8, 2)
+    np.testing.assert_array_equal(outlines[0, 3:6], [[1.0, 0.0], [1.0, 1.0], [0.0, 1.0]])
+    np.testing.assert_array_equal(outlines[0, 6:], [[0.0, 0.0], [0.0, 0.0]])
+    assert static_outlines([]).shape == (0, 0, 2)
 
 
 def test_follows_a_slower_car_ahead_with_a_gap():

@@ -13,7 +13,14 @@ from marl_social.envs.policies import truth_tracks
 from marl_social.envs.spaces import STATE_DIM
 from marl_social.evaluation.run import randomized_overrides
 from marl_social.scenarios import SCENARIOS
-from marl_social.sim.observation import EGO_DIM, EGO_INDEX, OBS_BOUND, SLOT_DIM, SLOT_INDEX
+from marl_social.sim.observation import (
+    EGO_DIM,
+    EGO_INDEX,
+    OBS_BOUND,
+    SLOT_DIM,
+    SLOT_INDEX,
+    position_bounds,
+)
 
 CONFIGS = [(name, dict(variant)) for name, cls in SCENARIOS.items() for variant in cls.variants]
 IDS = [f"{s}-{'-'.join(f'{k}={v}' for k, v in o.items()) or 'default'}" for s, o in CONFIGS]
@@ -137,3 +144,11 @@ def test_a_map_without_signals_has_no_signal_block():
     env = marl_social.parallel_env(scenario="occluded_crosswalk")
     env.reset(seed=0)
     assert env.state().shape == env.state_space.shape == (len(env.possible_agents) * STATE_DIM,)
+
+
+def test_position_bounds_hold_zero_for_a_map_far_from_its_origin():
+    """A real city's map lies hundreds of metres from its origin: an empty slot's 0 (and a
+    gone agent's row) is still inside the bounds; a map about the origin keeps its own."""
+    x, y = position_bounds((-420.0, -300.0, 500.0, 650.0), 30.0)
+    assert x == (-450.0, 0.0) and y == (0.0, 680.0)
+    assert position_bounds((-10.0, 10.0, -5.0, 5.0), 1.0) == ((-11.0, 11.0), (-6.0, 6.0))
