@@ -16,8 +16,7 @@ import numpy as np
 from marl_social.agents.log_replay import LogReplayPolicy
 from marl_social.envs.parallel import parallel_env
 from marl_social.envs.policies import make_policy
-from marl_social.evaluation.rollout import record_episode
-from marl_social.evaluation.run import _RecordingRobot
+from marl_social.evaluation.run import record_robot_episode
 from marl_social.metrics.episode import belief_metrics, episode_metrics
 from marl_social.sim.dynamics import DT_S
 
@@ -99,17 +98,7 @@ def run_replay(run: ReplayRun) -> ReplayResult:
         else:
             pols[name] = make_policy(spec, env.obs_layout, env.road_map, env.possible_agents,
                                      mode)
-    extras: dict = {}
-    pols["robot_0"] = _RecordingRobot(env, "robot_0", pols["robot_0"], extras)
-    trace = record_episode(env, pols, seed=run.seed)
-    n_states = len(trace.times_s)
-    trace.extras = {}
-    for key, values in extras.items():
-        if values:
-            series = np.full(n_states, np.nan)
-            aligned = [values[0], *values][:n_states]
-            series[: len(aligned)] = aligned
-            trace.extras[key] = series
+    trace = record_robot_episode(env, pols, run.seed)
     metrics = episode_metrics(trace, env.road_map)
     metrics.update(belief_metrics(trace, env.road_map))
     env.close()

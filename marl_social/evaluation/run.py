@@ -81,6 +81,35 @@ class _RecordingRobot:
         return action
 
 
+def record_robot_episode(env, pols: dict, seed: int, render: bool = False, until=None):
+    """`record_episode` with robot_0's beliefs and MPC feasibility in the trace's extras.
+
+    robot_0's policy (if any) is wrapped to record them (a `needs_truth` planner is fed its
+    truth); they are recorded once per robot decision and aligned with the T+1 states: the
+    first decision's value also stands at reset time, NaN once the robot has left the episode.
+
+    Args:
+        env: the parallel env.
+        pols: {agent: policy} (robot_0's entry is replaced by its recording wrapper).
+        seed: the episode's seed.
+        render: as record_episode.
+        until: as record_episode.
+    """
+    extras: dict = {}
+    if "robot_0" in pols:
+        pols["robot_0"] = _RecordingRobot(env, "robot_0", pols["robot_0"], extras)
+    trace = record_episode(env, pols, seed=seed, render=render, until=until)
+    n_states = len(trace.times_s)
+    trace.extras = {}
+    for key, values in extras.items():
+        if values:
+            series = np.full(n_states, np.nan)
+            aligned = [values[0], *values][:n_states]
+            series[: len(aligned)] = aligned
+            trace.extras[key] = series
+    return trace
+
+
 def run_episode(scenario: str = "occluded_crosswalk", seed: int = 0, render: bool = False,
                 max_cycles: int = 200, record_human_decisions: bool = False, until=None,
                 counterfactual: bool = False, **overrides) -> EpisodeResult:
@@ -111,20 +140,7 @@ def run_episode(scenario: str = "occluded_crosswalk", seed: int = 0, render: boo
     humans = {a: p for a, p in pols.items() if isinstance(p, BoltzmannDriver)}
     for policy in humans.values():
         policy.record_decisions = record_human_decisions
-    extras: dict = {}
-    if "robot_0" in pols:
-        pols["robot_0"] = _RecordingRobot(env, "robot_0", pols["robot_0"], extras)
-    trace = record_episode(env, pols, seed=seed, render=render, until=until)
-    # beliefs are recorded once per robot decision; align them with the T+1 states: the first
-    # decision's value also stands at reset time, NaN once the robot has left the episode
-    n_states = len(trace.times_s)
-    trace.extras = {}
-    for key, values in extras.items():
-        if values:
-            series = np.full(n_states, np.nan)
-            aligned = [values[0], *values][:n_states]
-            series[: len(aligned)] = aligned
-            trace.extras[key] = series
+    trace = record_robot_episode(env, pols, seed, render=render, until=until)
     metrics = episode_metrics(trace, env.road_map)
     metrics.update(belief_metrics(trace, env.road_map))
     hidden = env.scenario.hidden_agent() if counterfactual else None
@@ -133,7 +149,7 @@ def run_episode(scenario: str = "occluded_crosswalk", seed: int = 0, render: boo
                  if record_human_decisions else None)
     warning = None
     if hidden is not None:
-        without = run_episode(scenario, seed=seed, max_cycles=max(n_states - 1, 1),
+        without = run_episode(scenario, seed=seed, max_cycles=max(len(trace.times_s) - 1, 1),
                               **{**overrides, **hidden.absent})
         warning = counterfactual_warning(trace, without.trace, hidden)
         metrics.update(warning.as_metrics())

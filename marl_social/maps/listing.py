@@ -27,18 +27,14 @@ def scene_listing(loaded) -> list[SceneEntry]:
     """
     _, elements = loaded
     entries = []
-    for crosswalk_id in sorted(elements.crosswalks):
-        try:
-            crosswalk_plan(loaded, crosswalk_id)
-            entries.append(SceneEntry(crosswalk_id, "crosswalk", ""))
-        except SceneError as err:
-            entries.append(SceneEntry(crosswalk_id, "crosswalk", str(err)))
-    for junction_id in sorted(elements.junctions):
-        try:
-            junction_plan(loaded, junction_id)
-            entries.append(SceneEntry(junction_id, "junction", ""))
-        except SceneError as err:
-            entries.append(SceneEntry(junction_id, "junction", str(err)))
+    for situation, ids, plan in (("crosswalk", elements.crosswalks, crosswalk_plan),
+                                 ("junction", elements.junctions, junction_plan)):
+        for element_id in sorted(ids):
+            try:
+                plan(loaded, element_id)
+                entries.append(SceneEntry(element_id, situation, ""))
+            except SceneError as err:
+                entries.append(SceneEntry(element_id, situation, str(err)))
     entries += [SceneEntry(s, "signal", "signal scenes are not built yet")
                 for s in sorted(elements.signals)]
     return entries
