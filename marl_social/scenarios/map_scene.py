@@ -36,6 +36,7 @@ from marl_social.maps.junction_scenes import JunctionNeeds, junction_plan
 from marl_social.maps.listing import scene_listing
 from marl_social.maps.scenes import ScenarioNeeds, SceneError, crosswalk_plan
 from marl_social.maps.signal_scenes import PHASE_VARIANTS, SignalNeeds, signal_plan_of
+from marl_social.maps.traffic import TrafficRequest, traffic_paths
 from marl_social.scenarios.base import (
     MAX_SENSOR_RANGE_M,
     MAX_VEHICLE_SPEED_MPS,
@@ -63,6 +64,7 @@ SIGNAL_GREEN_AHEAD_M = 250.0  # signals this close ahead of the robot's start st
 LEFT_TURNER_SPACING_M = 7.5  # queue pitch of the signal's left-turners (front to front) [m]
 MAX_LEFT_TURNERS = 3
 MAX_CROSS = 2
+MAX_TRAFFIC = 20
 
 
 @dataclass(frozen=True)
@@ -100,6 +102,10 @@ class MapSceneParams(CrosswalkParams):
         cross_start_m, cross_gap_m, cross_speed_mps: see n_cross.
         robot_start_back_m: at a signal, how far the robot's front starts before its line (at
             rest) [m].
+        n_traffic: extra human drivers on the map's lanes near the element (0-20, after the
+            situation's agents; maps/traffic.py), starting at traffic_speed_mps (at most the
+            robot's lane's limit; their desired speed human_desired_speed_mps, likewise).
+        traffic_speed_mps: see n_traffic [m/s].
         junction_robot_half_fov_deg, junction_robot_sensor_range_m, junction_robot_epsilon:
             the robot's view and tail threshold at a junction or signal (the T-intersection's: it looks
             sideways along the major road; with the crosswalk's 0.02 it would wait for ever
@@ -131,6 +137,8 @@ class MapSceneParams(CrosswalkParams):
     cross_gap_m: float = 18.0
     cross_speed_mps: float = 12.0
     robot_start_back_m: float = 0.5
+    n_traffic: int = 0
+    traffic_speed_mps: float = 5.0
 
     def __post_init__(self):
         super().__post_init__()
@@ -147,6 +155,9 @@ class MapSceneParams(CrosswalkParams):
         self._check_range("cross_gap_m", VehicleParams().length_m + 1.0, MAX_APPROACH_M, "m")
         self._check_range("cross_speed_mps", 0.0, MAX_VEHICLE_SPEED_MPS, "m/s")
         self._check_range("robot_start_back_m", 0.0, MAX_APPROACH_M, "m")
+        self._check(0 <= self.n_traffic <= MAX_TRAFFIC, "n_traffic",
+                    f"must be in [0, {MAX_TRAFFIC}]")
+        self._check_range("traffic_speed_mps", 0.0, MAX_VEHICLE_SPEED_MPS, "m/s")
         self._check(self.occluder in OCCLUDERS, "occluder", f"must be one of {OCCLUDERS}")
         self._check(self.hidden_vehicle in HIDDEN_VARIANTS, "hidden_vehicle",
                     f"must be one of {HIDDEN_VARIANTS}")
@@ -240,8 +251,7 @@ class MapScene(Scenario):
                 human_start_m=p.human_start_m))
             self.crosswalk_index = -1
             self.road_map = self._junction_map(loaded.road_map)
-            return
-        if p.situation == "signal":
+        elif p.situation == "signal":
             self.plan = signal_plan_of(loaded, element, self._signal_needs())
             phase = loaded.road_map.signal_plan.phases[
                 self.plan.phase_indices[PHASE_VARIANTS.index(p.phase)]]
@@ -250,7 +260,13 @@ class MapScene(Scenario):
                                  f"the {p.phase} phase's {phase.duration_s:g} s on this map")
             self.crosswalk_index = -1
             self.road_map = self._signal_map(loaded.road_map)
-            return
+        else:
+            self._crosswalk(loaded, element)
+        self.traffic = self._traffic(loaded)
+
+    def _crosswalk(self, loaded, element: int) -> None:
+        """The crosswalk situation's plan and map (or a SceneError)."""
+        p: MapSceneParams = self.params
         if element not in loaded.elements.crosswalks:
             known = any(element in table for table in (
                 loaded.elements.junctions, loaded.elements.signals, loaded.elements.stop_lines,
@@ -265,6 +281,30 @@ class MapScene(Scenario):
         self.plan = crosswalk_plan(loaded, element, needs, p.occluder)
         self.crosswalk_index = loaded.elements.crosswalks[element].index
         self.road_map = self._scene_map(loaded.road_map)
+
+    def _situation_paths(self) -> list:
+        """The LanePaths of the situation's roles."""
+        plan = self.plan
+        if self.params.situation == "junction":
+            return [plan.robot, plan.hidden, *plan.sensors]
+        if self.params.situation == "signal":
+            return [plan.robot, plan.cross, plan.left_turn]
+        return [plan.robot] + ([plan.human] if plan.human is not None else [])
+
+    def _traffic(self, loaded) -> tuple:
+        """n_traffic routes near the element (maps/traffic.py; crossing_m: each start)."""
+        p: MapSceneParams = self.params
+        if p.n_traffic == 0:
+            return ()
+        starts = np.array([spec.initial_state[:2] for spec, _ in self._situation_agents()])
+        avoid = frozenset(k for path in self._situation_paths() for k in path.keys)
+        centre = Route(self.plan.robot.points).point_at(self.plan.robot.crossing_m)[0]
+        paths = traffic_paths(loaded, TrafficRequest(p.n_traffic, centre, self.road_map.extent,
+                                                     starts, avoid))
+        if len(paths) < p.n_traffic:
+            raise SceneError(f"map {p.map}: room for {len(paths)} traffic cars near element "
+                             f"{self.element_id}, n_traffic={p.n_traffic} asked for")
+        return paths
 
     def _scene_map(self, full: RoadMap) -> RoadMap:
         plan = self.plan
@@ -331,12 +371,8 @@ class MapScene(Scenario):
         """Robot, human (or none: a parked car) and pedestrian on the scene's map (no rng)."""
         p: MapSceneParams = self.params
         specs, routes = [], {}
-        if p.situation == "junction":
-            agents = [self._junction_robot(), *self._sensors(), *self._hidden_car()]
-        elif p.situation == "signal":
-            agents = [self._signal_robot(), *self._left_turners(), *self._cross_traffic()]
-        else:
-            agents = [self._robot(), *self._human(), *self._pedestrian()]
+        agents = self._situation_agents()
+        agents += self._traffic_cars(sum(spec.role == "human" for spec, _ in agents))
         for spec, route in agents:
             specs.append(spec)
             routes[spec.name] = route
@@ -347,6 +383,29 @@ class MapScene(Scenario):
                            stop_lines=base.stop_lines, conflict_zones=base.conflict_zones,
                            signal_heads=base.signal_heads, signal_plan=base.signal_plan)
         return ScenarioLayout(road_map, tuple(specs), p, self._signals(routes["robot_0"]))
+
+    def _situation_agents(self) -> list[tuple[AgentSpec, Route]]:
+        """The situation's agents and routes (robot first)."""
+        p: MapSceneParams = self.params
+        if p.situation == "junction":
+            return [self._junction_robot(), *self._sensors(), *self._hidden_car()]
+        if p.situation == "signal":
+            return [self._signal_robot(), *self._left_turners(), *self._cross_traffic()]
+        return [self._robot(), *self._human(), *self._pedestrian()]
+
+    def _traffic_cars(self, first: int) -> list[tuple[AgentSpec, Route]]:
+        """The traffic: human_<first> ... at traffic_speed_mps, at most their lane's limit."""
+        p: MapSceneParams = self.params
+        out = []
+        for k, path in enumerate(self.traffic):
+            name = f"human_{first + k}"
+            route = Route(path.points, name)
+            limit = self.plan.speed_limit_mps
+            spec = human_spec(p, name, self._start(route, path.crossing_m,
+                                                   min(p.traffic_speed_mps, limit)))
+            out.append((dataclasses.replace(spec, v_desired_mps=min(
+                p.human_desired_speed_mps, limit)), route))
+        return out
 
     def _signals(self, robot_route: Route) -> SignalController | None:
         """The map's cycle, started at the phase that shows the robot's approach green.
