@@ -1,7 +1,8 @@
 """Where each paper situation can be built on a map, and why not: `marl-social scenes`.
 
-`scene_listing(loaded)` tries every crosswalk (maps/scenes.py) and junction
-(maps/junction_scenes.py) of a map with the default needs.
+`scene_listing(loaded)` tries every crosswalk (maps/scenes.py), junction
+(maps/junction_scenes.py) and traffic light (maps/signal_scenes.py) of a map with the default
+needs.
 """
 
 from __future__ import annotations
@@ -10,6 +11,7 @@ from typing import NamedTuple
 
 from marl_social.maps.junction_scenes import junction_plan
 from marl_social.maps.scenes import SceneError, crosswalk_plan
+from marl_social.maps.signal_scenes import signal_plan_of
 
 
 class SceneEntry(NamedTuple):
@@ -28,13 +30,12 @@ def scene_listing(loaded) -> list[SceneEntry]:
     _, elements = loaded
     entries = []
     for situation, ids, plan in (("crosswalk", elements.crosswalks, crosswalk_plan),
-                                 ("junction", elements.junctions, junction_plan)):
+                                 ("junction", elements.junctions, junction_plan),
+                                 ("signal", elements.signals, signal_plan_of)):
         for element_id in sorted(ids):
             try:
                 plan(loaded, element_id)
                 entries.append(SceneEntry(element_id, situation, ""))
             except SceneError as err:
                 entries.append(SceneEntry(element_id, situation, str(err)))
-    entries += [SceneEntry(s, "signal", "signal scenes are not built yet")
-                for s in sorted(elements.signals)]
     return entries

@@ -172,17 +172,21 @@ def _chain(loaded, key: LaneKey, wanted_m: float, backwards: bool) -> list[LaneK
 
 
 def lane_path(loaded, key: LaneKey, crossing_m: float, reach: tuple[float, float],
-              edge_extension_m: float = 0.0) -> LanePath:
+              edge_extension_m: float = 0.0, then: tuple[LaneKey, ...] = ()) -> LanePath:
     """The chain of lanes through `key`, reach = (before, after) [m] of the crossing point.
 
-    Where the chain stops at the map's edge short of the reach, it goes on straight (along
-    its end's heading) for up to edge_extension_m [m].
+    After `key` come the lanes of `then` (successors in turn: a chosen way through a
+    junction), then the straightest continuation. Where the chain stops at the map's edge
+    short of the reach, it goes on straight (along its end's heading) for up to
+    edge_extension_m [m].
     """
     road_map, elements = loaded
     own = road_map.lanes[elements.lanes[key].index]
     before = _chain(loaded, key, reach[0] - crossing_m, backwards=True)
-    after = _chain(loaded, key, reach[1] - (_length(own.centerline) - crossing_m),
-                   backwards=False)
+    chosen_m = sum(_length(road_map.lanes[elements.lanes[k].index].centerline) for k in then)
+    after = [*then, *_chain(loaded, then[-1] if then else key,
+                            reach[1] - (_length(own.centerline) - crossing_m) - chosen_m,
+                            backwards=False)]
     keys = (*before, key, *after)
     parts = [road_map.lanes[elements.lanes[k].index].centerline for k in keys]
     points = [parts[0]]

@@ -14,6 +14,13 @@ the hidden pedestrian, not the light).
 Variants: pedestrian = "crossing", "waiting" or "none", as in occluded_crosswalk; the same
 randomization knobs (human_lead_m, human_speed_mps, human_beta, pedestrian_speed_mps,
 pedestrian_start_delay_s).
+
+`situation="junction"` (maps/junction_scenes.py, Fig. 1 b) and `situation="signal"`
+(maps/signal_scenes.py, Fig. 1 c on a traffic light: the robot at rest at its red line turning
+right, left-turners queued at theirs, cross traffic towards its line; the map's cycle started
+at `phase` ("protected_left" or "cross_green"), `phase_elapsed_s` into it; the knobs and their
+names are signalized_intersection's: n_humans, human_start_m, n_cross, cross_start_m,
+cross_gap_m, cross_speed_mps, robot_start_back_m, human_beta).
 """
 
 from __future__ import annotations
@@ -28,6 +35,8 @@ from marl_social.maps import load_map
 from marl_social.maps.junction_scenes import JunctionNeeds, junction_plan
 from marl_social.maps.listing import scene_listing
 from marl_social.maps.scenes import ScenarioNeeds, SceneError, crosswalk_plan
+from marl_social.maps.signal_scenes import PHASE_VARIANTS, SignalNeeds, signal_plan_of
+from marl_social.maps.traffic import TrafficRequest, traffic_paths
 from marl_social.scenarios.base import (
     MAX_SENSOR_RANGE_M,
     MAX_VEHICLE_SPEED_MPS,
@@ -41,17 +50,21 @@ from marl_social.scenarios.crosswalk_agents import (
     pedestrian_spec,
     robot_spec,
 )
-from marl_social.sim.agent_spec import AgentSpec
+from marl_social.sim.agent_spec import AgentSpec, VehicleParams
 from marl_social.sim.road_map import RoadMap, Route, StopLine
 from marl_social.sim.signals import SignalController
 
-SITUATIONS = ("crosswalk", "junction")  # built so far (maps/scenes.SITUATIONS: all)
+SITUATIONS = ("crosswalk", "junction", "signal")
 HIDDEN_VARIANTS = ("near", "none")  # the junction's hidden car
 OCCLUDERS = ("auto", "human", "parked")
 SCENE_MARGIN_M = 30.0  # the scene's map: what lies within this of its routes [m]
 MAX_APPROACH_M = 200.0  # the robot's farthest start before the crosswalk [m]
 MAX_CURB_OFFSET_M = 3.0  # the pedestrian's farthest wait past the crosswalk's end [m]
 SIGNAL_GREEN_AHEAD_M = 250.0  # signals this close ahead of the robot's start start green [m]
+LEFT_TURNER_SPACING_M = 7.5  # queue pitch of the signal's left-turners (front to front) [m]
+MAX_LEFT_TURNERS = 3
+MAX_CROSS = 2
+MAX_TRAFFIC = 20
 
 
 @dataclass(frozen=True)
@@ -62,7 +75,9 @@ class MapSceneParams(CrosswalkParams):
         map: a built-in map's name ("karlsruhe") or the path of a Lanelet2 .osm file.
         element: the Lanelet2 id of the element the scene is built around (0: the map's first
             element where the situation can be built; `marl-social scenes MAP` lists them).
-        situation: "crosswalk" (the robot, a human beside it and a hidden pedestrian).
+        situation: "crosswalk" (the robot, a human beside it and a hidden pedestrian),
+            "junction" (the robot giving way, a hidden car, human sensors) or "signal" (right
+            turn on red; left-turners and cross traffic; module docstring).
         occluder: what hides the pedestrian: "human" (a driver in the lane beside the
             robot's), "parked" (a car along the right curb) or "auto" (a human where a lane
             beside allows one, else a parked car).
@@ -73,11 +88,26 @@ class MapSceneParams(CrosswalkParams):
         hidden_speed_mps: its initial and desired speed [m/s].
         junction_approach_m: the robot's start before its conflict point at a junction [m].
         junction_robot_speed_mps: its initial speed there [m/s].
-        human_start_m: each human sensor's start before its conflict point [m].
+        human_start_m: each human sensor's start before its conflict point [m]; at a signal,
+            the first left-turner's front before its stop line [m].
         sensor_speed_mps: the human sensors' initial speed [m/s] (their desired speed:
             human_desired_speed_mps, at most the lane's limit).
+        phase: at a signal, the phase running at t = 0: "protected_left" (the left-turners'
+            green, the cross traffic's red) or "cross_green".
+        phase_elapsed_s: how long it has run at t = 0 [s] (less than its duration).
+        n_humans: at a signal, left-turners (0-3), queued LEFT_TURNER_SPACING_M apart, at rest.
+        n_cross: at a signal, cross cars (0-2); the first one's front cross_start_m before its
+            line, the next cross_gap_m (front to front) behind it, at cross_speed_mps (also
+            their desired speed) [m, m, m/s].
+        cross_start_m, cross_gap_m, cross_speed_mps: see n_cross.
+        robot_start_back_m: at a signal, how far the robot's front starts before its line (at
+            rest) [m].
+        n_traffic: extra human drivers on the map's lanes near the element (0-20, after the
+            situation's agents; maps/traffic.py), starting at traffic_speed_mps (at most the
+            robot's lane's limit; their desired speed human_desired_speed_mps, likewise).
+        traffic_speed_mps: see n_traffic [m/s].
         junction_robot_half_fov_deg, junction_robot_sensor_range_m, junction_robot_epsilon:
-            the robot's view and tail threshold at a junction (the T-intersection's: it looks
+            the robot's view and tail threshold at a junction or signal (the T-intersection's: it looks
             sideways along the major road; with the crosswalk's 0.02 it would wait for ever
             for cars that nothing can tell it about), in place of robot_half_fov_deg,
             robot_sensor_range_m and robot_epsilon.
@@ -99,13 +129,35 @@ class MapSceneParams(CrosswalkParams):
     junction_robot_half_fov_deg: float = 110.0
     junction_robot_sensor_range_m: float = 60.0
     junction_robot_epsilon: float = 0.05
+    phase: str = "protected_left"
+    phase_elapsed_s: float = 0.5
+    n_humans: int = 2
+    n_cross: int = 2
+    cross_start_m: float = 40.0
+    cross_gap_m: float = 18.0
+    cross_speed_mps: float = 12.0
+    robot_start_back_m: float = 0.5
+    n_traffic: int = 0
+    traffic_speed_mps: float = 5.0
 
     def __post_init__(self):
         super().__post_init__()
         for name in ("map", "situation", "occluder"):
             self._check(isinstance(getattr(self, name), str), name, "must be a string")
         self._check(self.situation in SITUATIONS, "situation",
-                    f"must be one of {SITUATIONS} (junction and signal scenes are not built yet)")
+                    f"must be one of {SITUATIONS}")
+        self._check(self.phase in PHASE_VARIANTS, "phase", f"must be one of {PHASE_VARIANTS}")
+        self._check_range("phase_elapsed_s", 0.0, 3600.0, "s")
+        self._check(0 <= self.n_humans <= MAX_LEFT_TURNERS, "n_humans",
+                    f"must be in [0, {MAX_LEFT_TURNERS}]")
+        self._check(0 <= self.n_cross <= MAX_CROSS, "n_cross", f"must be in [0, {MAX_CROSS}]")
+        self._check_range("cross_start_m", 0.0, MAX_APPROACH_M, "m")
+        self._check_range("cross_gap_m", VehicleParams().length_m + 1.0, MAX_APPROACH_M, "m")
+        self._check_range("cross_speed_mps", 0.0, MAX_VEHICLE_SPEED_MPS, "m/s")
+        self._check_range("robot_start_back_m", 0.0, MAX_APPROACH_M, "m")
+        self._check(0 <= self.n_traffic <= MAX_TRAFFIC, "n_traffic",
+                    f"must be in [0, {MAX_TRAFFIC}]")
+        self._check_range("traffic_speed_mps", 0.0, MAX_VEHICLE_SPEED_MPS, "m/s")
         self._check(self.occluder in OCCLUDERS, "occluder", f"must be one of {OCCLUDERS}")
         self._check(self.hidden_vehicle in HIDDEN_VARIANTS, "hidden_vehicle",
                     f"must be one of {HIDDEN_VARIANTS}")
@@ -199,7 +251,22 @@ class MapScene(Scenario):
                 human_start_m=p.human_start_m))
             self.crosswalk_index = -1
             self.road_map = self._junction_map(loaded.road_map)
-            return
+        elif p.situation == "signal":
+            self.plan = signal_plan_of(loaded, element, self._signal_needs())
+            phase = loaded.road_map.signal_plan.phases[
+                self.plan.phase_indices[PHASE_VARIANTS.index(p.phase)]]
+            if p.phase_elapsed_s >= phase.duration_s:
+                raise SceneError(f"phase_elapsed_s {p.phase_elapsed_s:g} s: must be less than "
+                                 f"the {p.phase} phase's {phase.duration_s:g} s on this map")
+            self.crosswalk_index = -1
+            self.road_map = self._signal_map(loaded.road_map)
+        else:
+            self._crosswalk(loaded, element)
+        self.traffic = self._traffic(loaded)
+
+    def _crosswalk(self, loaded, element: int) -> None:
+        """The crosswalk situation's plan and map (or a SceneError)."""
+        p: MapSceneParams = self.params
         if element not in loaded.elements.crosswalks:
             known = any(element in table for table in (
                 loaded.elements.junctions, loaded.elements.signals, loaded.elements.stop_lines,
@@ -214,6 +281,30 @@ class MapScene(Scenario):
         self.plan = crosswalk_plan(loaded, element, needs, p.occluder)
         self.crosswalk_index = loaded.elements.crosswalks[element].index
         self.road_map = self._scene_map(loaded.road_map)
+
+    def _situation_paths(self) -> list:
+        """The LanePaths of the situation's roles."""
+        plan = self.plan
+        if self.params.situation == "junction":
+            return [plan.robot, plan.hidden, *plan.sensors]
+        if self.params.situation == "signal":
+            return [plan.robot, plan.cross, plan.left_turn]
+        return [plan.robot] + ([plan.human] if plan.human is not None else [])
+
+    def _traffic(self, loaded) -> tuple:
+        """n_traffic routes near the element (maps/traffic.py; crossing_m: each start)."""
+        p: MapSceneParams = self.params
+        if p.n_traffic == 0:
+            return ()
+        starts = np.array([spec.initial_state[:2] for spec, _ in self._situation_agents()])
+        avoid = frozenset(k for path in self._situation_paths() for k in path.keys)
+        centre = Route(self.plan.robot.points).point_at(self.plan.robot.crossing_m)[0]
+        paths = traffic_paths(loaded, TrafficRequest(p.n_traffic, centre, self.road_map.extent,
+                                                     starts, avoid))
+        if len(paths) < p.n_traffic:
+            raise SceneError(f"map {p.map}: room for {len(paths)} traffic cars near element "
+                             f"{self.element_id}, n_traffic={p.n_traffic} asked for")
+        return paths
 
     def _scene_map(self, full: RoadMap) -> RoadMap:
         plan = self.plan
@@ -234,13 +325,39 @@ class MapScene(Scenario):
         return scene_road_map(full, (float(lo[0]), float(hi[0]), float(lo[1]), float(hi[1])),
                               plan.parked_cars)
 
+    def _signal_needs(self) -> SignalNeeds:
+        """The road the signal situation needs before each line, from the agents' places."""
+        p: MapSceneParams = self.params
+        length = VehicleParams().length_m
+        return SignalNeeds(
+            robot_back_m=p.robot_start_back_m + length,
+            cross_back_m=p.cross_start_m + max(p.n_cross - 1, 0) * p.cross_gap_m + length,
+            left_back_m=p.human_start_m + max(p.n_humans - 1, 0) * LEFT_TURNER_SPACING_M
+            + length)
+
+    def _signal_map(self, full: RoadMap) -> RoadMap:
+        """The scene's map; the zones of the robot's turn give the other lane the right of way."""
+        plan = self.plan
+        zones = list(full.conflict_zones)
+        for zone, *lanes in plan.give_way:
+            zones[zone] = dataclasses.replace(zones[zone], priority_lanes=tuple(lanes))
+        full = dataclasses.replace(full, conflict_zones=tuple(zones))
+        everything = np.concatenate([plan.robot.points, plan.cross.points,
+                                     plan.left_turn.points])
+        lo, hi = everything.min(axis=0) - SCENE_MARGIN_M, everything.max(axis=0) + SCENE_MARGIN_M
+        return scene_road_map(full, (float(lo[0]), float(hi[0]), float(lo[1]), float(hi[1])))
+
     def hidden_agent(self) -> HiddenAgent | None:
         """What the scene hides (removed in the counterfactual).
 
         The pedestrian, behind the human's (or the parked) car (pedestrian="none"); at a
-        junction, the car on the major road (hidden_vehicle="none").
+        junction, the car on the major road (hidden_vehicle="none"); at a signal, no agent:
+        the cross traffic's phase (the counterfactual is the other phase).
         """
         p: MapSceneParams = self.params
+        if p.situation == "signal":  # the cross traffic's phase (signalized_intersection's)
+            other = next(phase for phase in PHASE_VARIANTS if phase != p.phase)
+            return HiddenAgent((), {"phase": other}, f"phase_{p.phase}")
         if p.situation == "junction":
             if p.hidden_vehicle == "none":
                 return None
@@ -254,9 +371,8 @@ class MapScene(Scenario):
         """Robot, human (or none: a parked car) and pedestrian on the scene's map (no rng)."""
         p: MapSceneParams = self.params
         specs, routes = [], {}
-        agents = ([self._junction_robot(), *self._sensors(), *self._hidden_car()]
-                  if p.situation == "junction"
-                  else [self._robot(), *self._human(), *self._pedestrian()])
+        agents = self._situation_agents()
+        agents += self._traffic_cars(sum(spec.role == "human" for spec, _ in agents))
         for spec, route in agents:
             specs.append(spec)
             routes[spec.name] = route
@@ -268,6 +384,29 @@ class MapScene(Scenario):
                            signal_heads=base.signal_heads, signal_plan=base.signal_plan)
         return ScenarioLayout(road_map, tuple(specs), p, self._signals(routes["robot_0"]))
 
+    def _situation_agents(self) -> list[tuple[AgentSpec, Route]]:
+        """The situation's agents and routes (robot first)."""
+        p: MapSceneParams = self.params
+        if p.situation == "junction":
+            return [self._junction_robot(), *self._sensors(), *self._hidden_car()]
+        if p.situation == "signal":
+            return [self._signal_robot(), *self._left_turners(), *self._cross_traffic()]
+        return [self._robot(), *self._human(), *self._pedestrian()]
+
+    def _traffic_cars(self, first: int) -> list[tuple[AgentSpec, Route]]:
+        """The traffic: human_<first> ... at traffic_speed_mps, at most their lane's limit."""
+        p: MapSceneParams = self.params
+        out = []
+        for k, path in enumerate(self.traffic):
+            name = f"human_{first + k}"
+            route = Route(path.points, name)
+            limit = self.plan.speed_limit_mps
+            spec = human_spec(p, name, self._start(route, path.crossing_m,
+                                                   min(p.traffic_speed_mps, limit)))
+            out.append((dataclasses.replace(spec, v_desired_mps=min(
+                p.human_desired_speed_mps, limit)), route))
+        return out
+
     def _signals(self, robot_route: Route) -> SignalController | None:
         """The map's cycle, started at the phase that shows the robot's approach green.
 
@@ -278,6 +417,9 @@ class MapScene(Scenario):
         if plan is None:
             return None
         p: MapSceneParams = self.params
+        if p.situation == "signal":
+            return SignalController(plan, self.plan.phase_indices[PHASE_VARIANTS.index(p.phase)],
+                                    p.phase_elapsed_s)
         start_m = self.plan.robot.crossing_m - (p.junction_approach_m if p.situation == "junction"
                                                 else p.approach_m)
         lines = {i for i, line in enumerate(self.road_map.stop_lines)
@@ -307,6 +449,44 @@ class MapScene(Scenario):
                                        robot_sensor_range_m=p.junction_robot_sensor_range_m,
                                        robot_epsilon=p.junction_robot_epsilon)
         return robot_spec(junction, start), route
+
+    def _signal_robot(self) -> tuple[AgentSpec, Route]:
+        """The robot at rest, its front robot_start_back_m before its line, the junction's view."""
+        p: MapSceneParams = self.params
+        route = Route(self.plan.robot.points, "robot_0")
+        half = 0.5 * VehicleParams().length_m
+        start = self._start(route, self.plan.robot.crossing_m - p.robot_start_back_m - half, 0.0)
+        view = dataclasses.replace(p, robot_half_fov_deg=p.junction_robot_half_fov_deg,
+                                   robot_sensor_range_m=p.junction_robot_sensor_range_m,
+                                   robot_epsilon=p.junction_robot_epsilon)
+        return robot_spec(view, start), route
+
+    def _left_turners(self) -> list[tuple[AgentSpec, Route]]:
+        """n_humans at rest in the left-turn lane, human_start_m and LEFT_TURNER_SPACING_M apart."""
+        p: MapSceneParams = self.params
+        path, half = self.plan.left_turn, 0.5 * VehicleParams().length_m
+        out = []
+        for k in range(p.n_humans):
+            name = f"human_{k}"
+            route = Route(path.points, name)
+            s = path.crossing_m - p.human_start_m - half - LEFT_TURNER_SPACING_M * k
+            spec = human_spec(p, name, self._start(route, s, 0.0))
+            out.append((dataclasses.replace(spec, v_desired_mps=min(
+                p.human_desired_speed_mps, self.plan.speed_limit_mps)), route))
+        return out
+
+    def _cross_traffic(self) -> list[tuple[AgentSpec, Route]]:
+        """n_cross cars towards their line at cross_speed_mps, cross_gap_m apart."""
+        p: MapSceneParams = self.params
+        path, half = self.plan.cross, 0.5 * VehicleParams().length_m
+        out = []
+        for k in range(p.n_cross):
+            name = f"human_{p.n_humans + k}"
+            route = Route(path.points, name)
+            s = path.crossing_m - p.cross_start_m - half - p.cross_gap_m * k
+            spec = human_spec(p, name, self._start(route, s, p.cross_speed_mps))
+            out.append((dataclasses.replace(spec, v_desired_mps=p.cross_speed_mps), route))
+        return out
 
     def _sensors(self) -> list[tuple[AgentSpec, Route]]:
         """The human sensors, human_start_m before their conflict points (human_0, ...)."""

@@ -92,7 +92,7 @@ def test_junction_scene_roles():
     ({"element": 12345}, "element 12345 is no element of the map"),
     ({"element": 45380}, "crosswalk 45380: no lane a car may use crosses it"),
     ({"element": 45170, "occluder": "human"}, "needs a lane beside a crossing lane"),
-    ({"situation": "signal"}, "must be one of ('crosswalk', 'junction')"),
+    ({"situation": "roundabout"}, "must be one of ('crosswalk', 'junction', 'signal')"),
     ({"situation": "junction", "element": 44988}, "junction 44988: signalized"),
     ({"situation": "junction", "element": 45556}, "nothing hides the major road"),
     ({"situation": "junction", "element": 12345}, "element 12345 is no junction of the map"),
