@@ -20,7 +20,7 @@ from numba import types
 from marl_social.models.gap_kernels import _B1, _F8, _I8, _array
 from marl_social.sim.pairwise_sum import contiguous_sum
 
-# pairwise_sum.py stamp: 6635cc8d50a6aec4 (tests/sim/test_pairwise_sum.py)
+# pairwise_sum.py stamp: e57bd2f618419a3d (tests/sim/test_pairwise_sum.py)
 
 # gap_kernels' options, written out: a change of them here must change this file for the cache
 _JIT = {"cache": True, "nogil": True, "error_model": "numpy"}

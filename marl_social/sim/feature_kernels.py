@@ -19,7 +19,7 @@ from numba import types
 
 from marl_social.sim.pairwise_sum import contiguous_sum
 
-# pairwise_sum.py stamp: 6635cc8d50a6aec4 (tests/sim/test_pairwise_sum.py)
+# pairwise_sum.py stamp: e57bd2f618419a3d (tests/sim/test_pairwise_sum.py)
 
 _F8 = types.float64
 _B1 = types.boolean

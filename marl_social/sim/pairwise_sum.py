@@ -23,7 +23,7 @@ _SUM = (types.Array(types.float64, 1, "C", readonly=True), types.int64, types.in
 _STACK_DEPTH = 128
 
 
-@numba.njit(_SUM, cache=True)
+@numba.njit(_SUM, cache=True, inline="always")
 def _pairwise_block(values, start, n):
     """pairwise_sum of values[start:start + n] for n <= PAIRWISE_BLOCK (no further split)."""
     if n < 8:
@@ -88,7 +88,7 @@ def pairwise_sum(values, start, n):
     return sums[0]
 
 
-@numba.njit(_SUM, cache=True)
+@numba.njit(_SUM, cache=True, inline="always")
 def contiguous_sum(values, start, n):
     """np.sum of values[start:start + n], a run along a contiguous axis: 0.0 + pairwise_sum."""
     if n <= PAIRWISE_BLOCK:  # one call less on the common path

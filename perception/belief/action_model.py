@@ -131,10 +131,15 @@ def speed_averaged_log_likelihood(q_nodes: np.ndarray, beta: float, a_obs: float
         (...) log-likelihoods; zeros (uninformative) where any is not finite.
     """
     ll = action_log_likelihood(q_nodes, beta, a_obs, actions_mps2, sigma_mps2, tail_dof)
-    if not np.all(np.isfinite(ll)):
+    # logsumexp(ll + log w, axis=0) with numpy's np.exp and np.log, the steps between them
+    # compiled (belief_kernels.node_average_terms, column_sums; the numpy formulation they
+    # replaced: tests/perception/test_belief_kernels.py)
+    kernels = compiled.kernels()
+    shifted, top = kernels.node_average_terms(
+        np.ascontiguousarray(ll).reshape(len(ll), -1), LOG_SPEED_NODE_WEIGHTS)
+    if not len(shifted):  # a log-likelihood is not finite
         return np.zeros(ll.shape[1:])
-    weights = LOG_SPEED_NODE_WEIGHTS.reshape((-1,) + (1,) * (ll.ndim - 1))
-    return logsumexp(ll + weights, axis=0)
+    return (np.log(kernels.column_sums(np.exp(shifted))) + top).reshape(ll.shape[1:])
 
 
 def _compiled_log_model(q: np.ndarray, beta: float, log_kernel: np.ndarray

@@ -31,7 +31,7 @@ from numba import types
 
 from marl_social.sim.pairwise_sum import contiguous_sum
 
-# pairwise_sum.py stamp: 6635cc8d50a6aec4 (tests/sim/test_pairwise_sum.py)
+# pairwise_sum.py stamp: e57bd2f618419a3d (tests/sim/test_pairwise_sum.py)
 
 _F8 = types.float64
 _I8 = types.int64
@@ -146,6 +146,49 @@ def shifted_log_model_terms(z, log_norm, log_kernel):
         for a in range(n_act):
             x[r, a] = x[r, a] - t
     return x, top
+
+
+@numba.njit((_array(2), _array(1)), **_JIT)
+def node_average_terms(log_lik, log_weights):
+    """The shifted terms of logsumexp(log_lik + log_weights[:, None], axis=0) and its shift.
+
+    action_model.speed_averaged_log_likelihood's average over the speed nodes, its check
+    first: an empty (0, N) result if a log-likelihood is not finite. x = log_lik (S, N) +
+    log_weights (S,), top = x.max(axis=0) (0 where not finite); returns x - top (S, N) and
+    top (N,).
+    """
+    n_nodes, n = log_lik.shape
+    for s in range(n_nodes):
+        for i in range(n):
+            if not math.isfinite(log_lik[s, i]):
+                return np.empty((0, n)), np.empty(0)
+    x = np.empty((n_nodes, n))
+    top = np.empty(n)
+    for i in range(n):
+        t = log_lik[0, i] + log_weights[0]
+        for s in range(n_nodes):
+            x[s, i] = log_lik[s, i] + log_weights[s]
+            if math.isnan(x[s, i]) or x[s, i] > t:
+                t = x[s, i]
+        if not math.isfinite(t):
+            t = 0.0
+        top[i] = t
+        for s in range(n_nodes):
+            x[s, i] = x[s, i] - t
+    return x, top
+
+
+@numba.njit((_array(2),), **_JIT)
+def column_sums(values):
+    """values.sum(axis=0) of values (S, N): row by row in index order, as numpy adds them."""
+    n_rows, n = values.shape
+    out = np.empty(n)
+    for i in range(n):
+        out[i] = values[0, i]
+    for r in range(1, n_rows):
+        for i in range(n):
+            out[i] = out[i] + values[r, i]
+    return out
 
 
 @numba.njit((_array(1), _F8), **_JIT)
@@ -316,22 +359,9 @@ def lane_projections(x, y, segments, first_segment):
     return s_out, lateral_out
 
 
-@numba.njit((_array(3), _array(3), _array(1), _F8, _array(1, _I8)), **_JIT)
-def speed_q_values(base, speeds, v_ref, weight, rows):
-    """Q* (L, V, A) of every traffic speed: the cheapest continuation with the speed feature.
-
-    social.SocialLikelihood._q_values after the candidates' evaluation: the speed feature
-    weight * sum_t (v[a, c, t] - v_ref)^2 (numpy's pairwise sum over the T steps, T <= 128)
-    added to base[k, a, c], the minimum over the continuations c (NaN if one is NaN), for
-    hypothesis l the kept scene rows[l].
-
-    Args:
-        base: (K, A, C) the kept scenes' totals without the speed feature.
-        speeds: (A, C, T) the plans' speeds [m/s].
-        v_ref: (V,) the traffic speeds [m/s].
-        weight: the speed feature's weight per planner step.
-        rows: (L,) each hypothesis' row of base.
-    """
+@numba.njit(cache=True)
+def _speed_q_values_into(base, speeds, v_ref, weight, rows, out, node):
+    """`speed_q_values` of one speed's evaluation, written into out[node] (L, V, A)."""
     n_kept, n_act, n_cont = base.shape
     n_t = speeds.shape[2]
     n_v = len(v_ref)
@@ -358,12 +388,52 @@ def speed_q_values(base, speeds, v_ref, weight, rows):
                         break
                     low = min(low, total)
                 kept[k, j, a] = low
-    out = np.empty((len(rows), n_v, n_act))
     for i in range(len(rows)):  # element by element: no broadcast whose shapes numba must check
         k = rows[i]
         for j in range(n_v):
             for a in range(n_act):
-                out[i, j, a] = kept[k, j, a]
+                out[node, i, j, a] = kept[k, j, a]
+
+
+@numba.njit((_array(3), _array(3), _array(1), _F8, _array(1, _I8)), **_JIT)
+def speed_q_values(base, speeds, v_ref, weight, rows):
+    """Q* (L, V, A) of every traffic speed: the cheapest continuation with the speed feature.
+
+    social.SocialLikelihood._q_values after the candidates' evaluation: the speed feature
+    weight * sum_t (v[a, c, t] - v_ref)^2 (numpy's pairwise sum over the T steps, T <= 128)
+    added to base[k, a, c], the minimum over the continuations c (NaN if one is NaN), for
+    hypothesis l the kept scene rows[l].
+
+    Args:
+        base: (K, A, C) the kept scenes' totals without the speed feature.
+        speeds: (A, C, T) the plans' speeds [m/s].
+        v_ref: (V,) the traffic speeds [m/s].
+        weight: the speed feature's weight per planner step.
+        rows: (L,) each hypothesis' row of base.
+    """
+    out = np.empty((1, len(rows), len(v_ref), base.shape[1]))
+    _speed_q_values_into(base, speeds, v_ref, weight, rows, out, np.int64(0))
+    return out[0]
+
+
+_NODES = types.UniTuple(_array(3), 3)
+
+
+@numba.njit((_NODES, _NODES, _array(1), _F8, _array(1, _I8)), **_JIT)
+def node_speed_q_values(bases, speeds, v_ref, weight, rows):
+    """`speed_q_values` of three evaluations (the speed nodes of a human's speed): (3, L, V, A).
+
+    Args:
+        bases: three (K, A, C) totals without the speed feature, one per node.
+        speeds: the three evaluations' (A, C, T) plan speeds [m/s].
+        v_ref: (V,) the traffic speeds [m/s].
+        weight: the speed feature's weight per planner step.
+        rows: (L,) each hypothesis' row of the bases.
+    """
+    out = np.empty((3, len(rows), len(v_ref), bases[0].shape[1]))
+    _speed_q_values_into(bases[0], speeds[0], v_ref, weight, rows, out, np.int64(0))
+    _speed_q_values_into(bases[1], speeds[1], v_ref, weight, rows, out, np.int64(1))
+    _speed_q_values_into(bases[2], speeds[2], v_ref, weight, rows, out, np.int64(2))
     return out
 
 

@@ -13,11 +13,12 @@ is action_scoring.py's job; the coordination per tracked human is social.py's.
 
 from __future__ import annotations
 
+import math
 from dataclasses import replace
 
 import numpy as np
 
-from marl_social.models.candidates import CandidateEvaluation, PlanningEgo, Surroundings
+from marl_social.models.candidates import PlanningEgo, Surroundings
 from marl_social.models.driver import DriverModel, RoadRules, rule_abiding_totals
 from marl_social.models.gap_evaluation import vehicle_gap_evaluations
 from marl_social.models.scene_prediction import ScenePrediction
@@ -130,28 +131,33 @@ class HumanPrediction:
         scene = self.scenes.kept_scene(others, objects, keep)  # hypothesis_scene(others, viewer)[keep]
         zones = self.yield_zones(route, s0, scene)
         curve = self.curve_speed(route)
-        speeds = (np.array([v0]) if speed_std_mps is None
-                  else speed_nodes_mps(v0, speed_std_mps))
+        nodes = ((v0,) if speed_std_mps is None
+                 else tuple(speed_nodes_mps(v0, speed_std_mps).tolist()))
+        # equal nodes (a human at rest) evaluated once; a signed zero is not its opposite's
+        keys = [(v, math.copysign(1.0, v)) for v in nodes]
+        distinct = list(dict.fromkeys(keys))
         evaluations = vehicle_gap_evaluations(
             PlanningEgo(self._candidates, self._theta_no_speed, 0.0, self.model.vehicle, route,
-                        s0, v0, prev_accel), speeds,
+                        s0, v0, prev_accel), [v for v, _ in distinct],
             Surroundings(scene, self.road_map.crosswalks, zones, self.model.yield_margin_s,
                          curve))
-        q = [self._evaluated(ev, s0, zones, curve, inverse) for ev in evaluations]
-        return q[0] if speed_std_mps is None else np.stack(q)
-
-    def _evaluated(self, ev: CandidateEvaluation, s0: float, zones: tuple,
-                   curve: CurveSpeed | None, inverse: np.ndarray) -> np.ndarray:
-        """(L, V, A) Q*_H of one speed's evaluation of the kept scenes (`q_values`)."""
-        # (L, A, C): predicted collisions and plans too fast for its bends excluded
-        base = rule_abiding_totals(ev, self.model, s0, RoadRules(None, zones, curve))
-        if not base.shape[-1]:
+        # (K, A, C): predicted collisions and plans too fast for its bends excluded
+        rules = RoadRules(None, zones, curve)
+        totals = {key: (np.ascontiguousarray(rule_abiding_totals(ev, self.model, s0, rules)),
+                        np.ascontiguousarray(ev.v))
+                  for key, ev in zip(distinct, evaluations, strict=True)}
+        if any(not base.shape[-1] for base, _ in totals.values()):
             raise ValueError("HumanPrediction: the model's candidates have no continuations")
         # compiled: the speed feature, its minimum over the continuations (the numpy
         # formulation it replaced: tests/perception/test_belief_kernels.py)
-        return compiled.kernels().speed_q_values(
-            np.ascontiguousarray(base), np.ascontiguousarray(ev.v), self.traffic_grid_mps,
-            self._speed_weight, inverse)
+        kernels = compiled.kernels()
+        if speed_std_mps is None:
+            base, plan_speed = totals[keys[0]]
+            return kernels.speed_q_values(base, plan_speed, self.traffic_grid_mps,
+                                          self._speed_weight, inverse)
+        bases, plan_speeds = zip(*(totals[key] for key in keys), strict=True)
+        return kernels.node_speed_q_values(bases, plan_speeds, self.traffic_grid_mps,
+                                           self._speed_weight, inverse)
 
     def _kept_rows(self, present: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """(L,) row of each hypothesis in the kept scenes and the (K,) kept hypotheses.

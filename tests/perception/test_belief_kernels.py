@@ -20,6 +20,7 @@ from marl_social.perception.belief.action_model import (
     action_log_likelihood,
     bounded_log_likelihood,
     logsumexp,
+    speed_averaged_log_likelihood,
 )
 from marl_social.perception.belief.bayes import (
     bayes_step,
@@ -230,6 +231,56 @@ def test_speed_q_values_are_numpys(seed, n_kept, n_t, n_cont):
     want = (base[:, None] + speed[None]).min(axis=-1)[rows]
     got = compiled.kernels().speed_q_values(base, speeds, v_ref, weight, rows)
     assert _same(got, want)
+
+
+@settings(max_examples=100, deadline=None)
+@given(seed=SEEDS, n_kept=st.integers(1, 6), n_t=st.integers(1, 30), n_cont=st.integers(1, 6))
+def test_node_speed_q_values_are_each_nodes(seed, n_kept, n_t, n_cont):
+    """node_speed_q_values of three evaluations is speed_q_values of each (the speed nodes),
+    also with two nodes sharing one evaluation (a human at rest)."""
+    rng = np.random.default_rng(seed)
+    n_act, n_v, n_hyp = 5, 4, 9
+    bases = [rng.uniform(0, 1e4, (n_kept, n_act, n_cont)) for _ in range(3)]
+    for base in bases:
+        base[rng.random(base.shape) < 0.2] = np.inf
+    speeds = [rng.uniform(0, 20, (n_act, n_cont, n_t)) for _ in range(3)]
+    bases[0], speeds[0] = bases[1], speeds[1]
+    v_ref = rng.uniform(5, 15, n_v)
+    rows = rng.integers(0, n_kept, n_hyp)
+    weight = float(rng.uniform(0.1, 3))
+    kernels = compiled.kernels()
+    got = kernels.node_speed_q_values(tuple(bases), tuple(speeds), v_ref, weight, rows)
+    want = [kernels.speed_q_values(b, v, v_ref, weight, rows) for b, v in zip(bases, speeds)]
+    assert got.shape == (3, n_hyp, n_v, n_act) and _same(got, np.stack(want))
+
+
+def _reference_speed_average(ll):
+    """action_model.speed_averaged_log_likelihood's average of (3, ...) log-likelihoods in
+    plain numpy (zeros if one is not finite)."""
+    if not np.all(np.isfinite(ll)):
+        return np.zeros(ll.shape[1:])
+    weights = np.log(np.array([1.0, 4.0, 1.0]) / 6.0).reshape((-1,) + (1,) * (ll.ndim - 1))
+    return logsumexp(ll + weights, axis=0)
+
+
+@settings(max_examples=300, deadline=None)
+@given(seed=SEEDS, shape=st.sampled_from([(), (1,), (7,), (13, 4), (2, 3, 5)]),
+       beta=st.sampled_from([0.0, 0.3, 5.0, 1e4]), dof=st.sampled_from([math.inf, 8.0]))
+def test_speed_averaged_log_likelihood_is_numpys(seed, shape, beta, dof):
+    """The average over the speed nodes (belief_kernels.node_average_terms, column_sums) is
+    the numpy logsumexp it replaced, of action_log_likelihood's (3, ...) values; with a
+    non-finite Q-value or observation, zeros."""
+    rng = np.random.default_rng(seed)
+    n_actions = 9
+    q = rng.normal(size=(3,) + shape + (n_actions,)) * 10.0 ** rng.uniform(-3, 5)
+    if rng.random() < 0.1:
+        q.flat[int(rng.integers(q.size))] = np.inf
+    actions = np.sort(rng.uniform(-8, 3, n_actions))
+    a_obs = float(rng.choice([rng.normal() * 3, 1e160, -2.0, np.nan]))
+    sigma = float(rng.uniform(0.5, 2.0))
+    got = speed_averaged_log_likelihood(q, beta, a_obs, actions, sigma, dof)
+    want = _reference_speed_average(action_log_likelihood(q, beta, a_obs, actions, sigma, dof))
+    assert got.shape == want.shape and _same(got, want)
 
 
 @settings(max_examples=200, deadline=None)

@@ -40,11 +40,13 @@ def _left_turner():
 
 def test_q_values_from_the_speed_nodes_are_those_of_each_speed():
     """human_q_values(speed_std_mps=s) is human_q_values from each of speed_nodes_mps(v0, s),
-    bit for bit (the scene is built once); its middle node is v0; nodes stay >= 0."""
+    bit for bit (the scene is built once; equal nodes evaluated once); its middle node is v0;
+    nodes stay >= 0."""
     belief, route = _left_turner()
     rng = np.random.default_rng(3)
-    for _ in range(4):
+    for i in range(5):  # the last at rest: two nodes at 0, evaluated once
         s0, v0, std = rng.uniform(-5.0, 8.0), rng.uniform(0.0, 9.0), rng.uniform(0.0, 0.3)
+        v0 = v0 if i < 4 else 0.0
         q = belief.human_q_values(route, s0, v0, 0.0, speed_std_mps=std)
         speeds = speed_nodes_mps(v0, std)
         assert q.shape == (3,) + belief.human_q_values(route, s0, v0, 0.0).shape
