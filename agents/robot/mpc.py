@@ -68,7 +68,7 @@ from marl_social.agents.robot.corridor import (
     reachable_progress,
     route_curvature,
 )
-from marl_social.agents.robot.mpc_types import MpcConfig, MpcResult, PlanRequest
+from marl_social.agents.robot.mpc_types import BrakingStart, MpcConfig, MpcResult, PlanRequest
 from marl_social.agents.robot.qp import ContingencyQp
 from marl_social.agents.robot.qp_types import QpInstance, QpSolution, QpWeights
 from marl_social.sim.agent_spec import VehicleParams
@@ -79,6 +79,7 @@ MAX_MODE_OBJECTS = 3  # per branch, objects beyond this many with two plausible 
 INFEASIBLE_MARGIN_M = 0.5  # bounds violated by more than this even at best skip the QP [m]
 ROOM_M = 0.1  # a stay-behind bound gives way to where braking gets the robot plus this [m]
 STANDSTILL_MARGIN_M = 0.05  # at rest, plans going no further than the room + this stay [m]
+STOP_CHECK_DT_S = 0.005  # integration step of comfortable_stop_meets [s]
 
 
 class ContingencyMpc:
@@ -108,11 +109,15 @@ class ContingencyMpc:
         self._full: tuple[np.ndarray, np.ndarray] | None = None  # set by _full_progress
         self._comfort = np.ones(0)  # (L,) comfort weight factor per hypothesis, set by plan
         self._goal = (0.0, 0.0)  # the pull-up term (weight, progress to the line), set by plan
+        # the previous plan's state, one simulator step before the next (MpcResult.
+        # surprise_infeasible); None: no plan yet this episode
+        self._previous: BrakingStart | None = None
 
     def reset(self) -> None:
         """Forget the QPs (their warm starts and step sizes): a new episode, bit-identical."""
         self._qps.clear()
         self._mode_qp = None
+        self._previous = None
 
     def _new_qp(self, n_branches: int) -> ContingencyQp:
         """A fresh QP of n_branches branches (its layout's structure built once per process)."""
@@ -226,10 +231,13 @@ class ContingencyMpc:
         modes = [()] * len(beliefs)
         for l, m in zip(live_idx, chosen):
             modes[l] = m
+        previous, self._previous = self._previous, BrakingStart(s0, v0, prev_accel, DT_S)
         if not solution.solved:
             nan = np.full((len(live_idx), n), np.nan)
+            surprise = previous is not None and self._stop_meets_bounds(
+                previous, per_hyp, live_idx, bounds)
             return MpcResult(-veh.brake_max_mps2, False, live, weights, tuple(modes), nan,
-                             nan.copy(), nan.copy(), np.inf, relaxed)
+                             nan.copy(), nan.copy(), np.inf, relaxed, surprise_infeasible=surprise)
         accel = float(solution.accel_mps2[0, 0])
         if v0 <= c.rest_mps and solution.progress_m.max() <= ROOM_M + STANDSTILL_MARGIN_M:
             # standstill: a robot at rest whose plans only use the room a bound gives way by
@@ -268,6 +276,21 @@ class ContingencyMpc:
                 if solution.solved:
                     return crossing, solution, relaxed
         return chosen, solution, True
+
+    def _stop_meets_bounds(self, start: BrakingStart, per_hyp, live_idx, bounds) -> bool:
+        """Whether braking comfortably from `start` meets this plan's stop bounds.
+
+        The bounds a stop must meet: every live branch's with each object behind (the
+        fallback modes of an infeasible plan), the tightest per step, and the speed bounds
+        (comfortable_stop_meets).
+        """
+        tightest = np.full(self._n_steps, np.inf)
+        for l in live_idx:
+            _, s_up = self._branch_bounds(per_hyp[l], (BEHIND,) * len(per_hyp[l]), bounds)
+            np.minimum(tightest, s_up, out=tightest)
+        c, s0, v_max = self.config, bounds[6], bounds[3]
+        return comfortable_stop_meets(start, s0 + tightest, v_max, self._plan_times,
+                                      self._headway, c.comfort_decel_mps2, c.jerk_max_mps3)
 
     def _braking_reach(self, v0: float) -> np.ndarray:
         """(N,) how far braking at half the limit gets the robot, plus headway and room [m].
@@ -390,6 +413,39 @@ class ContingencyMpc:
                                comfort[first], jerk_max)
         return QpSolution(solution.solved, solution.cost, solution.accel_mps2[inverse],
                           solution.speed_mps[inverse], solution.progress_m[inverse])
+
+
+def comfortable_stop_meets(start: BrakingStart, bound_m: np.ndarray, v_max_mps: np.ndarray,
+                           times_s: np.ndarray, headway_s: np.ndarray, comfort_decel_mps2: float,
+                           jerk_max_mps3: float) -> bool:
+    """Whether a comfortable stop begun at `start` keeps s + h v <= bound and v <= v_max.
+
+    The acceleration ramps down from start.accel_mps2 at jerk_max_mps3 to
+    -comfort_decel_mps2 (at once if it brakes harder already) and holds it until rest; the
+    plan's steps end start.lead_s + times_s after the braking starts.
+
+    Args:
+        start: where the braking starts (arc length, speed, acceleration) and how long before
+            the plan's start.
+        bound_m: (N,) the plan's bounds on s + h v, arc lengths along the route [m] (inf: none).
+        v_max_mps: (N,) the plan's speed bounds [m/s].
+        times_s: (N,) the ends of the plan's steps after its start [s].
+        headway_s: (N,) the time headway h of each step [s].
+        comfort_decel_mps2: the comfortable deceleration [m/s^2].
+        jerk_max_mps3: how fast the braking sets in [m/s^3].
+    """
+    at = start.lead_s + np.asarray(times_s, dtype=np.float64)
+    tau = np.arange(0.0, at[-1] + 2.0 * STOP_CHECK_DT_S, STOP_CHECK_DT_S)
+    accel = np.maximum(start.accel_mps2 - jerk_max_mps3 * tau[1:], -comfort_decel_mps2)
+    # the acceleration never rises: once at rest the robot stays there
+    speed = np.maximum(start.v_mps + np.concatenate([[0.0], np.cumsum(accel)
+                                                      * STOP_CHECK_DT_S]), 0.0)
+    progress = np.concatenate([[0.0], np.cumsum(0.5 * (speed[1:] + speed[:-1])
+                                                * STOP_CHECK_DT_S)])
+    v_at, s_at = np.interp(at, tau, speed), np.interp(at, tau, progress)
+    bound = np.asarray(bound_m, dtype=np.float64) - start.s_m
+    return bool(np.all(s_at + headway_s * v_at <= bound + 1e-9)
+                and np.all(v_at <= np.asarray(v_max_mps) + 1e-9))
 
 
 def distinct_branches(s_low: np.ndarray, s_up: np.ndarray, comfort: np.ndarray
