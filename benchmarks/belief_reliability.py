@@ -126,6 +126,8 @@ def cell_rows(runs: dict) -> list[dict]:
                      "infeasible_steps": int(sum(infeasible)),
                      "surprise_steps": int(sum(m["surprise_infeasible_steps"]
                                                for m in summaries)),
+                     "given_way_steps": int(sum(m["contingency_given_way_steps"]
+                                                for m in summaries)),
                      "max_decel_mps2": float(max(m["max_decel_mps2"] for m in summaries)),
                      "warned": sum(_warned(m) for m in summaries)
                      if CELLS[name].counterfactual else None,
@@ -168,12 +170,12 @@ def markdown(results: dict) -> str:
               f">= {100 * c['target']:.0f} % | {'yes' if c['holds'] else '**no**'} |"
               for c in results["claims"]]
     lines += ["", ("| cell | n | warned | collisions | MPC infeasible (episodes / steps / "
-                   "surprises) | "
+                   "surprises) | hidden car given way (steps) | "
                    "hardest braking [m/s^2] | time to pass [s] (never) |"),
-              "|---|---|---|---|---|---|---|"]
+              "|---|---|---|---|---|---|---|---|"]
     lines += [f"| {r['cell']} | {r['n']} | {'-' if r['warned'] is None else r['warned']} | "
               f"{r['collisions']} | {r['infeasible_episodes']} / {r['infeasible_steps']} / "
-              f"{r['surprise_steps']} | "
+              f"{r['surprise_steps']} | {r['given_way_steps']} | "
               f"{r['max_decel_mps2']:.2f} | {r['time_to_pass_s']:.2f} ({r['never_passed']}) |"
               for r in results["cells"]]
     lines += ["", "| nothing hidden | social [s] | oracle [s] | ratio | <= 1.05 |",

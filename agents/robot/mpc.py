@@ -18,8 +18,13 @@ cheapest feasible combination of these modes (one small QP per combination, only
 one is plausible), then the joint QP is solved once. Every live hypothesis must be safe
 (defensive); each one's cost counts with its belief (not overly conservative). If no plan meets
 the jerk bound (a constraint that appeared suddenly), the jerk bound gives way first
-(MpcResult.jerk_relaxed); only if no plan is feasible even then does the robot brake as hard as
-it can, flagged in MpcResult.feasible.
+(MpcResult.jerk_relaxed). If no plan is feasible even then because of a hidden agent it has not
+seen (a contingency branch's own object, not a pedestrian, not in every branch), that object's
+bound gives way to where a comfortable stop gets the robot (MpcResult.contingency_given_way):
+a hypothesised car it can no longer stop for, even at its limit, is met with a comfortable stop
+as soon as it can, not an emergency one (a car that comes into view is then a tracked object
+like any other). Only if no plan is feasible even then does the robot brake as hard as it can,
+flagged in MpcResult.feasible.
 
 Comfort (Alsterda & Gerdes): a contingency branch (a hypothesis not seen to be true) may brake
 harder than `comfort_decel_mps2` only at the price w_c c^2, c the deceleration beyond it (a
@@ -49,6 +54,7 @@ as much as driving 2 m/s slower for 5 s.
 from __future__ import annotations
 
 import itertools
+from dataclasses import replace
 
 import numpy as np
 
@@ -215,8 +221,8 @@ class ContingencyMpc:
         v_max, curved = self._speed_bound(route, guess_lo, guess_hi, v_cap)
         for _ in range(4):
             bounds = (v0, prev_accel, v_ref, v_max, wall, margin, s0)
-            chosen, solution, relaxed = self._solve_all(per_hyp, live_idx, weights, bounds,
-                                                        v_cap)
+            chosen, solution, relaxed, given_way = self._solve_all(per_hyp, live_idx, weights,
+                                                                   bounds, v_cap)
             if not (curved and solution.solved):
                 break
             lo = s0 + solution.progress_m.min(axis=0)
@@ -246,7 +252,7 @@ class ContingencyMpc:
             accel = min(accel, -v0 / c.standstill_s)
         return MpcResult(accel, True, live, weights, tuple(modes),
                          solution.accel_mps2, solution.speed_mps, solution.progress_m,
-                         solution.cost, relaxed)
+                         solution.cost, relaxed, contingency_given_way=given_way)
 
     def _solve_all(self, per_hyp, live_idx, weights, bounds, v_cap):
         """Modes per branch, then the joint QP, relaxing in order until a plan is feasible.
@@ -254,8 +260,11 @@ class ContingencyMpc:
         1. Vehicles: the cheapest feasible mode; pedestrians: behind (they have the right of
            way). 2. Every object behind. 3. The same with the jerk bound relaxed (an emergency
         stop). 4. Pedestrians may be passed in front too, if the robot cannot stay behind, with
-        the jerk bound, then without it.
-        Returns (modes per live branch, the solution, whether the jerk bound was relaxed).
+        the jerk bound, then without it. 5. The contingencies' own vehicles given way to a
+        comfortable stop (`_contingencies_given_way`) and behind, the other objects as in 1,
+        then every object behind, each with the jerk bound, then without it.
+        Returns (modes per live branch, the solution, whether the jerk bound was relaxed,
+        whether contingencies were given way).
         """
         jerk_free = self.vehicle.brake_max_mps2 / DT_S
         chosen = [self._choose_modes(per_hyp[l], bounds, v_cap, False, l) for l in live_idx]
@@ -264,18 +273,63 @@ class ContingencyMpc:
             chosen = [tuple(BEHIND for _ in m) for m in chosen]
             solution = self._solve_joint(per_hyp, live_idx, weights, chosen, bounds)
         if solution.solved:
-            return chosen, solution, False
+            return chosen, solution, False, False
         solution = self._solve_joint(per_hyp, live_idx, weights, chosen, bounds, jerk_free)
         if solution.solved:
-            return chosen, solution, True
+            return chosen, solution, True, False
         crossing = [self._choose_modes(per_hyp[l], bounds, v_cap, True, l) for l in live_idx]
         if crossing != chosen:
             for jerk_max, relaxed in ((None, False), (jerk_free, True)):
                 solution = self._solve_joint(per_hyp, live_idx, weights, crossing, bounds,
                                              jerk_max)
                 if solution.solved:
-                    return crossing, solution, relaxed
-        return chosen, solution, True
+                    return crossing, solution, relaxed, False
+        eased, moved = self._contingencies_given_way(per_hyp, live_idx, bounds)
+        if moved:
+            # the moved objects behind, the others as first chosen (a car it passes in front of
+            # stays passed), then every object behind
+            kept = [tuple(BEHIND if (l, j) in moved else mode for j, mode in enumerate(m))
+                    for l, m in zip(live_idx, chosen)]
+            behind = [tuple(BEHIND for _ in m) for m in chosen]
+            for modes in ([kept, behind] if kept != behind else [behind]):
+                for jerk_max, relaxed in ((None, False), (jerk_free, True)):
+                    given_way = self._solve_joint(eased, live_idx, weights, modes, bounds,
+                                                  jerk_max)
+                    if given_way.solved:
+                        return modes, given_way, relaxed, True
+        return chosen, solution, True, False
+
+    def _contingencies_given_way(self, per_hyp, live_idx, bounds) -> tuple[list, set]:
+        """Per hypothesis, its objects with the contingencies' own vehicles given way.
+
+        A contingency branch's (comfort factor > 0) object that is not a pedestrian and not in
+        every live branch (a tracked object is) moves its rear to where braking at
+        comfort_decel_mps2 gets the robot, plus the gap, at every step it is behind that:
+        its stay-behind bound then gives way to a comfortable stop.
+
+        Returns:
+            the objects per hypothesis, and the (hypothesis, index) of every moved one.
+        """
+        c, veh = self.config, self.vehicle
+        v0, s0 = bounds[0], bounds[6]
+        keys = [{path_object_key(o) for o in per_hyp[l]} for l in live_idx]
+        shared = set.intersection(*keys) if keys else set()
+        reach = np.empty(self._n_steps)
+        corridor_kernels().braking_reach(float(v0), c.comfort_decel_mps2 * self._plan_times,
+                                         c.plan_dt_s, self._headway, ROOM_M, reach)
+        rear_floor = s0 + reach + c.min_gap_m + 0.5 * veh.length_m
+        eased, moved = list(per_hyp), set()
+        for l in live_idx:
+            if not self._comfort[l] > 0.0:
+                continue
+            objects = []
+            for j, obj in enumerate(per_hyp[l]):
+                if not obj.is_pedestrian and path_object_key(obj) not in shared:
+                    obj = replace(obj, s_rear_m=np.maximum(obj.s_rear_m, rear_floor))
+                    moved.add((int(l), j))
+                objects.append(obj)
+            eased[l] = objects
+        return eased, moved
 
     def _stop_meets_bounds(self, start: BrakingStart, per_hyp, live_idx, bounds) -> bool:
         """Whether braking comfortably from `start` meets this plan's stop bounds.
@@ -413,6 +467,11 @@ class ContingencyMpc:
                                comfort[first], jerk_max)
         return QpSolution(solution.solved, solution.cost, solution.accel_mps2[inverse],
                           solution.speed_mps[inverse], solution.progress_m[inverse])
+
+
+def path_object_key(obj: PathObject) -> tuple:
+    """What makes two branches' PathObjects the same object (its span, kind and rears)."""
+    return (obj.k_first, obj.k_last, obj.is_pedestrian, obj.pass_margin, obj.s_rear_m.tobytes())
 
 
 def comfortable_stop_meets(start: BrakingStart, bound_m: np.ndarray, v_max_mps: np.ndarray,

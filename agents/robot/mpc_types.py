@@ -116,6 +116,8 @@ class MpcResult:
         progress_plan: (B, N) their progress from the current position [m].
         cost: the expected cost J (inf if infeasible).
         jerk_relaxed: no plan met the jerk bound; the plan (if feasible) ignores it.
+        contingency_given_way: feasible only with a contingency's own vehicle given way to a
+            comfortable stop (mpc.py, module docstring).
         surprise_infeasible: infeasible, yet from the previous plan's state (one simulator
             step earlier) braking at most comfort_decel_mps2 would have kept behind every
             bound that made this plan infeasible (mpc.comfortable_stop_meets). Such a stop is
@@ -135,6 +137,7 @@ class MpcResult:
     progress_plan: np.ndarray
     cost: float
     jerk_relaxed: bool = False
+    contingency_given_way: bool = False
     surprise_infeasible: bool = False
 
 

@@ -98,7 +98,8 @@ def episode_summary(result, hidden, key: str) -> dict:
         max_decel_mps2, robot_collision, collision, yielded, time_to_pass_s: the metrics;
         mpc_infeasible_steps: steps the robot's MPC found no feasible plan;
         surprise_infeasible_steps: of them, those a comfortable stop one step earlier would
-        have met (run.infeasible_steps);
+        have met; contingency_given_way_steps: steps feasible only with a hidden car's bound
+        given way to a comfortable stop (run.infeasible_steps);
         reference_s: reference_time_s (nan: none); lead_s: the reference minus the earliest
         warning before it (nan: no counterfactual; 0: no warning before it);
         confident, holds, crossings: the belief before the reference (all of it without a

@@ -1,4 +1,5 @@
-"""Infeasible plans: which ones a comfortable stop one step earlier would have met."""
+"""Infeasible plans: which ones a comfortable stop one step earlier would have met, and the
+contingencies given way to a comfortable stop."""
 
 from __future__ import annotations
 
@@ -7,6 +8,7 @@ from types import SimpleNamespace
 import numpy as np
 import pytest
 
+from marl_social.agents.robot.corridor import PathObject
 from marl_social.agents.robot.mpc import ContingencyMpc, comfortable_stop_meets
 from marl_social.agents.robot.mpc_types import BrakingStart, MpcConfig, PlanRequest
 from marl_social.evaluation.run import infeasible_steps
@@ -62,9 +64,46 @@ def test_an_infeasible_plan_is_a_surprise_only_if_a_comfortable_stop_a_step_earl
     assert not mpc.plan(ROUTE, _request(s_now, 10.0, stop_at_m=s_now + 3.0)).surprise_infeasible
 
 
+def _zone_claim(s0: float, pedestrian: bool = False) -> PathObject:
+    """A zone from 2 m ahead of the robot's centre, claimed from 2 s on (its front is past the
+    stay-behind bound) and too long to be cleared in time."""
+    n = len(TIMES)
+    occupied = TIMES >= 2.0
+    return PathObject(occupied, np.full(n, s0 + 2.0), np.full(n, s0 + 60.0),
+                      int(np.argmax(occupied)), n - 1, is_pedestrian=pedestrian,
+                      pass_margin=False)
+
+
+def _plan_with_claims(claims: list[list[PathObject]], s0: float = 100.0, v0: float = 3.0):
+    contingent = np.array([False, True])  # "none" and a hidden agent
+    return ContingencyMpc(CONFIG, VEHICLE).plan(ROUTE, _request(
+        s0, v0, 2, contingent=contingent, extra_objects=claims))
+
+
+def test_a_hidden_car_it_can_no_longer_stop_for_is_met_with_a_comfortable_stop():
+    """A zone claimed by a hypothesised car only (a contingency branch's own object): no plan
+    stays behind it, so its bound gives way to a comfortable stop instead of the limit."""
+    s0 = 100.0
+    res = _plan_with_claims([[], [_zone_claim(s0)]], s0)
+    assert res.feasible and res.contingency_given_way
+    assert -CONFIG.comfort_decel_mps2 - 0.5 <= res.accel_mps2 < 0.0
+
+
+def test_a_tracked_car_or_a_hidden_pedestrian_it_cannot_stop_for_still_brakes_at_the_limit():
+    """The same claim in every branch (a tracked car), or a hypothesised pedestrian's: the
+    robot brakes as hard as it can."""
+    s0 = 100.0
+    for claims in ([[_zone_claim(s0)], [_zone_claim(s0)]], [[], [_zone_claim(s0, True)]]):
+        res = _plan_with_claims(claims, s0)
+        assert not res.feasible and not res.contingency_given_way
+        assert res.accel_mps2 == -VEHICLE.brake_max_mps2
+
+
 def test_infeasible_steps_count_the_recorded_flags():
     trace = SimpleNamespace(extras={
         "mpc_infeasible": np.array([0.0, 1.0, 1.0, 0.0, np.nan]),
-        "mpc_surprise_infeasible": np.array([0.0, 0.0, 1.0, 0.0, np.nan])})
-    assert infeasible_steps(trace) == {"mpc_infeasible_steps": 2, "surprise_infeasible_steps": 1}
+        "mpc_surprise_infeasible": np.array([0.0, 0.0, 1.0, 0.0, np.nan]),
+        "mpc_contingency_given_way": np.array([0.0, 0.0, 0.0, 1.0, np.nan])})
+    assert infeasible_steps(trace) == {"mpc_infeasible_steps": 2, "surprise_infeasible_steps": 1,
+                                       "contingency_given_way_steps": 1}
     assert set(infeasible_steps(SimpleNamespace(extras={})).values()) == {0}
