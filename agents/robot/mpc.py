@@ -115,9 +115,9 @@ class ContingencyMpc:
         self._full: tuple[np.ndarray, np.ndarray] | None = None  # set by _full_progress
         self._comfort = np.ones(0)  # (L,) comfort weight factor per hypothesis, set by plan
         self._goal = (0.0, 0.0)  # the pull-up term (weight, progress to the line), set by plan
-        # the previous plan's state, one simulator step before the next (MpcResult.
-        # surprise_infeasible); None: no plan yet this episode
-        self._previous: BrakingStart | None = None
+        # the previous plan's (s0, v0, prev_accel), one simulator step before the next
+        # (MpcResult.surprise_infeasible); None: no plan yet this episode
+        self._previous: tuple[float, float, float] | None = None
 
     def reset(self) -> None:
         """Forget the QPs (their warm starts and step sizes): a new episode, bit-identical."""
@@ -237,11 +237,11 @@ class ContingencyMpc:
         modes = [()] * len(beliefs)
         for l, m in zip(live_idx, chosen):
             modes[l] = m
-        previous, self._previous = self._previous, BrakingStart(s0, v0, prev_accel, DT_S)
+        previous, self._previous = self._previous, (s0, v0, prev_accel)
         if not solution.solved:
             nan = np.full((len(live_idx), n), np.nan)
             surprise = previous is not None and self._stop_meets_bounds(
-                previous, per_hyp, live_idx, bounds)
+                BrakingStart(*previous, DT_S), per_hyp, live_idx, bounds)
             return MpcResult(-veh.brake_max_mps2, False, live, weights, tuple(modes), nan,
                              nan.copy(), nan.copy(), np.inf, relaxed, surprise_infeasible=surprise)
         accel = float(solution.accel_mps2[0, 0])
