@@ -20,10 +20,11 @@ one is plausible), then the joint QP is solved once. Every live hypothesis must 
 the jerk bound (a constraint that appeared suddenly), the jerk bound gives way first
 (MpcResult.jerk_relaxed). If no plan is feasible even then because of a hidden agent it has not
 seen (a contingency branch's own object, not a pedestrian, not in every branch), that object's
-bound gives way to where a comfortable stop gets the robot (MpcResult.contingency_given_way):
-a hypothesised car it can no longer stop for, even at its limit, is met with a comfortable stop
-as soon as it can, not an emergency one (a car that comes into view is then a tracked object
-like any other). Only if no plan is feasible even then does the robot brake as hard as it can,
+bound gives way to where a comfortable stop gets the robot, or if that still conflicts with the
+branch's other objects (a car it passes in front of, with the hidden one behind it in its lane),
+the object is left out (MpcResult.contingency_given_way): a hypothesised car it can no longer
+stop for, even at its limit, is not met with an emergency stop (a car that comes into view is
+then a tracked object like any other). Only if no plan is feasible even then does the robot brake as hard as it can,
 flagged in MpcResult.feasible.
 
 Comfort (Alsterda & Gerdes): a contingency branch (a hypothesis not seen to be true) may brake
@@ -261,8 +262,9 @@ class ContingencyMpc:
            way). 2. Every object behind. 3. The same with the jerk bound relaxed (an emergency
         stop). 4. Pedestrians may be passed in front too, if the robot cannot stay behind, with
         the jerk bound, then without it. 5. The contingencies' own vehicles given way to a
-        comfortable stop (`_contingencies_given_way`) and behind, the other objects as in 1,
-        then every object behind, each with the jerk bound, then without it.
+        comfortable stop (`_contingencies_given_way`), the modes chosen as in 1, then every
+        object behind, each with the jerk bound, then without it; the same with those objects
+        left out.
         Returns (modes per live branch, the solution, whether the jerk bound was relaxed,
         whether contingencies were given way).
         """
@@ -286,17 +288,22 @@ class ContingencyMpc:
                     return crossing, solution, relaxed, False
         eased, moved = self._contingencies_given_way(per_hyp, live_idx, bounds)
         if moved:
-            # the moved objects behind, the others as first chosen (a car it passes in front of
-            # stays passed), then every object behind
-            kept = [tuple(BEHIND if (l, j) in moved else mode for j, mode in enumerate(m))
-                    for l, m in zip(live_idx, chosen)]
-            behind = [tuple(BEHIND for _ in m) for m in chosen]
-            for modes in ([kept, behind] if kept != behind else [behind]):
-                for jerk_max, relaxed in ((None, False), (jerk_free, True)):
-                    given_way = self._solve_joint(eased, live_idx, weights, modes, bounds,
-                                                  jerk_max)
-                    if given_way.solved:
-                        return modes, given_way, relaxed, True
+            # the modes chosen afresh with the moved objects (so that it still, say,
+            # passes a car it passes in front of), then every object behind; then without the
+            # moved objects (a hidden car it can neither stop for nor pass before the car it
+            # passes in front of: in one lane, the two are one car)
+            left_out = [[o for j, o in enumerate(objects) if (l, j) not in moved]
+                        for l, objects in enumerate(per_hyp)]
+            for objects in (eased, left_out):
+                rechosen = [self._choose_modes(objects[l], bounds, v_cap, False, l)
+                            for l in live_idx]
+                behind = [tuple(BEHIND for _ in objects[l]) for l in live_idx]
+                for modes in ([rechosen, behind] if rechosen != behind else [behind]):
+                    for jerk_max, relaxed in ((None, False), (jerk_free, True)):
+                        given_way = self._solve_joint(objects, live_idx, weights, modes, bounds,
+                                                      jerk_max)
+                        if given_way.solved:
+                            return modes, given_way, relaxed, True
         return chosen, solution, True, False
 
     def _contingencies_given_way(self, per_hyp, live_idx, bounds) -> tuple[list, set]:

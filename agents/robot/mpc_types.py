@@ -117,7 +117,7 @@ class MpcResult:
         cost: the expected cost J (inf if infeasible).
         jerk_relaxed: no plan met the jerk bound; the plan (if feasible) ignores it.
         contingency_given_way: feasible only with a contingency's own vehicle given way to a
-            comfortable stop (mpc.py, module docstring).
+            comfortable stop, or left out (mpc.py, module docstring).
         surprise_infeasible: infeasible, yet from the previous plan's state (one simulator
             step earlier) braking at most comfort_decel_mps2 would have kept behind every
             bound that made this plan infeasible (mpc.comfortable_stop_meets). Such a stop is

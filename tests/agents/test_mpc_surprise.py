@@ -64,12 +64,13 @@ def test_an_infeasible_plan_is_a_surprise_only_if_a_comfortable_stop_a_step_earl
     assert not mpc.plan(ROUTE, _request(s_now, 10.0, stop_at_m=s_now + 3.0)).surprise_infeasible
 
 
-def _zone_claim(s0: float, pedestrian: bool = False) -> PathObject:
-    """A zone from 2 m ahead of the robot's centre, claimed from 2 s on (its front is past the
-    stay-behind bound) and too long to be cleared in time."""
+def _zone_claim(s0: float, pedestrian: bool = False, from_s: float = 2.0,
+                length_m: float = 58.0) -> PathObject:
+    """A zone from 2 m ahead of the robot's centre (its front is past the stay-behind bound),
+    claimed from `from_s` on; by default too long to be cleared in time."""
     n = len(TIMES)
-    occupied = TIMES >= 2.0
-    return PathObject(occupied, np.full(n, s0 + 2.0), np.full(n, s0 + 60.0),
+    occupied = TIMES >= from_s
+    return PathObject(occupied, np.full(n, s0 + 2.0), np.full(n, s0 + 2.0 + length_m),
                       int(np.argmax(occupied)), n - 1, is_pedestrian=pedestrian,
                       pass_margin=False)
 
@@ -87,6 +88,17 @@ def test_a_hidden_car_it_can_no_longer_stop_for_is_met_with_a_comfortable_stop()
     res = _plan_with_claims([[], [_zone_claim(s0)]], s0)
     assert res.feasible and res.contingency_given_way
     assert -CONFIG.comfort_decel_mps2 - 0.5 <= res.accel_mps2 < 0.0
+
+
+def test_a_hidden_car_it_can_neither_stop_for_nor_pass_beside_a_tracked_one_is_left_out():
+    """A tracked car claims a short zone late (the robot passes in front of it); the hidden
+    car's claim of the same zone comes earlier: a comfortable stop for it would undo the pass,
+    so it is left out and the robot goes on."""
+    s0 = 100.0
+    tracked = _zone_claim(s0, from_s=5.0, length_m=8.0)
+    res = _plan_with_claims([[tracked], [tracked, _zone_claim(s0)]], s0)
+    assert res.feasible and res.contingency_given_way and res.modes[1] == ("past",)
+    assert res.accel_mps2 >= -0.1
 
 
 def test_a_tracked_car_or_a_hidden_pedestrian_it_cannot_stop_for_still_brakes_at_the_limit():
