@@ -13,7 +13,8 @@ the lines of "what it must show" of the belief's reliability:
 * nothing hidden (no pedestrian, human beta 2-30; the cross traffic on green for the
   protected left): the belief stays below 0.5; with 1 m robot position noise the robot never
   brakes harder than 2 m/s^2;
-* every cell: the robot brakes <= 4 m/s^2, its MPC's infeasible steps, collisions; the social
+* every cell: the robot brakes <= 4 m/s^2, its MPC's infeasible steps and of them the surprises
+  (a comfortable stop one step earlier would have met the plan's bounds), collisions; the social
   robot's time to pass against the oracle's with nothing hidden.
 
 Writes a JSON file and a Markdown table (and with --figure the reliability diagram,
@@ -108,6 +109,8 @@ def claim_lines(runs: dict) -> list[dict]:
          "crosswalk social none, 1 m noise", every, lambda m: m["max_decel_mps2"] <= 2.0, 0.90)
     for cell in CELLS:
         line("brakes <= 4 m/s^2", cell, every, lambda m: m["max_decel_mps2"] <= 4.0, 0.95)
+        line("no infeasible plan where a comfortable stop one step earlier would have met it",
+             cell, every, lambda m: m["surprise_infeasible_steps"] == 0, 1.0)
     return lines
 
 
@@ -121,6 +124,10 @@ def cell_rows(runs: dict) -> list[dict]:
                      "collisions": sum(m["robot_collision"] for m in summaries),
                      "infeasible_episodes": sum(k > 0 for k in infeasible),
                      "infeasible_steps": int(sum(infeasible)),
+                     "surprise_steps": int(sum(m["surprise_infeasible_steps"]
+                                               for m in summaries)),
+                     "given_way_steps": int(sum(m["contingency_given_way_steps"]
+                                                for m in summaries)),
                      "max_decel_mps2": float(max(m["max_decel_mps2"] for m in summaries)),
                      "warned": sum(_warned(m) for m in summaries)
                      if CELLS[name].counterfactual else None,
@@ -162,11 +169,13 @@ def markdown(results: dict) -> str:
     lines += [f"| {c['cell']} | {c['what']} | {c['k']} / {c['n']} | {pct(c['rate'])} | "
               f">= {100 * c['target']:.0f} % | {'yes' if c['holds'] else '**no**'} |"
               for c in results["claims"]]
-    lines += ["", ("| cell | n | warned | collisions | MPC infeasible (episodes / steps) | "
+    lines += ["", ("| cell | n | warned | collisions | MPC infeasible (episodes / steps / "
+                   "surprises) | hidden car given way (steps) | "
                    "hardest braking [m/s^2] | time to pass [s] (never) |"),
-              "|---|---|---|---|---|---|---|"]
+              "|---|---|---|---|---|---|---|---|"]
     lines += [f"| {r['cell']} | {r['n']} | {'-' if r['warned'] is None else r['warned']} | "
-              f"{r['collisions']} | {r['infeasible_episodes']} / {r['infeasible_steps']} | "
+              f"{r['collisions']} | {r['infeasible_episodes']} / {r['infeasible_steps']} / "
+              f"{r['surprise_steps']} | {r['given_way_steps']} | "
               f"{r['max_decel_mps2']:.2f} | {r['time_to_pass_s']:.2f} ({r['never_passed']}) |"
               for r in results["cells"]]
     lines += ["", "| nothing hidden | social [s] | oracle [s] | ratio | <= 1.05 |",

@@ -18,8 +18,14 @@ cheapest feasible combination of these modes (one small QP per combination, only
 one is plausible), then the joint QP is solved once. Every live hypothesis must be safe
 (defensive); each one's cost counts with its belief (not overly conservative). If no plan meets
 the jerk bound (a constraint that appeared suddenly), the jerk bound gives way first
-(MpcResult.jerk_relaxed); only if no plan is feasible even then does the robot brake as hard as
-it can, flagged in MpcResult.feasible.
+(MpcResult.jerk_relaxed). If no plan is feasible even then because of a hidden agent it has not
+seen (a contingency branch's own object, not a pedestrian, not in every branch), that object's
+bound gives way to where a comfortable stop gets the robot, or if that still conflicts with the
+branch's other objects (a car it passes in front of, with the hidden one behind it in its lane),
+the object is left out (MpcResult.contingency_given_way): a hypothesised car it can no longer
+stop for, even at its limit, is not met with an emergency stop (a car that comes into view is
+then a tracked object like any other). Only if no plan is feasible even then does the robot brake as hard as it can,
+flagged in MpcResult.feasible.
 
 Comfort (Alsterda & Gerdes): a contingency branch (a hypothesis not seen to be true) may brake
 harder than `comfort_decel_mps2` only at the price w_c c^2, c the deceleration beyond it (a
@@ -49,6 +55,7 @@ as much as driving 2 m/s slower for 5 s.
 from __future__ import annotations
 
 import itertools
+from dataclasses import replace
 
 import numpy as np
 
@@ -68,7 +75,7 @@ from marl_social.agents.robot.corridor import (
     reachable_progress,
     route_curvature,
 )
-from marl_social.agents.robot.mpc_types import MpcConfig, MpcResult, PlanRequest
+from marl_social.agents.robot.mpc_types import BrakingStart, MpcConfig, MpcResult, PlanRequest
 from marl_social.agents.robot.qp import ContingencyQp
 from marl_social.agents.robot.qp_types import QpInstance, QpSolution, QpWeights
 from marl_social.sim.agent_spec import VehicleParams
@@ -79,6 +86,7 @@ MAX_MODE_OBJECTS = 3  # per branch, objects beyond this many with two plausible 
 INFEASIBLE_MARGIN_M = 0.5  # bounds violated by more than this even at best skip the QP [m]
 ROOM_M = 0.1  # a stay-behind bound gives way to where braking gets the robot plus this [m]
 STANDSTILL_MARGIN_M = 0.05  # at rest, plans going no further than the room + this stay [m]
+STOP_CHECK_DT_S = 0.005  # integration step of comfortable_stop_meets [s]
 
 
 class ContingencyMpc:
@@ -108,11 +116,15 @@ class ContingencyMpc:
         self._full: tuple[np.ndarray, np.ndarray] | None = None  # set by _full_progress
         self._comfort = np.ones(0)  # (L,) comfort weight factor per hypothesis, set by plan
         self._goal = (0.0, 0.0)  # the pull-up term (weight, progress to the line), set by plan
+        # the previous plan's (s0, v0, prev_accel), one simulator step before the next
+        # (MpcResult.surprise_infeasible); None: no plan yet this episode
+        self._previous: tuple[float, float, float] | None = None
 
     def reset(self) -> None:
         """Forget the QPs (their warm starts and step sizes): a new episode, bit-identical."""
         self._qps.clear()
         self._mode_qp = None
+        self._previous = None
 
     def _new_qp(self, n_branches: int) -> ContingencyQp:
         """A fresh QP of n_branches branches (its layout's structure built once per process)."""
@@ -210,8 +222,8 @@ class ContingencyMpc:
         v_max, curved = self._speed_bound(route, guess_lo, guess_hi, v_cap)
         for _ in range(4):
             bounds = (v0, prev_accel, v_ref, v_max, wall, margin, s0)
-            chosen, solution, relaxed = self._solve_all(per_hyp, live_idx, weights, bounds,
-                                                        v_cap)
+            chosen, solution, relaxed, given_way = self._solve_all(per_hyp, live_idx, weights,
+                                                                   bounds, v_cap)
             if not (curved and solution.solved):
                 break
             lo = s0 + solution.progress_m.min(axis=0)
@@ -226,10 +238,13 @@ class ContingencyMpc:
         modes = [()] * len(beliefs)
         for l, m in zip(live_idx, chosen):
             modes[l] = m
+        previous, self._previous = self._previous, (s0, v0, prev_accel)
         if not solution.solved:
             nan = np.full((len(live_idx), n), np.nan)
+            surprise = previous is not None and self._stop_meets_bounds(
+                BrakingStart(*previous, DT_S), per_hyp, live_idx, bounds)
             return MpcResult(-veh.brake_max_mps2, False, live, weights, tuple(modes), nan,
-                             nan.copy(), nan.copy(), np.inf, relaxed)
+                             nan.copy(), nan.copy(), np.inf, relaxed, surprise_infeasible=surprise)
         accel = float(solution.accel_mps2[0, 0])
         if v0 <= c.rest_mps and solution.progress_m.max() <= ROOM_M + STANDSTILL_MARGIN_M:
             # standstill: a robot at rest whose plans only use the room a bound gives way by
@@ -238,7 +253,7 @@ class ContingencyMpc:
             accel = min(accel, -v0 / c.standstill_s)
         return MpcResult(accel, True, live, weights, tuple(modes),
                          solution.accel_mps2, solution.speed_mps, solution.progress_m,
-                         solution.cost, relaxed)
+                         solution.cost, relaxed, contingency_given_way=given_way)
 
     def _solve_all(self, per_hyp, live_idx, weights, bounds, v_cap):
         """Modes per branch, then the joint QP, relaxing in order until a plan is feasible.
@@ -246,8 +261,12 @@ class ContingencyMpc:
         1. Vehicles: the cheapest feasible mode; pedestrians: behind (they have the right of
            way). 2. Every object behind. 3. The same with the jerk bound relaxed (an emergency
         stop). 4. Pedestrians may be passed in front too, if the robot cannot stay behind, with
-        the jerk bound, then without it.
-        Returns (modes per live branch, the solution, whether the jerk bound was relaxed).
+        the jerk bound, then without it. 5. The contingencies' own vehicles given way to a
+        comfortable stop (`_contingencies_given_way`), the modes chosen as in 1, then every
+        object behind, each with the jerk bound, then without it; the same with those objects
+        left out.
+        Returns (modes per live branch, the solution, whether the jerk bound was relaxed,
+        whether contingencies were given way).
         """
         jerk_free = self.vehicle.brake_max_mps2 / DT_S
         chosen = [self._choose_modes(per_hyp[l], bounds, v_cap, False, l) for l in live_idx]
@@ -256,18 +275,83 @@ class ContingencyMpc:
             chosen = [tuple(BEHIND for _ in m) for m in chosen]
             solution = self._solve_joint(per_hyp, live_idx, weights, chosen, bounds)
         if solution.solved:
-            return chosen, solution, False
+            return chosen, solution, False, False
         solution = self._solve_joint(per_hyp, live_idx, weights, chosen, bounds, jerk_free)
         if solution.solved:
-            return chosen, solution, True
+            return chosen, solution, True, False
         crossing = [self._choose_modes(per_hyp[l], bounds, v_cap, True, l) for l in live_idx]
         if crossing != chosen:
             for jerk_max, relaxed in ((None, False), (jerk_free, True)):
                 solution = self._solve_joint(per_hyp, live_idx, weights, crossing, bounds,
                                              jerk_max)
                 if solution.solved:
-                    return crossing, solution, relaxed
-        return chosen, solution, True
+                    return crossing, solution, relaxed, False
+        eased, moved = self._contingencies_given_way(per_hyp, live_idx, bounds)
+        if moved:
+            # the modes chosen afresh with the moved objects (so that it still, say,
+            # passes a car it passes in front of), then every object behind; then without the
+            # moved objects (a hidden car it can neither stop for nor pass before the car it
+            # passes in front of: in one lane, the two are one car)
+            left_out = [[o for j, o in enumerate(objects) if (l, j) not in moved]
+                        for l, objects in enumerate(per_hyp)]
+            for objects in (eased, left_out):
+                rechosen = [self._choose_modes(objects[l], bounds, v_cap, False, l)
+                            for l in live_idx]
+                behind = [tuple(BEHIND for _ in objects[l]) for l in live_idx]
+                for modes in ([rechosen, behind] if rechosen != behind else [behind]):
+                    for jerk_max, relaxed in ((None, False), (jerk_free, True)):
+                        given_way = self._solve_joint(objects, live_idx, weights, modes, bounds,
+                                                      jerk_max)
+                        if given_way.solved:
+                            return modes, given_way, relaxed, True
+        return chosen, solution, True, False
+
+    def _contingencies_given_way(self, per_hyp, live_idx, bounds) -> tuple[list, set]:
+        """Per hypothesis, its objects with the contingencies' own vehicles given way.
+
+        A contingency branch's (comfort factor > 0) object that is not a pedestrian and not in
+        every live branch (a tracked object is) moves its rear to where braking at
+        comfort_decel_mps2 gets the robot, plus the gap, at every step it is behind that:
+        its stay-behind bound then gives way to a comfortable stop.
+
+        Returns:
+            the objects per hypothesis, and the (hypothesis, index) of every moved one.
+        """
+        c, veh = self.config, self.vehicle
+        v0, s0 = bounds[0], bounds[6]
+        keys = [{path_object_key(o) for o in per_hyp[l]} for l in live_idx]
+        shared = set.intersection(*keys) if keys else set()
+        reach = np.empty(self._n_steps)
+        corridor_kernels().braking_reach(float(v0), c.comfort_decel_mps2 * self._plan_times,
+                                         c.plan_dt_s, self._headway, ROOM_M, reach)
+        rear_floor = s0 + reach + c.min_gap_m + 0.5 * veh.length_m
+        eased, moved = list(per_hyp), set()
+        for l in live_idx:
+            if not self._comfort[l] > 0.0:
+                continue
+            objects = []
+            for j, obj in enumerate(per_hyp[l]):
+                if not obj.is_pedestrian and path_object_key(obj) not in shared:
+                    obj = replace(obj, s_rear_m=np.maximum(obj.s_rear_m, rear_floor))
+                    moved.add((int(l), j))
+                objects.append(obj)
+            eased[l] = objects
+        return eased, moved
+
+    def _stop_meets_bounds(self, start: BrakingStart, per_hyp, live_idx, bounds) -> bool:
+        """Whether braking comfortably from `start` meets this plan's stop bounds.
+
+        The bounds a stop must meet: every live branch's with each object behind (the
+        fallback modes of an infeasible plan), the tightest per step, and the speed bounds
+        (comfortable_stop_meets).
+        """
+        tightest = np.full(self._n_steps, np.inf)
+        for l in live_idx:
+            _, s_up = self._branch_bounds(per_hyp[l], (BEHIND,) * len(per_hyp[l]), bounds)
+            np.minimum(tightest, s_up, out=tightest)
+        c, s0, v_max = self.config, bounds[6], bounds[3]
+        return comfortable_stop_meets(start, s0 + tightest, v_max, self._plan_times,
+                                      self._headway, c.comfort_decel_mps2, c.jerk_max_mps3)
 
     def _braking_reach(self, v0: float) -> np.ndarray:
         """(N,) how far braking at half the limit gets the robot, plus headway and room [m].
@@ -390,6 +474,44 @@ class ContingencyMpc:
                                comfort[first], jerk_max)
         return QpSolution(solution.solved, solution.cost, solution.accel_mps2[inverse],
                           solution.speed_mps[inverse], solution.progress_m[inverse])
+
+
+def path_object_key(obj: PathObject) -> tuple:
+    """What makes two branches' PathObjects the same object (its span, kind and rears)."""
+    return (obj.k_first, obj.k_last, obj.is_pedestrian, obj.pass_margin, obj.s_rear_m.tobytes())
+
+
+def comfortable_stop_meets(start: BrakingStart, bound_m: np.ndarray, v_max_mps: np.ndarray,
+                           times_s: np.ndarray, headway_s: np.ndarray, comfort_decel_mps2: float,
+                           jerk_max_mps3: float) -> bool:
+    """Whether a comfortable stop begun at `start` keeps s + h v <= bound and v <= v_max.
+
+    The acceleration ramps down from start.accel_mps2 at jerk_max_mps3 to
+    -comfort_decel_mps2 (at once if it brakes harder already) and holds it until rest; the
+    plan's steps end start.lead_s + times_s after the braking starts.
+
+    Args:
+        start: where the braking starts (arc length, speed, acceleration) and how long before
+            the plan's start.
+        bound_m: (N,) the plan's bounds on s + h v, arc lengths along the route [m] (inf: none).
+        v_max_mps: (N,) the plan's speed bounds [m/s].
+        times_s: (N,) the ends of the plan's steps after its start [s].
+        headway_s: (N,) the time headway h of each step [s].
+        comfort_decel_mps2: the comfortable deceleration [m/s^2].
+        jerk_max_mps3: how fast the braking sets in [m/s^3].
+    """
+    at = start.lead_s + np.asarray(times_s, dtype=np.float64)
+    tau = np.arange(0.0, at[-1] + 2.0 * STOP_CHECK_DT_S, STOP_CHECK_DT_S)
+    accel = np.maximum(start.accel_mps2 - jerk_max_mps3 * tau[1:], -comfort_decel_mps2)
+    # the acceleration never rises: once at rest the robot stays there
+    speed = np.maximum(start.v_mps + np.concatenate([[0.0], np.cumsum(accel)
+                                                      * STOP_CHECK_DT_S]), 0.0)
+    progress = np.concatenate([[0.0], np.cumsum(0.5 * (speed[1:] + speed[:-1])
+                                                * STOP_CHECK_DT_S)])
+    v_at, s_at = np.interp(at, tau, speed), np.interp(at, tau, progress)
+    bound = np.asarray(bound_m, dtype=np.float64) - start.s_m
+    return bool(np.all(s_at + headway_s * v_at <= bound + 1e-9)
+                and np.all(v_at <= np.asarray(v_max_mps) + 1e-9))
 
 
 def distinct_branches(s_low: np.ndarray, s_up: np.ndarray, comfort: np.ndarray

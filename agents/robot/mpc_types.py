@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import NamedTuple
 
 import numpy as np
 
@@ -115,6 +116,15 @@ class MpcResult:
         progress_plan: (B, N) their progress from the current position [m].
         cost: the expected cost J (inf if infeasible).
         jerk_relaxed: no plan met the jerk bound; the plan (if feasible) ignores it.
+        contingency_given_way: feasible only with a contingency's own vehicle given way to a
+            comfortable stop, or left out (mpc.py, module docstring).
+        surprise_infeasible: infeasible, yet from the previous plan's state (one simulator
+            step earlier) braking at most comfort_decel_mps2 would have kept behind every
+            bound that made this plan infeasible (mpc.comfortable_stop_meets). Such a stop is
+            at every plan step at least as far along as the hardest stop begun now (in one
+            step the robot covers less than the two stopping distances differ), so against
+            the same bounds this marks a plan not forced by them: the robot's own position
+            estimate jumped, or the solver failed.
     """
 
     accel_mps2: float
@@ -127,6 +137,24 @@ class MpcResult:
     progress_plan: np.ndarray
     cost: float
     jerk_relaxed: bool = False
+    contingency_given_way: bool = False
+    surprise_infeasible: bool = False
+
+
+class BrakingStart(NamedTuple):
+    """Where a braking manoeuvre starts, and how long before the plan it is judged by.
+
+    Attributes:
+        s_m: the robot's arc length along its route [m].
+        v_mps: its speed [m/s].
+        accel_mps2: its acceleration command then [m/s^2] (the braking ramps down from it).
+        lead_s: how long before the plan's start it starts [s].
+    """
+
+    s_m: float
+    v_mps: float
+    accel_mps2: float
+    lead_s: float
 
 
 @dataclass(frozen=True)

@@ -97,6 +97,9 @@ def episode_summary(result, hidden, key: str) -> dict:
     Returns:
         max_decel_mps2, robot_collision, collision, yielded, time_to_pass_s: the metrics;
         mpc_infeasible_steps: steps the robot's MPC found no feasible plan;
+        surprise_infeasible_steps: of them, those a comfortable stop one step earlier would
+        have met; contingency_given_way_steps: steps feasible only with a hidden car's bound
+        given way to a comfortable stop (run.infeasible_steps);
         reference_s: reference_time_s (nan: none); lead_s: the reference minus the earliest
         warning before it (nan: no counterfactual; 0: no warning before it);
         confident, holds, crossings: the belief before the reference (all of it without a
@@ -104,6 +107,8 @@ def episode_summary(result, hidden, key: str) -> dict:
         max_belief: the largest belief over the episode (where the robot does not see the
         hidden agent: a seen agent's belief is 1); belief: the series (T+1,); dt_s: the step.
     """
+    from marl_social.evaluation.run import infeasible_steps
+
     trace, m = result.trace, result.metrics
     times = np.asarray(trace.times_s)
     belief = np.asarray(trace.extras.get(key, np.full(len(times), np.nan)), dtype=np.float64)
@@ -116,12 +121,11 @@ def episode_summary(result, hidden, key: str) -> dict:
                   if np.isfinite(t) and (not np.isfinite(ref) or t <= ref)]
         lead = (round(float(ref - min(warned)), 9) if warned and np.isfinite(ref)
                 else (float("inf") if warned else 0.0))
-    infeasible = trace.extras.get("mpc_infeasible")
     return {
         "max_decel_mps2": float(m["max_decel_mps2"]), "robot_collision": bool(m["robot_collision"]),
         "collision": bool(m["collision"]), "yielded": bool(m["yielded"]),
         "time_to_pass_s": float(m["time_to_pass_s"]),
-        "mpc_infeasible_steps": 0 if infeasible is None else int(np.nansum(infeasible)),
+        **infeasible_steps(trace),
         "reference_s": ref, "lead_s": lead,
         "confident": bool(np.any(before > CONFIDENT)), "holds": holds_once_confident(before),
         "crossings": crossings(before),

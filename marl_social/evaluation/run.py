@@ -27,7 +27,11 @@ class EpisodeResult:
     Attributes:
         metrics: dict of floats / bools (marl_social/metrics/).
         trace: the Trace, with extras "mpc_infeasible" (1.0 where the robot's MPC found no
-            feasible plan and braked as hard as it can) for an MPC robot, and "p_pedestrian",
+            feasible plan and braked as hard as it can), "mpc_surprise_infeasible" (1.0 where,
+            besides, a comfortable stop one step earlier would have met the plan's bounds:
+            MpcResult.surprise_infeasible) and "mpc_contingency_given_way" (1.0 where its plan
+            was feasible only with a hidden car's bound given way to a comfortable stop:
+            MpcResult.contingency_given_way) for an MPC robot, and "p_pedestrian",
             "p_vehicle" (belief in a hidden vehicle, `p_hidden("vehicle")`), "perceived" and
             "p_<hypothesis>" for a belief-based robot, and "phase_<phase>" (its belief in each
             signal phase; the oracle: the true phase) at a signalized junction.
@@ -67,6 +71,10 @@ class _RecordingRobot:
         result = getattr(self.policy, "last_result", None)
         if result is not None:
             self.extras.setdefault("mpc_infeasible", []).append(float(not result.feasible))
+            self.extras.setdefault("mpc_surprise_infeasible", []).append(
+                float(result.surprise_infeasible))
+            self.extras.setdefault("mpc_contingency_given_way", []).append(
+                float(result.contingency_given_way))
         belief = getattr(self.policy, "belief", None)
         if belief is not None and not self.policy.needs_truth:
             self.extras.setdefault("p_pedestrian", []).append(float(belief.p_pedestrian))
@@ -108,6 +116,21 @@ def record_robot_episode(env, pols: dict, seed: int, render: bool = False, until
             series[: len(aligned)] = aligned
             trace.extras[key] = series
     return trace
+
+
+def infeasible_steps(trace: Trace) -> dict[str, int]:
+    """The robot's MPC's infeasible steps, the surprises among them, and its given-way steps.
+
+    0 each without an MPC robot. mpc_infeasible_steps: steps its MPC found no feasible plan;
+    surprise_infeasible_steps: of them, those where a comfortable stop one step earlier would
+    have met the bounds that made the plan infeasible (MpcResult.surprise_infeasible);
+    contingency_given_way_steps: steps whose plan was feasible only with a hidden car's bound
+    given way to a comfortable stop (MpcResult.contingency_given_way).
+    """
+    return {name: int(np.nansum(trace.extras.get(key, 0.0)))
+            for name, key in (("mpc_infeasible_steps", "mpc_infeasible"),
+                              ("surprise_infeasible_steps", "mpc_surprise_infeasible"),
+                              ("contingency_given_way_steps", "mpc_contingency_given_way"))}
 
 
 def run_episode(scenario: str = "occluded_crosswalk", seed: int = 0, render: bool = False,
@@ -343,9 +366,7 @@ def claim_episode(job: tuple) -> tuple:
                           counterfactual=counterfactual,
                           **{**randomized_overrides(seed, "wide"), **extra})
         summary = {**res.metrics, **interaction_timings(res)}
-        infeasible = res.trace.extras.get("mpc_infeasible")
-        summary["mpc_infeasible_steps"] = (0 if infeasible is None
-                                           else int(np.nansum(infeasible)))
+        summary.update(infeasible_steps(res.trace))
         return planner, variant, seed, summary, None
     except Exception as err:  # noqa: BLE001  (reported by the caller)
         return planner, variant, seed, None, f"{type(err).__name__}: {err}"
