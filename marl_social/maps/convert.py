@@ -17,10 +17,8 @@ What becomes what (lanelet2's German traffic rules for a vehicle decide who may 
   give-way line that only the zones carry;
 - two lanes that overlap (the routing graph's conflicting lanelets; lanes leaving the same
   lane, and the two halves of a two-way lanelet, are not in conflict): a ConflictZone, the
-  convex hull of their overlap; its priority lanes are the lane with the right of way and the
-  lanes leading to it that end within RULE_REACH_M before it (not those that also lead to
-  the yielding lane): a car approaching on the major road has the right of way before it
-  reaches the last short lanelet before the zone;
+  convex hull of their overlap; its priority lanes are the lanes with the right of way (only
+  those: the lanes leading to them are not added, see docs/maps.md);
 - walls, fences, guard rails, buildings: static polygons (occluders.py); parking areas kept.
 
 Anything else, and anything that fails on the way, is listed in MapElements.not_mapped and in
@@ -266,19 +264,6 @@ class _Converter:
                         frontier.append((succ, end_m))
         return found
 
-    def lead_in(self, key: LaneKey, reach_m: float = RULE_REACH_M) -> set[LaneKey]:
-        """The lane and the lanes that end less than reach_m [m] before its start."""
-        found, frontier = {key}, [(key, 0.0)]
-        while frontier:
-            lane, end_m = frontier.pop()
-            for pred in self.lane_elements[lane].predecessors:
-                if pred not in found:
-                    found.add(pred)
-                    start_m = end_m + self.lane_lengths_m[pred]
-                    if start_m < reach_m:
-                        frontier.append((pred, start_m))
-        return found
-
     # regulatory elements -------------------------------------------------------------------
 
     def map_regulatory_elements(self) -> None:
@@ -441,13 +426,9 @@ class _Converter:
             if rule == "":
                 priority, rule = self._from_the_right(a, b, hull.mean(axis=0))
             undecided += rule == ""
-            approach = tuple(sorted(set().union(*(self.lead_in(k) for k in priority))
-                                    - set().union(*(self.lead_in(k) for k in {a, b}
-                                                    if k not in priority))
-                                    - set(priority)))
-            indices = tuple(self.lane_elements[k].index for k in (*priority, *approach))
+            indices = tuple(self.lane_elements[k].index for k in priority)
             zone_name = f"conflict_{a.lanelet_id}_{b.lanelet_id}"
-            conflicts[(a, b)] = ConflictElement((a, b), len(zones), priority, rule, approach)
+            conflicts[(a, b)] = ConflictElement((a, b), len(zones), priority, rule)
             zones.append(ConflictZone(hull, zone_name, indices))
         if thin:
             self.not_mapped.append(f"{len(thin)} conflicting lanelets whose lanes overlap too "

@@ -134,15 +134,12 @@ class ConflictElement:
         rule: what decides it: "right_of_way:ID", "right_of_way:ID (fallback)",
             "all_way_stop:ID", "signals", "left_turn_yields (default)",
             "right_before_left (default)" or "" (nothing in the map decides it).
-        approach: the lanes leading to a priority lane whose traffic also has the right of way
-            there (LaneKeys; the zone's priority lanes are priority + approach).
     """
 
     lanes: tuple[LaneKey, LaneKey]
     zone: int
     priority: tuple[LaneKey, ...]
     rule: str
-    approach: tuple[LaneKey, ...] = ()
 
 
 @dataclass(frozen=True)

@@ -67,11 +67,7 @@ def test_karlsruhe_elements_point_at_the_road_map(karlsruhe):
         assert road_map.stop_lines[signal.stop_line].kind == "signal"
     for conflict in el.conflicts.values():
         zone = road_map.conflict_zones[conflict.zone]
-        assert zone.priority_lanes == tuple(el.lanes[k].index
-                                            for k in conflict.priority + conflict.approach)
-        assert not conflict.approach or conflict.priority
-        for key in conflict.approach:  # each leads to a priority lane, not to the other lane
-            assert key not in conflict.lanes
+        assert zone.priority_lanes == tuple(el.lanes[k].index for k in conflict.priority)
     rules = {c.rule.split(":")[0] for c in el.conflicts.values()}
     assert {"right_of_way", "signals", ""} <= rules
     signalled = max(el.junctions.values(), key=lambda j: len(j.signals))
@@ -217,8 +213,7 @@ def test_convex_pieces_cover_a_concave_outline():
 
 def test_two_way_lanelet_and_left_turn(tmp_path):
     """A two-way lanelet gives each direction its right half (keep right), side by side, not
-    in conflict; a left turn across oncoming traffic gives way to it (StVO section 9 (3)),
-    also to a car still on the lane before the major road's."""
+    in conflict; a left turn across oncoming traffic gives way to it (StVO section 9 (3))."""
     pytest.importorskip("lanelet2")
     path = tmp_path / "junction.osm"
     path.write_text(junction_osm())
@@ -235,5 +230,4 @@ def test_two_way_lanelet_and_left_turn(tmp_path):
     conflict = el.conflicts[((310, False), (311, False))]
     assert conflict.rule == LEFT_TURN_YIELDS and conflict.priority == ((310, False),)
     zone = road_map.conflict_zones[conflict.zone]
-    # the major road's lane and the lane leading to it (25 m, within RULE_REACH_M)
-    assert zone.priority_lanes == (el.lanes[(310, False)].index, el.lanes[(309, False)].index)
+    assert zone.priority_lanes == (el.lanes[(310, False)].index,)
