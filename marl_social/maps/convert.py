@@ -3,7 +3,9 @@
 What becomes what (lanelet2's German traffic rules for a vehicle decide who may drive where):
 
 - a lanelet a car may use: a Lane (its centre line, the mean distance between its bounds as
-  width); a two-way lanelet gives one lane each way; its speed limit from the traffic rules;
+  width); a two-way lanelet (one without lane markings, driven both ways) gives one lane each
+  way, the right half in its direction (keep right: the middle between the centre line and
+  the right bound, half the width); its speed limit from the traffic rules;
 - a crosswalk lanelet: a Crosswalk, the rectangle along its centre line that holds it;
 - a traffic light element: a signal group, a "signal" StopLine at its stop line (the part of
   the line across the lanes it controls; the lanelet's end where it names none) and one
@@ -14,7 +16,9 @@ What becomes what (lanelet2's German traffic rules for a vehicle decide who may 
   stop line a "stop_sign" StopLine when it refers to a stop sign (STOP_SIGN_SUBTYPES), else a
   give-way line that only the zones carry;
 - two lanes that overlap (the routing graph's conflicting lanelets; lanes leaving the same
-  lane are not in conflict): a ConflictZone, the convex hull of their overlap;
+  lane, and the two halves of a two-way lanelet, are not in conflict): a ConflictZone, the
+  convex hull of their overlap; its priority lanes are the lanes with the right of way (only
+  those: the lanes leading to them are not added, see docs/maps.md);
 - walls, fences, guard rails, buildings: static polygons (occluders.py); parking areas kept.
 
 Anything else, and anything that fails on the way, is listed in MapElements.not_mapped and in
@@ -46,6 +50,7 @@ from marl_social.maps.geometry import (
     overlap_hull,
     polyline_crossings,
     polylines_cross,
+    right_half_line,
 )
 from marl_social.maps.occluders import map_occluders
 from marl_social.maps.signal_plan import default_signal_plan
@@ -63,6 +68,10 @@ class MapConversionWarning(UserWarning):
     """The one-warning summary of what a map conversion could not map."""
 
 RIGHT_BEFORE_LEFT = "right_before_left (default)"  # the rule of a crossing nothing else decides
+LEFT_TURN_YIELDS = "left_turn_yields (default)"  # ... of a left turn across oncoming traffic
+ONCOMING_RAD = math.radians(135.0)  # two lanes entering this far apart in heading: oncoming
+LEFT_TURN_RAD = math.radians(45.0)  # a lane whose heading turns this far left: a left turn
+END_HEADING_M = 3.0  # a lane's heading at its start (end): over its first (last) metres [m]
 
 
 def _xy(points) -> np.ndarray:
@@ -91,6 +100,23 @@ def _heading_near(polyline: np.ndarray, point: np.ndarray) -> float:
     t = np.clip(((point - start) * d).sum(axis=1) / (d * d).sum(axis=1), 0.0, 1.0)
     k = int(np.argmin(np.linalg.norm(start + t[:, None] * d - point, axis=1)))
     return math.atan2(d[k, 1], d[k, 0])
+
+
+def _entry_and_turn(centerline: np.ndarray) -> tuple[float, float]:
+    """A lane's heading at its start [rad] and how far it turns left to its end [rad].
+
+    The headings are the chords over the first and last END_HEADING_M [m] of the centre line
+    (P, 2) [m] (at most a third of it each), which a digitized kink does not sway.
+    """
+    s = np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(centerline, axis=0), axis=1))])
+    reach = min(END_HEADING_M, s[-1] / 3.0)
+
+    def at(u: float) -> np.ndarray:
+        return np.array([np.interp(u, s, centerline[:, 0]), np.interp(u, s, centerline[:, 1])])
+
+    start, end = at(reach) - centerline[0], centerline[-1] - at(s[-1] - reach)
+    entry, exit_ = math.atan2(start[1], start[0]), math.atan2(end[1], end[0])
+    return entry, math.remainder(exit_ - entry, 2.0 * math.pi)
 
 
 def _mean_width(left: np.ndarray, right: np.ndarray) -> float:
@@ -127,6 +153,7 @@ class _Converter:
         self.lanes: list[Lane] = []
         self.lane_views: dict[LaneKey, object] = {}
         self.lane_polygons: dict[LaneKey, np.ndarray] = {}
+        self.lane_bounds: dict[LaneKey, tuple[np.ndarray, np.ndarray]] = {}  # (left, right)
         self.lane_elements: dict[LaneKey, LaneElement] = {}
         self.lane_lengths_m: dict[LaneKey, float] = {}
         self.stop_lines: list[StopLine] = []
@@ -150,10 +177,11 @@ class _Converter:
             if subtype == "crosswalk":
                 crosswalks.append(self._crosswalk(lanelet, len(crosswalks)))
             elif self.rules.canPass(lanelet):
-                views = [lanelet] if self.rules.isOneWay(lanelet) else [lanelet,
-                                                                        lanelet.invert()]
-                for view in views:
-                    self._add_lane(view, subtype)
+                if self.rules.isOneWay(lanelet):
+                    self._add_lane(lanelet, subtype, two_way=False)
+                else:
+                    for view in (lanelet, lanelet.invert()):
+                        self._add_lane(view, subtype, two_way=True)
             else:
                 skipped[subtype] += 1
         if skipped:
@@ -178,7 +206,8 @@ class _Converter:
         self.crosswalk_elements[int(lanelet.id)] = CrosswalkElement(int(lanelet.id), index, ())
         return Crosswalk(center, heading, length, width)
 
-    def _add_lane(self, view, subtype: str) -> None:
+    def _add_lane(self, view, subtype: str, two_way: bool) -> None:
+        """The lane of a lanelet view; of a two-way lanelet, the view's right half."""
         key = _key(view)
         centerline = clean_polyline(_xy(view.centerline))
         left, right = _xy(view.leftBound), _xy(view.rightBound)
@@ -187,8 +216,11 @@ class _Converter:
             self.not_mapped.append(f"lanelet {key.lanelet_id}: degenerate (centre line of "
                                    f"{len(centerline)} points, width {width:.2f} m)")
             return
+        if two_way:  # keep right: the half between the centre line and the right bound
+            left, centerline, width = centerline, right_half_line(centerline, right), 0.5 * width
         name = f"lanelet_{key.lanelet_id}" + ("_inverted" if key.inverted else "")
         self.lane_views[key] = view
+        self.lane_bounds[key] = (left, right)
         self.lane_polygons[key] = np.concatenate([left, right[::-1]])
         limit = float(self.rules.speedLimit(view).speedLimitMPS)
         self.lane_elements[key] = LaneElement(len(self.lanes), key, subtype, limit, (), ())
@@ -268,8 +300,7 @@ class _Converter:
     def _stop_segment(self, line: np.ndarray | None, lanes: list[LaneKey]) -> np.ndarray:
         """(2, 2) the part [m] of a stop line across `lanes` (their ends where line is None)."""
         if line is None:  # Lanelet2: no stop line, stop at the lanelet's end
-            ends = [_xy(bound)[-1] for k in lanes
-                    for bound in (self.lane_views[k].leftBound, self.lane_views[k].rightBound)]
+            ends = [bound[-1] for k in lanes for bound in self.lane_bounds[k]]
             line = np.array([ends[0], ends[-1]])
         chord = np.array([line[0], line[-1]])
         direction = chord[1] - chord[0]
@@ -378,7 +409,7 @@ class _Converter:
         for key, view in self.lane_views.items():
             for other in self.graph.conflicting(view):
                 other_key = _key(other)
-                if other_key in self.lane_views and other_key != key:
+                if other_key in self.lane_views and other_key.lanelet_id != key.lanelet_id:
                     pairs.add(tuple(sorted((key, other_key))))
         zones, conflicts = [], {}
         thin, undecided = [], 0
@@ -391,6 +422,8 @@ class _Converter:
                 continue
             priority, rule = self._priority(a, b)
             if rule == "":
+                priority, rule = self._left_turn_yields(a, b)
+            if rule == "":
                 priority, rule = self._from_the_right(a, b, hull.mean(axis=0))
             undecided += rule == ""
             indices = tuple(self.lane_elements[k].index for k in priority)
@@ -398,7 +431,14 @@ class _Converter:
             conflicts[(a, b)] = ConflictElement((a, b), len(zones), priority, rule)
             zones.append(ConflictZone(hull, zone_name, indices))
         if thin:
-            self.not_mapped.append(f"{len(thin)} lane overlaps too thin for a conflict zone")
+            self.not_mapped.append(f"{len(thin)} conflicting lanelets whose lanes overlap too "
+                                   "little for a conflict zone (e.g. a two-way lanelet's other "
+                                   "half)")
+        left_turns = sum(c.rule == LEFT_TURN_YIELDS for c in conflicts.values())
+        if left_turns:
+            self.not_mapped.append(f"{left_turns} conflicts no regulatory element or signal "
+                                   "decides between a left turn and oncoming traffic: given to "
+                                   f"the oncoming lane ({LEFT_TURN_YIELDS})")
         by_default = sum(c.rule == RIGHT_BEFORE_LEFT for c in conflicts.values())
         if by_default:
             self.not_mapped.append(f"{by_default} conflicts no regulatory element or signal "
@@ -420,6 +460,25 @@ class _Converter:
         if ga and gb and not ga & gb:
             return (), "signals"
         return (), ""
+
+    def _left_turn_yields(self, a: LaneKey, b: LaneKey) -> tuple[tuple[LaneKey, ...], str]:
+        """The default rule between a left turn and oncoming traffic: the left turn gives way.
+
+        German rules (StVO section 9 (3)): who turns left lets oncoming vehicles pass. Two
+        lanes entering ONCOMING_RAD or more apart in heading, exactly one of them turning left
+        by LEFT_TURN_RAD or more (its end's heading against its start's): the other keeps the
+        right of way, also where the two end in the same lane (the oncoming car turns right
+        into the street the left turn goes to). Else undecided.
+        """
+        (start_a, turn_a), (start_b, turn_b) = (_entry_and_turn(self.lanes[self.lane_elements[k]
+                                                                           .index].centerline)
+                                                for k in (a, b))
+        if abs(math.remainder(start_b - start_a, 2.0 * math.pi)) < ONCOMING_RAD:
+            return (), ""
+        left_a, left_b = turn_a >= LEFT_TURN_RAD, turn_b >= LEFT_TURN_RAD
+        if left_a == left_b:
+            return (), ""
+        return ((b,) if left_a else (a,)), LEFT_TURN_YIELDS
 
     def _from_the_right(self, a: LaneKey, b: LaneKey, point: np.ndarray
                         ) -> tuple[tuple[LaneKey, ...], str]:

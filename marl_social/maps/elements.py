@@ -132,7 +132,8 @@ class ConflictElement:
         zone: index into RoadMap.conflict_zones.
         priority: the lanes with the right of way (LaneKeys; empty: neither).
         rule: what decides it: "right_of_way:ID", "right_of_way:ID (fallback)",
-            "all_way_stop:ID", "signals" or "" (nothing in the map decides it).
+            "all_way_stop:ID", "signals", "left_turn_yields (default)",
+            "right_before_left (default)" or "" (nothing in the map decides it).
     """
 
     lanes: tuple[LaneKey, LaneKey]

@@ -226,3 +226,26 @@ def polyline_crossings(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     vertex_s = np.concatenate([[0.0], np.cumsum(np.linalg.norm(r, axis=1))])
     vi, _ = np.nonzero(hit)
     return np.sort(vertex_s[vi] + t[hit] * np.linalg.norm(r[vi], axis=1))
+
+
+def nearest_points_on(points: np.ndarray, polyline: np.ndarray) -> np.ndarray:
+    """(N, 2) the point of a polyline (P, 2) [m] nearest to each of points (N, 2) [m]."""
+    start, d = polyline[:-1], np.diff(polyline, axis=0)  # (P-1, 2)
+    length2 = np.maximum((d * d).sum(axis=1), 1e-12)
+    t = np.clip(((points[:, None, :] - start[None]) * d[None]).sum(axis=2) / length2, 0.0, 1.0)
+    foot = start[None] + t[..., None] * d[None]  # (N, P-1, 2)
+    k = np.argmin(np.linalg.norm(foot - points[:, None, :], axis=2), axis=1)
+    return foot[np.arange(len(points)), k]
+
+
+def right_half_line(centerline: np.ndarray, right_bound: np.ndarray) -> np.ndarray:
+    """(P, 2) the middle [m] of a lane's right half, a quarter of the width right of the centre.
+
+    Each centre line point (P, 2) [m] moved half way to its nearest point on the right bound
+    (Q, 2) [m]; the ends half way to the bound's ends, so that the halves of two lanelets
+    that share an end edge join there.
+    """
+    half = 0.5 * (centerline + nearest_points_on(centerline, right_bound))
+    half[0] = 0.5 * (centerline[0] + right_bound[0])
+    half[-1] = 0.5 * (centerline[-1] + right_bound[-1])
+    return clean_polyline(half)

@@ -26,10 +26,10 @@ from marl_social.maps.geometry import points_in_polygon
 from marl_social.maps.scenes import (
     PARKED_LENGTH_M,
     PARKED_WIDTH_M,
+    ROUTE_CHECK_STEP_M,
     LanePath,
     SceneError,
     _hits_occluder,
-    _route_points,
     lane_path,
 )
 from marl_social.sim.road_map import Route
@@ -40,6 +40,8 @@ PARKED_NEAR_M = 8.0  # the parked row ends this far before the conflict zone [m]
 MIN_PARKED_CARS = 2  # fewer in a free place than this: no row
 MAX_SENSORS = 2  # human sensors at most
 ROUTE_CLEARANCE_M = 1.5  # a route keeps this far from the map's occluders (half a car + 0.6) [m]
+ROUTE_SLACK_M = 10.0  # routes are asked this much longer at either end than needed: the
+# smoothing (scenes.smooth_polyline) shortens them round bends and a step between lanes [m]
 MIN_START_GAP_M = 10.0  # a sensor starts at least this far from every other agent's start [m]
 
 
@@ -132,6 +134,14 @@ def _parked_row(loaded, major: LanePath, needs: JunctionNeeds, side: int,
     return cars
 
 
+def _needed_points(path: LanePath, start_m: float, beyond_m: float) -> np.ndarray:
+    """(N, 2) points [m] of a route from start_m to beyond_m past its crossing point."""
+    route = Route(path.points)
+    s = np.arange(max(start_m, 0.0), min(route.length_m, path.crossing_m + beyond_m),
+                  ROUTE_CHECK_STEP_M)
+    return route.point_at(s)[0]
+
+
 def _side(route_points: np.ndarray, s_m: float, point: np.ndarray) -> int:
     """+1 if point lies left of the route at s_m, else -1."""
     xy, heading = Route(route_points).point_at(s_m)
@@ -194,7 +204,7 @@ def _plan(loaded, junction_id: int, conflict: tuple, pairs: list, needs: Junctio
     minor, major, zone = conflict
     name = f"lane {minor.lanelet_id} giving way to {major.lanelet_id}"
     robot = lane_path(loaded, minor, _conflict_s(loaded, minor, zone),
-                      (needs.approach_m + 10.0, needs.beyond_m), needs.edge_extension_m)
+                      (needs.approach_m + ROUTE_SLACK_M, needs.beyond_m + ROUTE_SLACK_M), needs.edge_extension_m)
     if len(set(robot.keys)) < len(robot.keys):
         raise SceneError(f"{name}: its route comes round to the same lane again")
     if robot.crossing_m < needs.approach_m:
@@ -202,13 +212,18 @@ def _plan(loaded, junction_id: int, conflict: tuple, pairs: list, needs: Junctio
     if Route(robot.points).length_m - robot.crossing_m < needs.beyond_m - 1.0:
         raise SceneError(f"{name}: route too short past the junction")
     hidden = lane_path(loaded, major, _conflict_s(loaded, major, zone),
-                       (needs.hidden_m + 10.0, needs.beyond_m), needs.edge_extension_m)
+                       (needs.hidden_m + ROUTE_SLACK_M, needs.beyond_m + ROUTE_SLACK_M), needs.edge_extension_m)
     if hidden.crossing_m < needs.hidden_m:
         raise SceneError(f"{name}: major road too short before it ({hidden.crossing_m:.0f} m)")
+    approach = robot.keys[:robot.keys.index(minor) + 1]
+    if set(approach) & set(hidden.keys):
+        raise SceneError(f"{name}: the robot's approach runs along the major road's route (it "
+                         "would drive ahead of the car it gives way to)")
     polygons = road_map.static_polygons
     for path, start in ((robot, robot.crossing_m - needs.approach_m),
                         (hidden, hidden.crossing_m - needs.hidden_m)):
-        if _hits_occluder(_route_points(path, start), polygons, ROUTE_CLEARANCE_M):
+        if _hits_occluder(_needed_points(path, start, needs.beyond_m), polygons,
+                          ROUTE_CLEARANCE_M):
             raise SceneError(f"{name}: a route runs through (or along) an occluder of the map")
     robot_start = Route(robot.points).point_at(robot.crossing_m - needs.approach_m)[0]
     hidden_start = Route(hidden.points).point_at(hidden.crossing_m - needs.hidden_m)[0]
@@ -216,7 +231,8 @@ def _plan(loaded, junction_id: int, conflict: tuple, pairs: list, needs: Junctio
     if not _blocked(robot_start, hidden_start, polygons):
         side = _side(hidden.points, hidden.crossing_m - needs.hidden_m, robot_start)
         cars = _parked_row(loaded, hidden, needs, side,
-                           _route_points(robot, robot.crossing_m - needs.approach_m))
+                           _needed_points(robot, robot.crossing_m - needs.approach_m,
+                                          needs.beyond_m))
         if len(cars) < MIN_PARKED_CARS or not _blocked(robot_start, hidden_start,
                                                        polygons + tuple(cars)):
             raise SceneError(f"{name}: nothing hides the major road from the robot's approach "
@@ -228,9 +244,11 @@ def _plan(loaded, junction_id: int, conflict: tuple, pairs: list, needs: Junctio
                 or len(sensors) >= MAX_SENSORS:
             continue
         path = lane_path(loaded, other, _conflict_s(loaded, other, other_zone),
-                         (needs.human_start_m + 10.0, needs.beyond_m), needs.edge_extension_m)
+                         (needs.human_start_m + ROUTE_SLACK_M,
+                          needs.beyond_m + ROUTE_SLACK_M), needs.edge_extension_m)
         if path.crossing_m < needs.human_start_m or set(path.keys) & set(robot.keys) \
-                or _hits_occluder(_route_points(path, path.crossing_m - needs.human_start_m),
+                or _hits_occluder(_needed_points(path, path.crossing_m - needs.human_start_m,
+                                                 needs.beyond_m),
                                   polygons + parked, ROUTE_CLEARANCE_M):
             continue
         start = Route(path.points).point_at(path.crossing_m - needs.human_start_m)[0]

@@ -20,7 +20,7 @@ def _buildable(situation: str = "crosswalk"):
             if e.situation == situation and not e.reason]
 
 
-JUNCTIONS = [42440, 45292, 585125576327414600]
+JUNCTIONS = [42440, 45292, 45478, 585125576327414600]
 
 
 def test_karlsruhe_crosswalks_listed_with_reasons():

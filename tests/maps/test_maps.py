@@ -8,10 +8,10 @@ import numpy as np
 import pytest
 
 from marl_social.maps import MapConversionWarning, MapError, load_map
-from marl_social.maps.convert import RIGHT_BEFORE_LEFT
+from marl_social.maps.convert import LEFT_TURN_YIELDS, RIGHT_BEFORE_LEFT
 from marl_social.maps.geometry import convex_pieces, polygon_area
 from marl_social.maps.registry import _CACHE, BUILTIN_DIR, BUILTIN_MAPS
-from tests.maps.synthetic import synthetic_osm
+from tests.maps.synthetic import junction_osm, synthetic_osm
 
 KARLSRUHE_OSM = BUILTIN_DIR / BUILTIN_MAPS["karlsruhe"].file
 
@@ -209,3 +209,25 @@ def test_convex_pieces_cover_a_concave_outline():
     from marl_social.sim.road_map import RoadMap
 
     RoadMap(lanes=(), crosswalks=(), static_polygons=tuple(pieces))  # strictly convex, CCW
+
+
+def test_two_way_lanelet_and_left_turn(tmp_path):
+    """A two-way lanelet gives each direction its right half (keep right), side by side, not
+    in conflict; a left turn across oncoming traffic gives way to it (StVO section 9 (3))."""
+    pytest.importorskip("lanelet2")
+    path = tmp_path / "junction.osm"
+    path.write_text(junction_osm())
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", MapConversionWarning)
+        road_map, el = load_map(path)
+    east, west = (road_map.lanes[el.lanes[(300, inverted)].index] for inverted in (False, True))
+    np.testing.assert_allclose(east.centerline[[0, -1]], [[0, -1.5], [50, -1.5]], atol=1e-6)
+    np.testing.assert_allclose(west.centerline[[0, -1]], [[50, 1.5], [0, 1.5]], atol=1e-6)
+    np.testing.assert_allclose(east.centerline[:, 1], -1.5, atol=1e-6)
+    np.testing.assert_allclose(west.centerline[:, 1], 1.5, atol=1e-6)
+    assert east.width_m == pytest.approx(3.0) and west.width_m == pytest.approx(3.0)
+    assert not any(300 in (a.lanelet_id, b.lanelet_id) for a, b in el.conflicts)
+    conflict = el.conflicts[((310, False), (311, False))]
+    assert conflict.rule == LEFT_TURN_YIELDS and conflict.priority == ((310, False),)
+    zone = road_map.conflict_zones[conflict.zone]
+    assert zone.priority_lanes == (el.lanes[(310, False)].index,)
