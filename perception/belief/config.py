@@ -55,9 +55,8 @@ class BeliefConfig:
         v_traffic_grid_mps: grid of the traffic-speed belief [m/s]; empty (the default): the
             map's speed limit times V_TRAFFIC_GRID_FRACTIONS (`traffic_grid_mps`).
         human_range_m: range of the field of view the robot assumes a human has for the
-            objects it reacts to besides the hypothesised pedestrian [m]: far enough down a
-            major road that a car 4 s from a junction at the limit is in it (with 50 m, a
-            left-turner's early reaction to such a car was credited to a nearer hypothesis).
+            objects it reacts to besides the hypothesised pedestrian [m] (a generic driver's:
+            SensorParams' default, not a scenario's).
         human_half_fov_rad: half-angle of that assumed field of view [rad] (likewise).
         human_expects_yield: the robot assumes a human expects a car that must give way in a
             conflict zone ahead of it (the robot itself included) to stop before the zone if it
@@ -125,7 +124,7 @@ class BeliefConfig:
     theta_hat: CostWeights = field(default_factory=lambda: ROBOT_THETA_HAT)
     prior_present: float | None = None
     v_traffic_grid_mps: tuple = ()
-    human_range_m: float = 80.0
+    human_range_m: float = 50.0
     human_half_fov_rad: float = math.radians(70.0)
     human_expects_yield: bool = False
     walking_speed_min_mps: float = 0.5
