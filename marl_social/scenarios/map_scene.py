@@ -464,28 +464,39 @@ class MapScene(Scenario):
     def _left_turners(self) -> list[tuple[AgentSpec, Route]]:
         """n_humans at rest in the left-turn lane, human_start_m and LEFT_TURNER_SPACING_M apart."""
         p: MapSceneParams = self.params
-        path, half = self.plan.left_turn, 0.5 * VehicleParams().length_m
-        out = []
-        for k in range(p.n_humans):
-            name = f"human_{k}"
-            route = Route(path.points, name)
-            s = path.crossing_m - p.human_start_m - half - LEFT_TURNER_SPACING_M * k
-            spec = human_spec(p, name, self._start(route, s, 0.0))
-            out.append((dataclasses.replace(spec, v_desired_mps=min(
-                p.human_desired_speed_mps, self.plan.speed_limit_mps)), route))
-        return out
+        return self._queue(self.plan.left_turn, range(p.n_humans),
+                           (p.human_start_m, LEFT_TURNER_SPACING_M), 0.0,
+                           min(p.human_desired_speed_mps, self.plan.speed_limit_mps))
 
     def _cross_traffic(self) -> list[tuple[AgentSpec, Route]]:
         """n_cross cars towards their line at cross_speed_mps, cross_gap_m apart."""
         p: MapSceneParams = self.params
-        path, half = self.plan.cross, 0.5 * VehicleParams().length_m
+        return self._queue(self.plan.cross, range(p.n_humans, p.n_humans + p.n_cross),
+                           (p.cross_start_m, p.cross_gap_m), p.cross_speed_mps,
+                           p.cross_speed_mps)
+
+    def _queue(self, path, indices, spacing_m: tuple, speed_mps: float,
+               v_desired_mps: float) -> list[tuple[AgentSpec, Route]]:
+        """Human drivers queued on `path` before its crossing point, one per index.
+
+        Args:
+            path: the lane path they drive (its points and crossing_m [m]).
+            indices: their agent numbers (human_<k>).
+            spacing_m: (the first car's front before the crossing point, the gap between
+                consecutive cars) [m].
+            speed_mps: their initial speed [m/s].
+            v_desired_mps: their desired speed [m/s].
+        """
+        p: MapSceneParams = self.params
+        first_m, gap_m = spacing_m
+        half = 0.5 * VehicleParams().length_m
         out = []
-        for k in range(p.n_cross):
-            name = f"human_{p.n_humans + k}"
+        for j, k in enumerate(indices):
+            name = f"human_{k}"
             route = Route(path.points, name)
-            s = path.crossing_m - p.cross_start_m - half - p.cross_gap_m * k
-            spec = human_spec(p, name, self._start(route, s, p.cross_speed_mps))
-            out.append((dataclasses.replace(spec, v_desired_mps=p.cross_speed_mps), route))
+            s = path.crossing_m - first_m - half - gap_m * j
+            spec = human_spec(p, name, self._start(route, s, speed_mps))
+            out.append((dataclasses.replace(spec, v_desired_mps=v_desired_mps), route))
         return out
 
     def _sensors(self) -> list[tuple[AgentSpec, Route]]:
