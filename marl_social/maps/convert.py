@@ -47,6 +47,7 @@ from marl_social.maps.elements import (
 from marl_social.maps.geometry import (
     aligned_rectangle,
     clean_polyline,
+    extended_polyline,
     overlap_hull,
     polyline_crossings,
     polylines_cross,
@@ -60,6 +61,7 @@ from marl_social.sim.signals import SignalHead
 RULE_REACH_M = 30.0  # a rule on a lane also holds on the lanes starting this close after it [m]
 STOP_SIGN_SUBTYPES = ("de206", "usR1-1", "stop_sign", "stop")  # traffic sign subtypes: stop
 EXTENT_MARGIN_M = 5.0  # the drawn extent around everything mapped [m]
+STOP_LINE_REACH_M = 0.5  # a lane's centre line is tested against a stop line this far past its ends [m]
 MIN_LANE_WIDTH_M = 1.0  # a lane narrower than this (a degenerate lanelet) is not mapped [m]
 LISTED_IDS = 6  # ids listed per line of the summary before "..."
 
@@ -309,7 +311,8 @@ class _Converter:
         spans = []
         for key in lanes:
             centerline = self.lanes[self.lane_elements[key].index].centerline
-            s = polyline_crossings(line, centerline)
+            # a lane ending exactly on its stop line crosses it (its successor would)
+            s = polyline_crossings(line, extended_polyline(centerline, STOP_LINE_REACH_M))
             if len(s):
                 hit = Route(line).point_at(s[0])[0]
                 u = float((hit - chord[0]) @ direction)

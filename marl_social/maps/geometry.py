@@ -228,6 +228,15 @@ def polyline_crossings(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     return np.sort(vertex_s[vi] + t[hit] * np.linalg.norm(r[vi], axis=1))
 
 
+def extended_polyline(points: np.ndarray, by_m: float) -> np.ndarray:
+    """(P, 2) a polyline [m] whose first and last segments go on straight by_m [m] past its ends."""
+    out = np.array(points, dtype=np.float64)
+    for end, inner in ((0, 1), (-1, -2)):
+        step = out[end] - out[inner]
+        out[end] = out[end] + by_m * step / max(float(np.hypot(*step)), 1e-12)
+    return out
+
+
 def nearest_points_on(points: np.ndarray, polyline: np.ndarray) -> np.ndarray:
     """(N, 2) the point of a polyline (P, 2) [m] nearest to each of points (N, 2) [m]."""
     start, d = polyline[:-1], np.diff(polyline, axis=0)  # (P-1, 2)

@@ -17,23 +17,25 @@ from marl_social.sim.signal_rules import route_signal_lines
 
 pytestmark = pytest.mark.filterwarnings("ignore::marl_social.maps.MapConversionWarning")
 
-SIGNAL = 45218  # the one traffic light of karlsruhe where the situation can be built
+SIGNALS = (45218, 45226)  # the traffic lights of karlsruhe where the situation can be built
+SIGNAL = SIGNALS[0]
 
 
 def test_karlsruhe_signals_listed_with_reasons():
     entries = [e for e in scene_listing(load_map("karlsruhe")) if e.situation == "signal"]
     assert [e.element for e in entries] == [45218, 45222, 45224, 45226, 45232, 45234]
-    assert [e.element for e in entries if not e.reason] == [SIGNAL]
+    assert [e.element for e in entries if not e.reason] == list(SIGNALS)
     assert all(e.reason.startswith(f"traffic light {e.element}: ") and "\n" not in e.reason
                for e in entries if e.reason)
 
 
+@pytest.mark.parametrize("element", SIGNALS)
 @pytest.mark.parametrize("phase", ["protected_left", "cross_green"])
-def test_parallel_api(phase):
+def test_parallel_api(phase, element):
     from pettingzoo.test import parallel_api_test
 
     env = marl_social.parallel_env(scenario="map_scene", map="karlsruhe", situation="signal",
-                                   element=SIGNAL, phase=phase, max_cycles=20)
+                                   element=element, phase=phase, max_cycles=20)
     parallel_api_test(env, num_cycles=20)
 
 
