@@ -74,10 +74,15 @@ def split_assignment(text: str) -> tuple[str, str]:
     return key, value.strip()
 
 
+def _shown(text: str) -> str:
+    """A value as an error line shows it: as given, or quoted with escapes if not printable."""
+    return text if text.isprintable() else repr(text)
+
+
 def _convert(params_cls, key: str, text: str):
     """`text` as the type of `params_cls`'s field `key` (ValueError naming the field)."""
     default = getattr(params_cls, key)
-    where = f"--set {key}={text}"
+    where = f"--set {key}={_shown(text)}"
     if isinstance(default, bool):
         word = text.lower()
         if word in TRUE_WORDS:
@@ -157,7 +162,7 @@ def parse_overrides(scenario: str, assignments) -> dict:
 
 def _convert_leaf(leaf: Leaf, text: str):
     """`text` as a robot part leaf's value (its type's parsing; the robot checks the range)."""
-    where = f"--set {leaf.name}={text}"
+    where = f"--set {leaf.name}={_shown(text)}"
     if leaf.type == "bool":
         if text.lower() in TRUE_WORDS + FALSE_WORDS:
             return text.lower() in TRUE_WORDS

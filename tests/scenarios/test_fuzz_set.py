@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import warnings
 
-from hypothesis import given, settings
+from hypothesis import example, given, settings
 from hypothesis import strategies as st
 
 from marl_social.cli.overrides import parse_overrides
@@ -30,6 +30,8 @@ def assignments(draw):
 
 @settings(max_examples=150, deadline=None)
 @given(assignments())
+@example(("occluded_crosswalk", ["robot.belief.accel_noise_mps2=0\n0"]))  # a newline in a value
+@example(("occluded_crosswalk", ["robot.belief.beta_grid_hat=0\n0"]))
 def test_any_assignment_is_a_setting_or_one_error_line(case):
     scene, texts = case
     with warnings.catch_warnings():
