@@ -55,7 +55,6 @@ as much as driving 2 m/s slower for 5 s.
 from __future__ import annotations
 
 import itertools
-from dataclasses import replace
 
 import numpy as np
 
@@ -75,6 +74,7 @@ from marl_social.agents.robot.corridor import (
     reachable_progress,
     route_curvature,
 )
+from marl_social.agents.robot.give_way import comfortable_stop_meets, contingencies_given_way
 from marl_social.agents.robot.mpc_types import BrakingStart, MpcConfig, MpcResult, PlanRequest
 from marl_social.agents.robot.qp import ContingencyQp
 from marl_social.agents.robot.qp_types import QpInstance, QpSolution, QpWeights
@@ -86,7 +86,6 @@ MAX_MODE_OBJECTS = 3  # per branch, objects beyond this many with two plausible 
 INFEASIBLE_MARGIN_M = 0.5  # bounds violated by more than this even at best skip the QP [m]
 ROOM_M = 0.1  # a stay-behind bound gives way to where braking gets the robot plus this [m]
 STANDSTILL_MARGIN_M = 0.05  # at rest, plans going no further than the room + this stay [m]
-STOP_CHECK_DT_S = 0.005  # integration step of comfortable_stop_meets [s]
 
 
 class ContingencyMpc:
@@ -307,36 +306,18 @@ class ContingencyMpc:
         return chosen, solution, True, False
 
     def _contingencies_given_way(self, per_hyp, live_idx, bounds) -> tuple[list, set]:
-        """Per hypothesis, its objects with the contingencies' own vehicles given way.
+        """The contingencies' own vehicles given way to a comfortable stop from bounds' state.
 
-        A contingency branch's (comfort factor > 0) object that is not a pedestrian and not in
-        every live branch (a tracked object is) moves its rear to where braking at
-        comfort_decel_mps2 gets the robot, plus the gap, at every step it is behind that:
-        its stay-behind bound then gives way to a comfortable stop.
-
-        Returns:
-            the objects per hypothesis, and the (hypothesis, index) of every moved one.
+        (give_way.contingencies_given_way; the rear floor: where braking at
+        comfort_decel_mps2 gets the robot, plus the gap.)
         """
         c, veh = self.config, self.vehicle
         v0, s0 = bounds[0], bounds[6]
-        keys = [{path_object_key(o) for o in per_hyp[l]} for l in live_idx]
-        shared = set.intersection(*keys) if keys else set()
         reach = np.empty(self._n_steps)
         corridor_kernels().braking_reach(float(v0), c.comfort_decel_mps2 * self._plan_times,
                                          c.plan_dt_s, self._headway, ROOM_M, reach)
         rear_floor = s0 + reach + c.min_gap_m + 0.5 * veh.length_m
-        eased, moved = list(per_hyp), set()
-        for l in live_idx:
-            if not self._comfort[l] > 0.0:
-                continue
-            objects = []
-            for j, obj in enumerate(per_hyp[l]):
-                if not obj.is_pedestrian and path_object_key(obj) not in shared:
-                    obj = replace(obj, s_rear_m=np.maximum(obj.s_rear_m, rear_floor))
-                    moved.add((int(l), j))
-                objects.append(obj)
-            eased[l] = objects
-        return eased, moved
+        return contingencies_given_way(per_hyp, live_idx, self._comfort, rear_floor)
 
     def _stop_meets_bounds(self, start: BrakingStart, per_hyp, live_idx, bounds) -> bool:
         """Whether braking comfortably from `start` meets this plan's stop bounds.
@@ -474,44 +455,6 @@ class ContingencyMpc:
                                comfort[first], jerk_max)
         return QpSolution(solution.solved, solution.cost, solution.accel_mps2[inverse],
                           solution.speed_mps[inverse], solution.progress_m[inverse])
-
-
-def path_object_key(obj: PathObject) -> tuple:
-    """What makes two branches' PathObjects the same object (its span, kind and rears)."""
-    return (obj.k_first, obj.k_last, obj.is_pedestrian, obj.pass_margin, obj.s_rear_m.tobytes())
-
-
-def comfortable_stop_meets(start: BrakingStart, bound_m: np.ndarray, v_max_mps: np.ndarray,
-                           times_s: np.ndarray, headway_s: np.ndarray, comfort_decel_mps2: float,
-                           jerk_max_mps3: float) -> bool:
-    """Whether a comfortable stop begun at `start` keeps s + h v <= bound and v <= v_max.
-
-    The acceleration ramps down from start.accel_mps2 at jerk_max_mps3 to
-    -comfort_decel_mps2 (at once if it brakes harder already) and holds it until rest; the
-    plan's steps end start.lead_s + times_s after the braking starts.
-
-    Args:
-        start: where the braking starts (arc length, speed, acceleration) and how long before
-            the plan's start.
-        bound_m: (N,) the plan's bounds on s + h v, arc lengths along the route [m] (inf: none).
-        v_max_mps: (N,) the plan's speed bounds [m/s].
-        times_s: (N,) the ends of the plan's steps after its start [s].
-        headway_s: (N,) the time headway h of each step [s].
-        comfort_decel_mps2: the comfortable deceleration [m/s^2].
-        jerk_max_mps3: how fast the braking sets in [m/s^3].
-    """
-    at = start.lead_s + np.asarray(times_s, dtype=np.float64)
-    tau = np.arange(0.0, at[-1] + 2.0 * STOP_CHECK_DT_S, STOP_CHECK_DT_S)
-    accel = np.maximum(start.accel_mps2 - jerk_max_mps3 * tau[1:], -comfort_decel_mps2)
-    # the acceleration never rises: once at rest the robot stays there
-    speed = np.maximum(start.v_mps + np.concatenate([[0.0], np.cumsum(accel)
-                                                      * STOP_CHECK_DT_S]), 0.0)
-    progress = np.concatenate([[0.0], np.cumsum(0.5 * (speed[1:] + speed[:-1])
-                                                * STOP_CHECK_DT_S)])
-    v_at, s_at = np.interp(at, tau, speed), np.interp(at, tau, progress)
-    bound = np.asarray(bound_m, dtype=np.float64) - start.s_m
-    return bool(np.all(s_at + headway_s * v_at <= bound + 1e-9)
-                and np.all(v_at <= np.asarray(v_max_mps) + 1e-9))
 
 
 def distinct_branches(s_low: np.ndarray, s_up: np.ndarray, comfort: np.ndarray

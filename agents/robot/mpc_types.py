@@ -120,7 +120,7 @@ class MpcResult:
             comfortable stop, or left out (mpc.py, module docstring).
         surprise_infeasible: infeasible, yet from the previous plan's state (one simulator
             step earlier) braking at most comfort_decel_mps2 would have kept behind every
-            bound that made this plan infeasible (mpc.comfortable_stop_meets). Such a stop is
+            bound that made this plan infeasible (give_way.comfortable_stop_meets). Such a stop is
             at every plan step at least as far along as the hardest stop begun now (in one
             step the robot covers less than the two stopping distances differ), so against
             the same bounds this marks a plan not forced by them: the robot's own position

@@ -9,7 +9,8 @@ import numpy as np
 import pytest
 
 from marl_social.agents.robot.corridor import PathObject
-from marl_social.agents.robot.mpc import ContingencyMpc, comfortable_stop_meets
+from marl_social.agents.robot.give_way import comfortable_stop_meets
+from marl_social.agents.robot.mpc import ContingencyMpc
 from marl_social.agents.robot.mpc_types import BrakingStart, MpcConfig, PlanRequest
 from marl_social.evaluation.run import infeasible_steps
 from marl_social.models.scene_prediction import ScenePrediction
