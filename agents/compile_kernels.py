@@ -47,7 +47,7 @@ PART_SECONDS = {"planners": 16.5, "belief": 7.0, "tree": 10.5, "sim": 5.5, "perc
 _FILES = {
     "planners": ("marl_social.models.kernel_loading",
                  ("gap_kernels", "cost_kernels", "scene_kernels", "zone_kernels")),
-    "belief": ("marl_social.perception.belief.compiled", ("belief_kernels",)),
+    "belief": ("marl_social.perception.belief.compiled", ("belief_kernels", "view_kernels")),
     "tree": ("marl_social.agents.robot.qp", ("tree_ipm", "qp_kernels", "corridor_kernels")),
     "sim": ("marl_social.sim.road_map",
             ("route_kernels", "geometry_kernels", "observation_kernels", "feature_kernels")),

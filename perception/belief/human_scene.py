@@ -70,7 +70,7 @@ class HumanScenes:
         False for "none".
         """
         rel = self._now_xy - np.asarray(viewer_xy, dtype=np.float64)
-        return compiled.kernels().view_mask(
+        return compiled.view().view_mask(
             np.hypot(rel[:, 0], rel[:, 1]), np.arctan2(rel[:, 1], rel[:, 0]),
             float(viewer_heading_rad), self._present, _NO_IDS, -1, self.config.human_range_m,
             self.config.human_half_fov_rad)
@@ -95,8 +95,8 @@ class HumanScenes:
         step = self._step_objects(decoded, tracks)
         rel = step["xy"] - human_xy
         # the tracked vehicles but the human, and the robot, inside its view (compiled after
-        # np.hypot and np.arctan2: belief_kernels.view_mask)
-        keep = compiled.kernels().view_mask(
+        # np.hypot and np.arctan2: view_kernels.view_mask)
+        keep = compiled.view().view_mask(
             np.hypot(rel[:, 0], rel[:, 1]), np.arctan2(rel[:, 1], rel[:, 0]),
             float(human_heading), step["vehicle"], step["ids"], int(human_id),
             self.config.human_range_m, self.config.human_half_fov_rad)

@@ -80,8 +80,8 @@ class OwnSensors:
         angles = self._ray_angles(half, len(depth))
         rel_x, rel_y = self._region_x - x, self._region_y - y  # (P, K)
         # np.hypot and np.arctan2 in numpy, the wrapping, the rays' lookup and the count
-        # compiled (belief_kernels.visible_counts: the same arithmetic)
-        counts = compiled.kernels().visible_counts(
+        # compiled (view_kernels.visible_counts: the same arithmetic)
+        counts = compiled.view().visible_counts(
             np.hypot(rel_x, rel_y), np.arctan2(rel_y, rel_x), math.atan2(s, c), angles, depth,
             (rng, half, CONE_TOLERANCE_RAD, 0.5 * PEDESTRIAN_DIAMETER_M))
         # the mean of each row's K booleans: an exact count over K, divided as np.mean divides
@@ -163,7 +163,7 @@ class OwnSensors:
         visible = self.visible_fraction(decoded)
         # a detection is explained by a matching hypothesis, or is a false alarm (then any
         # other hidden agent's region was missed); without one every region was missed
-        lik = compiled.kernels().own_likelihoods(visible, self._present, detected, p_detect,
+        lik = compiled.view().own_likelihoods(visible, self._present, detected, p_detect,
                                                  self._p_false_alarm, self._no_detection_lik,
                                                  PROBABILITY_MIN)
         with np.errstate(divide="ignore"):
@@ -200,7 +200,7 @@ class _PathGroup:
         self.bounds = np.array(bounds, dtype=np.float64).T[..., None]  # (B, H, 1)
         self._bounds = np.ascontiguousarray(self.bounds[..., 0])  # (B, H), for the kernel
         route = self.first._route
-        # a vehicle path's segments for belief_kernels.route_projections (paths.LanePaths')
+        # a vehicle path's segments for view_kernels.route_projections (paths.LanePaths')
         self._route_heading = route.segment_heading_rad if route is not None else None
         self._segments = None if route is None else np.column_stack(
             [route.segment_start_m, route.segment_direction, route.segment_length_m,
@@ -209,12 +209,12 @@ class _PathGroup:
     def _path_coords(self, xy: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """`Hypothesis.path_coords` of the first hypothesis: s, lateral [m], heading [rad] (n,).
 
-        Compiled for finite points (belief_kernels.route_projections, Route.project's
+        Compiled for finite points (view_kernels.route_projections, Route.project's
         arithmetic), else Route.project itself.
         """
         if self._segments is None or not np.isfinite(xy).all():
             return self.first.path_coords(xy)
-        s, lateral, k = compiled.kernels().route_projections(
+        s, lateral, k = compiled.view().route_projections(
             np.ascontiguousarray(xy, dtype=np.float64), self._segments)
         return s, lateral, self._route_heading[k]
 
@@ -228,18 +228,18 @@ class _PathGroup:
             walking_speed_min_mps: pedestrians only.
         """
         # the coordinates and speeds in numpy, the bins' comparisons compiled
-        # (belief_kernels.path_matches)
+        # (view_kernels.path_matches)
         if self.kind == "vehicle":
             s, lateral, heading = self._path_coords(xy)
             speed = np.hypot(velocity[:, 0], velocity[:, 1])
             v_along = velocity[:, 0] * np.cos(heading) + velocity[:, 1] * np.sin(heading)
-            return compiled.kernels().path_matches(
+            return compiled.view().path_matches(
                 _f8(s), _f8(lateral), _f8(v_along),
                 _f8(speed * math.cos(VEHICLE_MATCH_HEADING_RAD)), self._bounds,
                 float(walking_speed_min_mps), True)
         along, across = self.first.corridor_coords(xy)
         v_along = _f8(velocity @ self.first.walk_dir)
-        return compiled.kernels().path_matches(_f8(along), _f8(across), v_along, v_along,
+        return compiled.view().path_matches(_f8(along), _f8(across), v_along, v_along,
                                                self._bounds, float(walking_speed_min_mps),
                                                False)
 

@@ -82,7 +82,7 @@ class LanePaths:
         self.routes = [self._chained(i, lanes) for i in range(len(lanes))]
         self._route_memo: dict[tuple, Route | None] = {}
         self._signal_lines: dict[tuple, tuple] = {}
-        # every lane's segments for belief_kernels.lane_projections: (S, 6) start x, y [m],
+        # every lane's segments for view_kernels.lane_projections: (S, 6) start x, y [m],
         # unit direction x, y, length [m] and arc length at the start [m], lane by lane
         self._segments = np.vstack([np.column_stack([
             lane.segment_start_m, lane.segment_direction, lane.segment_length_m,
@@ -148,7 +148,7 @@ class LanePaths:
         matches kept.
         """
         if math.isfinite(x) and math.isfinite(y) and self._lanes:
-            s_all, lateral_all = compiled.kernels().lane_projections(
+            s_all, lateral_all = compiled.view().lane_projections(
                 x, y, self._segments, self._first_segment)
             projections = zip(s_all.tolist(), lateral_all.tolist())
         else:

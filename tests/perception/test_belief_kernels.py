@@ -184,7 +184,7 @@ def test_visible_counts_are_numpys(seed, n_p, n_k, n_rays, half):
     heading = float(rng.uniform(-4, 4))
     angles = np.ascontiguousarray(depth_ray_angles(np.array([half]), n_rays)[0])
     depth = rng.uniform(0, 60, n_rays)
-    counts = compiled.kernels().visible_counts(dist, bearing, heading, angles, depth,
+    counts = compiled.view().visible_counts(dist, bearing, heading, angles, depth,
                                                (40.0, half, 1e-9, 0.25))
     assert np.array_equal(counts, _reference_visible_counts(dist, bearing, heading, angles,
                                                             depth, 40.0, half))
@@ -209,7 +209,7 @@ def test_lane_projections_are_project_point(seed, n_lanes):
                           for r in lanes])
     first = np.cumsum([0] + [r.n_segments for r in lanes])
     for x, y in rng.normal(size=(20, 2)) * 80:
-        s, lateral = compiled.kernels().lane_projections(float(x), float(y), segments, first)
+        s, lateral = compiled.view().lane_projections(float(x), float(y), segments, first)
         want = np.array([r.project_point(float(x), float(y)) for r in lanes])
         assert _same(s, want[:, 0]) and _same(lateral, want[:, 1])
 
@@ -299,7 +299,7 @@ def test_view_mask_is_numpys(seed, n):
     wrapped = np.abs((bearing - heading + np.pi) % (2.0 * np.pi) - np.pi)
     want = candidates & (dist <= range_m) & (wrapped <= half_fov)
     want[:len(ids)] &= ids != exclude
-    got = compiled.kernels().view_mask(dist, bearing, heading, candidates, ids, exclude, range_m,
+    got = compiled.view().view_mask(dist, bearing, heading, candidates, ids, exclude, range_m,
                                        half_fov)
     assert np.array_equal(got, want)
 
@@ -355,7 +355,7 @@ def test_own_likelihoods_are_numpys(seed, n, p_detect):
     miss = np.where(present, np.minimum(np.maximum(1.0 - p_detect * visible, 1e-12), 1.0), 1.0)
     want = (np.where(detected, p_detect, p_fa * miss) if detected.any()
             else (1.0 - p_fa) * miss)
-    got = compiled.kernels().own_likelihoods(visible, present, detected, p_detect, p_fa,
+    got = compiled.view().own_likelihoods(visible, present, detected, p_detect, p_fa,
                                              1.0 - p_fa, 1e-12)
     assert _same(got, want)
 
@@ -371,7 +371,7 @@ def test_route_projections_are_route_project(seed, n_points, n):
     segments = np.column_stack([route.segment_start_m, route.segment_direction,
                                 route.segment_length_m, route.vertex_s_m[:-1]])
     xy = rng.normal(size=(n, 2)) * 80
-    s, lateral, k = compiled.kernels().route_projections(xy, segments)
+    s, lateral, k = compiled.view().route_projections(xy, segments)
     want_s, want_lateral, want_heading = route.project(xy)
     assert _same(s, want_s) and _same(lateral, want_lateral)
     assert _same(route.segment_heading_rad[k], want_heading)
@@ -409,7 +409,7 @@ def test_path_matches_are_numpys(seed, n, n_h, vehicle):
         bounds = np.stack([np.abs(values(n_h, 2.0)), lo, lo + np.abs(values(n_h, 4.0)),
                            values(n_h, 2.0), values(n_h, 4.0)])  # (5, H)
     v_min = float(rng.choice([0.3, 0.0, -0.0]))
-    got = compiled.kernels().path_matches(along, lateral, v_along, v_floor, bounds, v_min,
+    got = compiled.view().path_matches(along, lateral, v_along, v_floor, bounds, v_min,
                                           vehicle)
     want = _reference_path_matches(along, lateral, v_along, v_floor, bounds[..., None], v_min,
                                    vehicle)
