@@ -33,6 +33,12 @@ from collections import Counter, defaultdict
 
 import numpy as np
 
+from marl_social.maps.default_rules import (
+    LEFT_TURN_YIELDS,
+    RIGHT_BEFORE_LEFT,
+    from_the_right_priority,
+    left_turn_priority,
+)
 from marl_social.maps.elements import (
     ConflictElement,
     CrosswalkElement,
@@ -48,13 +54,16 @@ from marl_social.maps.geometry import (
     aligned_rectangle,
     clean_polyline,
     extended_polyline,
+    heading_near,
+    mean_width,
     overlap_hull,
     polyline_crossings,
     polylines_cross,
     right_half_line,
 )
+from marl_social.maps.junctions import junction_elements
 from marl_social.maps.occluders import map_occluders
-from marl_social.maps.signal_plan import default_signal_plan
+from marl_social.maps.signal_plan import conflicting_groups, default_signal_plan
 from marl_social.sim.road_map import ConflictZone, Crosswalk, Lane, RoadMap, Route, StopLine
 from marl_social.sim.signals import SignalHead
 
@@ -68,13 +77,6 @@ LISTED_IDS = 6  # ids listed per line of the summary before "..."
 
 class MapConversionWarning(UserWarning):
     """The one-warning summary of what a map conversion could not map."""
-
-RIGHT_BEFORE_LEFT = "right_before_left (default)"  # the rule of a crossing nothing else decides
-LEFT_TURN_YIELDS = "left_turn_yields (default)"  # ... of a left turn across oncoming traffic
-ONCOMING_RAD = math.radians(135.0)  # two lanes entering this far apart in heading: oncoming
-LEFT_TURN_RAD = math.radians(45.0)  # a lane whose heading turns this far left: a left turn
-END_HEADING_M = 3.0  # a lane's heading at its start (end): over its first (last) metres [m]
-
 
 def _xy(points) -> np.ndarray:
     """(P, 2) x, y [m] of lanelet2 points (a line string, a polygon)."""
@@ -94,44 +96,6 @@ def _ids(items) -> str:
     items = sorted(items)
     head = ", ".join(str(i) for i in items[:LISTED_IDS])
     return head + (", ..." if len(items) > LISTED_IDS else "")
-
-
-def _heading_near(polyline: np.ndarray, point: np.ndarray) -> float:
-    """Heading [rad] of the segment of a polyline (P, 2) [m] closest to a point (2,) [m]."""
-    start, d = polyline[:-1], np.diff(polyline, axis=0)
-    t = np.clip(((point - start) * d).sum(axis=1) / (d * d).sum(axis=1), 0.0, 1.0)
-    k = int(np.argmin(np.linalg.norm(start + t[:, None] * d - point, axis=1)))
-    return math.atan2(d[k, 1], d[k, 0])
-
-
-def _entry_and_turn(centerline: np.ndarray) -> tuple[float, float]:
-    """A lane's heading at its start [rad] and how far it turns left to its end [rad].
-
-    The headings are the chords over the first and last END_HEADING_M [m] of the centre line
-    (P, 2) [m] (at most a third of it each), which a digitized kink does not sway.
-    """
-    s = np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(centerline, axis=0), axis=1))])
-    reach = min(END_HEADING_M, s[-1] / 3.0)
-
-    def at(u: float) -> np.ndarray:
-        return np.array([np.interp(u, s, centerline[:, 0]), np.interp(u, s, centerline[:, 1])])
-
-    start, end = at(reach) - centerline[0], centerline[-1] - at(s[-1] - reach)
-    entry, exit_ = math.atan2(start[1], start[0]), math.atan2(end[1], end[0])
-    return entry, math.remainder(exit_ - entry, 2.0 * math.pi)
-
-
-def _mean_width(left: np.ndarray, right: np.ndarray) -> float:
-    """Mean distance [m] between two bounds (P, 2), (Q, 2), resampled at equal arc fractions."""
-    def resample(line: np.ndarray, n: int) -> np.ndarray:
-        s = np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(line, axis=0), axis=1))])
-        if s[-1] <= 0.0:
-            return np.repeat(line[:1], n, axis=0)
-        f = np.linspace(0.0, s[-1], n)
-        return np.column_stack([np.interp(f, s, line[:, 0]), np.interp(f, s, line[:, 1])])
-
-    n = max(len(left), len(right), 2) * 2
-    return float(np.mean(np.linalg.norm(resample(left, n) - resample(right, n), axis=1)))
 
 
 class _Converter:
@@ -213,7 +177,7 @@ class _Converter:
         key = _key(view)
         centerline = clean_polyline(_xy(view.centerline))
         left, right = _xy(view.leftBound), _xy(view.rightBound)
-        width = _mean_width(left, right) if len(left) and len(right) else 0.0
+        width = mean_width(left, right) if len(left) and len(right) else 0.0
         if len(centerline) < 2 or width < MIN_LANE_WIDTH_M:
             self.not_mapped.append(f"lanelet {key.lanelet_id}: degenerate (centre line of "
                                    f"{len(centerline)} points, width {width:.2f} m)")
@@ -331,7 +295,7 @@ class _Converter:
         stop_index = len(self.stop_lines)
         self.stop_lines.append(StopLine(segment, "signal", lane_index))
         group = f"light_{element.id}"
-        heading = _heading_near(self.lanes[lane_index].centerline, segment.mean(axis=0))
+        heading = heading_near(self.lanes[lane_index].centerline, segment.mean(axis=0))
         head_indices = []
         for light in element.trafficLights:
             head_indices.append(len(self.heads))
@@ -465,86 +429,36 @@ class _Converter:
         return (), ""
 
     def _left_turn_yields(self, a: LaneKey, b: LaneKey) -> tuple[tuple[LaneKey, ...], str]:
-        """The default rule between a left turn and oncoming traffic: the left turn gives way.
-
-        German rules (StVO section 9 (3)): who turns left lets oncoming vehicles pass. Two
-        lanes entering ONCOMING_RAD or more apart in heading, exactly one of them turning left
-        by LEFT_TURN_RAD or more (its end's heading against its start's): the other keeps the
-        right of way, also where the two end in the same lane (the oncoming car turns right
-        into the street the left turn goes to). Else undecided.
-        """
-        (start_a, turn_a), (start_b, turn_b) = (_entry_and_turn(self.lanes[self.lane_elements[k]
-                                                                           .index].centerline)
-                                                for k in (a, b))
-        if abs(math.remainder(start_b - start_a, 2.0 * math.pi)) < ONCOMING_RAD:
-            return (), ""
-        left_a, left_b = turn_a >= LEFT_TURN_RAD, turn_b >= LEFT_TURN_RAD
-        if left_a == left_b:
-            return (), ""
-        return ((b,) if left_a else (a,)), LEFT_TURN_YIELDS
+        """The left turn gives way to oncoming traffic (default_rules.left_turn_priority)."""
+        first = left_turn_priority(self._centerline(a), self._centerline(b))
+        return ((), "") if first is None else (((a, b)[first],), LEFT_TURN_YIELDS)
 
     def _from_the_right(self, a: LaneKey, b: LaneKey, point: np.ndarray
                         ) -> tuple[tuple[LaneKey, ...], str]:
-        """The default rule of an undecided crossing: the lane from the right has priority.
+        """The lane from the right has priority (default_rules.from_the_right_priority)."""
+        first = from_the_right_priority(self._centerline(a), self._centerline(b), point)
+        return ((), "") if first is None else (((a, b)[first],), RIGHT_BEFORE_LEFT)
 
-        Lanelet2's example maps follow German rules, whose default at a junction without
-        signs or signals is right before left (StVO section 8). Two lanes crossing at
-        45-135 degrees at the zone (their headings at its centre point (2,) [m]): the one
-        arriving from the other's right keeps the right of way. Merging or oncoming lanes are
-        left undecided.
-        """
-        heading_a = _heading_near(self.lanes[self.lane_elements[a].index].centerline, point)
-        heading_b = _heading_near(self.lanes[self.lane_elements[b].index].centerline, point)
-        turn = math.remainder(heading_b - heading_a, 2.0 * math.pi)  # b relative to a [rad]
-        if math.radians(45.0) < abs(turn) < math.radians(135.0):
-            # b heading to a's left (turn > 0) comes from a's right
-            return ((b,) if turn > 0.0 else (a,)), RIGHT_BEFORE_LEFT
-        return (), ""
+    def _centerline(self, key: LaneKey) -> np.ndarray:
+        """(P, 2) the centre line of a mapped lane [m]."""
+        return self.lanes[self.lane_elements[key].index].centerline
 
     def junctions(self, conflicts: dict) -> dict[int, JunctionElement]:
         """Connected components of the conflict graph, with their signals and stop lines."""
-        parent: dict[LaneKey, LaneKey] = {}
-
-        def find(k):
-            while parent.setdefault(k, k) != k:
-                k = parent[k]
-            return k
-
-        for a, b in conflicts:
-            parent[find(a)] = find(b)
-        members = defaultdict(list)
-        for k in list(parent):
-            members[find(k)].append(k)
-        def reached(lanes) -> set[LaneKey]:
-            return set().union(*(self.reach(k) for k in lanes))
-
-        signal_reach = {i: reached(s.lanes) for i, s in self.signals.items()}
-        line_reach = {i: reached(s.lanes) for i, s in self.stop_line_elements.items()}
-        out = {}
-        for lanes in members.values():
-            lanes = sorted(lanes)
-            inside = set(lanes)
-            junction_id = min(k.lanelet_id for k in lanes)
-            out[junction_id] = JunctionElement(
-                junction_id, tuple(lanes), tuple(p for p in conflicts if p[0] in inside),
-                tuple(sorted(i for i, r in signal_reach.items() if r & inside)),
-                tuple(sorted(i for i, r in line_reach.items() if r & inside)))
-        return out
+        return junction_elements(
+            conflicts, {i: self._reached(s.lanes) for i, s in self.signals.items()},
+            {i: self._reached(s.lanes) for i, s in self.stop_line_elements.items()})
 
     def signal_plan(self, conflicts: dict):
         """The default cycle of the map's signal groups (signal_plan.py), None without any."""
         if not self.signals:
             return None
-        groups = [s.group for s in self.signals.values()]
-        reached = {s.group: set().union(*(self.reach(k) for k in s.lanes))
-                   for s in self.signals.values()}
-        conflicting = set()
-        for ga in groups:
-            for gb in groups:
-                if ga < gb and any((a, b) in conflicts or (b, a) in conflicts or a == b
-                                   for a in reached[ga] for b in reached[gb]):
-                    conflicting.add(frozenset((ga, gb)))
-        return default_signal_plan(groups, conflicting)
+        reached = {s.group: self._reached(s.lanes) for s in self.signals.values()}
+        return default_signal_plan(list(reached), conflicting_groups(reached, conflicts))
+
+    def _reached(self, lanes) -> set[LaneKey]:
+        """The lanes a rule on `lanes` holds on (`reach` of each)."""
+        return set().union(*(self.reach(k) for k in lanes))
 
 
 def _extent(road_map_parts) -> tuple[float, float, float, float]:

@@ -7,6 +7,7 @@ a map's walls, buildings and lane overlaps are not. Points are (N, 2) arrays [m]
 from __future__ import annotations
 
 import itertools
+import math
 
 import numpy as np
 
@@ -258,3 +259,24 @@ def right_half_line(centerline: np.ndarray, right_bound: np.ndarray) -> np.ndarr
     half[0] = 0.5 * (centerline[0] + right_bound[0])
     half[-1] = 0.5 * (centerline[-1] + right_bound[-1])
     return clean_polyline(half)
+
+
+def heading_near(polyline: np.ndarray, point: np.ndarray) -> float:
+    """Heading [rad] of the segment of a polyline (P, 2) [m] closest to a point (2,) [m]."""
+    start, d = polyline[:-1], np.diff(polyline, axis=0)
+    t = np.clip(((point - start) * d).sum(axis=1) / (d * d).sum(axis=1), 0.0, 1.0)
+    k = int(np.argmin(np.linalg.norm(start + t[:, None] * d - point, axis=1)))
+    return math.atan2(d[k, 1], d[k, 0])
+
+
+def mean_width(left: np.ndarray, right: np.ndarray) -> float:
+    """Mean distance [m] between two bounds (P, 2), (Q, 2), resampled at equal arc fractions."""
+    def resample(line: np.ndarray, n: int) -> np.ndarray:
+        s = np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(line, axis=0), axis=1))])
+        if s[-1] <= 0.0:
+            return np.repeat(line[:1], n, axis=0)
+        f = np.linspace(0.0, s[-1], n)
+        return np.column_stack([np.interp(f, s, line[:, 0]), np.interp(f, s, line[:, 1])])
+
+    n = max(len(left), len(right), 2) * 2
+    return float(np.mean(np.linalg.norm(resample(left, n) - resample(right, n), axis=1)))

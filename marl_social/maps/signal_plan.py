@@ -48,3 +48,20 @@ def default_signal_plan(groups: list[str], conflicting: set[frozenset]) -> Signa
                    SignalPhase(f"yellow_{k}", DEFAULT_YELLOW_S, yellow=members),
                    SignalPhase(f"all_red_{k}", DEFAULT_ALL_RED_S)]
     return SignalPlan(tuple(groups), tuple(phases))
+
+
+def conflicting_groups(reached: dict, conflicts) -> set[frozenset]:
+    """Pairs of signal groups whose lanes conflict (or share a lane).
+
+    Args:
+        reached: {group name: the set of lanes its rule holds on}.
+        conflicts: the map's conflicting lane pairs (a, b).
+    """
+    groups = list(reached)
+    out = set()
+    for ga in groups:
+        for gb in groups:
+            if ga < gb and any((a, b) in conflicts or (b, a) in conflicts or a == b
+                               for a in reached[ga] for b in reached[gb]):
+                out.add(frozenset((ga, gb)))
+    return out

@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from marl_social.maps import MapConversionWarning, MapError, load_map
-from marl_social.maps.convert import LEFT_TURN_YIELDS, RIGHT_BEFORE_LEFT
+from marl_social.maps.default_rules import LEFT_TURN_YIELDS, RIGHT_BEFORE_LEFT
 from marl_social.maps.geometry import convex_pieces, polygon_area
 from marl_social.maps.registry import _CACHE, BUILTIN_DIR, BUILTIN_MAPS
 from tests.maps.synthetic import junction_osm, synthetic_osm
